@@ -1,0 +1,30 @@
+# Everything the project needs installs from its own files into .venv.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+.PHONY: setup demo test lint bench clean
+
+$(BIN)/.installed: pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install --upgrade pip
+	$(BIN)/python -m pip install -e '.[dev]'
+	touch $@
+
+setup: $(BIN)/.installed
+
+demo: setup
+	$(BIN)/python -m sim.demo
+
+test: setup
+	$(BIN)/python -m pytest -q
+
+lint: setup
+	$(BIN)/ruff check sim fcu gcs tests
+	$(BIN)/mypy sim fcu gcs
+
+bench: setup
+	$(BIN)/ftc-bench
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,44 @@
+"""The autopilot's hardware layer: what it receives from sensors and sends to motors.
+
+The autopilot sees the world only through sensor samples. Any object with the three
+attributes of :class:`SensorSample` is accepted (the simulator's own sample type is one), so
+the autopilot never imports the simulator.
+
+Sensor names and value layouts (docs/design.md):
+
+=============  ====================================  =======
+sensor         value                                 unit
+=============  ====================================  =======
+``gyro``       body rates p, q, r (FRD)              rad/s
+``accel``      specific force (FRD)                  m/s^2
+``mocap_pos``  position (NED, home origin)           m
+``mocap_att``  roll, pitch, yaw (ZYX Euler)          rad
+``baro``       altitude above home (up positive)     m
+=============  ====================================  =======
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+SENSOR_NAMES = ("gyro", "accel", "mocap_pos", "mocap_att", "baro")
+
+
+class SensorSampleLike(Protocol):
+    """Structural type of one sensor sample."""
+
+    sensor: str
+    time_s: float
+    value: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class SensorSample:
+    """One timestamped sensor reading (simulated time, seconds)."""
+
+    sensor: str
+    time_s: float
+    value: np.ndarray
