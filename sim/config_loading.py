@@ -97,10 +97,11 @@ def from_mapping(cls: type[T], data: Mapping[str, Any], prefix: str = "") -> T:
     kwargs = {name: _coerce(prefix + name, value, hints[name]) for name, value in data.items()}
     try:
         return cls(**kwargs)
-    except ConfigError as exc:
-        if prefix and not str(exc).startswith(prefix):
-            raise ConfigError(prefix + str(exc)) from None
-        raise
+    except ValueError as exc:  # ConfigError, or a validation error of another package
+        message = str(exc)
+        if prefix and not message.startswith(prefix):
+            message = prefix + message
+        raise ConfigError(message) from None
 
 
 def load_toml(path: str | Path) -> dict[str, Any]:
