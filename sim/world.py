@@ -198,6 +198,11 @@ class World:
         self._was_on_ground = self.plant.on_ground
         self._was_crashed = self.plant.crashed
 
+    @property
+    def wind_ned(self) -> np.ndarray:
+        """Wind velocity over the last step, NED, m/s (a live array: copy to keep)."""
+        return self._wind_ned
+
     def drain_events(self) -> list[WorldEvent]:
         """Fault and contact events since the previous call, in time order."""
         events: list[WorldEvent] = [*self.faults.drain_events(), *self._events]

@@ -1,0 +1,223 @@
+"""Headless composition root: the world and the autopilot flying a scenario as fast as the CPU allows.
+
+The loop is the same one the MAVLink vehicle process runs, minus the network::
+
+    every autopilot tick (loop_rate_hz):
+        samples = world.step(pwm, plant_steps_per_tick)   # plant at plant_rate_hz
+        pwm     = autopilot.step(world.time_s, samples)
+
+The run starts with one tick on the ground, then loads the mission, arms, switches to AUTO and
+starts the mission through the same navigator commands a ground station would send.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from fcu.autopilot import Autopilot
+from sim.dynamics import quat_to_euler
+from sim.faults import FaultEvent
+from sim.metrics import control_effort, tracking_errors
+from sim.scenario import Scenario
+from sim.world import PlantEvent, World
+
+AUTO_MODE = 3  # ArduCopter AUTO
+
+
+@dataclass
+class FlightLog:
+    """Per-tick arrays of a run (n ticks), SI units, NED."""
+
+    time_s: np.ndarray  # (n,)
+    flying: np.ndarray  # (n,) bool, a reference was being tracked
+    ref_pos_ned: np.ndarray  # (n, 3)
+    pos_ned: np.ndarray  # (n, 3) truth
+    est_pos_ned: np.ndarray  # (n, 3) estimate fed to the controllers
+    ref_euler_rad: np.ndarray  # (n, 3) attitude reference tracked
+    euler_rad: np.ndarray  # (n, 3) truth
+    pwm: np.ndarray  # (n, 4) commanded
+    loe_estimate: np.ndarray  # (n, 4) TSKF
+    loe_true: np.ndarray  # (n, 4) injected
+    wind_ned: np.ndarray  # (n, 3)
+
+
+@dataclass
+class FlightResult:
+    """What a run produced: metrics, events and the log."""
+
+    scenario: Scenario
+    log: FlightLog
+    events: list[tuple[float, str, str]]  # (time_s, source, text)
+    crashed: bool
+    sim_s: float
+    wall_s: float
+    metrics: dict[str, Any] = field(default_factory=dict)
+
+
+class _Recorder:
+    """Preallocated per-tick storage."""
+
+    def __init__(self, n: int) -> None:
+        self.n = 0
+        self.t = np.zeros(n)
+        self.flying = np.zeros(n, dtype=bool)
+        self.ref_pos = np.zeros((n, 3))
+        self.pos = np.zeros((n, 3))
+        self.est_pos = np.zeros((n, 3))
+        self.ref_euler = np.zeros((n, 3))
+        self.euler = np.zeros((n, 3))
+        self.pwm = np.zeros((n, 4))
+        self.loe_est = np.zeros((n, 4))
+        self.loe_true = np.zeros((n, 4))
+        self.wind = np.zeros((n, 3))
+
+    def log(self) -> FlightLog:
+        k = self.n
+        return FlightLog(self.t[:k], self.flying[:k], self.ref_pos[:k], self.pos[:k],
+                         self.est_pos[:k], self.ref_euler[:k], self.euler[:k], self.pwm[:k],
+                         self.loe_est[:k], self.loe_true[:k], self.wind[:k])
+
+
+def start_mission(autopilot: Autopilot, scenario: Scenario) -> list[str]:
+    """Load the scenario's mission, arm, switch to AUTO and start; returns refusals (if any)."""
+    nav = autopilot.navigator
+    refusals = []
+    for what, result in (("load mission", nav.load_mission(scenario.mission)),
+                         ("arm", nav.arm()),
+                         ("set mode AUTO", nav.set_mode(AUTO_MODE)),
+                         ("start mission", nav.start_mission())):
+        if not result.accepted:
+            refusals.append(f"{what}: {result.reason}")
+    return refusals
+
+
+TickCallback = Callable[[World, Autopilot], None]
+
+
+def fly(scenario: Scenario, *, on_tick: TickCallback | None = None) -> FlightResult:
+    """Fly ``scenario`` headless and return its log, events and thesis-style metrics.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        What to fly.
+    on_tick : callable, optional
+        Called after every autopilot tick with the world and the autopilot (recorders,
+        progress display). Must not change either.
+    """
+    world = World(scenario.world, scenario.seed)
+    for fault in scenario.faults:
+        world.faults.schedule(fault)
+    autopilot = Autopilot(scenario.autopilot)
+    plant_hz = scenario.world.plant_rate_hz
+    loop_hz = scenario.autopilot.loop_rate_hz
+    steps_per_tick = round(plant_hz / loop_hz)
+    if abs(steps_per_tick * loop_hz - plant_hz) > 1e-9 * plant_hz:
+        raise ValueError(f"autopilot.loop_rate_hz = {loop_hz:g}: must divide the plant rate "
+                         f"{plant_hz:g} Hz")
+    n_ticks = int(round(scenario.duration_s * loop_hz))
+    rec = _Recorder(n_ticks + 1)
+    events: list[tuple[float, str, str]] = []
+
+    wall0 = time.perf_counter()
+    pwm = autopilot.step(0.0, [])
+    for refusal in start_mission(autopilot, scenario):
+        events.append((0.0, "runner", refusal))
+    for _ in range(n_ticks):
+        samples = world.step(pwm, steps_per_tick)
+        t = world.time_s
+        pwm = autopilot.step(t, samples)
+        status = autopilot.status
+        assert status is not None
+        x = world.plant.state
+        k = rec.n
+        rec.t[k] = t
+        rec.pos[k] = x[0:3]
+        rec.euler[k] = _euler_of(x)
+        rec.est_pos[k] = status.estimate.pos_ned
+        rec.pwm[k] = pwm
+        rec.loe_est[k] = status.loe_estimate
+        rec.loe_true[k] = world.faults.true_loe(t)
+        rec.wind[k] = world.wind_ned
+        if status.reference is not None and status.attitude_reference is not None:
+            rec.flying[k] = True
+            rec.ref_pos[k] = status.reference.pos_ned
+            rec.ref_euler[k] = status.attitude_reference.euler_rad
+        else:
+            rec.ref_pos[k] = rec.pos[k]
+            rec.ref_euler[k] = rec.euler[k]
+        rec.n += 1
+        for ev in autopilot.drain_events():
+            events.append((ev.time_s, "autopilot", ev.text))
+        for wev in world.drain_events():
+            if isinstance(wev, FaultEvent):
+                events.append((wev.time_s, "sim", f"{wev.kind}: {wev.description}"))
+            elif isinstance(wev, PlantEvent):
+                events.append((wev.time_s, "sim", wev.description))
+        if on_tick is not None:
+            on_tick(world, autopilot)
+    wall_s = time.perf_counter() - wall0
+    log = rec.log()
+    result = FlightResult(scenario, log, events, world.plant.crashed, world.time_s, wall_s)
+    result.metrics = flight_metrics(result, autopilot)
+    return result
+
+
+def _euler_of(x: np.ndarray) -> np.ndarray:
+    return np.asarray(quat_to_euler(np.ascontiguousarray(x[6:10])))
+
+
+def loe_convergence_times(log: FlightLog, tolerance: float = 0.05) -> list[dict[str, Any]]:
+    """For each step change of the injected LOE, when the estimate first came within tolerance.
+
+    Returns one entry per (motor, step): motor (1..4), fault time, injected gamma, the delay
+    (s) until |estimate - truth| <= tolerance first held (None if never), and whether it then
+    stayed within tolerance until the next change or the end.
+    """
+    out: list[dict[str, Any]] = []
+    truth = np.nan_to_num(log.loe_true, nan=1.0)
+    for m in range(4):
+        changes = np.flatnonzero(np.abs(np.diff(truth[:, m])) > 1e-9) + 1
+        for j, k in enumerate(changes):
+            end = changes[j + 1] if j + 1 < len(changes) else len(truth)
+            err = np.abs(log.loe_estimate[k:end, m] - truth[k:end, m])
+            within = np.flatnonzero(err <= tolerance)
+            delay = float(log.time_s[k + within[0]] - log.time_s[k]) if within.size else None
+            stayed = bool(within.size and np.all(err[within[0]:] <= tolerance))
+            out.append({"motor": m + 1, "time_s": float(log.time_s[k]),
+                        "loe": float(truth[k, m]), "converged_after_s": delay,
+                        "stayed_within": stayed})
+    return out
+
+
+def flight_metrics(result: FlightResult, autopilot: Autopilot | None = None) -> dict[str, Any]:
+    """The ``--json`` metrics of one run (units: m, deg, PWM, s)."""
+    log = result.log
+    flying = log.flying
+    if not np.any(flying):
+        flying = np.ones_like(flying)
+    errs = tracking_errors(log.ref_pos_ned[flying], log.pos_ned[flying],
+                           log.ref_euler_rad[flying], log.euler_rad[flying])
+    detections = [{"time_s": t, "text": text} for t, src, text in result.events
+                  if src == "autopilot" and "effectiveness" in text]
+    return {
+        "name": result.scenario.name,
+        "rms": {axis: fig.rms for axis, fig in errs.items()},
+        "max": {axis: fig.max for axis, fig in errs.items()},
+        "control_effort": control_effort(log.pwm),
+        "loe_estimate": {
+            "final": [float(v) for v in log.loe_estimate[-1]],
+            "true_final": [float(v) for v in np.nan_to_num(log.loe_true[-1], nan=-1.0)],
+            "convergence": loe_convergence_times(log),
+        },
+        "detections": detections,
+        "crashed": result.crashed,
+        "sim_s": result.sim_s,
+        "wall_s": result.wall_s,
+        "seed": result.scenario.seed,
+    }

@@ -1,0 +1,130 @@
+"""``ftc-scenario``: fly scenarios headless, list them, reproduce the thesis's chapter 7.
+
+Usage::
+
+    ftc-scenario list
+    ftc-scenario run NAME|FILE.toml [--seed N] [--json PATH]
+    ftc-scenario thesis [--out DIR] [--json PATH] [--seed N] [--jobs N]
+
+Bad input (unknown scenario, bad file, bad value) prints one line naming what was wrong and
+exits with status 2; a crash of the simulated vehicle exits with status 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from sim.config_loading import ConfigError
+from sim.scenario import load_scenario, shipped_names
+
+
+def _print_run(metrics: dict[str, Any]) -> None:
+    rms, mx = metrics["rms"], metrics["max"]
+    print(f"scenario {metrics['name']} (seed {metrics['seed']}): "
+          f"{metrics['sim_s']:.1f} s simulated in {metrics['wall_s']:.2f} s "
+          f"({metrics['sim_s'] / max(metrics['wall_s'], 1e-9):.1f}x real time)"
+          + ("  CRASHED" if metrics["crashed"] else ""))
+    print(f"{'error':<8}{'RMS':>10}{'max':>10}")
+    for axis, unit in (("x", "m"), ("y", "m"), ("z", "m"), ("roll", "deg"), ("pitch", "deg"),
+                       ("yaw", "deg")):
+        print(f"{axis + ' ' + unit:<8}{rms[axis]:>10.4f}{mx[axis]:>10.4f}")
+    print(f"control effort {metrics['control_effort']:.5f}")
+    est = metrics["loe_estimate"]["final"]
+    print("final LOE estimate " + ", ".join(f"m{i + 1} {v:.3f}" for i, v in enumerate(est)))
+    for det in metrics["detections"]:
+        print(f"  {det['time_s']:7.2f} s  {det['text']}")
+
+
+def _write_json(path: str, data: Any) -> None:
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    Path(path).write_text(json.dumps(data, indent=2) + "\n")
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from sim.runner import fly
+
+    scenario = load_scenario(args.scenario)
+    if args.seed is not None:
+        scenario = scenario.with_seed(args.seed)
+    result = fly(scenario)
+    _print_run(result.metrics)
+    if args.json:
+        _write_json(args.json, result.metrics)
+    return 1 if result.crashed else 0
+
+
+def cmd_list(_: argparse.Namespace) -> int:
+    for name in shipped_names():
+        print(f"{name:<22}{load_scenario(name).description}")
+    return 0
+
+
+def cmd_thesis(args: argparse.Namespace) -> int:
+    from sim.thesis_report import run_thesis
+
+    report = run_thesis(out_dir=Path(args.out) if args.out else None, seed=args.seed,
+                        jobs=args.jobs, progress=sys.stderr)
+    print(report.markdown)
+    if args.json:
+        _write_json(args.json, report.metrics)
+    return 1 if any(m["crashed"] for m in report.metrics.values()) else 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="ftc-scenario", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="fly one scenario headless")
+    run.add_argument("scenario", help="a shipped scenario name or a scenario .toml file")
+    run.add_argument("--seed", type=_seed, help="override the scenario's seed")
+    run.add_argument("--json", metavar="PATH", help="write the run's metrics as JSON")
+    run.set_defaults(func=cmd_run)
+    lst = sub.add_parser("list", help="name the shipped scenarios")
+    lst.set_defaults(func=cmd_list)
+    thesis = sub.add_parser("thesis", help="run the chapter-7 configurations and cases")
+    thesis.add_argument("--out", metavar="DIR", help="write report.md (and figures) here")
+    thesis.add_argument("--json", metavar="PATH", help="write every run's metrics as JSON")
+    thesis.add_argument("--seed", type=_seed, help="override every scenario's seed")
+    thesis.add_argument("--jobs", type=_jobs, default=2, help="parallel runs (default 2)")
+    thesis.set_defaults(func=cmd_thesis)
+    return parser
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--seed {text!r}: must be an integer >= 0") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"--seed {text!r}: must be an integer >= 0")
+    return value
+
+
+def _jobs(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--jobs {text!r}: must be an integer >= 1") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"--jobs {text!r}: must be an integer >= 1")
+    return value
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except ConfigError as exc:
+        print(f"ftc-scenario: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("ftc-scenario: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
