@@ -34,7 +34,7 @@ class FlightLog:
     """Per-tick arrays of a run (n ticks), SI units, NED."""
 
     time_s: np.ndarray  # (n,)
-    flying: np.ndarray  # (n,) bool, a reference was being tracked
+    flying: np.ndarray  # (n,) bool, a reference was tracked and the vehicle was airborne
     ref_pos_ned: np.ndarray  # (n, 3)
     pos_ned: np.ndarray  # (n, 3) truth
     est_pos_ned: np.ndarray  # (n, 3) estimate fed to the controllers
@@ -144,7 +144,8 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None) -> FlightRes
         rec.loe_est[k] = status.loe_estimate
         rec.loe_true[k] = world.faults.true_loe(t)
         rec.wind[k] = world.wind_ned
-        if status.reference is not None and status.attitude_reference is not None:
+        if (status.reference is not None and status.attitude_reference is not None
+                and not world.plant.on_ground):
             rec.flying[k] = True
             rec.ref_pos[k] = status.reference.pos_ned
             rec.ref_euler[k] = status.attitude_reference.euler_rad
@@ -196,7 +197,12 @@ def loe_convergence_times(log: FlightLog, tolerance: float = 0.05) -> list[dict[
 
 
 def flight_metrics(result: FlightResult, autopilot: Autopilot | None = None) -> dict[str, Any]:
-    """The ``--json`` metrics of one run (units: m, deg, PWM, s)."""
+    """The ``--json`` metrics of one run (units: m, deg, PWM, s).
+
+    Errors and control effort are taken over the flight: the ticks where a reference was
+    tracked and the vehicle was off the ground (the thesis's runs are all flight; the
+    seconds on the ground before take-off and after touchdown would only dilute them).
+    """
     log = result.log
     flying = log.flying
     if not np.any(flying):
@@ -209,7 +215,8 @@ def flight_metrics(result: FlightResult, autopilot: Autopilot | None = None) -> 
         "name": result.scenario.name,
         "rms": {axis: fig.rms for axis, fig in errs.items()},
         "max": {axis: fig.max for axis, fig in errs.items()},
-        "control_effort": control_effort(log.pwm),
+        "control_effort": control_effort(log.pwm[flying]),
+        "flight_s": float(np.count_nonzero(log.flying)) / result.scenario.autopilot.loop_rate_hz,
         "loe_estimate": {
             "final": [float(v) for v in log.loe_estimate[-1]],
             "true_final": [float(v) for v in np.nan_to_num(log.loe_true[-1], nan=-1.0)],

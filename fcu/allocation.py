@@ -1,0 +1,150 @@
+"""Control allocation: thrust and torques to four PWM commands through the inverse of eq. 3.2.
+
+Eq. 3.2 (motors 1 front, 2 back, 3 left, 4 right; docs/design.md)::
+
+    U1 = K (u1 + u2 + u3 + u4)                      thrust, N
+    U2 = K L (u3 - u4)                              roll torque, N*m
+    U3 = K L (u1 - u2)                              pitch torque, N*m
+    U4 = K K_psi (u1 + u2 - u3 - u4)                yaw torque, N*m
+
+Its inverse splits the PWM vector into four orthogonal patterns::
+
+    u = c [1, 1, 1, 1] + U2/(2 K L) [0, 0, 1, -1] + U3/(2 K L) [1, -1, 0, 0]
+          + U4/(4 K K_psi) [1, 1, -1, -1],          c = U1 / (4 K)
+
+Saturation strategy (each motor must stay in [pwm_min, pwm_max]); attitude comes first
+because a quadrotor that loses roll/pitch control loses everything, while a yaw or altitude
+error is recoverable:
+
+1. keep the requested collective ``c`` and roll/pitch pattern, scale the yaw pattern by the
+   largest ``s_yaw`` in [0, 1] that fits;
+2. if roll/pitch alone does not fit at ``c``, drop yaw and shift the collective to the nearest
+   value that fits (trading altitude for attitude), then give back as much yaw as fits at the
+   shifted collective;
+3. only when the roll/pitch spread alone exceeds the PWM range, scale roll and pitch down
+   together (direction of the tilt torque kept) until the spread equals the range.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fcu.model import VehicleModel
+
+_EPS_PWM = 1e-12  # numerical slack on the PWM bounds, far below any physical PWM step
+
+
+@dataclass(frozen=True, slots=True)
+class AllocationResult:
+    """One allocation and what the saturation strategy had to give up.
+
+    Attributes
+    ----------
+    pwm : numpy.ndarray
+        Motor commands u1..u4, shape (4,), inside [pwm_min, pwm_max].
+    yaw_scale : float
+        Fraction of the requested yaw torque kept, in [0, 1].
+    roll_pitch_scale : float
+        Fraction of the requested roll/pitch torque kept, in [0, 1].
+    collective_shift_pwm : float
+        Collective PWM added per motor to fit the bounds (0 when unsaturated).
+    saturated : bool
+        True when the requested (U1, U2, U3, U4) could not be produced exactly.
+    """
+
+    pwm: np.ndarray
+    yaw_scale: float
+    roll_pitch_scale: float
+    collective_shift_pwm: float
+    saturated: bool
+
+
+class Allocator:
+    """Inverse of eq. 3.2 with an attitude-first saturation strategy (see module docstring).
+
+    Parameters
+    ----------
+    model : VehicleModel
+        Nominal airframe: K, L, K_psi and the PWM bounds.
+    """
+
+    def __init__(self, model: VehicleModel) -> None:
+        self.model = model
+        self._mixer = model.mixer()  # eq. 3.2, (4, 4)
+        k, kl = model.thrust_gain, model.thrust_gain * model.arm_length
+        kk = model.thrust_gain * model.yaw_gain
+        # PWM patterns per unit request (columns of the inverse of eq. 3.2)
+        self._per_thrust = np.full(4, 1.0 / (4.0 * k))  # PWM per N of U1
+        self._per_roll = np.array([0.0, 0.0, 1.0, -1.0]) / (2.0 * kl)  # PWM per N*m of U2
+        self._per_pitch = np.array([1.0, -1.0, 0.0, 0.0]) / (2.0 * kl)  # PWM per N*m of U3
+        self._per_yaw = np.array([1.0, 1.0, -1.0, -1.0]) / (4.0 * kk)  # PWM per N*m of U4
+
+    @property
+    def max_thrust_n(self) -> float:
+        """Collective thrust with every motor at pwm_max, N."""
+        return 4.0 * self.model.thrust_gain * self.model.pwm_max
+
+    def allocate(self, thrust_n: float, torque_nm: np.ndarray) -> np.ndarray:
+        """PWM commands u1..u4, shape (4,), for thrust U1 (N) and torques U2..U4 (N*m).
+
+        Exactly the inverse of eq. 3.2 when no motor saturates; otherwise see the module
+        docstring.
+        """
+        return self.allocate_report(thrust_n, torque_nm).pwm
+
+    def allocate_report(self, thrust_n: float, torque_nm: np.ndarray) -> AllocationResult:
+        """Like :meth:`allocate`, returning also the scales the saturation strategy applied.
+
+        Parameters
+        ----------
+        thrust_n : float
+            Requested collective thrust U1, N.
+        torque_nm : numpy.ndarray
+            Requested [U2 roll, U3 pitch, U4 yaw], N*m, shape (3,).
+        """
+        lo, hi = self.model.pwm_min, self.model.pwm_max
+        tau = np.asarray(torque_nm, dtype=float).reshape(3)
+        c0 = float(thrust_n) * self._per_thrust[0]  # requested collective PWM, c = U1/(4K)
+        d_rp = tau[0] * self._per_roll + tau[1] * self._per_pitch
+        d_yaw = tau[2] * self._per_yaw
+
+        # 1. collective and roll/pitch as requested, yaw scaled to fit
+        s_yaw = _largest_scale(c0 + d_rp, d_yaw, lo, hi)
+        if s_yaw is not None:
+            c, s_rp = c0, 1.0
+        else:
+            spread = float(np.ptp(d_rp))
+            if spread <= hi - lo:
+                # 2. roll/pitch fits the range: shift the collective to the nearest feasible
+                c_lo, c_hi = lo - float(d_rp.min()), hi - float(d_rp.max())
+                c, s_rp = float(np.clip(c0, c_lo, c_hi)), 1.0
+            else:
+                # 3. roll/pitch alone exceeds the range: scale it to the range, no yaw
+                s_rp = (hi - lo) / spread
+                c = lo - s_rp * float(d_rp.min())
+            s_yaw = _largest_scale(c + s_rp * d_rp, d_yaw, lo, hi) or 0.0
+        pwm = np.clip(c + s_rp * d_rp + s_yaw * d_yaw, lo, hi)
+        saturated = bool(s_yaw < 1.0 or s_rp < 1.0 or c != c0)
+        return AllocationResult(pwm=pwm, yaw_scale=float(s_yaw), roll_pitch_scale=float(s_rp),
+                                collective_shift_pwm=float(c - c0), saturated=saturated)
+
+    def mix(self, pwm: np.ndarray) -> tuple[float, np.ndarray]:
+        """Eq. 3.2: thrust U1 (N) and torques [U2, U3, U4] (N*m, shape (3,)) from PWM u[4]."""
+        u = self._mixer @ np.asarray(pwm, dtype=float).reshape(4)
+        return float(u[0]), u[1:].copy()
+
+
+def _largest_scale(base: np.ndarray, pattern: np.ndarray, lo: float, hi: float) -> float | None:
+    """Largest s in [0, 1] with lo <= base + s * pattern <= hi, or None if s = 0 is infeasible."""
+    if np.any(base < lo - _EPS_PWM) or np.any(base > hi + _EPS_PWM):
+        return None
+    s = 1.0
+    for b, p in zip(base, pattern, strict=True):
+        # |p| <= _EPS_PWM cannot leave the bounds by more than the slack at any s in [0, 1]
+        if p > _EPS_PWM:
+            s = min(s, (hi - b) / p)
+        elif p < -_EPS_PWM:
+            s = min(s, (lo - b) / p)
+    return s if s > 0.0 else 0.0

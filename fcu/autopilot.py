@@ -1,0 +1,272 @@
+"""The fault-tolerant autopilot: one control tick from sensor samples to four PWM commands.
+
+Per tick (``loop_rate_hz``, 100 Hz by default)::
+
+    samples --> EKF (eq. 3.18, filterpy) --+--> estimate (the one ``estimator`` selects)
+            --> TSKF (eq. 6.10-6.26) ------+--> gamma_hat --> LoeFaultDetector --> events
+    navigator (modes, mission, guidance) --> reference pos/vel/acc, yaw
+    PositionController (eq. 5.3, 5.4)    --> U1, roll_d, pitch_d
+    AttitudeReferenceFilter               --> smooth attitude reference and derivatives
+    AttitudePD (eq. 5.6) | AttitudeLQR (eq. 5.7-5.10) --> torque
+    disturbance observer (eq. 6.27-6.30)  --> torque - d_hat
+    Allocator (inverse eq. 3.2, attitude-first saturation) --> PWM u1..u4
+
+The TSKF always runs: it supplies the per-motor effectiveness estimates that fault detection
+and telemetry use, whichever estimator feeds the controllers. The autopilot knows the world
+only through the samples (:mod:`fcu.hal`); it never sees injected faults.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from fcu.allocation import Allocator
+from fcu.attitude_control import (
+    AttitudeController,
+    AttitudeLQR,
+    AttitudePD,
+    AttitudePdGains,
+    AttitudeReference,
+    AttitudeReferenceFilter,
+    LqrWeights,
+)
+from fcu.disturbance_observer import make_dob
+from fcu.ekf import ExtendedKalmanEstimator
+from fcu.estimation import StateEstimate
+from fcu.fault_detection import LoeFaultDetector
+from fcu.guidance import Reference
+from fcu.hal import SensorSampleLike
+from fcu.model import VehicleModel
+from fcu.navigator import CommandResult, Navigator, NavigatorConfig, NavOutput
+from fcu.position_control import PositionCommand, PositionController, PositionGains
+from fcu.tskf import TwoStageKalmanFilter
+from fcu.validation import is_finite, require
+
+AttitudeKind = Literal["pd", "lqg"]
+EstimatorKind = Literal["ekf", "tskf"]
+DobKind = Literal["none", "vbdob", "abdob"]
+HeightSource = Literal["mocap", "baro"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class DetectorConfig:
+    """Settings of the LOE fault detector (:mod:`fcu.fault_detection`)."""
+
+    threshold: float = 0.1  # LOE fraction above which a motor is suspected
+    persistence_s: float = 0.5  # s above the threshold before a fault is declared
+    recovery_threshold: float = 0.05  # LOE fraction below which a faulty motor may recover
+    recovery_persistence_s: float = 1.0  # s below it before recovery is declared
+
+    def __post_init__(self) -> None:
+        require(is_finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
+                self.threshold, "must lie in (0, 1)")
+        require(is_finite(self.recovery_threshold)
+                and 0.0 <= self.recovery_threshold < self.threshold, "recovery_threshold",
+                self.recovery_threshold, f"must lie in [0, threshold = {self.threshold})")
+        for name in ("persistence_s", "recovery_persistence_s"):
+            value = getattr(self, name)
+            require(is_finite(value) and value >= 0.0, name, value, "must be >= 0 s")
+
+
+@dataclass(frozen=True, kw_only=True)
+class AutopilotConfig:
+    """The autopilot's whole configuration (frozen; TOML table ``[autopilot]``)."""
+
+    attitude: AttitudeKind = "lqg"  # attitude law: PD (eq. 5.6) or LQR + integral (LQG)
+    estimator: EstimatorKind = "ekf"  # which estimate feeds the controllers
+    dob: DobKind = "none"  # disturbance observer on roll, pitch and yaw
+    height_source: HeightSource = "mocap"  # height from motion capture or the barometer
+    loop_rate_hz: float = 100.0  # Hz, control and estimation tick
+    dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
+    attitude_ref_bandwidth_rad_s: float = 10.0  # rad/s, attitude reference filter
+    model: VehicleModel = field(default_factory=VehicleModel)
+    position: PositionGains = field(default_factory=PositionGains)
+    pd: AttitudePdGains = field(default_factory=AttitudePdGains)
+    lqr: LqrWeights = field(default_factory=LqrWeights)
+    navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+
+    def __post_init__(self) -> None:
+        require(self.attitude in ("pd", "lqg"), "attitude", self.attitude,
+                "must be 'pd' or 'lqg'")
+        require(self.estimator in ("ekf", "tskf"), "estimator", self.estimator,
+                "must be 'ekf' or 'tskf'")
+        require(self.dob in ("none", "vbdob", "abdob"), "dob", self.dob,
+                "must be 'none', 'vbdob' or 'abdob'")
+        require(self.height_source in ("mocap", "baro"), "height_source", self.height_source,
+                "must be 'mocap' or 'baro'")
+        require(is_finite(self.loop_rate_hz) and 20.0 <= self.loop_rate_hz <= 1000.0,
+                "loop_rate_hz", self.loop_rate_hz, "must be within [20, 1000] Hz")
+        require(is_finite(self.dob_cutoff_rad_s) and self.dob_cutoff_rad_s > 0,
+                "dob_cutoff_rad_s", self.dob_cutoff_rad_s, "must be > 0 rad/s")
+        require(is_finite(self.attitude_ref_bandwidth_rad_s)
+                and self.attitude_ref_bandwidth_rad_s > 0, "attitude_ref_bandwidth_rad_s",
+                self.attitude_ref_bandwidth_rad_s, "must be > 0 rad/s")
+
+
+@dataclass(frozen=True)
+class AutopilotEvent:
+    """Something worth a STATUSTEXT: a mode change, a refusal, a fault detection..."""
+
+    time_s: float  # s, simulated
+    kind: str  # navigator event kind, or "fault_detected" / "fault_cleared"
+    text: str
+    severity: str = "info"  # "info" | "notice" | "warning" | "critical"
+    motor: int | None = None  # for fault events, thesis numbering 1..4
+    seq: int | None = None  # for mission events
+
+
+@dataclass(frozen=True)
+class AutopilotStatus:
+    """Everything telemetry and logs need from the last tick."""
+
+    time_s: float
+    estimate: StateEstimate
+    nav: NavOutput
+    reference: Reference | None  # position reference tracked (None: not flying)
+    attitude_reference: AttitudeReference | None  # what the attitude loop tracks
+    thrust_cmd_n: float  # N, collective thrust commanded
+    torque_cmd_nm: np.ndarray  # N*m, after the DOB compensation
+    disturbance_nm: np.ndarray  # N*m, DOB estimate (zeros without a DOB)
+    pwm: np.ndarray  # PWM commanded for the next interval, (4,)
+    loe_estimate: np.ndarray  # TSKF gamma_hat per motor, clipped to [0, 1]
+    fault_detected: tuple[bool, bool, bool, bool]
+
+
+class Autopilot:
+    """Estimators, navigator, controllers and allocation run at ``loop_rate_hz``.
+
+    Construct it complete (gains are designed here, LQR via python-control), call
+    :meth:`step` every tick with the samples since the previous tick, send the returned PWM to
+    the motors. Commands (arm, take-off, missions...) go through :attr:`navigator`'s methods,
+    re-exported below for the MAVLink endpoint and the scenario runner.
+    """
+
+    def __init__(self, config: AutopilotConfig | None = None) -> None:
+        self.config = config if config is not None else AutopilotConfig()
+        cfg = self.config
+        self.dt_s = 1.0 / cfg.loop_rate_hz
+        model = cfg.model
+        self.model = model
+        self.ekf = ExtendedKalmanEstimator(model, self.dt_s, cfg.height_source)
+        self.tskf = TwoStageKalmanFilter(model, self.dt_s, height_source=cfg.height_source)
+        self.navigator = Navigator(cfg.navigator)
+        self.position = PositionController(model, cfg.position, self.dt_s)
+        self.attitude_filter = AttitudeReferenceFilter(self.dt_s,
+                                                       cfg.attitude_ref_bandwidth_rad_s)
+        self.attitude: AttitudeController = (
+            AttitudeLQR(model, cfg.lqr, self.dt_s) if cfg.attitude == "lqg"
+            else AttitudePD(model, cfg.pd))
+        self.dob = make_dob(cfg.dob, model, self.dt_s, cfg.dob_cutoff_rad_s)
+        self.allocator = Allocator(model)
+        det = cfg.detector
+        self.detector = LoeFaultDetector(det.threshold, det.persistence_s,
+                                         recovery_threshold=det.recovery_threshold,
+                                         recovery_persistence_s=det.recovery_persistence_s)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the boot state: estimators, controllers and navigator reset, motors off."""
+        self.ekf.reset()
+        self.tskf.reset()
+        self.navigator.reset()
+        self._reset_controllers()
+        self.detector.reset()
+        self._pwm = np.zeros(4)
+        self._torque_applied = np.zeros(3)
+        self._events: list[AutopilotEvent] = []
+        self._status: AutopilotStatus | None = None
+        self._flying = False
+
+    def _reset_controllers(self) -> None:
+        self.position.reset()
+        self.attitude.reset()
+        self.attitude_filter.reset()
+        self.dob.reset()
+
+    # ------------------------------------------------------------------ the tick
+    def step(self, time_s: float, samples: Iterable[SensorSampleLike]) -> np.ndarray:
+        """One control tick at ``time_s``; returns PWM u1..u4 to hold until the next tick."""
+        batch = list(samples)
+        tskf_estimate = self.tskf.step(time_s, self._pwm, batch)
+        if self.config.estimator == "ekf":
+            estimate = self.ekf.step(time_s, self._pwm, batch)
+        else:
+            estimate = tskf_estimate
+        loe = np.clip(self.tskf.loe_estimate, 0.0, 1.0)
+        healthy = bool(np.all(np.isfinite(estimate.pos_ned)))
+        nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
+                                  float(estimate.euler_rad[2]), estimator_healthy=healthy)
+        for ev in nav.events:
+            self._events.append(AutopilotEvent(ev.time_s, ev.kind, ev.text, ev.severity,
+                                               seq=ev.seq))
+        flying = nav.reference is not None
+        # effectiveness is unobservable on the ground (no thrust): no evidence either way
+        for det in self.detector.step(time_s, loe if flying else np.full(4, np.nan)):
+            self._events.append(AutopilotEvent(
+                det.time_s, "fault_detected" if det.kind == "fault" else "fault_cleared",
+                det.message, "critical" if det.kind == "fault" else "notice",
+                motor=det.motor))
+        if not flying:
+            if self._flying:
+                self._reset_controllers()
+            self._flying = False
+            self._pwm = np.zeros(4)
+            self._torque_applied = np.zeros(3)
+            self._status = AutopilotStatus(time_s, estimate, nav, None, None, 0.0, np.zeros(3),
+                                           np.zeros(3), self._pwm, loe,
+                                           self._detected())
+            return self._pwm
+        if not self._flying:
+            self.attitude_filter.reset(estimate.euler_rad)
+        self._flying = True
+        ref = nav.reference
+        assert ref is not None
+        cmd: PositionCommand = self.position.step(estimate.pos_ned, estimate.vel_ned,
+                                                  ref.pos_ned, ref.vel_ned, ref.acc_ned,
+                                                  ref.yaw_rad)
+        att_ref = self.attitude_filter.step(
+            np.array([cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad]))
+        torque = self.attitude.step(estimate.euler_rad, estimate.rate_frd, att_ref.euler_rad,
+                                    att_ref.rate, att_ref.acc)
+        d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
+        torque_cmd = torque - d_hat
+        pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
+        _, self._torque_applied = self.allocator.mix(pwm)
+        self._pwm = pwm
+        self._status = AutopilotStatus(time_s, estimate, nav, ref, att_ref, cmd.thrust_n,
+                                       torque_cmd, d_hat, pwm, loe, self._detected())
+        return pwm
+
+    def _detected(self) -> tuple[bool, bool, bool, bool]:
+        active = self.detector.active
+        return (1 in active, 2 in active, 3 in active, 4 in active)
+
+    # ------------------------------------------------------------------ observation
+    @property
+    def status(self) -> AutopilotStatus | None:
+        """What the last tick computed (None before the first tick)."""
+        return self._status
+
+    @property
+    def pwm(self) -> np.ndarray:
+        """The PWM commanded at the last tick, (4,)."""
+        return self._pwm
+
+    def drain_events(self) -> list[AutopilotEvent]:
+        """Events since the previous call (navigator events and fault detections)."""
+        events, self._events = self._events, []
+        return events
+
+    # ------------------------------------------------------------------ commands
+    def arm(self, force: bool = False) -> CommandResult:
+        """Arm (pre-arm checks unless ``force``)."""
+        return self.navigator.arm(force)
+
+    def disarm(self, force: bool = False) -> CommandResult:
+        """Disarm (refused in flight unless ``force``)."""
+        return self.navigator.disarm(force)

@@ -1,0 +1,285 @@
+"""Attitude disturbance observers (eq. 6.27-6.30): estimate a lumped torque to cancel.
+
+Per axis a DOB inverts a nominal plant ``G_n`` and low-passes the difference between the
+torque the measurement implies and the torque that was applied::
+
+    d_hat = Q(s) [G_n(s)^-1 y - tau_applied]
+
+* AbDOB (eq. 6.27, 6.28): ``G_n = 1/(I s^2)`` from torque to Euler angle, and
+  ``Q = w^2 / (s^2 + 2 w s + w^2)`` (the thesis prints ``2 w`` for ``2 w s``). The angle
+  channel ``Q(s) I s^2 = I w^2 s^2 / (s + w)^2`` is biproper, hence realisable: no explicit
+  differentiation of the measurement.
+* VbDOB (eq. 6.29, 6.30): ``G_n = 1/(I s)`` from torque to body rate, ``Q = w / (s + w)``;
+  the rate channel is ``I w s / (s + w)``.
+
+``w = 5 rad/s`` (section 6.2). With a constant disturbance torque ``d`` on the nominal plant,
+``G_n^-1 y - tau = d`` exactly, so ``d_hat = Q d -> d`` (``Q(0) = 1``) with the filter's time
+constants: 2 % settling in about 5.8/w (AbDOB, double pole) or 3.9/w (VbDOB).
+
+Realisation and discretisation: each channel is a SISO python-control transfer function
+turned into state space; the two channels of an axis run in parallel (inputs
+[measurement, torque], one output), the three axes in block-diagonal form, and the whole is
+discretised with ``control.c2d(..., method="zoh")`` at the loop rate. ZOH is exact for the
+torque channel (the torque is held between ticks) and leaves the torque channel strictly
+proper, so the estimate at tick k never depends on the torque about to be computed from it
+(no algebraic loop). On the measurement channel ZOH treats the sampled angle or rate as a
+staircase, a half-sample lag (``w dt / 2 = 0.025`` rad of phase at ``w``) that the
+low-pass makes negligible.
+
+Timing contract of :meth:`DisturbanceObserver.step`: call it once per tick with the newest
+measurement and the torque that was *applied over the interval just ended*, i.e. the torque
+allocated on the previous tick (best: what the saturated PWM really produces,
+``Allocator.mix(pwm_prev)``, after the DOB compensation was subtracted). The autopilot then
+commands ``tau = tau_controller - d_hat``. The step first completes the state update of the
+last interval with that torque, then outputs the estimate for the current measurement.
+
+Motor lag. The thesis's nominal plants leave out the 15 rad/s motor lag, so the observer
+reads ``tau_commanded - tau_actual`` (about ``tau_dot / w``) as disturbance and feeds it
+back; with the lag the loop stays stable but its sensitivity peak rises (about 2.2 instead
+of 1.5 for the unmodified PD of eq. 5.6), and with the attitude controllers'
+:class:`~fcu.attitude_control.MotorLead` (which overdrives the motors on purpose) the
+commanded torque is not the torque acting at all. By default (:func:`make_dob` passes the
+model's ``motor_bandwidth``) the nominal plant therefore includes the known motor model,
+``G_n = w_m/(s + w_m) * 1/(I s^2)`` (resp. ``1/(I s)``), realised by filtering the torque
+channel: ``d_hat = Q [G_p^-1 y - w_m/(s + w_m) tau]``. The estimate of a constant
+disturbance and the filter Q are unchanged, and ZOH is exact for the held command through
+the motor model. ``motor_bandwidth_rad_s=None`` gives the thesis's form. Loop stability
+with the real lag is checked in tests/fcu/test_disturbance_observer.py for both.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, Protocol
+
+import control
+import numpy as np
+from scipy.linalg import block_diag
+
+from fcu.attitude_control import wrap_angle
+from fcu.model import VehicleModel
+
+DobKind = Literal["none", "vbdob", "abdob"]
+DOB_KINDS: tuple[str, ...] = ("none", "vbdob", "abdob")
+
+
+class DisturbanceObserver(Protocol):
+    """What the autopilot needs from a disturbance observer."""
+
+    kind: str
+
+    def reset(self) -> None:
+        """Forget the filter state; the next step re-initialises on its measurement."""
+        ...
+
+    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray,
+             torque_applied_nm: np.ndarray) -> np.ndarray:
+        """Estimated disturbance torque d_hat (N*m), shape (3,), for this tick.
+
+        Parameters
+        ----------
+        euler_rad : numpy.ndarray
+            Measured [roll, pitch, yaw] (rad), shape (3,); used by the AbDOB.
+        rate_frd : numpy.ndarray
+            Measured body rates [p, q, r] (rad/s), shape (3,); used by the VbDOB.
+        torque_applied_nm : numpy.ndarray
+            Torque [U2, U3, U4] (N*m) applied over the interval that just ended.
+        """
+        ...
+
+
+class NoDob:
+    """The absent observer: d_hat = 0."""
+
+    kind = "none"
+
+    def reset(self) -> None:
+        """Nothing to forget."""
+
+    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray,
+             torque_applied_nm: np.ndarray) -> np.ndarray:
+        """Always zeros (N*m), shape (3,)."""
+        return np.zeros(3)
+
+
+class _DiscreteDob:
+    """Shared machinery: a 6-input (3 measurements, 3 torques), 3-output discrete filter."""
+
+    kind = "abstract"
+
+    def __init__(self, model: VehicleModel, dt_s: float, cutoff_rad_s: float,
+                 channels: list[tuple[control.TransferFunction, control.TransferFunction]],
+                 motor_bandwidth_rad_s: float | None) -> None:
+        if not (np.isfinite(dt_s) and dt_s > 0):
+            raise ValueError(f"dt_s = {dt_s!r}: must be > 0")
+        if not (np.isfinite(cutoff_rad_s) and 0 < cutoff_rad_s < np.pi / dt_s):
+            raise ValueError(f"cutoff_rad_s = {cutoff_rad_s!r}: must be in (0, pi/dt_s)")
+        if motor_bandwidth_rad_s is not None and not (np.isfinite(motor_bandwidth_rad_s)
+                                                      and motor_bandwidth_rad_s > 0):
+            raise ValueError(f"motor_bandwidth_rad_s = {motor_bandwidth_rad_s!r}: must be > 0 "
+                             "or None")
+        self.model = model
+        self.dt_s = float(dt_s)
+        self.cutoff_rad_s = float(cutoff_rad_s)
+        self.motor_bandwidth_rad_s = motor_bandwidth_rad_s
+        if motor_bandwidth_rad_s is not None:
+            motor = control.tf([motor_bandwidth_rad_s], [1.0, motor_bandwidth_rad_s])
+            channels = [(meas_tf, torque_tf * motor) for meas_tf, torque_tf in channels]
+        self.channels = channels  # per axis (measurement filter, torque filter), continuous
+        a_blocks, b_blocks, c_blocks, d_blocks = [], [], [], []
+        for meas_tf, torque_tf in channels:
+            meas_ss, torque_ss = control.ss(meas_tf), control.ss(torque_tf)
+            # parallel connection: d_hat = F_meas(s) y + F_torque(s) tau
+            a_blocks.append(block_diag(meas_ss.A, torque_ss.A))
+            b_blocks.append(block_diag(meas_ss.B, torque_ss.B))
+            c_blocks.append(np.hstack([meas_ss.C, torque_ss.C]))
+            d_blocks.append(np.hstack([meas_ss.D, torque_ss.D]))
+        b = block_diag(*b_blocks)  # inputs ordered [y_x, tau_x, y_y, tau_y, y_z, tau_z]
+        d = block_diag(*d_blocks)
+        order = [0, 2, 4, 1, 3, 5]  # reorder inputs to [y(3), tau(3)]
+        self.continuous = control.ss(block_diag(*a_blocks), b[:, order], block_diag(*c_blocks),
+                                     d[:, order])
+        self.discrete = control.c2d(self.continuous, self.dt_s, method="zoh")
+        self._a = np.asarray(self.discrete.A)
+        self._b_meas, self._b_torque = np.hsplit(np.asarray(self.discrete.B), 2)
+        self._c = np.asarray(self.discrete.C)
+        self._d_meas, d_torque = np.hsplit(np.asarray(self.discrete.D), 2)
+        if not np.allclose(d_torque, 0.0):
+            raise AssertionError("torque channel must be strictly proper after ZOH")
+        # steady-state map for a constant measurement: x = (I - A)^-1 B_meas y
+        self._x_per_meas = np.linalg.solve(np.eye(self._a.shape[0]) - self._a, self._b_meas)
+        self._x = np.zeros(self._a.shape[0])
+        self._prev_meas: np.ndarray | None = None
+
+    def reset(self) -> None:
+        """Forget the filter state; the next step re-initialises at rest on its measurement."""
+        self._x = np.zeros(self._a.shape[0])
+        self._prev_meas = None
+
+    def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray,
+             torque_applied_nm: np.ndarray) -> np.ndarray:
+        """Estimate d_hat (N*m), shape (3,); see the module docstring for the timing."""
+        y = self._measurement(euler_rad, rate_frd)
+        if self._prev_meas is None:
+            # start at rest on the first measurement: no derivative kick from y(0) != 0
+            self._x = self._x_per_meas @ y
+        else:
+            tau = np.asarray(torque_applied_nm, dtype=float).reshape(3)
+            # x[k] = A x[k-1] + B_y y[k-1] + B_tau tau[k-1]
+            self._x = self._a @ self._x + self._b_meas @ self._prev_meas + self._b_torque @ tau
+        self._prev_meas = y
+        # d_hat[k] = C x[k] + D_y y[k]   (D_tau = 0)
+        return self._c @ self._x + self._d_meas @ y
+
+
+class AccelerationDob(_DiscreteDob):
+    """AbDOB (eq. 6.27, 6.28) on the Euler angles.
+
+    Per axis ``d_hat = Q(s) [I s^2 angle - M(s) tau]``, ``Q = w^2/(s + w)^2``, ``M`` the
+    motor model (or 1). The yaw angle is unwrapped internally so a pass through +/-pi is not
+    read as a 2 pi jump.
+
+    Parameters
+    ----------
+    model : VehicleModel
+        Supplies the inertia diagonal I (kg*m^2).
+    dt_s : float
+        Loop period, s.
+    cutoff_rad_s : float
+        Q-filter bandwidth w, rad/s (5 in the thesis).
+    motor_bandwidth_rad_s : float or None
+        Motor lag included in the nominal plant, rad/s; None = the thesis's plant.
+    """
+
+    kind = "abdob"
+
+    def __init__(self, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
+                 motor_bandwidth_rad_s: float | None = None) -> None:
+        w = float(cutoff_rad_s)
+        den = [1.0, 2.0 * w, w * w]  # (s + w)^2, eq. 6.28 with the missing s restored
+        channels = [(control.tf([inertia * w * w, 0.0, 0.0], den),  # Q I s^2
+                     control.tf([-w * w], den))  # -Q
+                    for inertia in model.inertia]
+        super().__init__(model, dt_s, w, channels, motor_bandwidth_rad_s)
+        self._unwrapped: np.ndarray | None = None
+
+    def reset(self) -> None:
+        """Forget the filter state and the angle unwrapping."""
+        super().reset()
+        self._unwrapped = None
+
+    def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
+        euler = np.asarray(euler_rad, dtype=float).reshape(3)
+        if self._unwrapped is None:
+            self._unwrapped = euler.copy()
+        else:
+            self._unwrapped = self._unwrapped + wrap_angle(euler - wrap_angle(self._unwrapped))
+        return self._unwrapped.copy()
+
+
+class VelocityDob(_DiscreteDob):
+    """VbDOB (eq. 6.29, 6.30) on the body rates.
+
+    Per axis ``d_hat = Q(s) [I s rate - M(s) tau]``, ``Q = w/(s + w)``, ``M`` the motor
+    model (or 1).
+
+    Parameters
+    ----------
+    model : VehicleModel
+        Supplies the inertia diagonal I (kg*m^2).
+    dt_s : float
+        Loop period, s.
+    cutoff_rad_s : float
+        Q-filter bandwidth w, rad/s (5 in the thesis).
+    motor_bandwidth_rad_s : float or None
+        Motor lag included in the nominal plant, rad/s; None = the thesis's plant.
+    """
+
+    kind = "vbdob"
+
+    def __init__(self, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
+                 motor_bandwidth_rad_s: float | None = None) -> None:
+        w = float(cutoff_rad_s)
+        den = [1.0, w]  # s + w, eq. 6.30
+        channels = [(control.tf([inertia * w, 0.0], den),  # Q I s
+                     control.tf([-w], den))  # -Q
+                    for inertia in model.inertia]
+        super().__init__(model, dt_s, w, channels, motor_bandwidth_rad_s)
+
+    def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
+        return np.asarray(rate_frd, dtype=float).reshape(3).copy()
+
+
+def make_dob(kind: str, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
+             motor_model: bool = True) -> DisturbanceObserver:
+    """Build the observer named ``kind`` ("none", "vbdob" or "abdob").
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`DOB_KINDS`.
+    model : VehicleModel
+        Inertia (kg*m^2) and motor bandwidth (rad/s).
+    dt_s : float
+        Loop period, s.
+    cutoff_rad_s : float
+        Q-filter bandwidth w, rad/s (5 in the thesis, section 6.2).
+    motor_model : bool
+        Include the model's motor lag in the nominal plant (module docstring); False gives
+        the thesis's eq. 6.27/6.29 exactly.
+
+    Raises
+    ------
+    ValueError
+        When ``kind`` is not one of :data:`DOB_KINDS`.
+    """
+    motor = model.motor_bandwidth if motor_model else None
+    if kind == "none":
+        return NoDob()
+    if kind == "vbdob":
+        return VelocityDob(model, dt_s, cutoff_rad_s, motor)
+    if kind == "abdob":
+        return AccelerationDob(model, dt_s, cutoff_rad_s, motor)
+    raise ValueError(f"dob = {kind!r}: must be one of {', '.join(map(repr, DOB_KINDS))}")

@@ -1,0 +1,533 @@
+"""The autopilot's MAVLink endpoint: one object a composition root drives.
+
+Driving API
+-----------
+::
+
+    link = UdpLink(bind_port=14555)               # or any Link
+    endpoint = MavlinkEndpoint(port, link, config=EndpointConfig(sysid=1),
+                               injector=fault_engine_port, extra_params=[sim_params])
+    while running:                                 # the autopilot loop, e.g. 100 Hz simulated
+        ...step the autopilot...
+        endpoint.tick(time_s=sim_time_s, wall_time_s=time.monotonic())
+
+``tick`` reads every waiting datagram and answers it, hands vehicle events (STATUSTEXT,
+MISSION_ITEM_REACHED) on, runs the GCS-loss failsafe and mission time-outs, and sends the
+telemetry that is due. Call it from the thread that owns the vehicle (the port is not
+called from anywhere else), after each autopilot step, and **keep calling it at least ~10
+times per wall-clock second even while the simulation is paused or slower than real time**
+(pass the unchanged simulated time): the wall-clock HEARTBEAT floor, command answers and the
+failsafe depend on it. ``time_s`` should equal ``port.snapshot().time_s``.
+
+``handle_bytes`` / ``poll`` exist for links that deliver data elsewhere (tests, a serial
+reader); ``tick`` calls ``poll`` itself.
+
+Robustness: nothing received can raise out of ``handle_bytes``/``poll``/``tick``. Malformed
+packets, unknown message ids and handler errors are counted in :attr:`MavlinkEndpoint.stats`
+(SYS_STATUS.errors_comm reports the malformed count).
+
+Clocks: telemetry rates and message time fields use simulated time (see streams.py);
+HEARTBEAT has a wall-clock floor; the GCS failsafe and mission time-outs use the wall clock.
+TIMESYNC answers with the simulated time in ns (never decreasing).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+from fcu.mavlink import messages as build
+from fcu.mavlink.codec import Codec, MAVLinkMessage, mavlink2
+from fcu.mavlink.commands import CommandDispatcher, CommandLimits, CommandOutcome, CommandRequest
+from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
+from fcu.mavlink.link import Address, Link
+from fcu.mavlink.mission import MissionConfig, MissionProtocol
+from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
+from fcu.mavlink.port import (
+    CommandResult,
+    CopterMode,
+    FailureInjector,
+    MavState,
+    MissionItemReached,
+    ParamProvider,
+    ParamSpec,
+    Severity,
+    StatusText,
+    VehiclePort,
+    VehicleSnapshot,
+)
+from fcu.mavlink.streams import DEFAULT_RATES_HZ, StreamScheduler
+
+__all__ = ["EndpointConfig", "EndpointStats", "MavlinkEndpoint"]
+
+_M = mavlink2
+_log = logging.getLogger(__name__)
+_SETPOINT_STATUS_INTERVAL_S = 1.0  # s wall; set-point refusals arrive at stream rates
+
+
+@dataclass(frozen=True, kw_only=True)
+class EndpointConfig:
+    """Identity, clocks and limits of the endpoint."""
+
+    sysid: int = 1  # MAVLink system id (SYSID_THISMAV at boot)
+    compid: int = 1  # MAV_COMP_ID_AUTOPILOT1: the only id QGC and MAVSDK treat as autopilot
+    pwm_max: float = 0.05  # motor command at full power (VehicleModel.pwm_max)
+    heartbeat_wall_period_s: float = 1.0  # s, longest wall-clock gap between HEARTBEATs
+    stream_rates_hz: Mapping[int, float] = field(default_factory=lambda: dict(DEFAULT_RATES_HZ))
+    mission: MissionConfig = field(default_factory=MissionConfig)
+    limits: CommandLimits = field(default_factory=CommandLimits)
+    flight_sw_version: tuple[int, int, int] = (4, 5, 0)  # ArduCopter protocol generation
+    boot_unix_time_s: float | None = None  # UNIX time at boot, for SYSTEM_TIME
+    gcs_failsafe_action: int = int(FailsafeAction.LAND)  # FS_GCS_ENABLE default
+    gcs_failsafe_timeout_s: float = 5.0  # FS_GCS_TIMEOUT default, s (2..120)
+    gcs_sysid: int = 255  # SYSID_MYGCS default
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.sysid <= 255:
+            raise ValueError(f"sysid = {self.sysid!r}: must be in 1..255")
+        if not 1 <= self.compid <= 255:
+            raise ValueError(f"compid = {self.compid!r}: must be in 1..255")
+        if not self.pwm_max > 0:
+            raise ValueError(f"pwm_max = {self.pwm_max!r}: must be > 0")
+        if self.gcs_failsafe_action not in {int(a) for a in FailsafeAction}:
+            raise ValueError(f"gcs_failsafe_action = {self.gcs_failsafe_action!r}: must be one "
+                             f"of {[int(a) for a in FailsafeAction]}")
+        if not 2.0 <= self.gcs_failsafe_timeout_s <= 120.0:
+            raise ValueError(f"gcs_failsafe_timeout_s = {self.gcs_failsafe_timeout_s!r}: "
+                             "must be in 2..120")
+        if not 1 <= self.gcs_sysid <= 255:
+            raise ValueError(f"gcs_sysid = {self.gcs_sysid!r}: must be in 1..255")
+
+
+@dataclass
+class EndpointStats:
+    """Counters (never reset except by a new endpoint)."""
+
+    datagrams: int = 0
+    messages: int = 0
+    malformed: int = 0  # bad CRC/length/prefix, truncated
+    unknown_ids: int = 0  # well-formed packets of ids the dialect lacks
+    not_for_us: int = 0  # addressed to another system/component
+    handler_errors: int = 0  # exceptions caught around a message handler
+    build_errors: int = 0  # telemetry that could not be built or packed
+    commands: int = 0
+    gcs_failsafes: int = 0
+
+
+class _Outbox:
+    """Packs and sends for every protocol part; STATUSTEXT chunking lives here."""
+
+    def __init__(self, codec: Codec, link: Link, stats: EndpointStats) -> None:
+        self._codec = codec
+        self._link = link
+        self._stats = stats
+        self._chunk_id = 0
+
+    def send(self, msg: MAVLinkMessage, to: Address | None = None) -> None:
+        try:
+            data = self._codec.pack(msg)
+        except Exception:  # a field out of its wire range is a bug; keep flying
+            self._stats.build_errors += 1
+            _log.exception("cannot pack %s", msg.get_type())
+            return
+        self._link.send(data, to)
+
+    def status(self, severity: int, text: str) -> None:
+        self._chunk_id = self._chunk_id % 0xFFFF + 1
+        for msg in build.statustext_chunks(severity, text, self._chunk_id):
+            self.send(msg)
+
+
+class MavlinkEndpoint:
+    """MAVLink endpoint of the autopilot (see the module docstring for how to drive it).
+
+    Parameters
+    ----------
+    port : VehiclePort
+        The vehicle.
+    link : Link
+        Datagram transport (e.g. :class:`fcu.mavlink.udp.UdpLink`).
+    config : EndpointConfig
+    injector : FailureInjector or None
+        Fault-injection port for MAV_CMD_INJECT_FAILURE (None: UNSUPPORTED).
+    extra_params : sequence of ParamProvider
+        More parameters (e.g. the simulator's ``SIM_*``); names must be unique overall.
+    """
+
+    def __init__(self, port: VehiclePort, link: Link, *,
+                 config: EndpointConfig | None = None,
+                 injector: FailureInjector | None = None,
+                 extra_params: Sequence[ParamProvider] = ()) -> None:
+        self._config = config = config if config is not None else EndpointConfig()
+        self._port = port
+        self._link = link
+        self.stats = EndpointStats()
+        self._codec = Codec(config.sysid, config.compid)
+        self._outbox = _Outbox(self._codec, link, self.stats)
+        entries = self._own_params()
+        entries += entries_from(port)
+        for provider in extra_params:
+            entries += entries_from(provider)
+        self._params = ParamService(ParamTable(entries), self._outbox)
+        self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s)
+        self._mission = MissionProtocol(self._outbox, port.snapshot, port.mission_set,
+                                        config.mission)
+        self._commands = CommandDispatcher(port, injector, self._streams, self._build_message,
+                                           lambda: self._mission.total, config.limits)
+        self._failsafe = GcsFailsafe(config.sysid)
+        self._time_s = 0.0
+        self._wall_s = 0.0
+        self._last_tc1_ns = 0
+        self._last_setpoint_status: tuple[float, str] = (-math.inf, "")
+        self._last_snapshot: VehicleSnapshot | None = None
+
+    # ------------------------------------------------------------------ parameters
+    def _own_params(self) -> list[ParamEntry]:
+        c = self._config
+        return [
+            ParamEntry(ParamSpec(
+                name="SYSID_THISMAV", value=c.sysid, min_value=1, max_value=255, integer=True,
+                description="MAVLink system id of this vehicle (applies after reboot)"),
+                self._on_sysid_change),
+            ParamEntry(ParamSpec(
+                name="SYSID_MYGCS", value=c.gcs_sysid, min_value=1, max_value=255,
+                integer=True, description="System id of the GCS whose heartbeat counts")),
+            ParamEntry(ParamSpec(
+                name="FS_GCS_ENABLE", value=c.gcs_failsafe_action, min_value=0, max_value=5,
+                allowed=tuple(float(a) for a in FailsafeAction), integer=True,
+                description="GCS-loss failsafe: 0 off, 1 RTL, 2 RTL/continue AUTO, 5 LAND")),
+            ParamEntry(ParamSpec(
+                name="FS_GCS_TIMEOUT", value=c.gcs_failsafe_timeout_s, min_value=2.0,
+                max_value=120.0, description="GCS heartbeat loss before failsafe, s (wall)")),
+        ]
+
+    def _on_sysid_change(self, value: float) -> CommandResult:
+        self._outbox.status(Severity.NOTICE,
+                            f"SYSID_THISMAV {int(value)} takes effect after reboot")
+        return CommandResult.ok()
+
+    @property
+    def params(self) -> ParamTable:
+        """The parameter table (read-only use: values, names)."""
+        return self._params.table
+
+    @property
+    def streams(self) -> StreamScheduler:
+        """The telemetry schedule."""
+        return self._streams
+
+    @property
+    def mission(self) -> MissionProtocol:
+        """The mission protocol state."""
+        return self._mission
+
+    @property
+    def gcs_failsafe_active(self) -> bool:
+        """The GCS-loss failsafe has fired and no GCS heartbeat has come back."""
+        return self._failsafe.active
+
+    @property
+    def sysid(self) -> int:
+        """The system id in use."""
+        return self._codec.sysid
+
+    def _failsafe_config(self) -> GcsFailsafeConfig:
+        p = self._params.table
+        return GcsFailsafeConfig(action=FailsafeAction(int(p.get("FS_GCS_ENABLE"))),
+                                 timeout_s=p.get("FS_GCS_TIMEOUT"),
+                                 gcs_sysid=int(p.get("SYSID_MYGCS")))
+
+    # ------------------------------------------------------------------ driving
+    def tick(self, time_s: float, wall_time_s: float) -> None:
+        """Receive, react and send what is due (see the module docstring).
+
+        Parameters
+        ----------
+        time_s : float
+            Simulated time since boot, s.
+        wall_time_s : float
+            Monotonic wall-clock time, s (``time.monotonic()``).
+        """
+        self._time_s = time_s
+        self.poll(wall_time_s)
+        self._guard(self._forward_events)
+        self._guard(lambda: self._run_failsafe(wall_time_s))
+        self._guard(lambda: self._mission.tick(wall_time_s))
+        self._guard(lambda: self._send_due(time_s, wall_time_s))
+
+    def poll(self, wall_time_s: float) -> int:
+        """Handle every datagram waiting on the link; returns how many."""
+        self._wall_s = wall_time_s
+        try:
+            datagrams = self._link.receive()
+        except Exception:
+            self.stats.handler_errors += 1
+            _log.exception("link receive failed")
+            return 0
+        for data, addr in datagrams:
+            self.handle_bytes(data, addr, wall_time_s)
+        return len(datagrams)
+
+    def handle_bytes(self, data: bytes, addr: Address, wall_time_s: float | None = None) -> None:
+        """Parse one datagram from ``addr`` and answer every message in it; never raises."""
+        if wall_time_s is not None:
+            self._wall_s = wall_time_s
+        self.stats.datagrams += 1
+        parsed = self._codec.parse_datagram(bytes(data))
+        self.stats.malformed += parsed.malformed
+        self.stats.unknown_ids += parsed.unknown
+        for msg in parsed.messages:
+            self.stats.messages += 1
+            try:
+                self._handle_message(msg, addr)
+            except Exception:
+                self.stats.handler_errors += 1
+                _log.exception("error handling %s", msg.get_type())
+
+    def _guard(self, action: Callable[[], None]) -> None:
+        try:
+            action()
+        except Exception:
+            self.stats.handler_errors += 1
+            _log.exception("endpoint step failed")
+
+    # ------------------------------------------------------------------ periodic work
+    def _context(self) -> build.TelemetryContext:
+        return build.TelemetryContext(
+            pwm_max=self._config.pwm_max, mission_total=self._mission.total,
+            errors_comm=self.stats.malformed, gcs_failsafe_active=self._failsafe.active,
+            boot_unix_time_s=self._config.boot_unix_time_s)
+
+    def _send_due(self, time_s: float, wall_time_s: float) -> None:
+        due = self._streams.due(time_s, wall_time_s)
+        if not due:
+            return
+        try:
+            snap = self._port.snapshot()
+            self._last_snapshot = snap
+        except Exception:
+            self.stats.build_errors += 1
+            _log.exception("snapshot failed")
+            # Keep the link alive: a HEARTBEAT from the last good state, marked CRITICAL.
+            if self._last_snapshot is None or _M.MAVLINK_MSG_ID_HEARTBEAT not in due:
+                return
+            snap = dataclasses.replace(self._last_snapshot, system_status=MavState.CRITICAL)
+            due = [_M.MAVLINK_MSG_ID_HEARTBEAT]
+        ctx = self._context()
+        for msg_id in due:
+            try:
+                built = build.build_stream(msg_id, snap, ctx)
+            except Exception:
+                self.stats.build_errors += 1
+                _log.exception("cannot build message %d", msg_id)
+                continue
+            for msg in built:
+                self._outbox.send(msg)
+
+    def _forward_events(self) -> None:
+        for event in self._port.drain_events():
+            if isinstance(event, StatusText):
+                self._outbox.status(event.severity, event.text)
+            elif isinstance(event, MissionItemReached):
+                self._outbox.send(_M.MAVLink_mission_item_reached_message(
+                    build.clamp_int(event.seq, 0, 0xFFFF, 0)))
+
+    def _run_failsafe(self, wall_time_s: float) -> None:
+        config = self._failsafe_config()
+        fs = self._failsafe
+        if not fs.active and not (fs.gcs_seen and config.action != FailsafeAction.DISABLED):
+            return
+        snap = self._port.snapshot()
+        was_active = fs.active
+        action = fs.check(snap.armed, wall_time_s, config)
+        if was_active and not fs.active:
+            self._clear_gcs_failsafe("vehicle disarmed")
+            return
+        if action is None:
+            return
+        self.stats.gcs_failsafes += 1
+        lost = f"GCS failsafe: no heartbeat for {config.timeout_s:g} s"
+        if action == FailsafeAction.RTL_OR_CONTINUE_MISSION and snap.custom_mode == CopterMode.AUTO:
+            self._outbox.status(Severity.CRITICAL, f"{lost}, continuing mission")
+            return
+        kind = "land" if action == FailsafeAction.LAND else "rtl"
+        result = self._port.trigger_failsafe("gcs", kind)
+        if result.accepted:
+            self._outbox.status(Severity.CRITICAL, f"{lost}, {kind.upper()}")
+        else:
+            self._outbox.status(Severity.EMERGENCY, f"{lost}, {kind.upper()} refused: "
+                                f"{result.reason}")
+
+    def _clear_gcs_failsafe(self, why: str) -> None:
+        self._port.clear_failsafe("gcs")
+        self._outbox.status(Severity.NOTICE, f"GCS failsafe cleared: {why}")
+
+    def _build_message(self, msg_id: int) -> list[MAVLinkMessage] | None:
+        """One-shot messages for REQUEST_MESSAGE (None: cannot be produced)."""
+        if msg_id == _M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            return [build.autopilot_version(self._codec.sysid, self._config.flight_sw_version)]
+        if not build.can_build(msg_id):
+            return None
+        return build.build_stream(msg_id, self._port.snapshot(), self._context())
+
+    # ------------------------------------------------------------------ receiving
+    def _for_us(self, msg: MAVLinkMessage) -> bool:
+        target_system = getattr(msg, "target_system", 0)
+        target_component = getattr(msg, "target_component", 0)
+        ok = (target_system in (0, self._codec.sysid)
+              and target_component in (0, self._codec.compid))
+        if not ok:
+            self.stats.not_for_us += 1
+        return ok
+
+    def _handle_message(self, msg: MAVLinkMessage, addr: Address) -> None:
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        if src == (self._codec.sysid, self._codec.compid):
+            return  # our own packet looped back
+        self._link.add_peer(addr)
+        kind = msg.get_type()
+        if kind == "HEARTBEAT":
+            if self._failsafe.on_heartbeat(src[0], int(msg.type), self._wall_s,
+                                           self._failsafe_config()):
+                self._clear_gcs_failsafe("heartbeat back")
+            return
+        if kind == "TIMESYNC":
+            self._timesync(msg, addr)
+            return
+        handler = self._HANDLERS.get(kind)
+        if handler is None or not self._for_us(msg):
+            return  # MANUAL_CONTROL, RC overrides, PING, COMMAND_ACK, ...: ignored
+        handler(self, msg, src, addr)
+
+    def _command(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        self.stats.commands += 1
+        command = int(msg.command)
+        try:
+            outcome = self._commands.dispatch(CommandRequest.from_message(msg))
+        except Exception:
+            self.stats.handler_errors += 1
+            _log.exception("command %d", command)
+            outcome = CommandOutcome(_M.MAV_RESULT_FAILED, f"command {command} failed")
+        self._finish_command(command, outcome, src, addr)
+
+    def _finish_command(self, command: int, outcome: CommandOutcome, src: tuple[int, int],
+                        addr: Address) -> None:
+        """Exactly one COMMAND_ACK, then the reason and follow-up messages."""
+        self._outbox.send(build.command_ack(command, outcome.result, *src), addr)
+        if outcome.reason:
+            self._outbox.status(Severity.WARNING, outcome.reason)
+        for follow in outcome.follow_up:
+            self._outbox.send(follow, addr)
+        if outcome.heartbeat_soon:
+            self._streams.request_heartbeat()
+        if outcome.reboot:
+            self._reboot()
+
+    def _set_mode_message(self, msg: MAVLinkMessage, src: tuple[int, int],
+                          addr: Address) -> None:
+        """Legacy SET_MODE: acknowledged as ArduPilot does (COMMAND_ACK, command = 11)."""
+        if not int(msg.base_mode) & _M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            outcome = CommandOutcome(_M.MAV_RESULT_DENIED,
+                                     "Set mode: only custom (ArduCopter) modes are supported")
+        else:
+            outcome = self._commands.set_mode(int(msg.custom_mode))
+        self._finish_command(_M.MAVLINK_MSG_ID_SET_MODE, outcome, src, addr)
+
+    def _timesync(self, msg: MAVLinkMessage, addr: Address) -> None:
+        if int(msg.tc1) != 0:
+            return  # an answer to someone else's request
+        now_ns = max(int(self._time_s * 1e9), self._last_tc1_ns)
+        self._last_tc1_ns = now_ns
+        self._outbox.send(_M.MAVLink_timesync_message(now_ns, int(msg.ts1)), addr)
+
+    def _request_data_stream(self, msg: MAVLinkMessage, src: tuple[int, int],
+                             addr: Address) -> None:
+        rate = float(msg.req_message_rate) if int(msg.start_stop) else 0.0
+        self._streams.set_group_rate(int(msg.req_stream_id), rate)
+
+    def _param_list(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        self._params.handle_request_list(addr)
+
+    def _param_read(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        self._params.handle_request_read(msg, addr)
+
+    def _param_set(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        self._params.handle_set(msg)
+
+    def _mission_count(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        self._mission.handle_count(msg, src, addr, self._wall_s)
+
+    def _mission_item(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        self._mission.handle_item(msg, src, addr, self._wall_s)
+
+    def _mission_request_list(self, msg: MAVLinkMessage, src: tuple[int, int],
+                              addr: Address) -> None:
+        self._mission.handle_request_list(msg, src, addr)
+
+    def _mission_request(self, msg: MAVLinkMessage, src: tuple[int, int],
+                         addr: Address) -> None:
+        self._mission.handle_request(msg, src, addr)
+
+    def _mission_clear(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        self._mission.handle_clear_all(msg, src, addr)
+
+    def _mission_set_current(self, msg: MAVLinkMessage, src: tuple[int, int],
+                             addr: Address) -> None:
+        """MISSION_SET_CURRENT (no ACK exists): answered with MISSION_CURRENT."""
+        seq = int(msg.seq)
+        total = self._mission.total
+        if not 0 <= seq <= total or total == 0:
+            self._outbox.status(Severity.WARNING, f"Set mission current: {seq} not in 1..{total}")
+        else:
+            result = self._port.mission_set_current(max(seq, 1))
+            if not result.accepted:
+                self._outbox.status(Severity.WARNING, f"Set mission current: {result.reason}")
+        snap = self._port.snapshot()
+        self._outbox.send(build.mission_current(snap, self._context()), addr)
+
+    def _setpoint(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
+            result = self._commands.position_target_local(msg)
+        else:
+            result = self._commands.position_target_global(msg)
+        if result.accepted:
+            return
+        # Set-points stream at 10-50 Hz: say the same refusal at most once per wall second.
+        text = result.reason or "Position target refused"
+        last_s, last_text = self._last_setpoint_status
+        if text != last_text or self._wall_s - last_s >= _SETPOINT_STATUS_INTERVAL_S:
+            self._last_setpoint_status = (self._wall_s, text)
+            self._outbox.status(Severity.WARNING, text)
+
+    _HANDLERS = {
+        "COMMAND_LONG": _command,
+        "COMMAND_INT": _command,
+        "SET_MODE": _set_mode_message,
+        "REQUEST_DATA_STREAM": _request_data_stream,
+        "PARAM_REQUEST_LIST": _param_list,
+        "PARAM_REQUEST_READ": _param_read,
+        "PARAM_SET": _param_set,
+        "MISSION_COUNT": _mission_count,
+        "MISSION_ITEM_INT": _mission_item,
+        "MISSION_ITEM": _mission_item,
+        "MISSION_REQUEST_LIST": _mission_request_list,
+        "MISSION_REQUEST_INT": _mission_request,
+        "MISSION_REQUEST": _mission_request,
+        "MISSION_CLEAR_ALL": _mission_clear,
+        "MISSION_SET_CURRENT": _mission_set_current,
+        "SET_POSITION_TARGET_LOCAL_NED": _setpoint,
+        "SET_POSITION_TARGET_GLOBAL_INT": _setpoint,
+    }
+
+    # ------------------------------------------------------------------ reboot
+    def _reboot(self) -> None:
+        """The vehicle accepted a reboot: restart the endpoint's own state."""
+        new_sysid = int(self._params.table.get("SYSID_THISMAV"))
+        self._codec.sysid = new_sysid
+        self._failsafe.own_sysid = new_sysid
+        self._failsafe.reset()
+        self._streams.reset()
+        self._mission.reset()

@@ -1,0 +1,521 @@
+"""Build MAVLink messages from a :class:`~fcu.mavlink.port.VehicleSnapshot`.
+
+This is the unit-conversion edge: SI/NED inside, MAVLink units on the wire. Every integer
+field is clamped into its wire type (a NaN becomes the field's "unknown" value), so a
+diverged estimate can never make packing fail.
+
+Conventions worth knowing on the ground-station side
+----------------------------------------------------
+- Times: ``time_boot_ms`` / ``time_usec`` are **simulated** time since boot.
+- Positions: LOCAL_POSITION_NED is about the NED origin (home at boot, on the ground);
+  GLOBAL_POSITION_INT.alt and GPS_RAW_INT.alt are AMSL, ``relative_alt`` is above the
+  current home.
+- GPS_RAW_INT carries the estimated position from the lab's motion-capture system (the
+  Qball-X4 has no GPS): fix 3D and 12 synthetic satellites while the position source is
+  healthy, NO_FIX and 0 otherwise.
+- VFR_HUD airspeed equals ground speed (no airspeed sensor); throttle is the mean motor
+  command in percent of ``pwm_max``.
+- SERVO_OUTPUT_RAW servo1..servo4 carry motors 1..4 in the thesis numbering of
+  docs/design.md (1 front, 2 back, 3 left, 4 right), as
+  ``PWM_us = 1000 + 1000 * u / pwm_max`` clamped to 1000..2000; servo5..16 are 0 (unused).
+- SIM_STATE is simulator truth; NAMED_VALUE_FLOAT ``LOE1``..``LOE4`` are the estimated loss
+  of effectiveness of motors 1..4 (0 healthy, 1 no thrust).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
+from fcu.mavlink.port import CopterMode, LandedState, MavState, Severity, VehicleSnapshot
+
+__all__ = [
+    "AUTOPILOT_CAPABILITIES",
+    "STATUSTEXT_CHUNK_LEN",
+    "TelemetryContext",
+    "autopilot_version",
+    "build_stream",
+    "can_build",
+    "command_ack",
+    "euler_from_quat",
+    "pwm_to_us",
+    "quat_from_euler",
+    "statustext_chunks",
+]
+
+_M = mavlink2
+UINT8_MAX = 0xFF
+UINT16_MAX = 0xFFFF
+INT16_MAX = 0x7FFF
+UINT32_MAX = 0xFFFFFFFF
+INT32_MAX = 0x7FFFFFFF
+UINT64_MAX = 0xFFFFFFFFFFFFFFFF
+STATUSTEXT_CHUNK_LEN = 50  # characters per STATUSTEXT packet
+STATUSTEXT_MAX_CHUNKS = 20  # longer texts are truncated (1000 characters)
+
+AUTOPILOT_CAPABILITIES = (
+    _M.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    | _M.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    | _M.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+    | _M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    | _M.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST
+    | _M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+    | _M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+)
+"""What AUTOPILOT_VERSION advertises (each one implemented by this endpoint)."""
+
+# ArduCopter sets GUIDED_ENABLED for the modes under position control (GCS_Copter::base_mode).
+_GUIDED_MODES = frozenset({CopterMode.AUTO, CopterMode.GUIDED, CopterMode.LOITER,
+                           CopterMode.RTL, CopterMode.POSHOLD, CopterMode.BRAKE,
+                           CopterMode.SMART_RTL})
+
+
+@dataclass(frozen=True, slots=True)
+class TelemetryContext:
+    """What the builders need besides the snapshot.
+
+    Attributes
+    ----------
+    pwm_max : float
+        Motor command at full power (SERVO_OUTPUT_RAW, VFR_HUD throttle).
+    mission_total : int
+        Mission items excluding home (MISSION_CURRENT.total); 0 when there is no mission.
+    errors_comm : int
+        Malformed packets received so far (SYS_STATUS.errors_comm).
+    gcs_failsafe_active : bool
+        The endpoint's GCS-loss failsafe is acting (HEARTBEAT shows CRITICAL).
+    boot_unix_time_s : float or None
+        UNIX time at boot for SYSTEM_TIME (unix = boot + simulated time); None sends 0.
+    """
+
+    pwm_max: float = 0.05
+    mission_total: int = 0
+    errors_comm: int = 0
+    gcs_failsafe_active: bool = False
+    boot_unix_time_s: float | None = None
+
+
+# ---------------------------------------------------------------------------------------------
+# small conversions
+
+
+def clamp_int(value: float, lo: int, hi: int, unknown: int) -> int:
+    """``round(value)`` clamped to [lo, hi]; ``unknown`` for NaN."""
+    if math.isnan(value):
+        return unknown
+    if value >= hi:
+        return hi
+    if value <= lo:
+        return lo
+    return int(round(value))
+
+
+def time_boot_ms(time_s: float) -> int:
+    """Simulated time as uint32 milliseconds (wraps after 49.7 days like the firmware)."""
+    return clamp_int(time_s * 1e3, 0, UINT64_MAX, 0) & UINT32_MAX
+
+
+def time_usec(time_s: float) -> int:
+    """Simulated time as uint64 microseconds."""
+    return clamp_int(time_s * 1e6, 0, UINT64_MAX, 0)
+
+
+def cdeg_heading(yaw_rad: float) -> int:
+    """Heading in centidegrees 0..35999 (UINT16_MAX when unknown)."""
+    if not math.isfinite(yaw_rad):
+        return UINT16_MAX
+    return clamp_int(math.degrees(yaw_rad) % 360.0 * 100.0, 0, 35999, UINT16_MAX)
+
+
+def wrap_pi(angle_rad: float) -> float:
+    """Wrap to [-pi, pi)."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def quat_from_euler(euler_rad: np.ndarray) -> np.ndarray:
+    """Quaternion [w, x, y, z] of ZYX Euler angles (roll, pitch, yaw), body FRD to NED."""
+    hr, hp, hy = 0.5 * float(euler_rad[0]), 0.5 * float(euler_rad[1]), 0.5 * float(euler_rad[2])
+    cr, sr = math.cos(hr), math.sin(hr)
+    cp, sp = math.cos(hp), math.sin(hp)
+    cy, sy = math.cos(hy), math.sin(hy)
+    # q = q_z(yaw) * q_y(pitch) * q_x(roll)
+    return np.array([
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ])
+
+
+def euler_from_quat(quat_wxyz: np.ndarray) -> np.ndarray:
+    """ZYX Euler angles (roll, pitch, yaw), rad, of a quaternion [w, x, y, z]."""
+    w, x, y, z = (float(v) for v in quat_wxyz)
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return np.array([roll, pitch, yaw])
+
+
+def pwm_to_us(u: float, pwm_max: float) -> int:
+    """Motor command ``u`` (0..pwm_max) as a PWM pulse width, 1000..2000 microseconds."""
+    return clamp_int(1000.0 + 1000.0 * u / pwm_max, 1000, 2000, 1000)
+
+
+def _e7(deg: float) -> int:
+    return clamp_int(deg * 1e7, -INT32_MAX, INT32_MAX, 0)
+
+
+def _mm(m: float) -> int:
+    return clamp_int(m * 1e3, -INT32_MAX, INT32_MAX, 0)
+
+
+def _f(value: float) -> float:
+    return float(value)
+
+
+# ---------------------------------------------------------------------------------------------
+# streamed messages
+
+
+def heartbeat(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """HEARTBEAT: ArduCopter quad, custom mode, armed flag, system status."""
+    base_mode = _M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | _M.MAV_MODE_FLAG_STABILIZE_ENABLED
+    if snap.armed:
+        base_mode |= _M.MAV_MODE_FLAG_SAFETY_ARMED
+    if snap.custom_mode in _GUIDED_MODES:
+        base_mode |= _M.MAV_MODE_FLAG_GUIDED_ENABLED
+    status = int(snap.system_status)
+    if (ctx.gcs_failsafe_active or snap.failsafe_active) and status != MavState.BOOT:
+        status = max(status, int(MavState.CRITICAL))
+    return _M.MAVLink_heartbeat_message(
+        _M.MAV_TYPE_QUADROTOR, _M.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode,
+        clamp_int(snap.custom_mode, 0, UINT32_MAX, 0), clamp_int(status, 0, UINT8_MAX, 0), 3)
+
+
+def sensor_bits(snap: VehicleSnapshot) -> tuple[int, int, int]:
+    """SYS_STATUS (present, enabled, health) bitmasks."""
+    h = snap.health
+    sensors = {
+        _M.MAV_SYS_STATUS_SENSOR_3D_GYRO: h.gyro,
+        _M.MAV_SYS_STATUS_SENSOR_3D_ACCEL: h.accel,
+        _M.MAV_SYS_STATUS_SENSOR_3D_MAG: h.mag,
+        _M.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE: h.baro,
+        _M.MAV_SYS_STATUS_SENSOR_GPS: h.gps,
+        _M.MAV_SYS_STATUS_SENSOR_VISION_POSITION: h.gps,
+        _M.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL: True,
+        _M.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION: True,
+        _M.MAV_SYS_STATUS_SENSOR_YAW_POSITION: True,
+        _M.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL: True,
+        _M.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL: True,
+        _M.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS: h.motors,
+        _M.MAV_SYS_STATUS_AHRS: h.ahrs,
+        _M.MAV_SYS_STATUS_SENSOR_BATTERY: snap.battery.healthy,
+        _M.MAV_SYS_STATUS_PREARM_CHECK: h.prearm,
+    }
+    present = 0
+    health = _M.MAV_SYS_STATUS_GEOFENCE  # no fence: never breached (MAVProxy reads this bit)
+    for bit, ok in sensors.items():
+        present |= bit
+        if ok:
+            health |= bit
+    return present, present, health
+
+
+def _battery_ints(snap: VehicleSnapshot) -> tuple[int, int]:
+    """(current in cA, remaining in %), -1 where unknown."""
+    bat = snap.battery
+    current_ca = -1 if bat.current_a is None else clamp_int(bat.current_a * 100.0, -1,
+                                                            INT16_MAX, -1)
+    remaining = -1 if bat.remaining is None else clamp_int(bat.remaining * 100.0, 0, 100, -1)
+    return current_ca, remaining
+
+
+def sys_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """SYS_STATUS: sensor bits, battery, receive-error count."""
+    present, enabled, health = sensor_bits(snap)
+    bat = snap.battery
+    current_ca, remaining = _battery_ints(snap)
+    return _M.MAVLink_sys_status_message(
+        present, enabled, health, 0,
+        clamp_int(bat.voltage_v * 1e3, 0, UINT16_MAX - 1, UINT16_MAX), current_ca, remaining,
+        0, clamp_int(ctx.errors_comm, 0, UINT16_MAX, 0), 0, 0, 0, 0, 0, 0, 0)
+
+
+def gps_raw_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """GPS_RAW_INT from the estimated position (mocap in the lab)."""
+    lat, lon, alt = ned_to_geo(snap.pos_ned, snap.origin)
+    vn, ve = float(snap.vel_ned[0]), float(snap.vel_ned[1])
+    speed = math.hypot(vn, ve)
+    ok = snap.health.gps
+    return _M.MAVLink_gps_raw_int_message(
+        time_usec(snap.time_s), _M.GPS_FIX_TYPE_3D_FIX if ok else _M.GPS_FIX_TYPE_NO_FIX,
+        _e7(lat), _e7(lon), _mm(alt), 100 if ok else UINT16_MAX, 100 if ok else UINT16_MAX,
+        clamp_int(speed * 100.0, 0, UINT16_MAX - 1, UINT16_MAX),
+        cdeg_heading(math.atan2(ve, vn)) if speed > 0.1 else UINT16_MAX,
+        12 if ok else 0, 0, 10, 10, 10, 0, 0)
+
+
+def attitude(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """ATTITUDE: ZYX Euler angles (yaw wrapped to [-pi, pi)) and body rates."""
+    e, w = snap.euler_rad, snap.rate_frd
+    return _M.MAVLink_attitude_message(
+        time_boot_ms(snap.time_s), _f(e[0]), _f(e[1]), wrap_pi(_f(e[2])),
+        _f(w[0]), _f(w[1]), _f(w[2]))
+
+
+def attitude_quaternion(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """ATTITUDE_QUATERNION: [w, x, y, z] and body rates."""
+    q, w = quat_from_euler(snap.euler_rad), snap.rate_frd
+    return _M.MAVLink_attitude_quaternion_message(
+        time_boot_ms(snap.time_s), _f(q[0]), _f(q[1]), _f(q[2]), _f(q[3]),
+        _f(w[0]), _f(w[1]), _f(w[2]), [0.0, 0.0, 0.0, 0.0])
+
+
+def local_position_ned(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """LOCAL_POSITION_NED about the origin."""
+    p, v = snap.pos_ned, snap.vel_ned
+    return _M.MAVLink_local_position_ned_message(
+        time_boot_ms(snap.time_s), _f(p[0]), _f(p[1]), _f(p[2]), _f(v[0]), _f(v[1]), _f(v[2]))
+
+
+def relative_alt_m(snap: VehicleSnapshot, alt_amsl_m: float) -> float:
+    """Altitude above the current home (above the origin while home is unset)."""
+    return alt_amsl_m - home_alt_amsl_m(snap.origin, snap.home_pos_ned)
+
+
+def global_position_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """GLOBAL_POSITION_INT: degE7, AMSL and relative altitude in mm, velocity in cm/s."""
+    lat, lon, alt = ned_to_geo(snap.pos_ned, snap.origin)
+    v = snap.vel_ned
+
+    def cms(x: float) -> int:
+        return clamp_int(x * 100.0, -INT16_MAX, INT16_MAX, 0)
+
+    return _M.MAVLink_global_position_int_message(
+        time_boot_ms(snap.time_s), _e7(lat), _e7(lon), _mm(alt), _mm(relative_alt_m(snap, alt)),
+        cms(_f(v[0])), cms(_f(v[1])), cms(_f(v[2])), cdeg_heading(_f(snap.euler_rad[2])))
+
+
+def vfr_hud(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """VFR_HUD: ground speed (also as airspeed), heading, throttle %, AMSL altitude, climb."""
+    _, _, alt = ned_to_geo(snap.pos_ned, snap.origin)
+    speed = math.hypot(_f(snap.vel_ned[0]), _f(snap.vel_ned[1]))
+    heading = cdeg_heading(_f(snap.euler_rad[2]))
+    throttle = float(np.mean(snap.pwm)) / ctx.pwm_max * 100.0
+    return _M.MAVLink_vfr_hud_message(
+        speed, speed, 0 if heading == UINT16_MAX else heading // 100,
+        clamp_int(throttle, 0, 100, 0), alt, -_f(snap.vel_ned[2]))
+
+
+def servo_output_raw(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """SERVO_OUTPUT_RAW: motors 1..4 (thesis numbering) on servo1..servo4."""
+    us = [pwm_to_us(_f(u), ctx.pwm_max) for u in snap.pwm[:4]]
+    us += [0] * (16 - len(us))
+    return _M.MAVLink_servo_output_raw_message(time_usec(snap.time_s) & UINT32_MAX, 0, *us)
+
+
+def battery_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """BATTERY_STATUS: pack voltage in cell 0 (cells unknown), remaining %, charge state."""
+    bat = snap.battery
+    voltages = [clamp_int(bat.voltage_v * 1e3, 0, UINT16_MAX - 1, UINT16_MAX)]
+    voltages += [UINT16_MAX] * 9
+    current_ca, remaining = _battery_ints(snap)
+    if not bat.healthy:
+        charge = _M.MAV_BATTERY_CHARGE_STATE_CRITICAL
+    elif 0 <= remaining < 20:
+        charge = _M.MAV_BATTERY_CHARGE_STATE_LOW
+    else:
+        charge = _M.MAV_BATTERY_CHARGE_STATE_OK
+    return _M.MAVLink_battery_status_message(
+        0, _M.MAV_BATTERY_FUNCTION_ALL, _M.MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
+        current_ca, -1, -1, remaining, 0, charge, [0, 0, 0, 0], 0, 0)
+
+
+def home_position(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+    """HOME_POSITION (None while home is unset): geodetic and in the local NED frame."""
+    ned = snap.home_pos_ned
+    if ned is None:
+        return None
+    lat, lon, alt = ned_to_geo(ned, snap.origin)
+    return _M.MAVLink_home_position_message(
+        _e7(lat), _e7(lon), _mm(alt), _f(ned[0]), _f(ned[1]), _f(ned[2]),
+        [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, time_usec(snap.time_s))
+
+
+def extended_sys_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """EXTENDED_SYS_STATE: multicopter, landed state."""
+    landed = clamp_int(snap.landed_state, 0, LandedState.LANDING, LandedState.UNDEFINED)
+    return _M.MAVLink_extended_sys_state_message(_M.MAV_VTOL_STATE_MC, landed)
+
+
+def mission_current(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """MISSION_CURRENT with ``total`` (items without home; UINT16_MAX: no mission) and state."""
+    total = ctx.mission_total if ctx.mission_total > 0 else UINT16_MAX
+    mode = 1 if snap.custom_mode == CopterMode.AUTO else 2
+    return _M.MAVLink_mission_current_message(
+        clamp_int(snap.mission_seq, 0, UINT16_MAX, 0), total,
+        clamp_int(snap.mission_state, 0, UINT8_MAX, 0), mode)
+
+
+def system_time(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+    """SYSTEM_TIME: UNIX time (boot time + simulated time; 0 when unknown), time since boot."""
+    unix_us = 0 if ctx.boot_unix_time_s is None else time_usec(ctx.boot_unix_time_s + snap.time_s)
+    return _M.MAVLink_system_time_message(unix_us, time_boot_ms(snap.time_s))
+
+
+def position_target_local_ned(snap: VehicleSnapshot,
+                              ctx: TelemetryContext) -> MAVLinkMessage | None:
+    """POSITION_TARGET_LOCAL_NED: the position controller's reference (None when idle)."""
+    t = snap.position_target
+    if t is None:
+        return None
+    p, v, a = t.pos_ned, t.vel_ned, t.acc_ned
+    return _M.MAVLink_position_target_local_ned_message(
+        time_boot_ms(snap.time_s), _M.MAV_FRAME_LOCAL_NED,
+        _M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+        _f(p[0]), _f(p[1]), _f(p[2]), _f(v[0]), _f(v[1]), _f(v[2]), _f(a[0]), _f(a[1]),
+        _f(a[2]), wrap_pi(_f(t.yaw_rad)), 0.0)
+
+
+def attitude_target(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+    """ATTITUDE_TARGET: the attitude controller's reference (None when idle)."""
+    t = snap.attitude_target
+    if t is None:
+        return None
+    q, w = quat_from_euler(t.euler_rad), t.rate_frd
+    return _M.MAVLink_attitude_target_message(
+        time_boot_ms(snap.time_s), 0, [_f(x) for x in q], _f(w[0]), _f(w[1]), _f(w[2]),
+        _f(t.thrust))
+
+
+def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+    """SIM_STATE: simulator truth (None outside simulation)."""
+    t = snap.truth
+    if t is None:
+        return None
+    q = t.quat_wxyz
+    e = euler_from_quat(q)
+    lat, lon, alt = ned_to_geo(t.pos_ned, snap.origin)
+    return _M.MAVLink_sim_state_message(
+        _f(q[0]), _f(q[1]), _f(q[2]), _f(q[3]), _f(e[0]), _f(e[1]), _f(e[2]),
+        _f(t.accel_frd[0]), _f(t.accel_frd[1]), _f(t.accel_frd[2]),
+        _f(t.rate_frd[0]), _f(t.rate_frd[1]), _f(t.rate_frd[2]),
+        lat, lon, alt, 0.0, 0.0, _f(t.vel_ned[0]), _f(t.vel_ned[1]), _f(t.vel_ned[2]),
+        _e7(lat), _e7(lon))
+
+
+def named_value_floats(snap: VehicleSnapshot, ctx: TelemetryContext) -> list[MAVLinkMessage]:
+    """NAMED_VALUE_FLOAT ``LOE1``..``LOE4`` (none when no estimate is available)."""
+    if snap.loe is None:
+        return []
+    t_ms = time_boot_ms(snap.time_s)
+    return [_M.MAVLink_named_value_float_message(t_ms, f"LOE{i + 1}".encode("ascii"), _f(v))
+            for i, v in enumerate(snap.loe[:4])]
+
+
+Builder = Callable[[VehicleSnapshot, TelemetryContext],
+                   MAVLinkMessage | list[MAVLinkMessage] | None]
+
+_BUILDERS: dict[int, Builder] = {
+    _M.MAVLINK_MSG_ID_HEARTBEAT: heartbeat,
+    _M.MAVLINK_MSG_ID_SYS_STATUS: sys_status,
+    _M.MAVLINK_MSG_ID_GPS_RAW_INT: gps_raw_int,
+    _M.MAVLINK_MSG_ID_ATTITUDE: attitude,
+    _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: attitude_quaternion,
+    _M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: local_position_ned,
+    _M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: global_position_int,
+    _M.MAVLINK_MSG_ID_VFR_HUD: vfr_hud,
+    _M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: servo_output_raw,
+    _M.MAVLINK_MSG_ID_BATTERY_STATUS: battery_status,
+    _M.MAVLINK_MSG_ID_HOME_POSITION: home_position,
+    _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: extended_sys_state,
+    _M.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
+    _M.MAVLINK_MSG_ID_SYSTEM_TIME: system_time,
+    _M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: position_target_local_ned,
+    _M.MAVLINK_MSG_ID_ATTITUDE_TARGET: attitude_target,
+    _M.MAVLINK_MSG_ID_SIM_STATE: sim_state,
+    _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: named_value_floats,
+}
+
+
+def can_build(msg_id: int) -> bool:
+    """True when ``msg_id`` can be built from a snapshot (streamed or requested)."""
+    return msg_id in _BUILDERS
+
+
+def build_stream(msg_id: int, snap: VehicleSnapshot,
+                 ctx: TelemetryContext) -> list[MAVLinkMessage]:
+    """The message(s) of stream ``msg_id`` now (empty when there is nothing to report).
+
+    Raises
+    ------
+    KeyError
+        When ``msg_id`` has no builder (see :func:`can_build`).
+    """
+    built = _BUILDERS[msg_id](snap, ctx)
+    if built is None:
+        return []
+    if isinstance(built, list):
+        return built
+    return [built]
+
+
+# ---------------------------------------------------------------------------------------------
+# replies and events
+
+
+def autopilot_version(sysid: int, version: tuple[int, int, int]) -> MAVLinkMessage:
+    """AUTOPILOT_VERSION: capabilities and the ArduCopter version we speak like.
+
+    Parameters
+    ----------
+    sysid : int
+        Vehicle system id (also used as the board uid).
+    version : tuple of 3 int
+        (major, minor, patch), packed as ArduPilot does with type OFFICIAL.
+    """
+    major, minor, patch = version
+    sw = (major << 24) | (minor << 16) | (patch << 8) | _M.FIRMWARE_VERSION_TYPE_OFFICIAL
+    return _M.MAVLink_autopilot_version_message(
+        AUTOPILOT_CAPABILITIES, sw, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, sysid, [0] * 18)
+
+
+def command_ack(command: int, result: int, target_system: int,
+                target_component: int) -> MAVLinkMessage:
+    """COMMAND_ACK addressed to the sender of the command."""
+    return _M.MAVLink_command_ack_message(
+        clamp_int(command, 0, UINT16_MAX, 0), result, 0, 0,
+        clamp_int(target_system, 0, UINT8_MAX, 0), clamp_int(target_component, 0, UINT8_MAX, 0))
+
+
+def _ascii(text: str) -> str:
+    return "".join(c if 32 <= ord(c) < 127 else "?" for c in text)
+
+
+def statustext_chunks(severity: int, text: str, chunk_id: int) -> list[MAVLinkMessage]:
+    """STATUSTEXT packets for ``text``, split into 50-character chunks.
+
+    A text of at most 50 characters is one packet with ``id`` 0. A longer one is sent as
+    chunks sharing ``id = chunk_id`` (1..65535) with ``chunk_seq`` 0, 1, ...; the last chunk
+    is shorter than 50 characters (an empty chunk follows an exact multiple of 50), which is
+    how a receiver knows the text is complete. Non-printable and non-ASCII characters become
+    '?'; texts beyond 20 chunks are truncated.
+    """
+    sev = clamp_int(severity, Severity.EMERGENCY, Severity.DEBUG, Severity.INFO)
+    clean = _ascii(text)
+    n = STATUSTEXT_CHUNK_LEN
+    if len(clean) <= n:
+        return [_M.MAVLink_statustext_message(sev, clean.encode("ascii"), 0, 0)]
+    if not 1 <= chunk_id <= UINT16_MAX:
+        raise ValueError(f"chunk_id = {chunk_id!r}: must be in 1..65535")
+    clean = clean[: n * STATUSTEXT_MAX_CHUNKS - 1]
+    parts = [clean[i:i + n] for i in range(0, len(clean), n)]
+    if len(parts[-1]) == n:
+        parts.append("")
+    return [_M.MAVLink_statustext_message(sev, part.encode("ascii"), chunk_id, seq)
+            for seq, part in enumerate(parts)]

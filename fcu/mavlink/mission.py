@@ -1,0 +1,442 @@
+"""Mission protocol, ArduPilot flavour (https://mavlink.io/en/services/mission.html).
+
+Upload:   GCS MISSION_COUNT(n) -> vehicle MISSION_REQUEST_INT(0) -> GCS MISSION_ITEM_INT(0)
+          -> ... -> vehicle MISSION_ACK(ACCEPTED). A peer that answers with the legacy float
+          MISSION_ITEM is asked with the legacy MISSION_REQUEST from then on.
+Download: GCS MISSION_REQUEST_LIST -> vehicle MISSION_COUNT(n) -> GCS MISSION_REQUEST_INT(i)
+          (or MISSION_REQUEST) -> vehicle MISSION_ITEM_INT(i) (or MISSION_ITEM) ... -> GCS ACK.
+
+ArduPilot conventions kept here:
+- seq 0 is home. It is uploaded like any item (and validated) but never handed to the
+  vehicle; a download always returns the current home as seq 0 (MAV_FRAME_GLOBAL, AMSL).
+  With no mission the vehicle reports a count of 1 (home only).
+- The whole mission is handed to the vehicle (:meth:`VehiclePort.mission_set`) only when the
+  last item has arrived and been validated: an aborted upload leaves the old mission intact.
+- Re-requests are idempotent: a duplicate item is ignored, an item from the future makes the
+  vehicle re-request the one it is waiting for, and a missing item is re-requested every
+  ``retry_interval_s`` (so an upload survives a dropped packet). After ``max_retries``
+  unanswered re-requests the upload is cancelled (MISSION_ACK OPERATION_CANCELLED and a
+  STATUSTEXT). A repeated last item after completion is answered with the ACK again.
+- Validation, per item, answered with a MISSION_ACK error that ends the upload (and a
+  STATUSTEXT saying why): frames other than GLOBAL(_INT), GLOBAL_RELATIVE_ALT(_INT),
+  LOCAL_NED and MISSION -> UNSUPPORTED_FRAME; inf anywhere, or NaN in param1..4 ->
+  INVALID_PARAMn, except param4 (yaw) of NAV_WAYPOINT/LOITER/LAND/TAKEOFF where the MAVLink
+  spec defines NaN as "keep the heading mode" (MAVSDK sends it); non-finite or absurd
+  coordinates (|lat| > 90, |lon| > 180, |alt| > ``max_alt_m``, local |x|, |y|, |z| >
+  ``max_local_m``) -> INVALID_PARAM5_X / 6_Y / 7. Fields the frame does not use (x, y, z of
+  MAV_FRAME_MISSION) are not judged.
+- Mission types other than MISSION (fence, rally) are answered MAV_MISSION_UNSUPPORTED.
+- Time-outs are judged on the clock passed in (the vehicle process passes the wall-clock
+  monotonic time, so a simulation speed-up does not shorten them).
+- MISSION_ITEM_INT carries latitude/longitude in degE7 and local x/y in metres * 1e4.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m, ned_to_geo
+from fcu.mavlink.link import Address, Outbox
+from fcu.mavlink.port import (
+    CommandResult,
+    GeoPoint,
+    MissionItem,
+    Severity,
+    VehicleSnapshot,
+)
+
+__all__ = [
+    "MissionConfig",
+    "MissionProtocol",
+    "WireItem",
+    "to_mission_item",
+    "validate_item",
+]
+
+_M = mavlink2
+GLOBAL_FRAMES = frozenset({_M.MAV_FRAME_GLOBAL, _M.MAV_FRAME_GLOBAL_INT,
+                           _M.MAV_FRAME_GLOBAL_RELATIVE_ALT, _M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT})
+RELATIVE_ALT_FRAMES = frozenset({_M.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                                 _M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT})
+LOCAL_FRAMES = frozenset({_M.MAV_FRAME_LOCAL_NED})
+SUPPORTED_FRAMES = GLOBAL_FRAMES | LOCAL_FRAMES | {_M.MAV_FRAME_MISSION}
+# NAV commands whose param4 is a yaw angle in degrees, NaN meaning "keep the heading mode".
+NAV_YAW_COMMANDS = frozenset({_M.MAV_CMD_NAV_WAYPOINT, _M.MAV_CMD_NAV_LOITER_UNLIM,
+                              _M.MAV_CMD_NAV_LOITER_TIME, _M.MAV_CMD_NAV_LAND,
+                              _M.MAV_CMD_NAV_TAKEOFF})
+_INVALID_PARAM = (_M.MAV_MISSION_INVALID_PARAM1, _M.MAV_MISSION_INVALID_PARAM2,
+                  _M.MAV_MISSION_INVALID_PARAM3, _M.MAV_MISSION_INVALID_PARAM4)
+INT32_MAX = 0x7FFFFFFF
+
+
+@dataclass(frozen=True, kw_only=True)
+class MissionConfig:
+    """Mission-protocol limits and time-outs."""
+
+    retry_interval_s: float = 1.0  # s, re-request a missing item after this long
+    max_retries: int = 5  # unanswered re-requests before an upload is cancelled
+    max_items: int = 700  # including home
+    max_alt_m: float = 10_000.0  # m, |altitude| accepted in global frames
+    max_local_m: float = 10_000.0  # m, |x|, |y|, |z| accepted in the local frame
+
+    def __post_init__(self) -> None:
+        if not self.retry_interval_s > 0:
+            raise ValueError(f"retry_interval_s = {self.retry_interval_s!r}: must be > 0")
+        if self.max_retries < 0:
+            raise ValueError(f"max_retries = {self.max_retries!r}: must be >= 0")
+        if not 1 <= self.max_items <= 65535:
+            raise ValueError(f"max_items = {self.max_items!r}: must be in 1..65535")
+
+
+@dataclass(frozen=True, kw_only=True)
+class WireItem:
+    """A mission item as received, independent of the message used to carry it.
+
+    ``x``/``y`` are degrees in global frames and metres in the local frame; ``z`` is metres
+    (AMSL, above home, or down, by frame).
+    """
+
+    seq: int
+    frame: int
+    command: int
+    current: int
+    autocontinue: int
+    params: tuple[float, float, float, float]
+    x: float
+    y: float
+    z: float
+
+    @staticmethod
+    def _int_scale(frame: int) -> float:
+        if frame in GLOBAL_FRAMES:
+            return 1e7
+        if frame in LOCAL_FRAMES:
+            return 1e4
+        return 1.0
+
+    @classmethod
+    def from_message(cls, msg: MAVLinkMessage) -> WireItem:
+        """From MISSION_ITEM_INT (scaled integers) or MISSION_ITEM (floats)."""
+        frame = int(msg.frame)
+        scale = cls._int_scale(frame) if msg.get_type() == "MISSION_ITEM_INT" else 1.0
+        return cls(seq=int(msg.seq), frame=frame, command=int(msg.command),
+                   current=int(msg.current), autocontinue=int(msg.autocontinue),
+                   params=(float(msg.param1), float(msg.param2), float(msg.param3),
+                           float(msg.param4)),
+                   x=float(msg.x) / scale, y=float(msg.y) / scale, z=float(msg.z))
+
+    def to_message(self, use_int: bool, target_system: int,
+                   target_component: int) -> MAVLinkMessage:
+        """As MISSION_ITEM_INT (``use_int``) or MISSION_ITEM, for a download."""
+        p1, p2, p3, p4 = self.params
+        if use_int:
+            scale = self._int_scale(self.frame)
+
+            def scaled(v: float) -> int:
+                if not math.isfinite(v):
+                    return 0
+                return max(-INT32_MAX, min(INT32_MAX, round(v * scale)))
+
+            return _M.MAVLink_mission_item_int_message(
+                target_system, target_component, self.seq, self.frame, self.command,
+                self.current, self.autocontinue, p1, p2, p3, p4, scaled(self.x),
+                scaled(self.y), self.z, _M.MAV_MISSION_TYPE_MISSION)
+        return _M.MAVLink_mission_item_message(
+            target_system, target_component, self.seq, self.frame, self.command, self.current,
+            self.autocontinue, p1, p2, p3, p4, self.x, self.y, self.z,
+            _M.MAV_MISSION_TYPE_MISSION)
+
+
+def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
+    """(MAV_MISSION_RESULT, reason) for one item; (MAV_MISSION_ACCEPTED, "") when valid."""
+    where = f"Mission item {item.seq}"
+    if item.frame not in SUPPORTED_FRAMES:
+        return _M.MAV_MISSION_UNSUPPORTED_FRAME, f"{where}: frame {item.frame} not supported"
+    for i, value in enumerate(item.params):
+        nan_ok = i == 3 and item.command in NAV_YAW_COMMANDS
+        if math.isinf(value) or (math.isnan(value) and not nan_ok):
+            return _INVALID_PARAM[i], f"{where}: param{i + 1} = {value} is not a number"
+    if item.frame == _M.MAV_FRAME_MISSION:
+        return _M.MAV_MISSION_ACCEPTED, ""
+    codes = (_M.MAV_MISSION_INVALID_PARAM5_X, _M.MAV_MISSION_INVALID_PARAM6_Y,
+             _M.MAV_MISSION_INVALID_PARAM7)
+    for code, name, value in zip(codes, ("x", "y", "z"), (item.x, item.y, item.z), strict=True):
+        if not math.isfinite(value):
+            return code, f"{where}: {name} = {value} is not a number"
+    if item.frame in GLOBAL_FRAMES:
+        if abs(item.x) > 90.0:
+            return codes[0], f"{where}: latitude {item.x:g} outside -90..90"
+        if abs(item.y) > 180.0:
+            return codes[1], f"{where}: longitude {item.y:g} outside -180..180"
+        if abs(item.z) > config.max_alt_m:
+            return codes[2], f"{where}: altitude {item.z:g} m beyond +-{config.max_alt_m:g} m"
+    else:
+        for code, name, value in zip(codes, ("x", "y", "z"), (item.x, item.y, item.z),
+                                     strict=True):
+            if abs(value) > config.max_local_m:
+                return code, f"{where}: {name} {value:g} m beyond +-{config.max_local_m:g} m"
+    return _M.MAV_MISSION_ACCEPTED, ""
+
+
+def to_mission_item(item: WireItem, origin: GeoPoint,
+                    home_pos_ned: np.ndarray | None) -> MissionItem:
+    """Convert a validated item to the vehicle's SI/NED form (about ``origin``).
+
+    Relative altitudes are taken above home (above the origin while home is unset). In a
+    global frame, latitude = longitude = 0 means "the current horizontal position".
+
+    Raises
+    ------
+    ValueError
+        When the origin does not admit a local tangent plane (near a pole).
+    """
+    north_east: tuple[float, float] | None = None
+    down: float | None = None
+    home_alt = home_alt_amsl_m(origin, home_pos_ned)
+    if item.frame in GLOBAL_FRAMES:
+        alt_amsl = item.z + home_alt if item.frame in RELATIVE_ALT_FRAMES else item.z
+        down = origin.alt_m - alt_amsl
+        if not (item.x == 0.0 and item.y == 0.0):
+            ned = geo_to_ned(item.x, item.y, alt_amsl, origin)
+            north_east = (float(ned[0]), float(ned[1]))
+    elif item.frame in LOCAL_FRAMES:
+        north_east, down = (item.x, item.y), item.z
+    alt_m = None if down is None else (origin.alt_m - down) - home_alt
+    yaw = item.params[3]
+    yaw_rad = (math.radians(yaw) if item.command in NAV_YAW_COMMANDS and math.isfinite(yaw)
+               else None)
+    return MissionItem(seq=item.seq, command=item.command, autocontinue=bool(item.autocontinue),
+                       params=item.params, north_east_m=north_east, down_m=down, alt_m=alt_m,
+                       yaw_rad=yaw_rad)
+
+
+@dataclass
+class _Upload:
+    peer: tuple[int, int]  # (sysid, compid) of the uploader
+    addr: Address
+    count: int
+    items: list[WireItem]
+    use_int: bool
+    last_activity_s: float
+    retries: int = 0
+
+
+class MissionProtocol:
+    """The vehicle side of the mission protocol.
+
+    Parameters
+    ----------
+    outbox : Outbox
+        Where replies go.
+    snapshot : callable
+        Returns the vehicle's :class:`VehicleSnapshot` (home and origin are read from it).
+    commit : callable
+        Hands a complete, validated mission (items seq 1..) to the vehicle
+        (:meth:`VehiclePort.mission_set`).
+    config : MissionConfig
+    """
+
+    def __init__(self, outbox: Outbox, snapshot: Callable[[], VehicleSnapshot],
+                 commit: Callable[[list[MissionItem]], CommandResult],
+                 config: MissionConfig) -> None:
+        self._outbox = outbox
+        self._snapshot = snapshot
+        self._commit = commit
+        self._config = config
+        self._items: list[WireItem] = []  # seq 1..n-1 (home is not stored)
+        self._upload: _Upload | None = None
+        self._completed: tuple[tuple[int, int], int] | None = None  # (peer, last seq)
+
+    # ----------------------------------------------------------------- state
+    @property
+    def count(self) -> int:
+        """Items on the vehicle including home (what a download reports)."""
+        return 1 + len(self._items)
+
+    @property
+    def total(self) -> int:
+        """Items excluding home (MISSION_CURRENT.total); 0 when there is no mission."""
+        return len(self._items)
+
+    @property
+    def uploading(self) -> bool:
+        """An upload is in progress."""
+        return self._upload is not None
+
+    @property
+    def items(self) -> list[WireItem]:
+        """The stored mission (seq 1..), as received."""
+        return list(self._items)
+
+    def reset(self) -> None:
+        """Forget any transfer in progress (reboot); the stored mission is kept."""
+        self._upload = None
+        self._completed = None
+
+    # ----------------------------------------------------------------- helpers
+    def _ack(self, code: int, peer: tuple[int, int], to: Address,
+             mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> None:
+        self._outbox.send(_M.MAVLink_mission_ack_message(peer[0], peer[1], code, mission_type), to)
+
+    def _request(self, up: _Upload) -> None:
+        seq = len(up.items)
+        if up.use_int:
+            msg = _M.MAVLink_mission_request_int_message(up.peer[0], up.peer[1], seq,
+                                                         _M.MAV_MISSION_TYPE_MISSION)
+        else:
+            msg = _M.MAVLink_mission_request_message(up.peer[0], up.peer[1], seq,
+                                                     _M.MAV_MISSION_TYPE_MISSION)
+        self._outbox.send(msg, up.addr)
+
+    def _fail(self, up: _Upload, code: int, reason: str) -> None:
+        self._upload = None
+        self._ack(code, up.peer, up.addr)
+        self._outbox.status(Severity.WARNING, reason)
+
+    def _home_item(self) -> WireItem:
+        snap = self._snapshot()
+        home = snap.home_pos_ned
+        lat, lon, alt = ned_to_geo(home, snap.origin) if home is not None else (0.0, 0.0, 0.0)
+        return WireItem(seq=0, frame=_M.MAV_FRAME_GLOBAL, command=_M.MAV_CMD_NAV_WAYPOINT,
+                        current=0, autocontinue=1, params=(0.0, 0.0, 0.0, 0.0), x=lat, y=lon,
+                        z=alt)
+
+    def _store(self, items: list[WireItem]) -> CommandResult:
+        """Hand ``items`` (seq 1..) to the vehicle; keep them when it accepts."""
+        snap = self._snapshot()
+        try:
+            converted = [to_mission_item(i, snap.origin, snap.home_pos_ned) for i in items]
+        except ValueError as err:
+            return CommandResult.denied(str(err))
+        result = self._commit(converted)
+        if result.accepted:
+            self._items = list(items)
+        return result
+
+    # ----------------------------------------------------------------- upload
+    def handle_count(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address,
+                     now_s: float) -> None:
+        """MISSION_COUNT: start an upload (or clear the mission when the count is 0)."""
+        mission_type = int(msg.mission_type)
+        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+            self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
+            return
+        count = int(msg.count)
+        self._upload = None
+        self._completed = None
+        if count == 0:
+            self._finish_commit([], peer, to)  # MAVLink: an empty upload clears the mission
+            return
+        if count > self._config.max_items:
+            self._ack(_M.MAV_MISSION_NO_SPACE, peer, to)
+            self._outbox.status(Severity.WARNING, f"Mission of {count} items exceeds "
+                                f"{self._config.max_items}")
+            return
+        self._upload = _Upload(peer=peer, addr=to, count=count, items=[], use_int=True,
+                               last_activity_s=now_s)
+        self._request(self._upload)
+
+    def _finish_commit(self, items: list[WireItem], peer: tuple[int, int], to: Address) -> bool:
+        result = self._store(items)
+        if result.accepted:
+            self._ack(_M.MAV_MISSION_ACCEPTED, peer, to)
+            return True
+        code = _M.MAV_MISSION_UNSUPPORTED if result.unsupported else _M.MAV_MISSION_ERROR
+        self._ack(code, peer, to)
+        self._outbox.status(Severity.WARNING, f"Mission rejected: {result.reason}")
+        return False
+
+    def handle_item(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address,
+                    now_s: float) -> None:
+        """MISSION_ITEM_INT or MISSION_ITEM during an upload."""
+        mission_type = int(msg.mission_type)
+        up = self._upload
+        seq = int(msg.seq)
+        if up is None:
+            if self._completed == (peer, seq):  # our ACK was lost: say it again
+                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to)
+            elif mission_type != _M.MAV_MISSION_TYPE_MISSION:
+                self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
+            return
+        if peer != up.peer:
+            self._ack(_M.MAV_MISSION_DENIED, peer, to, mission_type)
+            return
+        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+            return
+        expected = len(up.items)
+        if seq != expected:
+            if seq > expected:  # we missed one: ask again at once
+                self._request(up)
+            return  # a duplicate of an item we already hold
+        up.use_int = msg.get_type() == "MISSION_ITEM_INT"
+        up.last_activity_s = now_s
+        up.retries = 0
+        item = WireItem.from_message(msg)
+        code, reason = validate_item(item, self._config)
+        if code != _M.MAV_MISSION_ACCEPTED:
+            self._fail(up, code, reason)
+            return
+        up.items.append(item)
+        if len(up.items) < up.count:
+            self._request(up)
+            return
+        self._upload = None
+        if self._finish_commit(up.items[1:], peer, to):
+            self._completed = (peer, up.count - 1)
+
+    def tick(self, now_s: float) -> None:
+        """Re-request a missing item, or cancel a stalled upload."""
+        up = self._upload
+        if up is None or now_s - up.last_activity_s < self._config.retry_interval_s:
+            return
+        if up.retries >= self._config.max_retries:
+            self._fail(up, _M.MAV_MISSION_OPERATION_CANCELLED,
+                       f"Mission upload timed out waiting for item {len(up.items)}")
+            return
+        up.retries += 1
+        up.last_activity_s = now_s
+        self._request(up)
+
+    # ----------------------------------------------------------------- download & others
+    def handle_request_list(self, msg: MAVLinkMessage, peer: tuple[int, int],
+                            to: Address) -> None:
+        """MISSION_REQUEST_LIST: announce the count (home included)."""
+        mission_type = int(msg.mission_type)
+        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+            self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
+            return
+        self._outbox.send(_M.MAVLink_mission_count_message(
+            peer[0], peer[1], self.count, _M.MAV_MISSION_TYPE_MISSION), to)
+
+    def handle_request(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address) -> None:
+        """MISSION_REQUEST_INT / MISSION_REQUEST: send one item (idempotent, any order)."""
+        mission_type = int(msg.mission_type)
+        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+            self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
+            return
+        seq = int(msg.seq)
+        if not 0 <= seq < self.count:
+            self._ack(_M.MAV_MISSION_INVALID_SEQUENCE, peer, to)
+            return
+        item = self._home_item() if seq == 0 else self._items[seq - 1]
+        use_int = msg.get_type() == "MISSION_REQUEST_INT"
+        self._outbox.send(item.to_message(use_int, peer[0], peer[1]), to)
+
+    def handle_clear_all(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address) -> None:
+        """MISSION_CLEAR_ALL: clear the mission (types MISSION and ALL)."""
+        mission_type = int(msg.mission_type)
+        if mission_type not in (_M.MAV_MISSION_TYPE_MISSION, _M.MAV_MISSION_TYPE_ALL):
+            self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
+            return
+        self._upload = None
+        self._completed = None
+        result = self._store([])
+        code = _M.MAV_MISSION_ACCEPTED if result.accepted else _M.MAV_MISSION_ERROR
+        if not result.accepted:
+            self._outbox.status(Severity.WARNING, f"Mission clear refused: {result.reason}")
+        self._ack(code, peer, to, mission_type)

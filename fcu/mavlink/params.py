@@ -1,0 +1,247 @@
+"""Parameter table and the MAVLink parameter protocol (PARAM_REQUEST_LIST/READ, PARAM_SET).
+
+Encoding: every parameter travels as MAV_PARAM_TYPE_REAL32 with C_CAST semantics (the float
+value *is* the value, also for integers; AUTOPILOT_VERSION advertises
+PARAM_ENCODE_C_CAST). Values are stored rounded to float32 so that what a ground station
+reads back is exactly what the vehicle holds.
+
+Indices are the position in the name-sorted table: contiguous 0..count-1 and stable for the
+lifetime of the endpoint. A PARAM_SET is validated (known name, finite, whole number where
+required, inclusive range, allowed set, then the owner's own check) and always answered with
+a PARAM_VALUE carrying the value now in force; a refusal also sends a STATUSTEXT saying why.
+A PARAM_SET or PARAM_REQUEST_READ naming an unknown parameter gets a STATUSTEXT only (there
+is no value to echo).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.link import Address, Outbox
+from fcu.mavlink.port import CommandResult, ParamProvider, ParamSpec, Severity
+
+__all__ = ["ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable", "entries_from"]
+
+OnChange = Callable[[float], CommandResult]
+
+
+def to_float32(value: float) -> float:
+    """``value`` rounded to the nearest float32 (what REAL32 can carry)."""
+    return float(np.float32(value))
+
+
+@dataclass(frozen=True, slots=True)
+class ParamEntry:
+    """A parameter definition plus who to tell when it changes.
+
+    Attributes
+    ----------
+    spec : ParamSpec
+        Name, initial value, limits, description.
+    on_change : callable or None
+        Called with an already validated new value; a refused CommandResult keeps the old
+        value and its reason goes to the ground station.
+    """
+
+    spec: ParamSpec
+    on_change: OnChange | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ParamSetOutcome:
+    """Result of :meth:`ParamTable.set`: the value now in force, and why a change was refused."""
+
+    accepted: bool
+    value: float
+    reason: str = ""
+
+
+def entries_from(provider: ParamProvider) -> list[ParamEntry]:
+    """Entries for every parameter of ``provider``, each applying changes through it."""
+
+    def apply(name: str) -> OnChange:
+        return lambda value: provider.set_param(name, value)
+
+    return [ParamEntry(spec, apply(spec.name)) for spec in provider.param_specs()]
+
+
+class ParamTable:
+    """Name-sorted parameters with validated changes.
+
+    Parameters
+    ----------
+    entries : iterable of ParamEntry
+        Unique names.
+
+    Raises
+    ------
+    ValueError
+        On a duplicate name.
+    """
+
+    def __init__(self, entries: Iterable[ParamEntry]) -> None:
+        by_name: dict[str, ParamEntry] = {}
+        for entry in entries:
+            if entry.spec.name in by_name:
+                raise ValueError(f"parameter {entry.spec.name!r} defined twice")
+            by_name[entry.spec.name] = entry
+        self._entries = [by_name[name] for name in sorted(by_name)]
+        self._index = {e.spec.name: i for i, e in enumerate(self._entries)}
+        self._values = [to_float32(e.spec.value) for e in self._entries]
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._index
+
+    @property
+    def names(self) -> list[str]:
+        """Names in index order."""
+        return [e.spec.name for e in self._entries]
+
+    def index_of(self, name: str) -> int | None:
+        """Index of ``name``, or None when unknown."""
+        return self._index.get(name)
+
+    def spec_at(self, index: int) -> ParamSpec:
+        """Definition of the parameter at ``index``."""
+        return self._entries[index].spec
+
+    def value_at(self, index: int) -> float:
+        """Current value of the parameter at ``index``."""
+        return self._values[index]
+
+    def get(self, name: str) -> float:
+        """Current value of ``name``.
+
+        Raises
+        ------
+        KeyError
+            When ``name`` is unknown.
+        """
+        return self._values[self._index[name]]
+
+    def check(self, name: str, value: float) -> str:
+        """Why ``value`` is not acceptable for ``name`` ("" when it is)."""
+        index = self._index.get(name)
+        if index is None:
+            return f"unknown parameter {name}"
+        spec = self._entries[index].spec
+        if not math.isfinite(value):
+            return f"{name}: {value} is not a finite number"
+        value = to_float32(value)
+        if spec.integer and value != round(value):
+            return f"{name}: {value:g} is not a whole number"
+        if not spec.min_value <= value <= spec.max_value:
+            return f"{name}: {value:g} outside {spec.min_value:g}..{spec.max_value:g}"
+        if spec.allowed is not None and value not in {to_float32(a) for a in spec.allowed}:
+            allowed = ", ".join(f"{a:g}" for a in spec.allowed)
+            return f"{name}: {value:g} not one of {allowed}"
+        return ""
+
+    def set(self, name: str, value: float) -> ParamSetOutcome:
+        """Validate and apply a change requested by a ground station.
+
+        Returns
+        -------
+        ParamSetOutcome
+            ``value`` is the value in force afterwards (the old one when refused).
+
+        Raises
+        ------
+        KeyError
+            When ``name`` is unknown.
+        """
+        index = self._index[name]
+        current = self._values[index]
+        reason = self.check(name, value)
+        if reason:
+            return ParamSetOutcome(False, current, reason)
+        new = to_float32(value)
+        if new == current:
+            return ParamSetOutcome(True, current)
+        on_change = self._entries[index].on_change
+        if on_change is not None:
+            result = on_change(new)
+            if not result.accepted:
+                return ParamSetOutcome(False, current,
+                                       f"{name}: {result.reason or 'refused by the vehicle'}")
+        self._values[index] = new
+        return ParamSetOutcome(True, new)
+
+
+def _decode_name(raw: object) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode("ascii", errors="replace")
+    return str(raw).split("\x00", 1)[0]
+
+
+class ParamService:
+    """Answers the parameter messages of the MAVLink parameter protocol.
+
+    Parameters
+    ----------
+    table : ParamTable
+    outbox : Outbox
+    """
+
+    def __init__(self, table: ParamTable, outbox: Outbox) -> None:
+        self._table = table
+        self._outbox = outbox
+
+    @property
+    def table(self) -> ParamTable:
+        """The underlying table."""
+        return self._table
+
+    def value_message(self, index: int) -> MAVLinkMessage:
+        """PARAM_VALUE for the parameter at ``index``."""
+        name = self._table.spec_at(index).name
+        return mavlink2.MAVLink_param_value_message(
+            name.encode("ascii"), self._table.value_at(index),
+            mavlink2.MAV_PARAM_TYPE_REAL32, len(self._table), index)
+
+    def handle_request_list(self, to: Address) -> None:
+        """PARAM_REQUEST_LIST: every parameter, indices 0..count-1, to the requester."""
+        for index in range(len(self._table)):
+            self._outbox.send(self.value_message(index), to)
+
+    def handle_request_read(self, msg: MAVLinkMessage, to: Address) -> None:
+        """PARAM_REQUEST_READ: by index when param_index >= 0, else by name."""
+        index_req = int(msg.param_index)
+        name = _decode_name(msg.param_id)
+        count = len(self._table)
+        if index_req >= 0:
+            if index_req >= count:
+                self._outbox.status(Severity.WARNING,
+                                    f"Param index {index_req} out of range 0..{count - 1}")
+                return
+            self._outbox.send(self.value_message(index_req), to)
+            return
+        index = self._table.index_of(name)
+        if index is None:
+            self._outbox.status(Severity.WARNING, f"Unknown parameter {name}")
+            return
+        self._outbox.send(self.value_message(index), to)
+
+    def handle_set(self, msg: MAVLinkMessage) -> None:
+        """PARAM_SET: validate, apply, and always echo the value in force to every peer."""
+        name = _decode_name(msg.param_id)
+        index = self._table.index_of(name)
+        if index is None:
+            self._outbox.status(Severity.WARNING, f"Unknown parameter {name}")
+            return
+        outcome = self._table.set(name, float(msg.param_value))
+        if not outcome.accepted:
+            self._outbox.status(Severity.WARNING, outcome.reason)
+        self._outbox.send(self.value_message(index))
+
+    def all_specs(self) -> Sequence[ParamSpec]:
+        """Definitions in index order."""
+        return [self._table.spec_at(i) for i in range(len(self._table))]

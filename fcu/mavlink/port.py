@@ -1,0 +1,612 @@
+"""What the MAVLink endpoint needs from the vehicle, and nothing more.
+
+The endpoint never reaches into the autopilot or the simulator. A composition root (the
+vehicle process, the headless runner, a test) implements :class:`VehiclePort` by wiring the
+navigator, the estimators and the controllers, and may plug in a :class:`FailureInjector`
+(the narrow fault-injection port of docs/design.md, implemented by the simulator's fault
+engine) and extra :class:`ParamProvider` objects (e.g. ArduPilot-style ``SIM_*`` parameters).
+
+Everything crossing this port is in SI units and in the NED/FRD frames of docs/design.md;
+MAVLink units (degE7, mm, cdeg, PWM microseconds) exist only inside ``fcu/mavlink``.
+
+Threading: the endpoint calls the port from the thread that calls
+:meth:`fcu.mavlink.endpoint.MavlinkEndpoint.tick`; the port need not be thread-safe if the
+composition root ticks the endpoint from its autopilot loop.
+
+Failure injection (MAV_CMD_INJECT_FAILURE, 420) as the injector is expected to map it
+------------------------------------------------------------------------------------
+The endpoint validates the numbers (known unit, known type, integer instance >= 0) and passes
+them through unchanged; the injector decides what it supports and answers
+``CommandResult.not_supported`` for the rest. The mapping we expect for this airframe
+(instance 0 = every instance, 1..4 = that one; motors in the thesis numbering of
+docs/design.md; ``OK`` clears whatever the unit had):
+
+=====================  ====================================================================
+unit                   types
+=====================  ====================================================================
+GYRO 0, ACCEL 1        OFF: no samples; STUCK: last value frozen; GARBAGE: white noise of
+                       large amplitude; WRONG: constant bias; SLOW: rate divided; DELAYED:
+                       samples delayed; INTERMITTENT: random dropouts; DRIFT: bias ramp
+MAG 2                  acts on the mocap attitude (yaw) stream, same types as GYRO
+BARO 3                 same types as GYRO (SIM_BARO_GLITCH ~ WRONG, SIM_BARO_DRIFT ~ DRIFT,
+                       SIM_BARO_FREEZE ~ STUCK)
+GPS 4                  acts on the mocap position stream, same types as GYRO
+BATTERY 100            OFF: supply lost (all motors stop); WRONG: voltage reads low
+MOTOR 101              OFF: total loss of effectiveness of motor ``instance``; WRONG:
+                       partial loss (the injector's configured multiplier, cf.
+                       SIM_ENGINE_MUL); STUCK: PWM frozen at its current value; SLOW: motor
+                       bandwidth reduced; INTERMITTENT: random cut-outs
+=====================  ====================================================================
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = [
+    "AttitudeTarget",
+    "BatteryState",
+    "CommandResult",
+    "CopterMode",
+    "FailureInjector",
+    "FailureType",
+    "FailureUnit",
+    "GeoPoint",
+    "LandedState",
+    "MavState",
+    "MissionItem",
+    "MissionItemReached",
+    "MissionState",
+    "ParamProvider",
+    "ParamSpec",
+    "PositionTarget",
+    "SensorHealth",
+    "Severity",
+    "SimTruth",
+    "StatusText",
+    "VehicleEvent",
+    "VehiclePort",
+    "VehicleSnapshot",
+]
+
+
+class CopterMode(IntEnum):
+    """ArduCopter flight-mode numbers (HEARTBEAT.custom_mode, pymavlink mode_mapping_acm)."""
+
+    STABILIZE = 0
+    ALT_HOLD = 2
+    AUTO = 3
+    GUIDED = 4
+    LOITER = 5
+    RTL = 6
+    LAND = 9
+    POSHOLD = 16
+    BRAKE = 17
+    SMART_RTL = 21
+
+
+class MavState(IntEnum):
+    """MAV_STATE values for HEARTBEAT.system_status."""
+
+    UNINIT = 0
+    BOOT = 1
+    CALIBRATING = 2
+    STANDBY = 3
+    ACTIVE = 4
+    CRITICAL = 5
+    EMERGENCY = 6
+    POWEROFF = 7
+
+
+class LandedState(IntEnum):
+    """MAV_LANDED_STATE values for EXTENDED_SYS_STATE.landed_state."""
+
+    UNDEFINED = 0
+    ON_GROUND = 1
+    IN_AIR = 2
+    TAKEOFF = 3
+    LANDING = 4
+
+
+class MissionState(IntEnum):
+    """MISSION_STATE values for MISSION_CURRENT.mission_state."""
+
+    UNKNOWN = 0
+    NO_MISSION = 1
+    NOT_STARTED = 2
+    ACTIVE = 3
+    PAUSED = 4
+    COMPLETE = 5
+
+
+class Severity(IntEnum):
+    """MAV_SEVERITY values for STATUSTEXT."""
+
+    EMERGENCY = 0
+    ALERT = 1
+    CRITICAL = 2
+    ERROR = 3
+    WARNING = 4
+    NOTICE = 5
+    INFO = 6
+    DEBUG = 7
+
+
+class FailureUnit(IntEnum):
+    """FAILURE_UNIT values (MAV_CMD_INJECT_FAILURE param1)."""
+
+    SENSOR_GYRO = 0
+    SENSOR_ACCEL = 1
+    SENSOR_MAG = 2
+    SENSOR_BARO = 3
+    SENSOR_GPS = 4
+    SENSOR_OPTICAL_FLOW = 5
+    SENSOR_VIO = 6
+    SENSOR_DISTANCE_SENSOR = 7
+    SENSOR_AIRSPEED = 8
+    SYSTEM_BATTERY = 100
+    SYSTEM_MOTOR = 101
+    SYSTEM_SERVO = 102
+    SYSTEM_AVOIDANCE = 103
+    SYSTEM_RC_SIGNAL = 104
+    SYSTEM_MAVLINK_SIGNAL = 105
+
+
+class FailureType(IntEnum):
+    """FAILURE_TYPE values (MAV_CMD_INJECT_FAILURE param2).
+
+    DRIFT (8) is newer than the common.xml bundled with pymavlink 2.4.50; it is accepted.
+    """
+
+    OK = 0
+    OFF = 1
+    STUCK = 2
+    GARBAGE = 3
+    WRONG = 4
+    SLOW = 5
+    DELAYED = 6
+    INTERMITTENT = 7
+    DRIFT = 8
+
+
+@dataclass(frozen=True, slots=True)
+class CommandResult:
+    """Outcome of a command handed to the vehicle.
+
+    Attributes
+    ----------
+    accepted : bool
+        True when the vehicle accepted (and started) the command.
+    reason : str
+        Why it was refused, in words a pilot can act on (sent as STATUSTEXT); may be empty
+        when accepted.
+    unsupported : bool
+        True when the vehicle does not implement the request at all (MAV_RESULT_UNSUPPORTED
+        rather than MAV_RESULT_DENIED). Only meaningful when ``accepted`` is False.
+    """
+
+    accepted: bool
+    reason: str = ""
+    unsupported: bool = False
+
+    @classmethod
+    def ok(cls) -> CommandResult:
+        """An accepted command."""
+        return cls(True)
+
+    @classmethod
+    def denied(cls, reason: str) -> CommandResult:
+        """A command refused now, with the reason."""
+        return cls(False, reason)
+
+    @classmethod
+    def not_supported(cls, reason: str) -> CommandResult:
+        """A command this vehicle does not implement."""
+        return cls(False, reason, unsupported=True)
+
+
+@dataclass(frozen=True, slots=True)
+class GeoPoint:
+    """A WGS84 position.
+
+    Attributes
+    ----------
+    lat_deg, lon_deg : float
+        Latitude in [-90, 90] and longitude in [-180, 180], degrees.
+    alt_m : float
+        Altitude above mean sea level, m (up positive).
+    """
+
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+
+    def __post_init__(self) -> None:
+        for name in ("lat_deg", "lon_deg", "alt_m"):
+            value = getattr(self, name)
+            if not math.isfinite(value):
+                raise ValueError(f"{name} = {value!r}: must be finite")
+        if abs(self.lat_deg) > 90.0:
+            raise ValueError(f"lat_deg = {self.lat_deg!r}: must be in [-90, 90]")
+        if abs(self.lon_deg) > 180.0:
+            raise ValueError(f"lon_deg = {self.lon_deg!r}: must be in [-180, 180]")
+
+
+def _vec(n: int) -> np.ndarray:
+    return np.zeros(n)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PositionTarget:
+    """What the position controller is tracking (POSITION_TARGET_LOCAL_NED).
+
+    Attributes
+    ----------
+    pos_ned : ndarray, shape (3,)
+        Reference position, m, NED about the origin.
+    vel_ned : ndarray, shape (3,)
+        Reference velocity, m/s.
+    acc_ned : ndarray, shape (3,)
+        Reference acceleration, m/s^2.
+    yaw_rad : float
+        Reference heading, rad.
+    """
+
+    pos_ned: np.ndarray
+    vel_ned: np.ndarray = field(default_factory=lambda: _vec(3))
+    acc_ned: np.ndarray = field(default_factory=lambda: _vec(3))
+    yaw_rad: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class AttitudeTarget:
+    """What the attitude controller is tracking (ATTITUDE_TARGET).
+
+    Attributes
+    ----------
+    euler_rad : ndarray, shape (3,)
+        Desired roll, pitch, yaw (ZYX), rad.
+    rate_frd : ndarray, shape (3,)
+        Desired body rates p, q, r, rad/s.
+    thrust : float
+        Collective thrust normalised to [0, 1] (U1 over its maximum).
+    """
+
+    euler_rad: np.ndarray
+    rate_frd: np.ndarray = field(default_factory=lambda: _vec(3))
+    thrust: float = 0.0
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimTruth:
+    """Simulator truth for SIM_STATE (the composition root fills it; the autopilot never reads it).
+
+    Attributes
+    ----------
+    pos_ned : ndarray, shape (3,)
+        True position, m, NED about the origin.
+    vel_ned : ndarray, shape (3,)
+        True velocity, m/s.
+    quat_wxyz : ndarray, shape (4,)
+        True attitude quaternion [w, x, y, z], body FRD to NED.
+    rate_frd : ndarray, shape (3,)
+        True body rates, rad/s.
+    accel_frd : ndarray, shape (3,)
+        True specific force in the body frame, m/s^2 (what an ideal accelerometer reads).
+    """
+
+    pos_ned: np.ndarray
+    vel_ned: np.ndarray
+    quat_wxyz: np.ndarray
+    rate_frd: np.ndarray
+    accel_frd: np.ndarray
+
+
+@dataclass(frozen=True, kw_only=True)
+class BatteryState:
+    """Battery as the autopilot measures it.
+
+    Attributes
+    ----------
+    voltage_v : float
+        Pack voltage, V.
+    current_a : float or None
+        Current drawn, A; None when not measured.
+    remaining : float or None
+        State of charge in [0, 1]; None when unknown.
+    healthy : bool
+        False below the critical voltage or on a detected battery fault.
+    """
+
+    voltage_v: float = 12.6
+    current_a: float | None = None
+    remaining: float | None = 1.0
+    healthy: bool = True
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorHealth:
+    """Health flags reported in SYS_STATUS (True = healthy).
+
+    The Qball-X4 has no magnetometer or GPS: ``mag`` reports the heading source (mocap
+    attitude) and ``gps`` the absolute position source (mocap position), because ground
+    stations gate "ready to fly" on those bits.
+    """
+
+    gyro: bool = True
+    accel: bool = True
+    mag: bool = True
+    baro: bool = True
+    gps: bool = True
+    ahrs: bool = True  # the attitude/position estimator has converged
+    motors: bool = True  # no detected actuator fault
+    prearm: bool = True  # arming checks pass (armable)
+
+
+@dataclass(frozen=True, kw_only=True)
+class VehicleSnapshot:
+    """Everything telemetry needs, at one instant, in SI units and NED/FRD.
+
+    Attributes
+    ----------
+    time_s : float
+        Simulated time since boot, s (becomes time_boot_ms / time_usec).
+    armed : bool
+        Motors armed.
+    custom_mode : int
+        ArduCopter mode number (:class:`CopterMode`).
+    pos_ned, vel_ned : ndarray, shape (3,)
+        Estimated position (m, about ``origin``) and velocity (m/s).
+    euler_rad : ndarray, shape (3,)
+        Estimated roll, pitch, yaw (ZYX), rad.
+    rate_frd : ndarray, shape (3,)
+        Estimated body rates p, q, r, rad/s.
+    origin : GeoPoint
+        Geodetic position of the NED origin (home at boot, on the ground); the only
+        geodetic datum the vehicle keeps, everything else is NED about it.
+    home_pos_ned : ndarray, shape (3,), or None
+        Current home (RTL target), m, NED about the origin; None until set.
+    system_status : int
+        :class:`MavState`; the endpoint raises it to CRITICAL while its GCS failsafe acts.
+    landed_state : int
+        :class:`LandedState`.
+    position_target, attitude_target : optional
+        Controller references; None when that controller is not running.
+    pwm : ndarray, shape (4,)
+        Motor commands u of motors 1..4 (thesis numbering), 0..pwm_max.
+    battery : BatteryState
+    truth : SimTruth or None
+        Simulator truth for SIM_STATE; None outside simulation.
+    loe : ndarray, shape (4,), or None
+        Estimated loss of effectiveness of motors 1..4 (0 healthy, 1 no thrust); None when no
+        estimator runs.
+    health : SensorHealth
+    mission_seq : int
+        Current mission item (seq 1.. ; 0 when none).
+    mission_state : int
+        :class:`MissionState`.
+    failsafe_active : bool
+        A vehicle failsafe (battery, detected fault, ...) is acting.
+    """
+
+    time_s: float
+    armed: bool
+    custom_mode: int
+    pos_ned: np.ndarray
+    vel_ned: np.ndarray
+    euler_rad: np.ndarray
+    rate_frd: np.ndarray
+    origin: GeoPoint
+    home_pos_ned: np.ndarray | None = None
+    system_status: int = MavState.STANDBY
+    landed_state: int = LandedState.ON_GROUND
+    position_target: PositionTarget | None = None
+    attitude_target: AttitudeTarget | None = None
+    pwm: np.ndarray = field(default_factory=lambda: _vec(4))
+    battery: BatteryState = field(default_factory=BatteryState)
+    truth: SimTruth | None = None
+    loe: np.ndarray | None = None
+    health: SensorHealth = field(default_factory=SensorHealth)
+    mission_seq: int = 0
+    mission_state: int = MissionState.NO_MISSION
+    failsafe_active: bool = False
+
+
+@dataclass(frozen=True, kw_only=True)
+class MissionItem:
+    """One uploaded mission item (seq >= 1; seq 0 is home and never handed over).
+
+    Attributes
+    ----------
+    seq : int
+        Position in the mission, 1..n-1.
+    command : int
+        MAV_CMD number (16 NAV_WAYPOINT, 17 NAV_LOITER_UNLIM, 19 NAV_LOITER_TIME,
+        20 NAV_RETURN_TO_LAUNCH, 21 NAV_LAND, 22 NAV_TAKEOFF, 178 DO_CHANGE_SPEED, ...).
+    autocontinue : bool
+        Continue to the next item when this one completes.
+    params : tuple of 4 float
+        param1..param4 as on the wire, in the units MAV_CMD defines (seconds, metres, m/s;
+        the one angle, param4 yaw of NAV commands, is also given in ``yaw_rad``). NaN only in
+        slots where the MAVLink spec defines it as "use the default".
+    north_east_m : tuple of 2 float or None
+        Target north, east, m about the NED origin; None when the item has no horizontal
+        target (frame MAV_FRAME_MISSION, or latitude = longitude = 0 meaning "here").
+    down_m : float or None
+        Target down, m about the NED origin; None when the frame carries no position.
+    alt_m : float or None
+        The same target as altitude above the current home, m (up positive); None when the
+        frame carries no position. What NAV_TAKEOFF means by its altitude.
+    yaw_rad : float or None
+        param4 of a NAV command in radians; None when NaN (keep the heading mode) or not a
+        NAV command.
+    """
+
+    seq: int
+    command: int
+    autocontinue: bool
+    params: tuple[float, float, float, float]
+    north_east_m: tuple[float, float] | None
+    down_m: float | None
+    alt_m: float | None
+    yaw_rad: float | None
+
+
+@dataclass(frozen=True, kw_only=True)
+class ParamSpec:
+    """Definition of one parameter exposed over MAVLink (sent as REAL32, C_CAST encoding).
+
+    Attributes
+    ----------
+    name : str
+        At most 16 ASCII characters, ArduPilot style (``FS_GCS_TIMEOUT``).
+    value : float
+        Current value.
+    min_value, max_value : float
+        Inclusive range.
+    allowed : tuple of float or None
+        When given, the only values accepted (enumerations).
+    integer : bool
+        Only whole numbers are accepted.
+    description : str
+        One line, with the unit.
+    """
+
+    name: str
+    value: float
+    min_value: float = -math.inf
+    max_value: float = math.inf
+    allowed: tuple[float, ...] | None = None
+    integer: bool = False
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if not 1 <= len(self.name) <= 16 or not self.name.isascii():
+            raise ValueError(f"name = {self.name!r}: must be 1..16 ASCII characters")
+        if not math.isfinite(self.value):
+            raise ValueError(f"{self.name}: value = {self.value!r}: must be finite")
+
+
+@dataclass(frozen=True, slots=True)
+class StatusText:
+    """A message for the pilot (STATUSTEXT); long texts are chunked by the endpoint."""
+
+    severity: int
+    text: str
+
+
+@dataclass(frozen=True, slots=True)
+class MissionItemReached:
+    """The mission item ``seq`` was reached (MISSION_ITEM_REACHED)."""
+
+    seq: int
+
+
+VehicleEvent = StatusText | MissionItemReached
+
+
+@runtime_checkable
+class ParamProvider(Protocol):
+    """A source of parameters: defines them and applies accepted changes."""
+
+    def param_specs(self) -> Sequence[ParamSpec]:
+        """Parameters with their current values; read once, at endpoint construction."""
+        ...
+
+    def set_param(self, name: str, value: float) -> CommandResult:
+        """Apply ``value`` (already range-checked); refuse with a reason to keep the old one."""
+        ...
+
+
+class FailureInjector(Protocol):
+    """Narrow fault-injection port (MAV_CMD_INJECT_FAILURE); see the module docstring."""
+
+    def inject_failure(self, unit: int, failure_type: int, instance: int) -> CommandResult:
+        """Inject (``failure_type`` != 0) or clear (0) a failure of ``unit`` ``instance``."""
+        ...
+
+
+class VehiclePort(ParamProvider, Protocol):
+    """Everything the endpoint reads from and asks of the vehicle."""
+
+    def snapshot(self) -> VehicleSnapshot:
+        """The current state (called when telemetry is due, at most once per tick)."""
+        ...
+
+    def drain_events(self) -> list[VehicleEvent]:
+        """Events since the last call (STATUSTEXT, MISSION_ITEM_REACHED), oldest first."""
+        ...
+
+    def arm(self, *, force: bool) -> CommandResult:
+        """Arm; ``force`` skips the pre-arm checks (COMPONENT_ARM_DISARM p2 = 21196)."""
+        ...
+
+    def disarm(self, *, force: bool) -> CommandResult:
+        """Disarm; ``force`` disarms even in flight."""
+        ...
+
+    def set_mode(self, custom_mode: int) -> CommandResult:
+        """Switch to ArduCopter mode ``custom_mode``."""
+        ...
+
+    def takeoff(self, alt_m: float) -> CommandResult:
+        """Climb to ``alt_m`` above home (GUIDED)."""
+        ...
+
+    def land(self) -> CommandResult:
+        """Land here."""
+        ...
+
+    def return_to_launch(self) -> CommandResult:
+        """Return to home and land."""
+        ...
+
+    def goto(self, pos_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
+        """Fly to ``pos_ned`` (m, NED about the origin), facing ``yaw_rad`` if given."""
+        ...
+
+    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
+        """Track ``vel_ned`` (m/s) in GUIDED; may answer ``CommandResult.not_supported``."""
+        ...
+
+    def change_speed(self, speed_m_s: float, speed_type: str) -> CommandResult:
+        """Set the ``"ground"`` (horizontal), ``"climb"`` or ``"descent"`` speed, m/s."""
+        ...
+
+    def set_home(self, pos_ned: np.ndarray | None) -> CommandResult:
+        """Move home to ``pos_ned`` (m, NED about the origin), or here when None."""
+        ...
+
+    def mission_set(self, items: Sequence[MissionItem]) -> CommandResult:
+        """Replace the mission (items seq 1..n-1; empty clears it)."""
+        ...
+
+    def mission_start(self) -> CommandResult:
+        """Start (or restart) the mission from the current item (in AUTO)."""
+        ...
+
+    def mission_set_current(self, seq: int) -> CommandResult:
+        """Make ``seq`` (1..n-1) the current item."""
+        ...
+
+    def reboot(self) -> CommandResult:
+        """Restart the autopilot (refuse when armed)."""
+        ...
+
+    def trigger_failsafe(self, source: str, action: str) -> CommandResult:
+        """Enter failsafe ``source`` (here ``"gcs"``) with ``action`` ``"land"`` or ``"rtl"``.
+
+        The vehicle decides what that means in its state (ArduCopter: LAND or RTL in flight,
+        disarm on the ground, arming refused while active).
+        """
+        ...
+
+    def clear_failsafe(self, source: str) -> CommandResult:
+        """Failsafe ``source`` is over (the mode is not changed back)."""
+        ...

@@ -1,0 +1,356 @@
+"""Mission protocol, ArduPilot flavour: upload, download, retries, validation."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+from mavlink_testkit import (
+    GCS_ADDR,
+    ORIGIN,
+    WAIT_S,
+    Gcs,
+    Item,
+    VehicleThread,
+    download,
+    memory_endpoint,
+    started,
+    upload,
+)
+from numpy.testing import assert_allclose
+
+from fcu.mavlink.codec import mavlink2
+from fcu.mavlink.endpoint import EndpointConfig
+from fcu.mavlink.geo import geo_to_ned, ned_to_geo
+from fcu.mavlink.mission import MissionConfig, WireItem, to_mission_item, validate_item
+from fcu.mavlink.port import CopterMode, GeoPoint, MissionState
+
+M = mavlink2
+NAN, INF = math.nan, math.inf
+FAST = EndpointConfig(mission=MissionConfig(retry_interval_s=0.3, max_retries=3))
+LAT, LON = ORIGIN.lat_deg, ORIGIN.lon_deg
+
+
+def lat_lon(north_m: float, east_m: float) -> tuple[float, float]:
+    lat, lon, _ = ned_to_geo(np.array([north_m, east_m, 0.0]), ORIGIN)
+    return lat, lon
+
+
+def square() -> list[Item]:
+    """Home, take-off to 2 m, two waypoints (one local), change speed, land."""
+    a = lat_lon(3.0, 0.0)
+    return [
+        Item(M.MAV_CMD_NAV_WAYPOINT, LAT, LON, 0.0, frame=M.MAV_FRAME_GLOBAL_INT),  # home
+        Item(M.MAV_CMD_NAV_TAKEOFF, 0.0, 0.0, 2.0, current=1),
+        Item(M.MAV_CMD_NAV_WAYPOINT, a[0], a[1], 2.0, params=(1.0, 0.5, 0.0, NAN)),
+        Item(M.MAV_CMD_DO_CHANGE_SPEED, frame=M.MAV_FRAME_MISSION, params=(1.0, 3.0, -1, 0)),
+        Item(M.MAV_CMD_NAV_WAYPOINT, 3.0, 3.0, -2.0, frame=M.MAV_FRAME_LOCAL_NED,
+             params=(0.0, 0.0, 0.0, 90.0)),
+        Item(M.MAV_CMD_NAV_LAND, 0.0, 0.0, 0.0),
+    ]
+
+
+@pytest.fixture
+def link() -> Iterator[tuple[Gcs, VehicleThread]]:
+    with Gcs() as gcs:
+        vehicle = started(gcs, speedup=5.0, config=FAST)
+        try:
+            yield gcs, vehicle
+        finally:
+            vehicle.stop()
+
+
+# ------------------------------------------------------------------------ validation (unit)
+
+def wire_item(command: int = M.MAV_CMD_NAV_WAYPOINT, frame: int = 6,
+              params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0),
+              x: float = LAT, y: float = LON, z: float = 10.0) -> WireItem:
+    return WireItem(seq=1, frame=frame, command=command, current=0, autocontinue=1,
+                    params=params, x=x, y=y, z=z)
+
+
+@pytest.mark.parametrize("item, code", [
+    (wire_item(), M.MAV_MISSION_ACCEPTED),
+    (wire_item(params=(NAN, 0, 0, 0)), M.MAV_MISSION_INVALID_PARAM1),
+    (wire_item(params=(0, 0, INF, 0)), M.MAV_MISSION_INVALID_PARAM3),
+    (wire_item(params=(0, 0, 0, INF)), M.MAV_MISSION_INVALID_PARAM4),
+    (wire_item(params=(0, 0, 0, NAN)), M.MAV_MISSION_ACCEPTED),  # yaw NaN: keep heading
+    (wire_item(command=M.MAV_CMD_DO_CHANGE_SPEED, frame=M.MAV_FRAME_MISSION,
+               params=(1, 2, 0, NAN)), M.MAV_MISSION_INVALID_PARAM4),
+    (wire_item(x=NAN), M.MAV_MISSION_INVALID_PARAM5_X),
+    (wire_item(x=91.0), M.MAV_MISSION_INVALID_PARAM5_X),
+    (wire_item(y=-180.5), M.MAV_MISSION_INVALID_PARAM6_Y),
+    (wire_item(z=20_000.0), M.MAV_MISSION_INVALID_PARAM7),
+    (wire_item(z=INF), M.MAV_MISSION_INVALID_PARAM7),
+    (wire_item(frame=M.MAV_FRAME_LOCAL_NED, x=1.0, y=20_000.0, z=-1.0),
+     M.MAV_MISSION_INVALID_PARAM6_Y),
+    (wire_item(frame=M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT), M.MAV_MISSION_UNSUPPORTED_FRAME),
+    (wire_item(frame=M.MAV_FRAME_BODY_FRD), M.MAV_MISSION_UNSUPPORTED_FRAME),
+    (wire_item(frame=M.MAV_FRAME_MISSION, x=NAN), M.MAV_MISSION_ACCEPTED),  # x unused
+])
+def test_item_validation(item: WireItem, code: int) -> None:
+    got, reason = validate_item(item, MissionConfig())
+    assert got == code
+    assert bool(reason) == (code != M.MAV_MISSION_ACCEPTED)
+
+
+def test_conversion_to_ned_and_relative_altitude() -> None:
+    home_ned = np.array([0.0, 0.0, -1.5])  # home 1.5 m above the origin
+    lat, lon = lat_lon(5.0, -2.0)
+    item = to_mission_item(wire_item(frame=M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, x=lat, y=lon,
+                                     z=2.0, params=(0, 0, 0, 90.0)), ORIGIN, home_ned)
+    assert item.north_east_m is not None
+    assert_allclose(item.north_east_m, [5.0, -2.0], atol=1e-9)
+    assert item.down_m == pytest.approx(-3.5)  # 2 m above a home 1.5 m up
+    assert item.alt_m == pytest.approx(2.0)
+    assert item.yaw_rad == pytest.approx(math.pi / 2)
+    amsl = to_mission_item(wire_item(frame=M.MAV_FRAME_GLOBAL_INT, x=lat, y=lon, z=103.0),
+                           ORIGIN, home_ned)
+    assert amsl.down_m == pytest.approx(-3.0) and amsl.alt_m == pytest.approx(1.5)
+    here = to_mission_item(wire_item(command=M.MAV_CMD_NAV_TAKEOFF, x=0.0, y=0.0, z=4.0),
+                           ORIGIN, None)
+    assert here.north_east_m is None and here.alt_m == pytest.approx(4.0)
+    assert here.yaw_rad == 0.0
+    local = to_mission_item(wire_item(frame=M.MAV_FRAME_LOCAL_NED, x=1.0, y=2.0, z=-3.0,
+                                      params=(0, 0, 0, NAN)), ORIGIN, home_ned)
+    assert local.north_east_m == (1.0, 2.0) and local.down_m == -3.0
+    assert local.alt_m == pytest.approx(1.5) and local.yaw_rad is None
+    speed = to_mission_item(wire_item(command=M.MAV_CMD_DO_CHANGE_SPEED,
+                                      frame=M.MAV_FRAME_MISSION, params=(1, 3, -1, 0)),
+                            ORIGIN, home_ned)
+    assert speed.north_east_m is None and speed.down_m is None and speed.yaw_rad is None
+
+
+# ------------------------------------------------------------------------ time-outs (deterministic)
+
+def test_missing_item_is_re_requested_on_the_clock_passed_in() -> None:
+    endpoint, vehicle, link, gcs = memory_endpoint(FAST)
+    gcs.put(M.MAVLink_mission_count_message(1, 1, 3, 0))
+    endpoint.tick(0.0, 100.0)
+    assert [m.seq for m in link.take("MISSION_REQUEST_INT")] == [0]
+    endpoint.tick(50.0, 100.29)  # simulated time racing ahead does not matter
+    assert link.take("MISSION_REQUEST_INT") == []
+    endpoint.tick(50.0, 100.31)
+    assert [m.seq for m in link.take("MISSION_REQUEST_INT")] == [0]  # re-requested
+    for seq in range(3):
+        gcs.put(square()[seq].message(seq, legacy=False))
+        endpoint.tick(50.0, 100.4)
+    (ack,) = link.take("MISSION_ACK")
+    assert ack.type == M.MAV_MISSION_ACCEPTED
+    assert len(vehicle.mission) == 2
+
+
+def test_stalled_upload_times_out_with_a_statustext() -> None:
+    endpoint, vehicle, link, gcs = memory_endpoint(FAST)
+    gcs.put(M.MAVLink_mission_count_message(1, 1, 3, 0))
+    endpoint.tick(0.0, 0.0)
+    gcs.put(square()[0].message(0, legacy=False))
+    endpoint.tick(0.0, 0.1)
+    link.take()
+    for k in range(1, 30):  # 3 s of silence
+        endpoint.tick(0.0, 0.1 + 0.1 * k)
+    out = link.take()
+    requests = [m.seq for m in out if m.get_type() == "MISSION_REQUEST_INT"]
+    acks = [m for m in out if m.get_type() == "MISSION_ACK"]
+    texts = [m.text for m in out if m.get_type() == "STATUSTEXT"]
+    assert requests == [1, 1, 1]  # max_retries re-requests of the missing item
+    assert [a.type for a in acks] == [M.MAV_MISSION_OPERATION_CANCELLED]
+    assert any("timed out" in t and "item 1" in t for t in texts)
+    assert not endpoint.mission.uploading
+    assert vehicle.mission == []  # the old (empty) mission is intact
+
+
+# ------------------------------------------------------------------------ over UDP
+
+def test_upload_download_round_trip_with_mission_item_int(
+        link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    items = square()
+    result = upload(gcs, items)
+    assert result.ack is not None and result.ack.type == M.MAV_MISSION_ACCEPTED
+    assert result.requests == [("MISSION_REQUEST_INT", s) for s in range(len(items))]
+    got = download(gcs)
+    assert len(got) == len(items)
+    assert got[0].x == round(LAT * 1e7) and got[0].frame == M.MAV_FRAME_GLOBAL  # home
+    for sent, back in zip(items[1:], got[1:], strict=True):
+        expected = sent.message(back.seq, legacy=False)
+        for field in ("frame", "command", "x", "y", "autocontinue"):
+            assert getattr(back, field) == getattr(expected, field), (back.seq, field)
+        assert back.z == pytest.approx(expected.z)
+        assert_allclose([back.param1, back.param2, back.param3, back.param4],
+                        [expected.param1, expected.param2, expected.param3, expected.param4])
+    with vehicle.lock:
+        handed = list(vehicle.vehicle.mission)
+    assert [i.seq for i in handed] == [1, 2, 3, 4, 5]
+    assert handed[1].north_east_m is not None
+    assert_allclose(handed[1].north_east_m, [3.0, 0.0], atol=0.02)  # degE7 ~ 1 cm
+    assert handed[1].yaw_rad is None
+    assert handed[3].north_east_m == (3.0, 3.0) and handed[3].down_m == -2.0
+
+
+def test_legacy_mission_item_upload_and_download(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    items = square()
+    result = upload(gcs, items, legacy=True)
+    assert result.ack is not None and result.ack.type == M.MAV_MISSION_ACCEPTED
+    # the first request is MISSION_REQUEST_INT; a peer answering MISSION_ITEM is then
+    # asked with the legacy MISSION_REQUEST
+    assert result.requests[0] == ("MISSION_REQUEST_INT", 0)
+    assert all(kind == "MISSION_REQUEST" for kind, _ in result.requests[1:])
+    got = download(gcs, legacy=True)
+    assert [m.get_type() for m in got] == ["MISSION_ITEM"] * len(items)
+    assert got[2].x == pytest.approx(np.float32(items[2].x))
+    assert got[4].y == pytest.approx(3.0)
+
+
+def test_upload_survives_a_dropped_item(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    items = square()
+    result = upload(gcs, items, drop_first=[2])
+    assert result.ack is not None and result.ack.type == M.MAV_MISSION_ACCEPTED
+    assert result.requests.count(("MISSION_REQUEST_INT", 2)) >= 2  # asked again
+    assert len(vehicle.vehicle.mission) == len(items) - 1
+
+
+def test_stalled_upload_is_cancelled_over_udp(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    result = upload(gcs, square(), answer_until=3)
+    assert result.ack is not None and result.ack.type == M.MAV_MISSION_OPERATION_CANCELLED
+    assert result.requests.count(("MISSION_REQUEST_INT", 3)) == 1 + 3  # first + retries
+    assert not vehicle.endpoint.mission.uploading
+
+
+@pytest.mark.parametrize("bad, code", [
+    (Item(M.MAV_CMD_NAV_WAYPOINT, LAT, LON, 2.0, params=(NAN, 0, 0, 0)),
+     M.MAV_MISSION_INVALID_PARAM1),
+    (Item(M.MAV_CMD_NAV_WAYPOINT, 95.0, LON, 2.0, frame=M.MAV_FRAME_GLOBAL_RELATIVE_ALT),
+     M.MAV_MISSION_INVALID_PARAM5_X),
+    (Item(M.MAV_CMD_NAV_WAYPOINT, LAT, LON, 1e6), M.MAV_MISSION_INVALID_PARAM7),
+    (Item(M.MAV_CMD_NAV_WAYPOINT, LAT, LON, 2.0, frame=M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT),
+     M.MAV_MISSION_UNSUPPORTED_FRAME),
+    (Item(M.MAV_CMD_NAV_WAYPOINT, 50_000.0, 0.0, -2.0, frame=M.MAV_FRAME_LOCAL_NED),
+     M.MAV_MISSION_INVALID_PARAM5_X),
+])
+def test_bad_items_are_refused_and_the_old_mission_kept(
+        link: tuple[Gcs, VehicleThread], bad: Item, code: int) -> None:
+    gcs, vehicle = link
+    assert upload(gcs, square()).ack.type == M.MAV_MISSION_ACCEPTED
+    items = square()
+    items[2] = bad
+    result = upload(gcs, items)
+    assert result.ack is not None and result.ack.type == code
+    assert result.requests[-1][1] == 2  # refused at the bad item
+    assert gcs.recv("STATUSTEXT", condition=lambda m: "item 2" in m.text) is not None
+    assert len(download(gcs)) == len(square())  # the previous mission is still there
+
+
+def test_unsupported_command_is_refused_by_the_vehicle(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, _ = link
+    items = square()[:2] + [Item(M.MAV_CMD_DO_SET_SERVO, frame=M.MAV_FRAME_MISSION,
+                                 params=(5, 1500, 0, 0))]
+    result = upload(gcs, items)
+    assert result.ack is not None and result.ack.type == M.MAV_MISSION_UNSUPPORTED
+    assert gcs.recv("STATUSTEXT", condition=lambda m: "Mission rejected" in m.text)
+
+
+@pytest.mark.parametrize("mission_type", [M.MAV_MISSION_TYPE_FENCE, M.MAV_MISSION_TYPE_RALLY])
+def test_fence_and_rally_are_unsupported(link: tuple[Gcs, VehicleThread],
+                                         mission_type: int) -> None:
+    gcs, _ = link
+    gcs.mav.mission_count_send(1, 1, 2, mission_type)
+    ack = gcs.recv("MISSION_ACK")
+    assert ack is not None and ack.type == M.MAV_MISSION_UNSUPPORTED
+    assert ack.mission_type == mission_type
+    gcs.mav.mission_request_list_send(1, 1, mission_type)
+    ack = gcs.recv("MISSION_ACK")
+    assert ack is not None and ack.type == M.MAV_MISSION_UNSUPPORTED
+
+
+def test_clear_all_and_set_current(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    assert upload(gcs, square()).ack.type == M.MAV_MISSION_ACCEPTED
+    gcs.mav.mission_set_current_send(1, 1, 3)
+    current = gcs.recv("MISSION_CURRENT", condition=lambda m: m.seq == 3)
+    assert current is not None and current.total == len(square()) - 1
+    assert gcs.ack(M.MAV_CMD_DO_SET_MISSION_CURRENT, 2).result == M.MAV_RESULT_ACCEPTED
+    assert gcs.ack(M.MAV_CMD_DO_SET_MISSION_CURRENT, 99).result == M.MAV_RESULT_DENIED
+    gcs.mav.mission_clear_all_send(1, 1, M.MAV_MISSION_TYPE_MISSION)
+    ack = gcs.recv("MISSION_ACK")
+    assert ack is not None and ack.type == M.MAV_MISSION_ACCEPTED
+    assert len(download(gcs)) == 1  # home only
+    assert vehicle.vehicle.mission == []
+    assert gcs.recv("MISSION_CURRENT", condition=lambda m: m.total == 0xFFFF) is not None
+
+
+def test_repeated_last_item_is_acknowledged_again(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, _ = link
+    items = square()
+    assert upload(gcs, items).ack.type == M.MAV_MISSION_ACCEPTED
+    last = len(items) - 1
+    gcs.mav.send(items[last].message(last, legacy=False))  # as if our ACK had been lost
+    ack = gcs.recv("MISSION_ACK")
+    assert ack is not None and ack.type == M.MAV_MISSION_ACCEPTED
+
+
+def test_mission_flight_reports_reached_items_and_completion(
+        link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    items = square()
+    assert upload(gcs, items).ack.type == M.MAV_MISSION_ACCEPTED
+    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.GUIDED).result == M.MAV_RESULT_ACCEPTED
+    assert gcs.ack(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
+    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.AUTO).result == M.MAV_RESULT_ACCEPTED
+    gcs.command_long(M.MAV_CMD_MISSION_START, 0, 0)
+    acks: list[int] = []
+    reached: list[int] = []
+    complete = None
+    for _ in range(200):  # bounded; the flight takes a few wall seconds at 5x
+        msg = gcs.recv(["COMMAND_ACK", "MISSION_ITEM_REACHED", "MISSION_CURRENT"], 4 * WAIT_S)
+        assert msg is not None, f"stalled after reaching {reached}"
+        if msg.get_type() == "COMMAND_ACK":
+            acks.append(msg.result)
+        elif msg.get_type() == "MISSION_ITEM_REACHED":
+            reached.append(msg.seq)
+        elif msg.mission_state == MissionState.COMPLETE:
+            complete = msg
+            break
+    assert acks == [M.MAV_RESULT_ACCEPTED]
+    assert reached == [1, 2, 3, 4, 5]
+    assert complete is not None and complete.total == 5 and complete.seq == 5
+
+
+def test_global_item_lands_where_it_should(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    lat, lon = lat_lon(-7.0, 11.0)
+    items = [square()[0], Item(M.MAV_CMD_NAV_WAYPOINT, lat, lon, 105.0,
+                               frame=M.MAV_FRAME_GLOBAL_INT)]
+    assert upload(gcs, items).ack.type == M.MAV_MISSION_ACCEPTED
+    (item,) = vehicle.vehicle.mission
+    expected = geo_to_ned(lat, lon, 105.0, ORIGIN)
+    assert item.north_east_m is not None
+    assert_allclose(item.north_east_m, expected[:2], atol=0.02)
+    assert item.down_m == pytest.approx(-5.0)
+
+
+def test_items_from_another_gcs_during_an_upload_are_denied() -> None:
+    endpoint, _, link, gcs = memory_endpoint(FAST)
+    gcs.put(M.MAVLink_mission_count_message(1, 1, 2, 0))
+    endpoint.tick(0.0, 0.0)
+    other = M.MAVLink(None, srcSystem=245, srcComponent=190)
+    link.inbox.append((square()[0].message(0, legacy=False).pack(other), GCS_ADDR))
+    endpoint.tick(0.0, 0.1)
+    acks = link.take("MISSION_ACK")
+    assert [(a.type, a.target_system) for a in acks] == [(M.MAV_MISSION_DENIED, 245)]
+    assert endpoint.mission.uploading  # the first GCS's upload goes on
+
+
+def test_download_seq_0_is_the_current_home() -> None:
+    endpoint, vehicle, link, gcs = memory_endpoint()
+    vehicle.home_pos_ned = np.array([10.0, 0.0, 0.0])
+    gcs.put(M.MAVLink_mission_request_int_message(1, 1, 0, 0))
+    endpoint.tick(0.0, 0.0)
+    (home,) = link.take("MISSION_ITEM_INT")
+    lat, _, _ = ned_to_geo(np.array([10.0, 0.0, 0.0]), GeoPoint(LAT, LON, 100.0))
+    assert home.x == round(lat * 1e7)

@@ -1,0 +1,167 @@
+"""Parameter table and protocol: complete contiguous lists, validated sets, echoes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from mavlink_testkit import Gcs, started
+
+from fcu.mavlink.codec import mavlink2
+from fcu.mavlink.params import ParamEntry, ParamTable
+from fcu.mavlink.port import CommandResult, ParamSpec
+
+M = mavlink2
+
+
+def table() -> ParamTable:
+    def refuse_big(value: float) -> CommandResult:
+        return CommandResult.denied("too big for now") if value > 5 else CommandResult.ok()
+
+    return ParamTable([
+        ParamEntry(ParamSpec(name="B_GAIN", value=1.0, min_value=0.0, max_value=10.0)),
+        ParamEntry(ParamSpec(name="A_MODE", value=5, allowed=(0, 1, 5), integer=True)),
+        ParamEntry(ParamSpec(name="C_LIMITED", value=1.0, min_value=0, max_value=10),
+                   refuse_big),
+    ])
+
+
+def test_table_is_sorted_and_indexed() -> None:
+    t = table()
+    assert t.names == ["A_MODE", "B_GAIN", "C_LIMITED"]
+    assert [t.index_of(n) for n in t.names] == [0, 1, 2]
+    assert t.index_of("NOPE") is None
+
+
+@pytest.mark.parametrize("name, value, why", [
+    ("B_GAIN", math.nan, "finite"), ("B_GAIN", math.inf, "finite"), ("B_GAIN", 10.5, "outside"),
+    ("A_MODE", 2.0, "not one of"), ("A_MODE", 1.5, "whole"), ("C_LIMITED", 6.0, "too big"),
+])
+def test_table_refuses_and_keeps_the_value(name: str, value: float, why: str) -> None:
+    t = table()
+    before = t.get(name)
+    outcome = t.set(name, value)
+    assert not outcome.accepted and why in outcome.reason
+    assert outcome.value == before == t.get(name)
+
+
+def test_table_stores_float32() -> None:
+    t = table()
+    outcome = t.set("B_GAIN", 0.1)
+    assert outcome.accepted and outcome.value == float(np.float32(0.1))
+
+
+def test_duplicate_names_and_long_names_are_refused() -> None:
+    spec = ParamSpec(name="X", value=0.0)
+    with pytest.raises(ValueError, match="twice"):
+        ParamTable([ParamEntry(spec), ParamEntry(spec)])
+    with pytest.raises(ValueError, match="16"):
+        ParamSpec(name="A" * 17, value=0.0)
+
+
+def test_param_list_is_complete_and_contiguous() -> None:
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            gcs.mav.param_request_list_send(1, 0)
+            values = gcs.collect("PARAM_VALUE", 1.5)
+            expected = vehicle.endpoint.params.names
+        finally:
+            vehicle.stop()
+    assert sorted(v.param_index for v in values) == list(range(len(expected)))
+    assert {v.param_count for v in values} == {len(expected)}
+    assert {v.param_id: v.param_index for v in values} == \
+        {name: i for i, name in enumerate(expected)}
+    assert all(v.param_type == M.MAV_PARAM_TYPE_REAL32 for v in values)
+    names = {v.param_id for v in values}
+    assert {"SYSID_THISMAV", "SYSID_MYGCS", "FS_GCS_ENABLE", "FS_GCS_TIMEOUT",
+            "WPNAV_SPEED"} <= names
+    by_name = {v.param_id: v.param_value for v in values}
+    assert by_name["FS_GCS_TIMEOUT"] == 5.0 and by_name["SYSID_MYGCS"] == 255
+
+
+def test_param_read_by_name_and_index() -> None:
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            gcs.mav.param_request_read_send(1, 1, b"FS_GCS_TIMEOUT", -1)
+            by_name = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "FS_GCS_TIMEOUT")
+            index = vehicle.endpoint.params.index_of("WPNAV_SPEED")
+            gcs.mav.param_request_read_send(1, 1, b"", index)
+            by_index = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_index == index)
+            gcs.mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)
+            text = gcs.recv("STATUSTEXT", condition=lambda m: "NO_SUCH_PARAM" in m.text)
+        finally:
+            vehicle.stop()
+    assert by_name is not None and by_name.param_value == 5.0
+    assert by_index is not None and by_index.param_id == "WPNAV_SPEED"
+    assert text is not None
+
+
+def test_param_set_accepted_is_applied_and_echoed() -> None:
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            gcs.mav.param_set_send(1, 1, b"WPNAV_SPEED", 7.5, M.MAV_PARAM_TYPE_REAL32)
+            echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "WPNAV_SPEED")
+        finally:
+            vehicle.stop()
+    assert echo is not None and echo.param_value == 7.5
+    assert vehicle.vehicle.param_values["WPNAV_SPEED"] == 7.5
+
+
+@pytest.mark.parametrize("value, why", [(math.nan, "finite"), (math.inf, "finite"),
+                                        (1000.0, "outside")])
+def test_param_set_invalid_echoes_the_old_value_with_a_reason(value: float, why: str) -> None:
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            gcs.mav.param_set_send(1, 1, b"FS_GCS_TIMEOUT", value, M.MAV_PARAM_TYPE_REAL32)
+            got = gcs.gather({"PARAM_VALUE": lambda m: m.param_id == "FS_GCS_TIMEOUT",
+                              "STATUSTEXT": lambda m: "FS_GCS_TIMEOUT" in m.text})
+        finally:
+            vehicle.stop()
+    assert got["PARAM_VALUE"].param_value == 5.0  # the unchanged value is echoed
+    assert why in got["STATUSTEXT"].text
+
+
+def test_param_set_refused_by_the_vehicle() -> None:
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            with vehicle.lock:
+                vehicle.vehicle.armed = True
+            gcs.mav.param_set_send(1, 1, b"WPNAV_SPEED", 18.0, M.MAV_PARAM_TYPE_REAL32)
+            got = gcs.gather({"PARAM_VALUE": lambda m: m.param_id == "WPNAV_SPEED",
+                              "STATUSTEXT": lambda m: "WPNAV_SPEED" in m.text})
+        finally:
+            vehicle.stop()
+    assert got["PARAM_VALUE"].param_value == 5.0
+    assert "disarmed" in got["STATUSTEXT"].text
+
+
+def test_param_set_unknown_name_gets_a_statustext() -> None:
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            gcs.mav.param_set_send(1, 1, b"NOT_A_PARAM", 1.0, M.MAV_PARAM_TYPE_REAL32)
+            text = gcs.recv("STATUSTEXT", condition=lambda m: "NOT_A_PARAM" in m.text)
+            echoes = gcs.collect("PARAM_VALUE", 0.5)
+        finally:
+            vehicle.stop()
+    assert text is not None and "Unknown parameter" in text.text
+    assert echoes == []
+
+
+def test_param_set_int_type_is_c_cast() -> None:
+    # A GCS that believes SYSID_MYGCS is INT32 still sends the value as a float (C_CAST).
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            gcs.mav.param_set_send(1, 1, b"SYSID_MYGCS", 200.0, M.MAV_PARAM_TYPE_INT32)
+            echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "SYSID_MYGCS")
+        finally:
+            vehicle.stop()
+    assert echo is not None and echo.param_value == 200.0
+    assert vehicle.endpoint.params.get("SYSID_MYGCS") == 200.0
