@@ -41,7 +41,7 @@ from fcu.fault_detection import LoeFaultDetector
 from fcu.guidance import Reference
 from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
-from fcu.navigator import CommandResult, Navigator, NavigatorConfig, NavOutput
+from fcu.navigator import CommandResult, LandedState, Navigator, NavigatorConfig, NavOutput
 from fcu.position_control import PositionCommand, PositionController, PositionGains
 from fcu.tskf import TwoStageKalmanFilter
 from fcu.validation import is_finite, require
@@ -205,8 +205,12 @@ class Autopilot:
             self._events.append(AutopilotEvent(ev.time_s, ev.kind, ev.text, ev.severity,
                                                seq=ev.seq))
         flying = nav.reference is not None
-        # effectiveness is unobservable on the ground (no thrust): no evidence either way
-        for det in self.detector.step(time_s, loe if flying else np.full(4, np.nan)):
+        # Effectiveness is only observable in free flight: on the ground, and while taking
+        # off or landing (ground contact, the landing creep), commanded thrust without the
+        # motion it should cause is not evidence of a fault. Outside free flight the
+        # detector gets no evidence either way.
+        in_free_flight = flying and nav.landed_state == LandedState.IN_AIR
+        for det in self.detector.step(time_s, loe if in_free_flight else np.full(4, np.nan)):
             self._events.append(AutopilotEvent(
                 det.time_s, "fault_detected" if det.kind == "fault" else "fault_cleared",
                 det.message, "critical" if det.kind == "fault" else "notice",

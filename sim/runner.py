@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from fcu.autopilot import Autopilot
+from fcu.navigator import LandedState
 from sim.dynamics import quat_to_euler
 from sim.faults import FaultEvent
 from sim.metrics import control_effort, tracking_errors
@@ -35,6 +36,7 @@ class FlightLog:
 
     time_s: np.ndarray  # (n,)
     flying: np.ndarray  # (n,) bool, a reference was tracked and the vehicle was airborne
+    free_flight: np.ndarray  # (n,) bool, the navigator was in the air (not taking off/landing)
     ref_pos_ned: np.ndarray  # (n, 3)
     pos_ned: np.ndarray  # (n, 3) truth
     est_pos_ned: np.ndarray  # (n, 3) estimate fed to the controllers
@@ -66,6 +68,7 @@ class _Recorder:
         self.n = 0
         self.t = np.zeros(n)
         self.flying = np.zeros(n, dtype=bool)
+        self.free_flight = np.zeros(n, dtype=bool)
         self.ref_pos = np.zeros((n, 3))
         self.pos = np.zeros((n, 3))
         self.est_pos = np.zeros((n, 3))
@@ -78,7 +81,7 @@ class _Recorder:
 
     def log(self) -> FlightLog:
         k = self.n
-        return FlightLog(self.t[:k], self.flying[:k], self.ref_pos[:k], self.pos[:k],
+        return FlightLog(self.t[:k], self.flying[:k], self.free_flight[:k], self.ref_pos[:k], self.pos[:k],
                          self.est_pos[:k], self.ref_euler[:k], self.euler[:k], self.pwm[:k],
                          self.loe_est[:k], self.loe_true[:k], self.wind[:k])
 
@@ -147,6 +150,7 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None) -> FlightRes
         if (status.reference is not None and status.attitude_reference is not None
                 and not world.plant.on_ground):
             rec.flying[k] = True
+            rec.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
             rec.ref_pos[k] = status.reference.pos_ned
             rec.ref_euler[k] = status.attitude_reference.euler_rad
         else:
@@ -174,25 +178,35 @@ def _euler_of(x: np.ndarray) -> np.ndarray:
 
 
 def loe_convergence_times(log: FlightLog, tolerance: float = 0.05) -> list[dict[str, Any]]:
-    """For each step change of the injected LOE, when the estimate first came within tolerance.
+    """For each step change of the injected LOE, when the estimate settled within tolerance.
 
-    Returns one entry per (motor, step): motor (1..4), fault time, injected gamma, the delay
-    (s) until |estimate - truth| <= tolerance first held (None if never), and whether it then
-    stayed within tolerance until the next change or the end.
+    Judged in free flight only, between take-off and landing (on or near the ground the
+    effectiveness is unobservable; the autopilot's detector is gated the same way). Returns one
+    entry per (motor, change): motor (1..4), time of the change, injected gamma, and the delay
+    (s) after which |estimate - truth| <= tolerance held until the next change or the end of
+    the flight (None if it never settled).
     """
     out: list[dict[str, Any]] = []
-    truth = np.nan_to_num(log.loe_true, nan=1.0)
+    free = np.flatnonzero(log.free_flight)
+    if free.size == 0:
+        return out
+    window = slice(free[0], free[-1] + 1)
+    truth = np.nan_to_num(log.loe_true[window], nan=1.0)
+    estimate = log.loe_estimate[window]
+    time_s = log.time_s[window]
     for m in range(4):
         changes = np.flatnonzero(np.abs(np.diff(truth[:, m])) > 1e-9) + 1
         for j, k in enumerate(changes):
             end = changes[j + 1] if j + 1 < len(changes) else len(truth)
-            err = np.abs(log.loe_estimate[k:end, m] - truth[k:end, m])
-            within = np.flatnonzero(err <= tolerance)
-            delay = float(log.time_s[k + within[0]] - log.time_s[k]) if within.size else None
-            stayed = bool(within.size and np.all(err[within[0]:] <= tolerance))
-            out.append({"motor": m + 1, "time_s": float(log.time_s[k]),
-                        "loe": float(truth[k, m]), "converged_after_s": delay,
-                        "stayed_within": stayed})
+            outside = np.flatnonzero(np.abs(estimate[k:end, m] - truth[k:end, m]) > tolerance)
+            if outside.size == 0:
+                delay: float | None = 0.0
+            elif outside[-1] + 1 < end - k:
+                delay = float(time_s[k + outside[-1] + 1] - time_s[k])
+            else:
+                delay = None
+            out.append({"motor": m + 1, "time_s": float(time_s[k]),
+                        "loe": float(truth[k, m]), "settled_after_s": delay})
     return out
 
 
