@@ -23,10 +23,10 @@ Against eq. 3.18 (z up): thesis Z = -z, so its ``Z'' = c_phi c_theta U1/m - g`` 
 ``z'' = g - c_phi c_theta U1/m``; its x and y rows use the corrupted R of eq. 3.9, replaced here
 by the third column of the standard ZYX R (at hover ``x'' = -g theta``, ``y'' = g phi``); its
 ``q'`` and ``r'`` rows read ``I_x``/``I_y`` for ``I_xx``/``I_yy``. Gyroscopic rotor moments
-are neglected as in the thesis. The wind force and torque are not modelled: they are what the
-velocity and body-rate process noise stands for. Loss of effectiveness is not a state either
-(thesis section 6.1.2): a motor that delivers less than ``K u`` shows up as thrust-state
-innovations, which is what the thrust process noise allows for.
+are neglected as in the thesis. The wind force is not modelled: it is what the velocity
+process noise stands for. Loss of effectiveness is not a state either (thesis section 6.1.2):
+a motor that delivers less than ``K u`` (or a wind torque) is taken up by the thrust states,
+which is what their large process noise allows for (:class:`EkfProcessNoise`).
 
 Ground contact mirrors the simulator's ground plane: when the estimated vehicle is within
 ``ground_margin_m`` of ``ground_z_ned`` and its estimated thrust is below its weight at the
@@ -52,12 +52,17 @@ integrand a degree-4 polynomial). Kernels are numba-compiled.
 
 Measurements
 ------------
-All sensors are linear in the state at their own sample time; a batch averaged over a tick
-(mean time ``t_k - delta``) is mapped to the tick by ``h(x) = S (x - delta f(x, u))``, with
-Jacobian ``H = S (I - delta A)`` (``S`` selects the measured states). Sequential updates, in the
-order mocap_pos (x, y only when height comes from the baro), baro (``alt = -z``; only with
-``height_source="baro"``), mocap_att (yaw innovation wrapped to [-pi, pi)), gyro. Each update
-uses ``R = sigma^2 / n`` for a batch of ``n`` samples. The accelerometer is not used.
+All sensors are linear in the state at their own sample time, ``h = S x``; a batch averaged
+over a tick (mean time ``t_k - delta``) is mapped to the tick by
+``h(x) = S (x - delta f(x, u))``, with Jacobian ``H = S (I - delta A)``. Sequential updates,
+in the order mocap_pos (x, y only when height comes from the baro), baro (``alt = -z``; only
+with ``height_source="baro"``), mocap_att (yaw innovation wrapped to [-pi, pi)), gyro, and the
+accelerometer's body-z axis: thrust is along -z_body whatever the attitude, so the specific
+force there is ``-(T1 + T2 + T3 + T4)/m`` plus drag. It pins the total thrust, which mocap
+height alone leaves to a double differentiation (without it a 45 % loss biases vz by 3 cm/s).
+Its R adds ``accel_z_model_sigma^2`` for the drag, and it is skipped on the ground (the
+accelerometer then feels the ground reaction). Each update uses ``R = sigma^2 / n`` for a batch
+of ``n`` samples. The accelerometer's x and y axes (drag only) are not used.
 """
 
 from __future__ import annotations
@@ -78,6 +83,7 @@ from fcu.estimation import (
     Z_INDEX,
     FloatArray,
     HeightSource,
+    InitialUncertainty,
     Innovation,
     SampleBatch,
     SensorNoise,
@@ -300,8 +306,8 @@ def discrete_transition(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
 
 @njit(cache=True, error_model="numpy")
 def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
-                  r_mat: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
-                                              FloatArray]:
+                  r_mat: FloatArray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                              np.ndarray]:
     """Kalman measurement update for a given innovation (the maths of filterpy's update).
 
     Parameters
@@ -378,23 +384,6 @@ class EkfProcessNoise:
                         + [self.ang_accel] * 3 + [self.thrust] * 4)
 
 
-@dataclass(frozen=True, kw_only=True)
-class InitialUncertainty:
-    """One-sigma uncertainty of the state given to :meth:`ExtendedKalmanEstimator.reset`
-    (and the TSKF's) when no covariance is supplied."""
-
-    pos: float = 0.5  # m
-    vel: float = 0.5  # m/s
-    euler: float = 0.3  # rad (roll, pitch; yaw too: the first mocap update pins it)
-    rate: float = 0.2  # rad/s
-    thrust: float = 1.0  # N
-
-    def diagonal(self) -> FloatArray:
-        """Covariance diagonal in the state order, shape (16,)."""
-        return np.array([self.pos] * 3 + [self.vel] * 3 + [self.euler] * 3
-                        + [self.rate] * 3 + [self.thrust] * 4) ** 2
-
-
 def _attitude_residual(a: FloatArray, b: FloatArray) -> FloatArray:
     """Innovation ``a - b`` of (roll, pitch, yaw) with the yaw difference wrapped."""
     y = a - b
@@ -422,7 +411,7 @@ def _select(columns: tuple[int, ...], signs: tuple[float, ...] | None = None) ->
     return sel
 
 
-class _QuadrotorEKF(ExtendedKalmanFilter):  # type: ignore[misc]
+class _QuadrotorEKF(ExtendedKalmanFilter):
     """filterpy's EKF with the nonlinear prediction of this module and a compiled update.
 
     filterpy's ``predict(u)`` calls :meth:`predict_x`, then applies ``P = F P F' + Q`` with the
@@ -434,6 +423,20 @@ class _QuadrotorEKF(ExtendedKalmanFilter):  # type: ignore[misc]
     ``deepcopy``) costs 16-35 us per call on this machine, and a tick has three or four.
     ``tests/fcu/test_ekf.py`` checks the two against each other.
     """
+
+    x: FloatArray
+    P: FloatArray
+    F: FloatArray
+    Q: FloatArray
+    y: FloatArray
+    S: FloatArray
+    SI: FloatArray
+    K: FloatArray
+    z: FloatArray
+    x_prior: FloatArray
+    P_prior: FloatArray
+    x_post: FloatArray
+    P_post: FloatArray
 
     def __init__(self, params: FloatArray, qc_diag: FloatArray) -> None:
         super().__init__(dim_x=STATE_DIM, dim_z=3)
@@ -452,27 +455,29 @@ class _QuadrotorEKF(ExtendedKalmanFilter):  # type: ignore[misc]
         self.F = f_mat
         self.Q = q_mat
 
-    def update(self, z: FloatArray, HJacobian: Callable[..., FloatArray],  # noqa: N803
-               Hx: Callable[..., FloatArray], R: FloatArray | None = None,  # noqa: N803
+    def update(self, z: FloatArray | None, HJacobian: Callable[..., FloatArray],  # noqa: N803
+               Hx: Callable[..., FloatArray], R: FloatArray | float | None = None,  # noqa: N803
                args: tuple[object, ...] = (), hx_args: tuple[object, ...] = (),
                residual: Callable[[FloatArray, FloatArray], FloatArray] = np.subtract,
                ) -> None:
         """filterpy's ``ExtendedKalmanFilter.update`` contract, compiled algebra."""
         if z is None:
-            self.z = np.array([[None] * self.dim_z]).T
             self.x_post = self.x.copy()
             self.P_post = self.P.copy()
             return
+        r_mat: FloatArray
         if R is None:
-            R = self.R
-        elif np.isscalar(R):
-            R = np.eye(len(z)) * R
+            r_mat = np.asarray(self.R, dtype=float)
+        elif isinstance(R, (int, float)):
+            r_mat = np.eye(len(z)) * float(R)
+        else:
+            r_mat = np.asarray(R, dtype=float)
         h_mat = HJacobian(self.x, *args)
         # y = z - h(x)
         self.y = residual(z, Hx(self.x, *hx_args))
         # K = P H' (H P H' + R)^-1;  x = x + K y;  P = (I-KH) P (I-KH)' + K R K'
         self.x, self.P, self.S, self.SI, self.K = kalman_update(
-            self.x, self.P, self.y, h_mat, R)
+            self.x, self.P, self.y, h_mat, r_mat)
         self.z = np.array(z, dtype=float)
         self.x_post = self.x.copy()
         self.P_post = self.P.copy()
@@ -500,6 +505,10 @@ class ExtendedKalmanEstimator:
         z (NED, m) of the ground plane, or None for no ground contact.
     ground_margin_m : float
         Distance above the ground plane within which the vehicle counts as on the ground, m.
+    accel_z_model_sigma : float or None
+        Model error of the accelerometer's thrust measurement, m/s^2 (vertical drag: 0.35
+        N/(m/s) on 0.3 m/s of vertical gust is 0.07 m/s^2 on 1.42 kg); None leaves the
+        accelerometer out.
 
     Notes
     -----
@@ -539,7 +548,7 @@ class ExtendedKalmanEstimator:
         self._channels = self._make_channels()
         self._kinds = frozenset(c.sensor for c in self._channels)
         self.filter = _QuadrotorEKF(self._params, self.process_noise.diagonal())
-        self.innovations: dict[str, Innovation] = {}
+        self._innovations: dict[str, Innovation] = {}
         self._time_s = 0.0
         self._estimate: StateEstimate | None = None
         self.reset()
@@ -592,7 +601,7 @@ class ExtendedKalmanEstimator:
         f.x_post = f.x.copy()
         f.P_post = f.P.copy()
         self._time_s = float(time_s)
-        self.innovations = {}
+        self._innovations = {}
         self._estimate = self._make_estimate()
 
     def step(self, time_s: float, pwm_applied: ArrayLike,
@@ -632,7 +641,7 @@ class ExtendedKalmanEstimator:
             f.P_prior = f.P.copy()
         self._time_s = time_s
         batches = group_samples(samples, self._kinds)
-        self.innovations = {}
+        self._innovations = {}
         for channel in self._channels:
             batch = batches.get(channel.sensor)
             # on the ground the accelerometer feels the ground reaction, not the thrust
@@ -678,7 +687,7 @@ class ExtendedKalmanEstimator:
         y = f.y
         # NIS = y' S^-1 y
         nis = float(y @ f.SI @ y)
-        self.innovations[channel.sensor] = Innovation(channel.sensor, self._time_s, y.copy(),
+        self._innovations[channel.sensor] = Innovation(channel.sensor, self._time_s, y.copy(),
                                                       f.S.copy(), nis)
 
     def _make_estimate(self) -> StateEstimate:
@@ -725,13 +734,12 @@ class ExtendedKalmanEstimator:
     @property
     def last_innovation(self) -> Mapping[str, Innovation]:
         """Innovation, its covariance and NIS of each sensor updated at the latest tick."""
-        return dict(self.innovations)
+        return dict(self._innovations)
 
 
 __all__ = [
     "EkfProcessNoise",
     "ExtendedKalmanEstimator",
-    "InitialUncertainty",
     "discrete_transition",
     "kalman_update",
     "model_derivative",

@@ -93,6 +93,26 @@ class SensorNoise:
                 raise ValueError(f"{name} = {value!r}: noise sigma must be a finite number > 0")
 
 
+@dataclass(frozen=True, kw_only=True)
+class InitialUncertainty:
+    """One-sigma uncertainty of the initial state when an estimator is reset without one.
+
+    Wide enough for a vehicle anywhere near home: the first mocap updates pin position and
+    attitude (yaw too), the motion the rest.
+    """
+
+    pos: float = 0.5  # m
+    vel: float = 0.5  # m/s
+    euler: float = 0.3  # rad
+    rate: float = 0.2  # rad/s
+    thrust: float = 1.0  # N
+
+    def diagonal(self) -> FloatArray:
+        """Covariance diagonal in the state order, shape (16,)."""
+        return np.array([self.pos] * 3 + [self.vel] * 3 + [self.euler] * 3
+                        + [self.rate] * 3 + [self.thrust] * 4) ** 2
+
+
 @dataclass(frozen=True, slots=True)
 class StateEstimate:
     """An estimator's output at one control tick.

@@ -13,7 +13,7 @@ with U = eq. 3.17 applied to the motor thrusts. The state is augmented with the 
 whose lag is eq. 6.4 (``T_i' = w (K u_i - T_i)``), giving eq. 6.3 with the layout of
 :mod:`fcu.estimation` (the thesis orders it [x, x', y, y', ...]; same content)::
 
-    x_a = [p (3), v (3), (phi, theta, psi), (phi', theta', psi'), T1..T4]      (16)
+    x_a = [p (3), v (3), (phi, theta, psi), (p, q, r), T1..T4]                  (16)
     x_a' = A_a x_a + B_a (I - Gamma) u + g_a                                     (eq. 6.5)
 
 ``B_a`` is non-zero only in the thrust rows (``K w I``): a PWM command acts on the motion only
@@ -81,6 +81,7 @@ from fcu.estimation import (
     Z_INDEX,
     FloatArray,
     HeightSource,
+    InitialUncertainty,
     Innovation,
     SampleBatch,
     SensorNoise,
@@ -104,8 +105,8 @@ class TskfProcessNoise:
     seeds 1-6, gusts 0.3-1.0 m/s:
 
     * ``euler`` 1e-3 rad^2/s: absorbs the kinematic linearisation error (module docstring).
-      At 1e-7 the error went into gamma: a healthy motor's estimate moved by 0.09 and a faulty
-      one's left its 0.05 band for over a second whenever another motor failed.
+      At 1e-7 the error went into gamma: motor 4 read 0.11 before its fault and motor 3 left
+      its 0.05 band for 17 s when motor 1 failed (1e-2: no change from 1e-3).
     * ``ang_accel`` 0.3 (rad/s^2)^2/Hz: 0.1 let unmodelled torques into gamma (band left on
       one seed), 1.0 slowed the motors' separation (healthy estimates up to 0.1).
     * ``accel`` 0.05 (m/s^2)^2/Hz: drag and the thrust-tilt term of the z row.
@@ -186,7 +187,7 @@ def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
     gc = np.zeros(STATE_DIM)
     # p' = v
     a[POS, VEL] = np.eye(3)
-    # (phi, theta, psi)' = Euler rates
+    # (phi, theta, psi)' = (p, q, r)   (attitude kinematics linearised at hover)
     a[EULER, RATE] = np.eye(3)
     if not on_ground:
         # x'' = -g theta;  y'' = g phi;  z'' = g - sum(T)/m
@@ -194,7 +195,7 @@ def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
         a[4, 6] = g
         a[5, THRUST] = -1.0 / m
         gc[5] = g
-        # (phi, theta, psi)'' = I^-1 (L (T3 - T4), L (T1 - T2), K_psi (T1 + T2 - T3 - T4))
+        # (p, q, r)' = I^-1 (L (T3 - T4), L (T1 - T2), K_psi (T1 + T2 - T3 - T4))
         a[RATE, THRUST] = torque / inertia[:, None]
     # T' = -w T + K w u
     a[THRUST, THRUST] = -w * np.eye(N_MOTORS)
@@ -213,6 +214,7 @@ def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
     phi = e[n:, n:].T
     q_d = phi @ e[:n, n:]
     q_d = 0.5 * (q_d + q_d.T)
+
     def contiguous(arr: ArrayLike) -> FloatArray:
         return np.ascontiguousarray(arr, dtype=float)
 
@@ -352,11 +354,12 @@ class TwoStageKalmanFilter:
         Filter period, s (thesis: 100 Hz). ``step`` must be called at multiples of it.
     q_gamma : float
         Variance of the per-step random walk of each motor's gamma (``Q^gamma = q_gamma I``,
-        eq. 6.9), per ``dt_s`` step. Default 1e-4 (one sigma 0.1 per second): a step fault
-        enters its 0.05 band within 0.25-0.6 s on the harness. Smaller is not quieter here:
-        the estimation transient when another motor fails lasts longer (5e-6: healthy motors
-        up to 0.11); 3e-4 shortens it but raises the steady noise (faulty motor within 0.04 of
-        the truth instead of 0.03).
+        eq. 6.9), per ``dt_s`` step. Default 1e-4 (one sigma 0.1 per second). On the harness
+        (Table 6.1 step profile, seeds 1-5) a step fault enters its 0.05 band 0.25-0.6 s after
+        onset; healthy motors peak at 0.045. Smaller is not quieter: the estimation transient
+        when another motor fails lasts longer (2e-5: a healthy motor reaches 0.10; 5e-6: 0.12,
+        and a faulty one leaves its band for 17 s). Larger trades the other way (3e-4: healthy
+        peak 0.038, but a faulty motor's steady error grows; 2e-4 reached 0.049 on one seed).
     height_source : {"mocap", "baro"}
         Where height comes from.
     noise : SensorNoise
@@ -365,10 +368,30 @@ class TwoStageKalmanFilter:
         Continuous ``Q^x`` spectral densities; discretised exactly (Van Loan).
     gamma_std0 : float
         Initial one-sigma uncertainty of each gamma, ``P^gamma_0 = gamma_std0^2 I``.
+    initial_uncertainty : InitialUncertainty
+        Covariance used by :meth:`reset` when the initial estimate carries none.
     ground_z_ned : float or None
         z (NED, m) of the ground plane, or None for no ground contact.
     ground_margin_m : float
         Distance above the ground within which the vehicle counts as on the ground, m.
+
+    Attributes
+    ----------
+    x_bar, P_x : ndarrays, shapes (16,), (16, 16)
+        Bias-free filter's posterior (eq. 6.18, 6.19).
+    gamma_raw, P_gamma : ndarrays, shapes (4,), (4, 4)
+        Bias filter's posterior (eq. 6.13, 6.14), unclipped.
+    V : ndarray, shape (16, 4)
+        Coupling ``V_{k|k}`` (eq. 6.24).
+    x_bar_prior, P_x_prior, P_gamma_prior, V_prior : ndarrays
+        The latest time update's priors (eq. 6.15, 6.16, 6.11, 6.22).
+    residual, residual_cov : ndarrays, shapes (m,), (m, m)
+        ``r_{k+1} = y - C x_bar_{k+1|k}`` and ``S_bar_{k+1}`` (eq. 6.20) of the latest update.
+    innovation, innovation_cov : ndarrays, shapes (m,), (m, m)
+        ``r - H gamma_hat_{k+1|k}`` and ``H P^gamma H' + S_bar``: the innovation of the
+        equivalent augmented filter (what a consistency or fault test should use).
+    on_ground : bool
+        Whether the latest time update used the ground model.
 
     Notes
     -----
@@ -383,6 +406,7 @@ class TwoStageKalmanFilter:
                  noise: SensorNoise | None = None,
                  process_noise: TskfProcessNoise | None = None,
                  gamma_std0: float = 0.1,
+                 initial_uncertainty: InitialUncertainty | None = None,
                  ground_z_ned: float | None = 0.0,
                  ground_margin_m: float = 0.02) -> None:
         if not (math.isfinite(dt_s) and dt_s > 0):
@@ -401,6 +425,8 @@ class TwoStageKalmanFilter:
         self.noise = noise if noise is not None else SensorNoise()
         self.process_noise = process_noise if process_noise is not None else TskfProcessNoise()
         self.gamma_std0 = float(gamma_std0)
+        self.initial_uncertainty = (initial_uncertainty if initial_uncertainty is not None
+                                    else InitialUncertainty())
         self.ground_z_ned = ground_z_ned
         self.ground_margin_m = float(ground_margin_m)
         qc = self.process_noise.diagonal()
@@ -442,14 +468,13 @@ class TwoStageKalmanFilter:
             Time of the initial estimate, s.
         initial : StateEstimate or None
             Initial state and covariance diagonal; None: at rest at the origin, level, motors
-            off, with a wide covariance (the first mocap update pins position and attitude).
+            off, with the covariance of ``initial_uncertainty``.
         gamma0 : array_like, shape (4,), or None
             Initial gamma estimate (default zeros: healthy motors).
         """
         if initial is None:
             x0 = np.zeros(STATE_DIM)
-            std = np.array([0.5] * 3 + [0.5] * 3 + [0.3] * 3 + [0.2] * 3 + [1.0] * 4)
-            p0 = std ** 2
+            p0 = self.initial_uncertainty.diagonal()
         else:
             x0 = initial.to_vector()
             p0 = np.array(initial.covariance_diag, dtype=float)
