@@ -34,10 +34,11 @@ the vehicle by 10-17 deg. Both controllers therefore pass their torque through a
 :class:`MotorLead` (on by default, ``motor_lead_rad_s``): the discrete lead
 ``c2d(w_d/(s+w_d)) / c2d(w/(s+w))`` that cancels the (known, nominal) motor pole and puts a
 60 rad/s one in its place, so the lag-free model of eq. 5.10 becomes nearly true and the
-gains can be six to nine times stiffer. It multiplies a torque step by 3.2 at first and
-high-frequency noise by up to 3.9 (motor PWM noise about 2.5 % of hover with the raw
-sensor noise of docs/design.md, less behind an estimator). The loop stays stable with
-a motor 33 % slower than nominal plus a 10 ms measurement delay
+gains can be six to twelve times stiffer. It multiplies a torque step by 3.2 at first and
+high-frequency noise by up to 3.9: fed the raw sensor noise of docs/design.md (0.002 rad,
+0.003 rad/s) the motor PWM jitters by about 2.5 % (PD) or 5.5 % (LQR) of its hover value,
+less behind an estimator; the mean, hence the control effort, is unchanged. The loop
+stays stable with a motor 33 % slower than nominal plus a 10 ms measurement delay
 (tests/fcu/test_attitude_control.py).
 
 Per-axis model (eq. 5.10, hover, small angles): ``I_i * angle_ddot_i = U_{i+1}``; the
@@ -178,7 +179,8 @@ class AttitudePdGains:
 
     With the 60 rad/s lead, roll/pitch kp = 100 1/s^2, kd = 16 1/s (natural frequency
     10 rad/s, damping 0.8 on the ideal double integrator) keep the input sensitivity peak
-    at 1.4 with the motors and the 100 Hz hold, and leave a 2.7 deg standing error for a
+    at 1.6 with the motors, the 100 Hz hold and the position loop closed (2.2 with one
+    extra sample of measurement delay), and leave a 2.7 deg standing error for a
     0.14 N*m motor-fault torque (the PD has no integral: eq. 5.6; that is what the DOBs
     are for). Yaw is kept soft, kp = 16, kd = 7: its torque authority is small (K K_psi,
     about +/-0.16 N*m at hover), so every N*m of yaw torque costs 4.3 times the PWM of a
@@ -249,15 +251,17 @@ class LqrWeights:
 
     State per axis ``x = [int (angle - ref) dt, angle - ref, rate - ref_rate]``, input the
     torque deviation from ``I * ref_acc`` (N*m). Read as Bryson's rule (q = 1/x_max^2): roll
-    and pitch accept 0.074 deg of angle error, 1.0 deg/s of rate error and 1e-3 rad*s of
-    integrated error per 5 mN*m of torque. The resulting gains K/I = [151 1/s^3, 140 1/s^2,
-    18.6 1/s] put the discrete closed-loop poles at -9.2 +/- 6.6j rad/s and -1.3 rad/s (the
-    integral: a 0.8 s time constant), a little stiffer than the PD, as the thesis ranks
-    them. With the 60 rad/s :class:`MotorLead` and the real 15 rad/s motors the input
-    sensitivity peak is 1.5 (2.1-2.3 with one extra sample of delay). Raising q_angle or
-    q_integral buys fault rejection at the price of that peak and of motor noise. Yaw
-    (I = 0.04, weak torque authority, see :class:`AttitudePdGains`) is soft:
-    K/I = [12, 20, 7].
+    and pitch accept 0.052 deg of angle error, 0.81 deg/s of rate error and 5.8e-4 rad*s of
+    integrated error per 5 mN*m of torque. The resulting gains K/I = [256 1/s^3, 195 1/s^2,
+    22 1/s] put the discrete closed-loop poles near -11 +/- 7.5j rad/s and -1.6 rad/s (the
+    integral, a 0.63 s time constant), stiffer than the PD, as the thesis ranks them. With
+    the 60 rad/s :class:`MotorLead` and the real 15 rad/s motors the input sensitivity peak
+    is 1.6 (2.5-2.7 with one extra sample of measurement delay). That stiffness is what the
+    motor faults ask for: in the shipped scenario lqg_vbdob_loe (seed 1, EKF feedback, wind,
+    15 rad/s reference filter) LQR + VbDOB keeps the roll/pitch error under 2 deg and the
+    position error under 17 mm (the thesis's Table 7.7: 2.3 deg, 17 mm); the softer
+    q = (1e6, 6e5, 3e3) gives 2.6 deg and 25 mm with a peak of 1.5.
+    Yaw (I = 0.04, torque authority +/-0.16 N*m): K/I = [37, 47, 11], peak 1.25.
 
     ``integral_torque_limit_nm`` clamps the integral's share of the torque (``|k_int z|``),
     sized for faults: a 30 % loss of effectiveness on one motor needs about 0.2-0.25 N*m of
@@ -265,9 +269,9 @@ class LqrWeights:
     authority and +/-0.16 N*m of yaw.
     """
 
-    q_integral: tuple[float, float, float] = (1.0e6, 1.0e6, 1.0e4)  # 1/(rad*s)^2
-    q_angle: tuple[float, float, float] = (6.0e5, 6.0e5, 1.5e4)  # 1/rad^2
-    q_rate: tuple[float, float, float] = (3000.0, 3000.0, 700.0)  # 1/(rad/s)^2
+    q_integral: tuple[float, float, float] = (3.0e6, 3.0e6, 1.0e5)  # 1/(rad*s)^2
+    q_angle: tuple[float, float, float] = (1.2e6, 1.2e6, 1.0e5)  # 1/rad^2
+    q_rate: tuple[float, float, float] = (5000.0, 5000.0, 1500.0)  # 1/(rad/s)^2
     r_torque: tuple[float, float, float] = (4.0e4, 4.0e4, 4.0e4)  # 1/(N*m)^2
     integral_torque_limit_nm: tuple[float, float, float] = (0.5, 0.5, 0.15)  # N*m, |k_int z|
     motor_lead_rad_s: float | None = 60.0  # rad/s, MotorLead target; None = no lead

@@ -82,7 +82,7 @@ class AutopilotConfig:
     height_source: HeightSource = "mocap"  # height from motion capture or the barometer
     loop_rate_hz: float = 100.0  # Hz, control and estimation tick
     dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
-    attitude_ref_bandwidth_rad_s: float = 10.0  # rad/s, attitude reference filter
+    attitude_ref_bandwidth_rad_s: float = 15.0  # rad/s, attitude reference filter
     model: VehicleModel = field(default_factory=VehicleModel)
     position: PositionGains = field(default_factory=PositionGains)
     pd: AttitudePdGains = field(default_factory=AttitudePdGains)
@@ -160,7 +160,7 @@ class Autopilot:
                                                        cfg.attitude_ref_bandwidth_rad_s)
         self.attitude: AttitudeController = (
             AttitudeLQR(model, cfg.lqr, self.dt_s) if cfg.attitude == "lqg"
-            else AttitudePD(model, cfg.pd))
+            else AttitudePD(model, cfg.pd, self.dt_s))
         self.dob = make_dob(cfg.dob, model, self.dt_s, cfg.dob_cutoff_rad_s)
         self.allocator = Allocator(model)
         det = cfg.detector
@@ -225,8 +225,9 @@ class Autopilot:
                                            np.zeros(3), self._pwm, loe,
                                            self._detected())
             return self._pwm
-        if not self._flying:
+        if not self._flying:  # take-off: start from the current attitude, forget ground contact
             self.attitude_filter.reset(estimate.euler_rad)
+            self.dob.reset()
         self._flying = True
         ref = nav.reference
         assert ref is not None

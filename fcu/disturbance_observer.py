@@ -17,14 +17,16 @@ torque the measurement implies and the torque that was applied::
 constants: 2 % settling in about 5.8/w (AbDOB, double pole) or 3.9/w (VbDOB).
 
 Realisation and discretisation: each channel is a SISO python-control transfer function
-turned into state space; the two channels of an axis run in parallel (inputs
-[measurement, torque], one output), the three axes in block-diagonal form, and the whole is
-discretised with ``control.c2d(..., method="zoh")`` at the loop rate. ZOH is exact for the
-torque channel (the torque is held between ticks) and leaves the torque channel strictly
-proper, so the estimate at tick k never depends on the torque about to be computed from it
-(no algebraic loop). On the measurement channel ZOH treats the sampled angle or rate as a
-staircase, a half-sample lag (``w dt / 2 = 0.025`` rad of phase at ``w``) that the
-low-pass makes negligible.
+turned into state space, the three axes in block-diagonal form, and the two channels are
+discretised separately with ``control.c2d`` at the loop rate and summed:
+
+* torque channel, ZOH: exact, since the torque is held between ticks, and strictly
+  proper, so the estimate at tick k never depends on the torque about to be computed from
+  it (no algebraic loop);
+* measurement channel, FOH (triangle hold): the sampled angle or rate is a smooth signal,
+  and FOH is exact for ramps. ZOH would read the staircase of a constant-rate yaw as an
+  acceleration (a bias of about 5 mN*m per rad/s through the AbDOB's ``s^2``) and add
+  a half-sample lag; Tustin would also keep ``s = 0`` zeros but warps frequencies.
 
 Timing contract of :meth:`DisturbanceObserver.step`: call it once per tick with the newest
 measurement and the torque that was *applied over the interval just ended*, i.e. the torque
@@ -33,18 +35,20 @@ allocated on the previous tick (best: what the saturated PWM really produces,
 commands ``tau = tau_controller - d_hat``. The step first completes the state update of the
 last interval with that torque, then outputs the estimate for the current measurement.
 
-Motor lag. The thesis's nominal plants leave out the 15 rad/s motor lag, so the observer
-reads ``tau_commanded - tau_actual`` (about ``tau_dot / w``) as disturbance and feeds it
-back; with the lag the loop stays stable but its sensitivity peak rises (about 2.2 instead
-of 1.5 for the unmodified PD of eq. 5.6), and with the attitude controllers'
-:class:`~fcu.attitude_control.MotorLead` (which overdrives the motors on purpose) the
-commanded torque is not the torque acting at all. By default (:func:`make_dob` passes the
-model's ``motor_bandwidth``) the nominal plant therefore includes the known motor model,
+Motor lag. The thesis's nominal plants leave out the 15 rad/s motor lag (w_m), so the
+observer reads ``tau_commanded - tau_actual`` (about ``tau_dot / w_m``) as disturbance and
+feeds it back. The loop stays stable, but the margins shrink. Input sensitivity peaks of
+the VbDOB loop (per axis, position loop closed): 2.9 for a plain eq. 5.6 PD (kp = 16,
+kd = 7); with the attitude controllers' :class:`~fcu.attitude_control.MotorLead`, which
+overdrives the motors on purpose, 2.2 nominally but 24 when the motors are 33 % slower
+and the measurement 10 ms late. By default (:func:`make_dob` passes the model's
+``motor_bandwidth``) the nominal plant therefore includes the known motor model,
 ``G_n = w_m/(s + w_m) * 1/(I s^2)`` (resp. ``1/(I s)``), realised by filtering the torque
-channel: ``d_hat = Q [G_p^-1 y - w_m/(s + w_m) tau]``. The estimate of a constant
-disturbance and the filter Q are unchanged, and ZOH is exact for the held command through
-the motor model. ``motor_bandwidth_rad_s=None`` gives the thesis's form. Loop stability
-with the real lag is checked in tests/fcu/test_disturbance_observer.py for both.
+channel: ``d_hat = Q [I s^2 y - w_m/(s + w_m) tau]`` (resp. ``I s y``). The estimate of a
+constant disturbance and the filter Q are unchanged, ZOH stays exact for the held command
+through the motor model, and the peaks become 1.9, 1.6 and 6.4. ``motor_bandwidth_rad_s=None``
+gives the thesis's form. Loop stability with the real lag is checked in
+tests/fcu/test_disturbance_observer.py for both.
 """
 
 from __future__ import annotations
@@ -101,8 +105,16 @@ class NoDob:
         return np.zeros(3)
 
 
+def _block_system(systems: list[control.StateSpace]) -> control.StateSpace:
+    """Block-diagonal (one input and one output per axis) connection of SISO systems."""
+    return control.ss(block_diag(*[np.asarray(g.A) for g in systems]),
+                      block_diag(*[np.asarray(g.B) for g in systems]),
+                      block_diag(*[np.asarray(g.C) for g in systems]),
+                      block_diag(*[np.asarray(g.D) for g in systems]))
+
+
 class _DiscreteDob:
-    """Shared machinery: a 6-input (3 measurements, 3 torques), 3-output discrete filter."""
+    """Shared machinery: d_hat = F_meas(z) y + F_torque(z) tau, three axes."""
 
     kind = "abstract"
 
@@ -125,34 +137,28 @@ class _DiscreteDob:
             motor = control.tf([motor_bandwidth_rad_s], [1.0, motor_bandwidth_rad_s])
             channels = [(meas_tf, torque_tf * motor) for meas_tf, torque_tf in channels]
         self.channels = channels  # per axis (measurement filter, torque filter), continuous
-        a_blocks, b_blocks, c_blocks, d_blocks = [], [], [], []
-        for meas_tf, torque_tf in channels:
-            meas_ss, torque_ss = control.ss(meas_tf), control.ss(torque_tf)
-            # parallel connection: d_hat = F_meas(s) y + F_torque(s) tau
-            a_blocks.append(block_diag(meas_ss.A, torque_ss.A))
-            b_blocks.append(block_diag(meas_ss.B, torque_ss.B))
-            c_blocks.append(np.hstack([meas_ss.C, torque_ss.C]))
-            d_blocks.append(np.hstack([meas_ss.D, torque_ss.D]))
-        b = block_diag(*b_blocks)  # inputs ordered [y_x, tau_x, y_y, tau_y, y_z, tau_z]
-        d = block_diag(*d_blocks)
-        order = [0, 2, 4, 1, 3, 5]  # reorder inputs to [y(3), tau(3)]
-        self.continuous = control.ss(block_diag(*a_blocks), b[:, order], block_diag(*c_blocks),
-                                     d[:, order])
-        self.discrete = control.c2d(self.continuous, self.dt_s, method="zoh")
-        self._a = np.asarray(self.discrete.A)
-        self._b_meas, self._b_torque = np.hsplit(np.asarray(self.discrete.B), 2)
-        self._c = np.asarray(self.discrete.C)
-        self._d_meas, d_torque = np.hsplit(np.asarray(self.discrete.D), 2)
-        if not np.allclose(d_torque, 0.0):
+        # measurement: sampled, smooth -> FOH (exact for ramps: a constant rate reads as no
+        # acceleration); torque: held between ticks -> ZOH (exact, strictly proper)
+        meas = _block_system([control.ss(m) for m, _ in channels])
+        torque = _block_system([control.ss(t) for _, t in channels])
+        self.discrete_measurement = control.c2d(meas, self.dt_s, method="foh")
+        self.discrete_torque = control.c2d(torque, self.dt_s, method="zoh")
+        dm, dtq = self.discrete_measurement, self.discrete_torque
+        self._am, self._bm = np.asarray(dm.A), np.asarray(dm.B)
+        self._cm, self._dm = np.asarray(dm.C), np.asarray(dm.D)
+        self._at, self._bt, self._ct = np.asarray(dtq.A), np.asarray(dtq.B), np.asarray(dtq.C)
+        if not np.allclose(np.asarray(dtq.D), 0.0):
             raise AssertionError("torque channel must be strictly proper after ZOH")
-        # steady-state map for a constant measurement: x = (I - A)^-1 B_meas y
-        self._x_per_meas = np.linalg.solve(np.eye(self._a.shape[0]) - self._a, self._b_meas)
-        self._x = np.zeros(self._a.shape[0])
+        # steady-state map for a constant measurement: x = (I - A)^-1 B y
+        self._xm_per_meas = np.linalg.solve(np.eye(self._am.shape[0]) - self._am, self._bm)
+        self._xm = np.zeros(self._am.shape[0])
+        self._xt = np.zeros(self._at.shape[0])
         self._prev_meas: np.ndarray | None = None
 
     def reset(self) -> None:
         """Forget the filter state; the next step re-initialises at rest on its measurement."""
-        self._x = np.zeros(self._a.shape[0])
+        self._xm = np.zeros(self._am.shape[0])
+        self._xt = np.zeros(self._at.shape[0])
         self._prev_meas = None
 
     def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
@@ -164,14 +170,15 @@ class _DiscreteDob:
         y = self._measurement(euler_rad, rate_frd)
         if self._prev_meas is None:
             # start at rest on the first measurement: no derivative kick from y(0) != 0
-            self._x = self._x_per_meas @ y
+            self._xm = self._xm_per_meas @ y
         else:
             tau = np.asarray(torque_applied_nm, dtype=float).reshape(3)
-            # x[k] = A x[k-1] + B_y y[k-1] + B_tau tau[k-1]
-            self._x = self._a @ self._x + self._b_meas @ self._prev_meas + self._b_torque @ tau
+            # x[k] = A x[k-1] + B u[k-1], for each channel
+            self._xm = self._am @ self._xm + self._bm @ self._prev_meas
+            self._xt = self._at @ self._xt + self._bt @ tau
         self._prev_meas = y
-        # d_hat[k] = C x[k] + D_y y[k]   (D_tau = 0)
-        return self._c @ self._x + self._d_meas @ y
+        # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]   (D_tau = 0)
+        return self._cm @ self._xm + self._dm @ y + self._ct @ self._xt
 
 
 class AccelerationDob(_DiscreteDob):

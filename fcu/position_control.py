@@ -20,10 +20,12 @@ Rotating the desired body z axis ``b = -f/|f|`` back by the yaw reference,
     phi_d   = asin(-v_y)        = asin((-s_psi f_x + c_psi f_y) / |f|)
     theta_d = atan2(v_x, v_z)   = atan2(-(c_psi f_x + s_psi f_y), -f_z)
 
-(``f_x = mu_x``, ``f_y = mu_y``, ``-f_z = g - mu_z``). In the thesis's z-up frame this is
-``theta_d = asin((c_psi mu_x + s_psi mu_y) / (c_phi |f|))`` up to the frame's signs; the
-printed eq. 5.4 has ``- s_psi mu_y`` there, which is not the inverse of its own rotation.
-``atan2`` needs no ``cos(phi)`` division and is exact for any ``phi``. By construction the
+(``f_x = mu_x``, ``f_y = mu_y``, ``-f_z = g - mu_z``). The usual textbook form is
+``theta_d = asin(-(c_psi f_x + s_psi f_y) / (c_phi |f|))`` (the same angle while
+``cos(theta) > 0``; the test checks it); in the thesis's z-up frame its numerator reads
+``c_psi mu_x + s_psi mu_y``, whereas the printed eq. 5.4 has ``c_psi mu_x - s_psi mu_y``
+over ``c_psi |f|``, which does not invert its own rotation once psi != 0. ``atan2`` needs
+no ``cos(phi)`` division and is exact for any ``phi``. By construction the
 commanded (phi_d, theta_d, psi) and U1 reproduce ``mu`` exactly through
 ``a = g e3 - (U1/m) R e3`` (tests/fcu/test_position_control.py checks it).
 
@@ -61,14 +63,18 @@ _E3 = np.array([0.0, 0.0, 1.0])
 class PositionGains:
     """Gains and limits of eq. 5.3/5.4, per NED axis (north, east, down).
 
-    Horizontal: ``s^3 + kd s^2 + kp s + ki = (s + 3)(s + 1)(s + 0.5)`` on an ideal attitude
-    loop, i.e. kp = 5 1/s^2, kd = 4.5 1/s, ki = 1.5 1/s^3. With the real inner loop (the
-    default PD or LQR with its motor lead, with or without a DOB, the 15 rad/s motors and
-    the 100 Hz hold) and the attitude reference fed through
-    :class:`fcu.attitude_control.AttitudeReferenceFilter` (15 rad/s), the sensitivity peak
-    at the acceleration command stays at 1.6 over the six inner configurations (1.7 at
-    kp = 6, 1.4 at kp = 3). Without the reference filter, or with an attitude loop without
-    the motor lead, these gains are too stiff: use about kp = 1, kd = 1.6, ki = 0.2 there.
+    Horizontal: kp = 8 1/s^2, kd = 6 1/s, ki = 3 1/s^3, i.e.
+    ``s^3 + kd s^2 + kp s + ki = (s + 4.3)(s + 1)(s + 0.7)`` on an ideal attitude loop. With
+    the real inner loop (the default PD or LQR with its motor lead, with or without a DOB,
+    the 15 rad/s motors and the 100 Hz hold) and the attitude reference fed through
+    :class:`fcu.attitude_control.AttitudeReferenceFilter` at its default 15 rad/s, the
+    sensitivity peak at the acceleration command is at most 1.9 over the six inner
+    configurations (1.8 with one more sample of delay; 1.6 at kp = 5, 2.2 at kp = 10). A
+    10 rad/s reference filter raises it to 2.9: keep the filter at 15 rad/s with these
+    gains. The stiffness is for wind: over the thesis mission with Dryden wind and sensor
+    noise, kp = 8 halves the horizontal RMS error of kp = 5 (about 4 mm instead of 7 mm).
+    Without the reference filter, or with an attitude loop without the motor lead, these
+    gains are far too stiff: use about kp = 1, kd = 1.6, ki = 0.2 there.
 
     Vertical: thrust acts through the 15 rad/s motor lag only: kp = 9, kd = 5.5, ki = 3
     (closed-loop poles near -2.5 +/- 0.6j and -0.44 rad/s; crossover 5.3 rad/s, 52 deg of
@@ -82,9 +88,9 @@ class PositionGains:
     attitude torques).
     """
 
-    kp: tuple[float, float, float] = (5.0, 5.0, 9.0)  # 1/s^2, m error -> m/s^2
-    kd: tuple[float, float, float] = (4.5, 4.5, 5.5)  # 1/s, m/s error -> m/s^2
-    ki: tuple[float, float, float] = (1.5, 1.5, 3.0)  # 1/s^3, m*s error -> m/s^2
+    kp: tuple[float, float, float] = (8.0, 8.0, 9.0)  # 1/s^2, m error -> m/s^2
+    kd: tuple[float, float, float] = (6.0, 6.0, 5.5)  # 1/s, m/s error -> m/s^2
+    ki: tuple[float, float, float] = (3.0, 3.0, 3.0)  # 1/s^3, m*s error -> m/s^2
     integral_limit: tuple[float, float, float] = (4.0, 4.0, 4.0)  # m/s^2, |ki int e|
     tilt_max_rad: float = float(np.radians(30.0))  # rad, max angle of thrust from vertical
     thrust_min_fraction: float = 0.05  # of 4 K pwm_max (N), lowest U1 commanded
