@@ -436,6 +436,7 @@ def test_tskf_equals_the_augmented_state_kalman_filter() -> None:
         kf.predict(u=np.append(u, 1.0), B=b_aug, F=f_aug,
                    Q=block_diag(lm.q_d, q_gamma * np.eye(4)))
         c, y, r_diag = _measurement_rows(samples, t)
+        kf.dim_z = len(y)  # this tick's measurement set (mocap may be missing)
         kf.update(y, R=np.diag(r_diag), H=np.hstack((c, np.zeros((len(y), 4)))))
         sd = np.sqrt(np.diag(kf.P))
         worst_x = max(worst_x, float(np.max(np.abs(np.append(tskf.x_hat, tskf.gamma_raw)
