@@ -59,6 +59,7 @@ class FlightResult:
     sim_s: float
     wall_s: float
     metrics: dict[str, Any] = field(default_factory=dict)
+    interrupted: bool = False  # ended early by Ctrl-C (``fly(..., interruptible=True)``)
 
 
 class _Recorder:
@@ -100,9 +101,11 @@ def start_mission(autopilot: Autopilot, scenario: Scenario) -> list[str]:
 
 
 TickCallback = Callable[[World, Autopilot], None]
+EventCallback = Callable[[float, str, str], None]
 
 
-def fly(scenario: Scenario, *, on_tick: TickCallback | None = None) -> FlightResult:
+def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
+        on_event: EventCallback | None = None, interruptible: bool = False) -> FlightResult:
     """Fly ``scenario`` headless and return its log, events and thesis-style metrics.
 
     Parameters
@@ -112,6 +115,13 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None) -> FlightRes
     on_tick : callable, optional
         Called after every autopilot tick with the world and the autopilot (recorders,
         progress display). Must not change either.
+    on_event : callable, optional
+        Called with ``(time_s, source, text)`` as each event is recorded (the same tuples
+        as :attr:`FlightResult.events`, as they happen), before ``on_tick`` of that tick.
+    interruptible : bool
+        When True, a KeyboardInterrupt (Ctrl-C) after the first tick ends the flight there:
+        the result covers the ticks flown and has ``interrupted = True``. When False (the
+        default) the interrupt propagates.
     """
     world = World(scenario.world, scenario.seed)
     for fault in scenario.faults:
@@ -127,50 +137,69 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None) -> FlightRes
     rec = _Recorder(n_ticks + 1)
     events: list[tuple[float, str, str]] = []
 
+    def record(time_s: float, source: str, text: str) -> None:
+        events.append((time_s, source, text))
+        if on_event is not None:
+            on_event(time_s, source, text)
+
     wall0 = time.perf_counter()
     pwm = autopilot.step(0.0, [])
     for refusal in start_mission(autopilot, scenario):
-        events.append((0.0, "runner", refusal))
-    for _ in range(n_ticks):
-        samples = world.step(pwm, steps_per_tick)
-        t = world.time_s
-        pwm = autopilot.step(t, samples)
-        status = autopilot.status
-        assert status is not None
-        x = world.plant.state
-        k = rec.n
-        rec.t[k] = t
-        rec.pos[k] = x[0:3]
-        rec.euler[k] = _euler_of(x)
-        rec.est_pos[k] = status.estimate.pos_ned
-        rec.pwm[k] = pwm
-        rec.loe_est[k] = status.loe_estimate
-        rec.loe_true[k] = world.faults.true_loe(t)
-        rec.wind[k] = world.wind_ned
-        if (status.reference is not None and status.attitude_reference is not None
-                and not world.plant.on_ground):
-            rec.flying[k] = True
-            rec.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
-            rec.ref_pos[k] = status.reference.pos_ned
-            rec.ref_euler[k] = status.attitude_reference.euler_rad
-        else:
-            rec.ref_pos[k] = rec.pos[k]
-            rec.ref_euler[k] = rec.euler[k]
-        rec.n += 1
-        for ev in autopilot.drain_events():
-            events.append((ev.time_s, "autopilot", ev.text))
-        for wev in world.drain_events():
-            if isinstance(wev, FaultEvent):
-                events.append((wev.time_s, "sim", f"{wev.kind}: {wev.description}"))
-            elif isinstance(wev, PlantEvent):
-                events.append((wev.time_s, "sim", wev.description))
-        if on_tick is not None:
-            on_tick(world, autopilot)
+        record(0.0, "runner", refusal)
+    interrupted = False
+    try:
+        for _ in range(n_ticks):
+            pwm = _tick(world, autopilot, pwm, steps_per_tick, rec, record)
+            if on_tick is not None:
+                on_tick(world, autopilot)
+    except KeyboardInterrupt:
+        if not interruptible or rec.n == 0:
+            raise
+        interrupted = True
     wall_s = time.perf_counter() - wall0
     log = rec.log()
-    result = FlightResult(scenario, log, events, world.plant.crashed, world.time_s, wall_s)
+    result = FlightResult(scenario, log, events, world.plant.crashed, world.time_s, wall_s,
+                          interrupted=interrupted)
     result.metrics = flight_metrics(result, autopilot)
     return result
+
+
+def _tick(world: World, autopilot: Autopilot, pwm: np.ndarray, steps_per_tick: int,
+          rec: _Recorder, record: EventCallback) -> np.ndarray:
+    """One autopilot tick: step the world, the autopilot, log it; returns the new PWM."""
+    samples = world.step(pwm, steps_per_tick)
+    t = world.time_s
+    pwm = autopilot.step(t, samples)
+    status = autopilot.status
+    assert status is not None
+    x = world.plant.state
+    k = rec.n
+    rec.t[k] = t
+    rec.pos[k] = x[0:3]
+    rec.euler[k] = _euler_of(x)
+    rec.est_pos[k] = status.estimate.pos_ned
+    rec.pwm[k] = pwm
+    rec.loe_est[k] = status.loe_estimate
+    rec.loe_true[k] = world.faults.true_loe(t)
+    rec.wind[k] = world.wind_ned
+    if (status.reference is not None and status.attitude_reference is not None
+            and not world.plant.on_ground):
+        rec.flying[k] = True
+        rec.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
+        rec.ref_pos[k] = status.reference.pos_ned
+        rec.ref_euler[k] = status.attitude_reference.euler_rad
+    else:
+        rec.ref_pos[k] = rec.pos[k]
+        rec.ref_euler[k] = rec.euler[k]
+    rec.n += 1
+    for ev in autopilot.drain_events():
+        record(ev.time_s, "autopilot", ev.text)
+    for wev in world.drain_events():
+        if isinstance(wev, FaultEvent):
+            record(wev.time_s, "sim", f"{wev.kind}: {wev.description}")
+        elif isinstance(wev, PlantEvent):
+            record(wev.time_s, "sim", wev.description)
+    return pwm
 
 
 def _euler_of(x: np.ndarray) -> np.ndarray:

@@ -3,11 +3,19 @@
 Usage::
 
     ftc-scenario list
-    ftc-scenario run NAME|FILE.toml [--seed N] [--json PATH]
+    ftc-scenario run NAME|FILE.toml [--seed N] [--json PATH] [--rrd PATH] [--rerun]
+                                    [--figures DIR]
     ftc-scenario thesis [--out DIR] [--json PATH] [--seed N] [--jobs N]
 
+``run`` shows a live progress line on stderr when it is a terminal (simulated time, real-time
+factor, flight phase) and a final line otherwise. ``--rrd`` records the flight, with truth, to
+a rerun ``.rrd`` file, ``--rerun`` streams it to a rerun viewer it starts (:mod:`sim.recording`)
+and ``--figures`` writes the thesis-style figures as PNG and PDF (:mod:`sim.figures`).
+
 Bad input (unknown scenario, bad file, bad value) prints one line naming what was wrong and
-exits with status 2; a crash of the simulated vehicle exits with status 1.
+exits with status 2; a crash of the simulated vehicle exits with status 1. Ctrl-C ends a run
+early: what was flown so far is still recorded, drawn and summarised, and the exit status is
+130.
 """
 
 from __future__ import annotations
@@ -46,15 +54,51 @@ def _write_json(path: str, data: Any) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from sim.progress import ProgressLine
     from sim.runner import fly
 
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
-    result = fly(scenario)
+    progress = ProgressLine(sys.stderr, scenario.name, scenario.duration_s,
+                            live=sys.stderr.isatty())
+    recorder = None
+    if args.rrd or args.rerun:
+        from sim.recording import open_recorder
+
+        recorder = open_recorder(scenario, rrd_path=args.rrd, spawn=args.rerun)
+    ticks = [progress.on_tick] if recorder is None else [recorder.on_tick, progress.on_tick]
+
+    def on_tick(world: Any, autopilot: Any) -> None:
+        for tick in ticks:
+            tick(world, autopilot)
+
+    try:
+        result = fly(scenario, on_tick=on_tick,
+                     on_event=None if recorder is None else recorder.on_event,
+                     interruptible=True)
+    except KeyboardInterrupt:  # before the first tick: nothing flown to report
+        progress.finish(note="interrupted")
+        raise
+    finally:
+        if recorder is not None:
+            recorder.close()
+    progress.finish(result.sim_s, result.wall_s, note="interrupted" if result.interrupted else "")
     _print_run(result.metrics)
     if args.json:
         _write_json(args.json, result.metrics)
+    if args.figures:
+        from sim.figures import save_figures
+
+        written = save_figures(result.log, args.figures, name=scenario.name,
+                               events=result.events)
+        print(f"figures: {len(written)} kinds as PNG and PDF in {args.figures}")
+    if args.rrd:
+        print(f"recording: {args.rrd} (open it with: rerun {args.rrd})")
+    if result.interrupted:
+        print(f"ftc-scenario: interrupted at t = {result.sim_s:.2f} s; the outputs cover the "
+              "flight so far", file=sys.stderr)
+        return 130
     return 1 if result.crashed else 0
 
 
@@ -82,6 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("scenario", help="a shipped scenario name or a scenario .toml file")
     run.add_argument("--seed", type=_seed, help="override the scenario's seed")
     run.add_argument("--json", metavar="PATH", help="write the run's metrics as JSON")
+    run.add_argument("--rrd", metavar="PATH",
+                     help="record the flight (with truth) to a rerun .rrd file")
+    run.add_argument("--rerun", action="store_true",
+                     help="start a rerun viewer and stream the flight to it live")
+    run.add_argument("--figures", metavar="DIR",
+                     help="write the thesis-style figures (PNG and PDF) into DIR")
     run.set_defaults(func=cmd_run)
     lst = sub.add_parser("list", help="name the shipped scenarios")
     lst.set_defaults(func=cmd_list)

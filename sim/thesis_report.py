@@ -3,18 +3,24 @@
 The thesis figures come from ``sim/data/thesis_tables.toml`` (a copy kept inside the package).
 Errors are reference minus truth, RMS and maximum over the flight (m and deg); control effort
 is the time mean of the sum of the four PWM commands.
+
+With an output directory, each run's thesis-style figures (:mod:`sim.figures`, PNG and PDF) are
+drawn in the worker process that flew it, into ``DIR/figures/<run>/``, and the report embeds
+them next to the tables with relative links.
 """
 
 from __future__ import annotations
 
 import math
 import multiprocessing
-import tomllib
+import signal
 from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import IO, Any
+
+import tomllib
 
 #: Table 7.2, 7.4-7.10 runs, in thesis order.
 THESIS_RUNS = ("baseline", "lqg_loe", "pd_loe", "pd_vbdob_loe", "lqg_vbdob_loe",
@@ -40,21 +46,50 @@ class ThesisReport:
     markdown: str
 
 
-def _run_one(args: tuple[str, int | None]) -> dict[str, Any]:
+#: Figures embedded next to each run's table (all kinds are written).
+REPORT_FIGURES = ("trajectory", "xyz", "rpy", "pwm", "loe")
+
+
+def _run_one(args: tuple[str, int | None, str | None]) -> dict[str, Any]:
+    """Fly one scenario; with an output directory, draw its figures there too.
+
+    Returns the run's metrics, plus ``"figures"``: kind -> paths relative to the output
+    directory (PNG first, then PDF) when figures were drawn.
+    """
     from sim.runner import fly
     from sim.scenario import load_scenario
 
-    name, seed = args
+    name, seed, out_dir = args
     scenario = load_scenario(name)
     if seed is not None:
         scenario = scenario.with_seed(seed)
-    return fly(scenario).metrics
+    result = fly(scenario)
+    metrics = dict(result.metrics)
+    if out_dir is not None:
+        from sim.figures import save_figures
+
+        root = Path(out_dir)
+        written = save_figures(result.log, root / "figures" / name, name=name,
+                               events=result.events)
+        metrics["figures"] = {kind: [p.relative_to(root).as_posix() for p in paths]
+                              for kind, paths in written.items()}
+    return metrics
+
+
+def _ignore_sigint() -> None:
+    """Worker initializer: Ctrl-C is the parent's to handle (it terminates the pool)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def run_all(names: Sequence[str], seed: int | None = None, jobs: int = 2,
-            progress: IO[str] | None = None) -> dict[str, dict[str, Any]]:
-    """Fly the named scenarios (in parallel processes when ``jobs`` > 1)."""
-    work = [(n, seed) for n in names]
+            progress: IO[str] | None = None,
+            out_dir: Path | None = None) -> dict[str, dict[str, Any]]:
+    """Fly the named scenarios (in parallel processes when ``jobs`` > 1).
+
+    With ``out_dir``, each run's figures go to ``out_dir/figures/<name>/`` (see
+    :func:`_run_one`).
+    """
+    work = [(n, seed, None if out_dir is None else str(out_dir)) for n in names]
     out: dict[str, dict[str, Any]] = {}
     if jobs <= 1:
         results = map(_run_one, work)
@@ -63,7 +98,7 @@ def run_all(names: Sequence[str], seed: int | None = None, jobs: int = 2,
             _progress(progress, name, metrics, len(out), len(names))
         return out
     ctx = multiprocessing.get_context("fork")
-    with ctx.Pool(jobs) as pool:
+    with ctx.Pool(jobs, initializer=_ignore_sigint) as pool:
         for metrics in pool.imap_unordered(_run_one, work):
             out[metrics["name"]] = metrics
             _progress(progress, metrics["name"], metrics, len(out), len(names))
@@ -121,6 +156,7 @@ def render_markdown(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) 
         lines.append(f"| effort | {_fmt(row.get('effort'), 5)} | "
                      f"{ours['control_effort']:.5f} | | |")
         lines.append("")
+        lines += _figure_lines(name, ours, REPORT_FIGURES)
     if all(n in metrics for n in ("pd_loe", "pd_vbdob_loe", "pd_abdob_loe")):
         pd = attitude_rms_norm(metrics["pd_loe"])
         t_pd = _thesis_attitude_norm(tables["runs"]["pd_loe"])
@@ -149,6 +185,14 @@ def render_markdown(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) 
                          f"{row['effort']:.5f} | {ours['control_effort']:.5f} | "
                          f"{diff:+.1f} % | {'yes' if ours['crashed'] else 'no'} |")
         lines.append("")
+        linked = [c for c in cases if "figures" in metrics[c]]
+        if linked:
+            lines += ["Figures of each case (PNG):", ""]
+            lines += [f"- {case}: " + ", ".join(
+                f"[{kind}]({metrics[case]['figures'][kind][0]})"
+                for kind in REPORT_FIGURES if kind in metrics[case]["figures"])
+                for case in linked]
+            lines.append("")
     if "tskf_step" in metrics:
         lines += ["## TSKF, Table 6.1 step profile", "",
                   "| motor | fault at (s) | injected | within 0.05 for good after (s) | "
@@ -160,6 +204,7 @@ def render_markdown(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) 
                          f"{_fmt(conv['settled_after_s'], 2)} | "
                          f"{final[conv['motor'] - 1]:.3f} |")
         lines.append("")
+        lines += _figure_lines("tskf_step", ours, ("loe",))
     detections = [(n, d) for n, m in metrics.items() for d in m["detections"]]
     if detections:
         lines += ["## Fault detections", "", "| run | time (s) | message |", "|---|---:|---|"]
@@ -168,12 +213,34 @@ def render_markdown(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) 
     return "\n".join(lines)
 
 
+_FIGURE_CAPTIONS = {
+    "trajectory": "trajectory (Fig. 7.3)",
+    "xyz": "X, Y, Z and errors (Fig. 7.4-7.6)",
+    "rpy": "roll, pitch, yaw and errors (Fig. 7.7-7.8)",
+    "pwm": "motor PWM (Fig. 7.9)",
+    "loe": "effectiveness, injected and estimated (Fig. 6.2)",
+}
+
+
+def _figure_lines(name: str, metrics: dict[str, Any], kinds: Sequence[str]) -> list[str]:
+    """Markdown images (PNG) of ``kinds`` with a line of PDF links; [] without figures."""
+    figures = metrics.get("figures")
+    if not figures:
+        return []
+    present = [k for k in kinds if k in figures]
+    lines = [f"![{name}: {_FIGURE_CAPTIONS.get(k, k)}]({figures[k][0]})" for k in present]
+    pdfs = [f"[{k}]({p})" for k in present for p in figures[k][1:] if p.endswith(".pdf")]
+    if pdfs:
+        lines += ["", "PDF: " + ", ".join(pdfs)]
+    return [*lines, ""]
+
+
 def run_thesis(out_dir: Path | None = None, seed: int | None = None, jobs: int = 2,
                progress: IO[str] | None = None,
                names: Sequence[str] | None = None) -> ThesisReport:
     """Run the chapter-7 set and render the report (written to ``out_dir/report.md``)."""
     names = list(names) if names is not None else [*THESIS_RUNS, *EXTRA_RUNS, *THESIS_CASES]
-    metrics = run_all(names, seed=seed, jobs=jobs, progress=progress)
+    metrics = run_all(names, seed=seed, jobs=jobs, progress=progress, out_dir=out_dir)
     markdown = render_markdown(metrics, thesis_tables())
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -16,7 +16,7 @@ FORBIDDEN = {"fcu": {"sim", "gcs"}, "gcs": {"fcu", "sim"}, "sim": {"gcs"}}
 # sim modules allowed to import fcu: the composition roots and their helpers
 SIM_COMPOSITION_ROOTS = {"runner", "scenario", "scenario_cli", "vehicle", "vehicle_cli",
                          "vehicle_port", "demo", "bench", "thesis_report", "recording",
-                         "figures"}
+                         "figures", "progress"}
 
 
 def imported_packages(path: Path) -> set[str]:
