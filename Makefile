@@ -14,7 +14,7 @@ $(BIN)/.installed: pyproject.toml
 setup: $(BIN)/.installed
 
 demo: setup
-	$(BIN)/python -m sim.demo
+	$(BIN)/ftc-gcs demo
 
 test: setup
 	$(BIN)/python -m pytest -q

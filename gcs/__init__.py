@@ -1,1 +1,8 @@
-"""gcs."""
+"""The ground station: drives a vehicle over MAVLink with pymavlink only (never fcu or sim).
+
+Modules: :mod:`gcs.mavlink` (dialect and wire version, .tlog reading), :mod:`gcs.station`
+(the link: commands, parameters, missions, injections), :mod:`gcs.flight` (the whole flight),
+:mod:`gcs.analysis` (the thesis table from telemetry), :mod:`gcs.mission`,
+:mod:`gcs.faults`, :mod:`gcs.records` (.tlog and event log), :mod:`gcs.spawn` (a vehicle child
+process), :mod:`gcs.cli` (``ftc-gcs``), :mod:`gcs.pytest_plugin` (the ``vehicle_link`` fixture).
+"""

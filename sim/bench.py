@@ -4,6 +4,18 @@
                                    under a hover command at the default plant rate (500 Hz)
     ftc-bench stack [--repeat N]   real-time factor of the full stack over a 60 s thesis
                                    flight: plant + wind + sensors + EKF + TSKF + LQG + AbDOB
+    ftc-bench vehicle-speedup [--repeat N] [--speedup X] [--realtime]
+                                   the vehicle process (``python -m sim``) at ``--speedup``
+                                   (default 20) flying the thesis mission for 60 s simulated,
+                                   a pymavlink client reading every message: simulated time /
+                                   wall time, seen by the client from the telemetry's clock
+    ftc-bench vehicle-jitter [--seconds S] [--realtime]
+                                   the vehicle process in real time (--speedup 1) flying the
+                                   thesis mission with a client connected: the control-loop
+                                   tick period from the vehicle's ``--timing-log``, its
+                                   deviation from 10 ms (p50, p99, max) and the busy time
+                                   (``--realtime``: the vehicle runs at SCHED_FIFO priority)
+    ftc-bench [all]                plant, then stack
 
 Each figure is the median of ``--repeat`` runs (machines are shared and noisy), with the
 spread, measured with the process's CPU time as well as the wall clock. Numba kernels are
@@ -13,11 +25,18 @@ compiled (or loaded from the cache) before timing starts.
 from __future__ import annotations
 
 import argparse
+import re
+import select
+import signal
+import socket
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -65,13 +84,157 @@ def _report(label: str, once: Callable[[], tuple[float, float]], repeat: int) ->
     print(f"  real-time factor (CPU):  median {statistics.median(rtf_cpu):.1f}x")
 
 
+@dataclass
+class _VehicleRun:
+    """What a client saw of one vehicle-process flight."""
+
+    sim_s: float  # s, simulated time covered by the telemetry after the start
+    wall_s: float  # s, wall time over which it arrived
+    messages: int  # messages parsed by the client
+    vehicle_line: str  # the vehicle's own summary line
+
+    @property
+    def ratio(self) -> float:
+        return self.sim_s / self.wall_s
+
+
+def _fly_vehicle(speedup: float, sim_s: float, timing_log: Path | None = None,
+                 extra: Sequence[str] = ()) -> _VehicleRun:
+    """Start ``python -m sim``, fly the thesis mission from a client, read every message.
+
+    The vehicle boots paused with the mission loaded; the client arms, switches to AUTO,
+    starts the mission and sets SIM_PAUSE 0, sending GCS heartbeats at 1 Hz (wall) and
+    parsing all telemetry until the vehicle stops after ``sim_s`` simulated seconds.
+    """
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+    sock.bind(("127.0.0.1", 0))
+    args = [sys.executable, "-m", "sim", "--bind", "127.0.0.1:0", "--out",
+            f"127.0.0.1:{sock.getsockname()[1]}", "--speedup", f"{speedup:g}", "--duration",
+            f"{sim_s:g}", "--load-mission", "--start-paused"]
+    if timing_log is not None:
+        args += ["--timing-log", str(timing_log)]
+    args += list(extra)
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    codec = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    try:
+        line = proc.stdout.readline()
+        match = re.search(r"listening on udp ([\d.]+):(\d+)", line)
+        if match is None:
+            raise RuntimeError(f"vehicle did not start: {line!r}")
+        vehicle = (match.group(1), int(match.group(2)))
+
+        def send(msg: object) -> None:
+            sock.sendto(msg.pack(codec), vehicle)  # type: ignore[attr-defined]
+            codec.seq = (codec.seq + 1) % 256
+
+        send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0,
+                                           0, 3))
+        for command, p1, p2 in ((mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 0),
+                                (mav.MAV_CMD_DO_SET_MODE, 1, 3),
+                                (mav.MAV_CMD_MISSION_START, 0, 0)):
+            send(mav.MAVLink_command_long_message(1, 1, command, 0, p1, p2, 0, 0, 0, 0, 0))
+        send(mav.MAVLink_param_set_message(1, 1, b"SIM_PAUSE", 0.0, mav.MAV_PARAM_TYPE_REAL32))
+        first: tuple[float, float] | None = None  # (wall, simulated) of the first sample
+        last = (0.0, 0.0)
+        count = 0
+        last_heartbeat = time.monotonic()
+        while proc.poll() is None or select.select([sock], [], [], 0.2)[0]:
+            if not select.select([sock], [], [], 0.2)[0]:
+                continue
+            data = sock.recv(65535)
+            now = time.monotonic()
+            parser = mav.MAVLink(None)
+            parser.robust_parsing = True
+            for msg in parser.parse_buffer(data) or []:
+                count += 1
+                time_ms = getattr(msg, "time_boot_ms", None)
+                if time_ms is not None and time_ms > 0:
+                    if first is None:
+                        first = (now, time_ms / 1000.0)
+                    last = (now, time_ms / 1000.0)
+            if now - last_heartbeat >= 1.0:
+                last_heartbeat = now
+                send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID,
+                                                   0, 0, 0, 3))
+        summary = proc.stdout.read().strip().splitlines()
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            proc.wait(30)
+        sock.close()
+    if first is None:
+        raise RuntimeError("no telemetry received")
+    return _VehicleRun(sim_s=last[1] - first[1], wall_s=last[0] - first[0], messages=count,
+                       vehicle_line=summary[-1] if summary else "")
+
+
+def _report_vehicle_speedup(speedup: float, repeat: int, realtime: bool) -> None:
+    extra = ["--realtime"] if realtime else []
+    runs = [_fly_vehicle(speedup, SIM_SECONDS, extra=extra) for _ in range(repeat)]
+    ratios = [r.ratio for r in runs]
+    rates = [r.messages / r.wall_s for r in runs]
+    print(f"vehicle process at --speedup {speedup:g}{' --realtime' if realtime else ''}, "
+          f"thesis mission, {SIM_SECONDS:.0f} s "
+          f"simulated, pymavlink client reading all telemetry, {repeat} runs")
+    print(f"  simulated / wall time (client): median {statistics.median(ratios):.1f}x  "
+          f"min {min(ratios):.1f}x  max {max(ratios):.1f}x")
+    print(f"  messages received: median {statistics.median(rates):.0f}/s (wall)")
+    for run in runs:
+        print(f"  vehicle: {run.vehicle_line}")
+
+
+def _report_vehicle_jitter(seconds: float, realtime: bool) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        log_path = Path(tmp) / "timing.csv"
+        run = _fly_vehicle(1.0, seconds, timing_log=log_path,
+                           extra=["--realtime"] if realtime else [])
+        table = np.loadtxt(log_path, delimiter=",", skiprows=1, ndmin=2)
+    start_s, busy_s = table[:, 1], table[:, 2]
+    period_ms = np.diff(start_s) * 1e3
+    deviation_ms = np.abs(period_ms - 10.0)
+    print(f"vehicle process in real time (--speedup 1{' --realtime' if realtime else ''}), "
+          f"thesis mission, {seconds:g} s, pymavlink client connected: {len(period_ms)} tick "
+          "periods")
+    print(f"  period: mean {period_ms.mean():.3f} ms, |period - 10 ms|: p50 "
+          f"{np.percentile(deviation_ms, 50):.3f} ms  p99 {np.percentile(deviation_ms, 99):.3f} "
+          f"ms  max {deviation_ms.max():.3f} ms")
+    busy_ms = busy_s * 1e3
+    print(f"  busy per tick (plant + autopilot + MAVLink): p50 {np.percentile(busy_ms, 50):.3f} "
+          f"ms  p99 {np.percentile(busy_ms, 99):.3f} ms  max {busy_ms.max():.3f} ms")
+    print(f"  client: {run.ratio:.3f}x real time, {run.messages / run.wall_s:.0f} messages/s")
+    print(f"  vehicle: {run.vehicle_line}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
-    parser.add_argument("what", choices=("plant", "stack", "all"), nargs="?", default="all")
-    parser.add_argument("--repeat", type=int, default=5, help="timed runs (default 5)")
+    parser.add_argument("what", choices=("plant", "stack", "vehicle-speedup", "vehicle-jitter",
+                                         "all"), nargs="?", default="all")
+    parser.add_argument("--repeat", type=int, default=None, help="timed runs (default 5; "
+                        "vehicle-speedup: 3)")
+    parser.add_argument("--speedup", type=float, default=20.0,
+                        help="vehicle-speedup: the vehicle's --speedup (default 20)")
+    parser.add_argument("--seconds", type=float, default=30.0,
+                        help="vehicle-jitter: simulated = wall seconds flown (default 30)")
+    parser.add_argument("--realtime", action="store_true",
+                        help="vehicle-*: run the vehicle with --realtime (SCHED_FIFO)")
     args = parser.parse_args(argv)
-    if args.repeat < 1:
+    if args.repeat is not None and args.repeat < 1:
         parser.error(f"--repeat {args.repeat}: must be >= 1")
+    if not 0 < args.speedup <= 1000:
+        parser.error(f"--speedup {args.speedup}: must be in (0, 1000]")
+    if not 1 <= args.seconds <= 600:
+        parser.error(f"--seconds {args.seconds}: must be in [1, 600]")
+    if args.what == "vehicle-speedup":
+        _report_vehicle_speedup(args.speedup, args.repeat or 3, args.realtime)
+        return 0
+    if args.what == "vehicle-jitter":
+        _report_vehicle_jitter(args.seconds, args.realtime)
+        return 0
+    args.repeat = args.repeat or 5
     if args.what in ("plant", "all"):
         _report("plant + wind + sensors, hover command, 500 Hz", _plant_once, args.repeat)
     if args.what in ("stack", "all"):

@@ -48,7 +48,6 @@ from fcu.navigator import MissionItem, thesis_mission
 from sim.airframe import Airframe
 from sim.config_loading import ConfigError, finite, from_mapping, load_toml, require
 from sim.faults import Fault, fault_from_mapping
-from sim.sensors import SensorConfig
 from sim.wind import WindConfig
 from sim.world import WorldConfig
 

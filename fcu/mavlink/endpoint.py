@@ -66,6 +66,11 @@ __all__ = ["EndpointConfig", "EndpointStats", "MavlinkEndpoint"]
 _M = mavlink2
 _log = logging.getLogger(__name__)
 _SETPOINT_STATUS_INTERVAL_S = 1.0  # s wall; set-point refusals arrive at stream rates
+# MAVLink FTP (https://mavlink.io/en/services/ftp.html): opcodes and error codes used here
+_FTP_ACK, _FTP_NAK = 128, 129
+_FTP_ACKED = frozenset({1, 2})  # TerminateSession, ResetSessions
+_FTP_FILE_OPS = frozenset({3, 4, 6, 7, 11, 12, 14, 15})  # list, open, create, remove, CRC, ...
+_FTP_ERR_UNKNOWN_COMMAND, _FTP_ERR_FILE_NOT_FOUND = 7, 10
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -336,10 +341,12 @@ class MavlinkEndpoint:
                     build.clamp_int(event.seq, 0, 0xFFFF, 0)))
 
     def _run_failsafe(self, wall_time_s: float) -> None:
-        config = self._failsafe_config()
         fs = self._failsafe
-        if not fs.active and not (fs.gcs_seen and config.action != FailsafeAction.DISABLED):
+        if not fs.active and not fs.gcs_seen:
             return
+        config = self._failsafe_config()
+        if not fs.active and not fs.overdue(wall_time_s, config):
+            return  # the common case, every tick: no snapshot needed
         snap = self._port.snapshot()
         was_active = fs.active
         action = fs.check(snap.armed, wall_time_s, config)
@@ -488,6 +495,30 @@ class MavlinkEndpoint:
         snap = self._port.snapshot()
         self._outbox.send(build.mission_current(snap, self._context()), addr)
 
+    def _ftp(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        """MAVLink FTP: this vehicle has no file server; say so at once.
+
+        Every request is answered with a NAK (``FileNotFound`` for opening or listing,
+        ``UnknownCommand`` otherwise; TerminateSession and ResetSessions are ACKed), so a
+        ground station that tries FTP first (MAVProxy fetches parameters over FTP) falls
+        back to the parameter protocol immediately instead of after its time-out.
+        """
+        if int(msg.target_network) != 0:
+            return
+        request = bytes(msg.payload)
+        seq, session, opcode = int.from_bytes(request[0:2], "little"), request[2], request[3]
+        if opcode in _FTP_ACKED:
+            reply_opcode, data = _FTP_ACK, b""
+        else:
+            error = _FTP_ERR_FILE_NOT_FOUND if opcode in _FTP_FILE_OPS else \
+                _FTP_ERR_UNKNOWN_COMMAND
+            reply_opcode, data = _FTP_NAK, bytes([error])
+        header = ((seq + 1) % 0x10000).to_bytes(2, "little") + bytes(
+            [session, reply_opcode, len(data), opcode, 0, 0]) + bytes(4)
+        payload = (header + data).ljust(251, b"\0")
+        self._outbox.send(_M.MAVLink_file_transfer_protocol_message(0, src[0], src[1],
+                                                                    list(payload)), addr)
+
     def _setpoint(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
         if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
             result = self._commands.position_target_local(msg)
@@ -520,6 +551,7 @@ class MavlinkEndpoint:
         "MISSION_SET_CURRENT": _mission_set_current,
         "SET_POSITION_TARGET_LOCAL_NED": _setpoint,
         "SET_POSITION_TARGET_GLOBAL_INT": _setpoint,
+        "FILE_TRANSFER_PROTOCOL": _ftp,
     }
 
     # ------------------------------------------------------------------ reboot

@@ -108,6 +108,15 @@ class GcsFailsafe:
         self._active = False
         return cleared
 
+    def overdue(self, wall_time_s: float, config: GcsFailsafeConfig) -> bool:
+        """Enabled, a GCS was seen, and its heartbeat is ``timeout_s`` old or older.
+
+        Needs nothing from the vehicle: a caller can skip :meth:`check` (and reading the
+        vehicle's armed state) while this is False and the failsafe is not active.
+        """
+        return (self._seen and config.action != FailsafeAction.DISABLED
+                and wall_time_s - self._last_heartbeat_s >= config.timeout_s)
+
     def check(self, armed: bool, wall_time_s: float,
               config: GcsFailsafeConfig) -> FailsafeAction | None:
         """The action to take now, once per loss; None otherwise.

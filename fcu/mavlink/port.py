@@ -13,29 +13,29 @@ Threading: the endpoint calls the port from the thread that calls
 :meth:`fcu.mavlink.endpoint.MavlinkEndpoint.tick`; the port need not be thread-safe if the
 composition root ticks the endpoint from its autopilot loop.
 
-Failure injection (MAV_CMD_INJECT_FAILURE, 420) as the injector is expected to map it
+Failure injection (MAV_CMD_INJECT_FAILURE, 420) as the simulator's injector maps it
 ------------------------------------------------------------------------------------
 The endpoint validates the numbers (known unit, known type, integer instance >= 0) and passes
 them through unchanged; the injector decides what it supports and answers
-``CommandResult.not_supported`` for the rest. The mapping we expect for this airframe
+``CommandResult.not_supported`` for the rest. The vehicle process (``sim/vehicle_port.py``,
+where the full table and the magnitudes live) maps them onto the simulator's fault kinds
 (instance 0 = every instance, 1..4 = that one; motors in the thesis numbering of
-docs/design.md; ``OK`` clears whatever the unit had):
+docs/design.md; ``OK`` clears whatever the unit had, except faults its ``SIM_*`` parameters
+hold):
 
 =====================  ====================================================================
 unit                   types
 =====================  ====================================================================
-GYRO 0, ACCEL 1        OFF: no samples; STUCK: last value frozen; GARBAGE: white noise of
-                       large amplitude; WRONG: constant bias; SLOW: rate divided; DELAYED:
-                       samples delayed; INTERMITTENT: random dropouts; DRIFT: bias ramp
-MAG 2                  acts on the mocap attitude (yaw) stream, same types as GYRO
-BARO 3                 same types as GYRO (SIM_BARO_GLITCH ~ WRONG, SIM_BARO_DRIFT ~ DRIFT,
-                       SIM_BARO_FREEZE ~ STUCK)
-GPS 4                  acts on the mocap position stream, same types as GYRO
-BATTERY 100            OFF: supply lost (all motors stop); WRONG: voltage reads low
-MOTOR 101              OFF: total loss of effectiveness of motor ``instance``; WRONG:
-                       partial loss (the injector's configured multiplier, cf.
-                       SIM_ENGINE_MUL); STUCK: PWM frozen at its current value; SLOW: motor
-                       bandwidth reduced; INTERMITTENT: random cut-outs
+GYRO 0, ACCEL 1,       OFF, STUCK: reading frozen at its last value; GARBAGE: uniform
+BARO 3                 readings over the sensor's full scale; WRONG: constant bias; DRIFT:
+                       bias ramp (SLOW, DELAYED, INTERMITTENT: unsupported)
+MAG 2                  acts on the heading of the mocap attitude stream, same types
+GPS 4                  acts on the mocap position stream, same types
+MOTOR 101              OFF: total loss of effectiveness; WRONG: partial loss (SIM_FI_LOE,
+                       cf. SIM_ENGINE_MUL); STUCK: command frozen at its current value;
+                       GARBAGE: hard-over (full output); DRIFT: slowly varying loss;
+                       INTERMITTENT: periodic cut-outs (SLOW, DELAYED: unsupported)
+BATTERY 100, others    unsupported (nothing simulated)
 =====================  ====================================================================
 """
 

@@ -1,0 +1,780 @@
+"""The thesis table from telemetry: what a ground station can compute from the MAVLink stream.
+
+:class:`FlightAnalyzer` is fed every packet of a flight in order (live from the link, or
+from a .tlog) and produces a :class:`FlightReport`. ``ftc-gcs fly`` and ``ftc-gcs report``
+run the same code over the same packets, so a report recomputed from a flight's .tlog equals
+the table printed at the end of that flight.
+
+Sources (vehicle messages; docs: fcu/mavlink/messages.py)
+---------------------------------------------------------
+=========================  ==================================================================
+reference position         POSITION_TARGET_LOCAL_NED x, y, z (m, NED about the origin)
+reference attitude         ATTITUDE_TARGET q -> ZYX roll, pitch, yaw
+true attitude              SIM_STATE roll, pitch, yaw (simulator truth)
+true position              SIM_STATE lat_int, lon_int (degE7; the float32 lat, lon where
+                           finer) and alt (m AMSL), turned into NED about the origin with the
+                           vehicle's flat-earth mapping (the origin from HOME_POSITION: home
+                           latitude/longitude/altitude minus home's local x, y, z). degE7
+                           resolves only ~1 cm horizontally, so north and east are the
+                           integral of SIM_STATE's true velocity vn, ve anchored to the mean
+                           geodetic position (:meth:`FlightAnalyzer.truth_ned`)
+motor commands             SERVO_OUTPUT_RAW servo1..4 = motors 1..4,
+                           u = pwm_max (PWM_us - 1000) / 1000
+LOE estimates              NAMED_VALUE_FLOAT LOE1..LOE4 (TSKF)
+detections                 STATUSTEXT "motor N lost about P % effectiveness"
+injections                 the simulator's own STATUSTEXT, whatever the route (a
+                           SIM_MOTn_LOE / SIM_ENGINE_* parameter, MAV_CMD_INJECT_FAILURE, a
+                           scenario's scheduled fault): "SIM: fault started: motor 3: loe 20 %
+                           (step)", "SIM: injected motor 1: ...", "SIM: SIM motor 4: motor 4:
+                           ...", and "... cleared/ended motor N: ..." when it goes away
+=========================  ==================================================================
+
+Time
+----
+Every vehicle message carrying ``time_boot_ms`` (simulated time), and every TIMESYNC answer
+(``tc1``, the vehicle's simulated time in ns when it handled the request), advances the clock;
+SIM_STATE (which has no time field) takes the clock of the message before it (the vehicle
+sends ATTITUDE ahead of SIM_STATE at each tick: keep ATTITUDE at least as fast as
+SIM_STATE). SERVO_OUTPUT_RAW's wrapping 32-bit ``time_usec`` is unwrapped against the clock.
+An event the vehicle reports between ticks (a STATUSTEXT, a COMMAND_ACK, a PARAM_VALUE) is
+dated with the first clock value that follows it: the vehicle answers in the tick whose
+telemetry comes right after, and a command's effect starts at that tick's time. A ground
+station that needs the exact time of a command sends a TIMESYNC request in the same datagram
+(the vehicle handles both in one go, answering the TIMESYNC with the time the command took
+effect, also while the simulation is paused); ``ftc-gcs fly`` does that for MISSION_START and
+every injection.
+
+Which samples count (mirrors ``sim.runner.flight_metrics``)
+-----------------------------------------------------------
+The runner takes the ticks where a reference was tracked and the vehicle was off the
+ground. Here: each SIM_STATE sample at which a POSITION_TARGET_LOCAL_NED and an
+ATTITUDE_TARGET younger than their own period exist (a reference that stops coming means an
+idle controller), and the true altitude above home exceeds ``airborne_alt_m``
+(0.1 mm: the plant holds it at exactly 0 while on the ground, so this is the runner's "not
+on the ground" up to SIM_STATE's float32 resolution). References, truth and motor commands
+are aligned by sample-and-hold on the vehicle's time stamps. Stream all five at the
+autopilot's 100 Hz for a one-to-one match with the runner's ticks (``ftc-gcs fly`` asks for
+that).
+
+Errors are reference minus truth: RMS and maximum of |error| in x, y, z (m) and roll, pitch,
+yaw (deg, wrapped to +-180); control effort is the mean over those samples of the sum of
+the four motor commands (thesis Table 7.2: 0.0796 at hover).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gcs.mavlink import MAVLinkMessage, mavlink2, read_tlog
+
+__all__ = [
+    "AXES",
+    "Detection",
+    "FlightAnalyzer",
+    "FlightEvent",
+    "FlightReport",
+    "Injection",
+    "analyze_tlog",
+    "euler_from_quat",
+    "format_report",
+]
+
+_M = mavlink2
+AXES = (("x", "m"), ("y", "m"), ("z", "m"), ("roll", "deg"), ("pitch", "deg"), ("yaw", "deg"))
+PWM_MAX = 0.05  # motor command at full power (Qball-X4, thesis Table 7.1)
+WGS84_A_M = 6378137.0  # m
+WGS84_E2 = 6.69437999014e-3
+_DETECTION = re.compile(r"motor\s+(\d)\s+lost about\s+(\d+(?:\.\d+)?)\s*%\s*effectiveness",
+                        re.IGNORECASE)
+_CRASH = re.compile(r"\bcrash", re.IGNORECASE)
+# the simulator's fault STATUSTEXTs (sim/vehicle_port.py, sim/faults.py describe())
+_FAULT_ON = re.compile(r"^SIM: (?:fault started: |injected |SIM motor [1-4]: )motor ([1-4]): ")
+_FAULT_OFF = re.compile(r"^SIM: (?:fault (?:ended|cleared): |cleared |ended )motor ([1-4]): ")
+_UINT32_US = 1 << 32
+
+
+def euler_from_quat(q_wxyz: Iterable[float]) -> tuple[float, float, float]:
+    """ZYX roll, pitch, yaw (rad) of a quaternion [w, x, y, z], body FRD to NED."""
+    w, x, y, z = (float(v) for v in q_wxyz)
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def metres_per_degree(lat_deg: float) -> tuple[float, float]:
+    """Metres per degree of latitude and longitude at ``lat_deg`` (WGS84 radii of curvature)."""
+    s2 = math.sin(math.radians(lat_deg)) ** 2
+    w = math.sqrt(1.0 - WGS84_E2 * s2)
+    rad = math.pi / 180.0
+    return (WGS84_A_M * (1.0 - WGS84_E2) / (w * w * w) * rad,
+            WGS84_A_M / w * math.cos(math.radians(lat_deg)) * rad)
+
+
+def _text(raw: object) -> str:
+    if isinstance(raw, bytes | bytearray):
+        raw = bytes(raw).decode("ascii", errors="replace")
+    return str(raw).split("\x00", 1)[0]
+
+
+def _f32(value: float) -> float:
+    return float(np.float32(value))
+
+
+@dataclass(frozen=True)
+class FlightEvent:
+    """Something the ground station saw, for the event log.
+
+    Attributes
+    ----------
+    time_s : float or None
+        Vehicle simulated time, s.
+    kind : str
+        ACK, PARAM, STATUS, MODE, ARM, MISSION, LANDED, INJECT, DETECT, CRASH.
+    text : str
+    """
+
+    time_s: float | None
+    kind: str
+    text: str
+
+
+@dataclass(frozen=True)
+class Injection:
+    """A loss of effectiveness the vehicle accepted.
+
+    Attributes
+    ----------
+    motor : int
+        1..4.
+    loe : float
+        Loss of effectiveness now in force (0 clears).
+    time_s : float
+        Vehicle time at which it took effect, s.
+    text : str
+        The simulator's STATUSTEXT.
+    """
+
+    motor: int
+    loe: float
+    time_s: float
+    text: str
+
+
+@dataclass(frozen=True)
+class Detection:
+    """A fault detection the vehicle reported (STATUSTEXT), with its latency.
+
+    Attributes
+    ----------
+    motor : int
+    percent : float
+        The loss the vehicle estimated, %.
+    time_s : float
+        Vehicle time of the report, s.
+    latency_s : float or None
+        Time since the latest injection on that motor took effect; None when there was none.
+    text : str
+    """
+
+    motor: int
+    percent: float
+    time_s: float
+    latency_s: float | None
+    text: str
+
+
+@dataclass
+class FlightReport:
+    """The thesis-style result of one flight (units: m, deg, PWM, s)."""
+
+    rms: dict[str, float | None]
+    max: dict[str, float | None]
+    control_effort: float | None
+    flight_s: float
+    samples: int
+    mission_start_s: float | None
+    loe: list[dict[str, Any]]
+    injections: list[Injection]
+    detections: list[Detection]
+    crashed: bool
+    vehicle_time_s: float | None
+    params: dict[str, float] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready dict (keys as ``ftc-scenario run --json`` where they overlap)."""
+        out = asdict(self)
+        out["injections"] = [asdict(i) for i in self.injections]
+        out["detections"] = [asdict(d) for d in self.detections]
+        return out
+
+
+@dataclass
+class _Pending:
+    """A vehicle answer waiting for the next clock value to be dated."""
+
+    kind: str
+    payload: Any
+
+
+class FlightAnalyzer:
+    """Turns the packets of a flight, in order, into events and a :class:`FlightReport`.
+
+    Parameters
+    ----------
+    pwm_max : float
+        Motor command at PWM 2000 us.
+    airborne_alt_m : float
+        True altitude above home beyond which the vehicle counts as airborne, m (the plant
+        holds it at exactly 0 on the ground; raised to two float32 steps of SIM_STATE.alt at
+        home's altitude when those are coarser).
+    on_event : callable or None
+        Called with each :class:`FlightEvent` as soon as it is dated.
+    """
+
+    def __init__(self, *, pwm_max: float = PWM_MAX, airborne_alt_m: float = 1e-4,
+                 on_event: Callable[[FlightEvent], None] | None = None) -> None:
+        self.pwm_max = pwm_max
+        self.airborne_alt_m = airborne_alt_m
+        self._on_event = on_event
+        self.vehicle: tuple[int, int] | None = None  # (sysid, compid)
+        self.clock_s: float | None = None
+        self._pending: list[_Pending] = []
+        self._chunks: dict[int, list[str]] = {}
+        # samples
+        # t, roll, pitch, yaw, lat_e7, lon_e7, alt, lat (float32 deg), lon (float32 deg), vn, ve
+        self._truth: list[tuple[float, ...]] = []
+        self._pos_ref: list[tuple[float, float, float, float]] = []
+        self._att_ref: list[tuple[float, float, float, float]] = []
+        self._servo: list[tuple[float, float, float, float, float]] = []
+        self._loe_est: dict[int, list[tuple[float, float]]] = {m: [] for m in (1, 2, 3, 4)}
+        # state
+        self.home: tuple[int, int, int, float, float, float] | None = None  # e7, e7, mm, xyz
+        self.params: dict[str, float] = {}
+        self.armed: bool | None = None
+        self.custom_mode: int | None = None
+        self.landed_state: int | None = None
+        self.mission_seq: int | None = None
+        self.mission_state: int | None = None
+        self.mission_total: int | None = None
+        self.reached: list[tuple[float | None, int]] = []
+        self.statustexts: list[tuple[float | None, int, str]] = []
+        self.acks: list[tuple[float | None, int, int]] = []
+        self.mission_acks: list[tuple[float | None, int]] = []
+        self.mission_start_s: float | None = None
+        self.injections: list[Injection] = []
+        self.detections: list[Detection] = []
+        self.crashed = False
+        self.crash_text = ""
+        self._sent_params: dict[str, float] = {}
+        self._sent_timesync: set[int] = set()  # ts1 of our TIMESYNC requests
+        self._active_faults: dict[int, list[str]] = {}  # motor -> announced fault texts
+        self.last_vehicle_unix_us: int | None = None
+
+    # ------------------------------------------------------------------ feeding
+    def feed(self, msg: MAVLinkMessage, unix_time_us: int | None = None) -> None:
+        """Account for one packet (sent by us or received), in log order."""
+        kind = msg.get_type()
+        if kind == "BAD_DATA":
+            return
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        if self.vehicle is None and kind == "HEARTBEAT" and self._is_autopilot(msg):
+            self.vehicle = src
+        if self.vehicle is not None and src == self.vehicle:
+            if unix_time_us is not None:
+                self.last_vehicle_unix_us = unix_time_us
+            self._vehicle_message(kind, msg)
+        elif self.vehicle is None or src[0] != self.vehicle[0]:
+            self._gcs_message(kind, msg)
+
+    @staticmethod
+    def _is_autopilot(msg: MAVLinkMessage) -> bool:
+        return (int(msg.autopilot) != _M.MAV_AUTOPILOT_INVALID
+                and int(msg.type) not in (_M.MAV_TYPE_GCS, _M.MAV_TYPE_GIMBAL,
+                                          _M.MAV_TYPE_ADSB, _M.MAV_TYPE_ONBOARD_CONTROLLER))
+
+    def _emit(self, time_s: float | None, kind: str, text: str) -> None:
+        if self._on_event is not None:
+            self._on_event(FlightEvent(time_s, kind, text))
+
+    def _advance(self, time_s: float) -> None:
+        if self.clock_s is None or time_s >= self.clock_s:
+            self.clock_s = time_s
+        pending, self._pending = self._pending, []
+        for p in pending:
+            self._resolve(p, time_s)
+
+    def _later(self, kind: str, payload: Any) -> None:
+        self._pending.append(_Pending(kind, payload))
+
+    # ------------------------------------------------------------------ ground-station side
+    def _gcs_message(self, kind: str, msg: MAVLinkMessage) -> None:
+        if kind == "PARAM_SET":
+            self._sent_params[_text(msg.param_id)] = _f32(msg.param_value)
+        elif kind == "TIMESYNC" and int(msg.tc1) == 0:
+            self._sent_timesync.add(int(msg.ts1))
+
+    # ------------------------------------------------------------------ vehicle side
+    def _vehicle_message(self, kind: str, msg: MAVLinkMessage) -> None:
+        handler = _HANDLERS.get(kind)
+        if handler is not None:
+            handler(self, msg)
+        elif hasattr(msg, "time_boot_ms"):
+            self._advance(int(msg.time_boot_ms) * 1e-3)
+
+    def _timed(self, msg: MAVLinkMessage) -> float:
+        t = int(msg.time_boot_ms) * 1e-3
+        self._advance(t)
+        return t
+
+    def _on_attitude_target(self, msg: MAVLinkMessage) -> None:
+        t = self._timed(msg)
+        self._att_ref.append((t, *euler_from_quat(msg.q)))
+
+    def _on_position_target(self, msg: MAVLinkMessage) -> None:
+        t = self._timed(msg)
+        self._pos_ref.append((t, float(msg.x), float(msg.y), float(msg.z)))
+
+    def _on_sim_state(self, msg: MAVLinkMessage) -> None:
+        if self.clock_s is None:
+            return
+        self._truth.append((self.clock_s, float(msg.roll), float(msg.pitch), float(msg.yaw),
+                            float(msg.lat_int), float(msg.lon_int), float(msg.alt),
+                            float(msg.lat), float(msg.lon), float(msg.vn), float(msg.ve)))
+
+    def _on_servo(self, msg: MAVLinkMessage) -> None:
+        raw_us = int(msg.time_usec)
+        if self.clock_s is None:
+            t = raw_us * 1e-6
+        else:
+            # unwrap the uint32 microseconds against the clock
+            clock_us = int(round(self.clock_s * 1e6))
+            base = clock_us - clock_us % _UINT32_US
+            candidates = (base - _UINT32_US + raw_us, base + raw_us, base + _UINT32_US + raw_us)
+            t = min(candidates, key=lambda c: abs(c - clock_us)) * 1e-6
+        k = self.pwm_max / 1000.0
+        self._servo.append((t, (msg.servo1_raw - 1000) * k, (msg.servo2_raw - 1000) * k,
+                            (msg.servo3_raw - 1000) * k, (msg.servo4_raw - 1000) * k))
+
+    def _on_named_value(self, msg: MAVLinkMessage) -> None:
+        t = self._timed(msg)
+        name = _text(msg.name)
+        if len(name) == 4 and name.startswith("LOE") and name[3] in "1234":
+            self._loe_est[int(name[3])].append((t, float(msg.value)))
+
+    def _on_home(self, msg: MAVLinkMessage) -> None:
+        self.home = (int(msg.latitude), int(msg.longitude), int(msg.altitude),
+                     float(msg.x), float(msg.y), float(msg.z))
+
+    def _on_heartbeat(self, msg: MAVLinkMessage) -> None:
+        armed = bool(int(msg.base_mode) & _M.MAV_MODE_FLAG_SAFETY_ARMED)
+        mode = int(msg.custom_mode)
+        if armed != self.armed:
+            if self.armed is not None or armed:
+                self._emit(self.clock_s, "ARM", "armed" if armed else "disarmed")
+            self.armed = armed
+        if mode != self.custom_mode:
+            name = _M.enums["COPTER_MODE"][mode].name.removeprefix("COPTER_MODE_") \
+                if mode in _M.enums["COPTER_MODE"] else f"MODE_{mode}"
+            self._emit(self.clock_s, "MODE", f"mode {name} ({mode})")
+            self.custom_mode = mode
+
+    def _on_extended_sys_state(self, msg: MAVLinkMessage) -> None:
+        state = int(msg.landed_state)
+        if state != self.landed_state:
+            name = _M.enums["MAV_LANDED_STATE"][state].name.removeprefix("MAV_LANDED_STATE_") \
+                if state in _M.enums["MAV_LANDED_STATE"] else str(state)
+            self._emit(self.clock_s, "LANDED", f"landed state {name}")
+            self.landed_state = state
+
+    def _on_mission_current(self, msg: MAVLinkMessage) -> None:
+        seq = int(msg.seq)
+        state = int(getattr(msg, "mission_state", 0))
+        self.mission_total = int(getattr(msg, "total", 0xFFFF))
+        if (seq, state) != (self.mission_seq, self.mission_state):
+            if self.mission_start_s is not None:
+                names = {0: "unknown", 1: "no mission", 2: "not started", 3: "active",
+                         4: "paused", 5: "complete"}
+                self._emit(self.clock_s, "MISSION",
+                           f"current item {seq}, mission {names.get(state, str(state))}")
+            self.mission_seq, self.mission_state = seq, state
+
+    def _on_item_reached(self, msg: MAVLinkMessage) -> None:
+        self._later("reached", int(msg.seq))
+
+    def _on_statustext(self, msg: MAVLinkMessage) -> None:
+        text = _text(msg.text)
+        chunk_id = int(getattr(msg, "id", 0))
+        if chunk_id == 0:
+            self._later("status", (int(msg.severity), text))
+            return
+        parts = self._chunks.setdefault(chunk_id, [])
+        parts.append(text)
+        if len(text) < 50:
+            del self._chunks[chunk_id]
+            self._later("status", (int(msg.severity), "".join(parts)))
+
+    def _on_command_ack(self, msg: MAVLinkMessage) -> None:
+        self._later("ack", (int(msg.command), int(msg.result)))
+
+    def _on_param_value(self, msg: MAVLinkMessage) -> None:
+        self._later("param", (_text(msg.param_id), float(msg.param_value)))
+
+    def _on_mission_ack(self, msg: MAVLinkMessage) -> None:
+        self._later("mission_ack", int(msg.type))
+
+    def _on_timesync(self, msg: MAVLinkMessage) -> None:
+        # an answer to one of our requests (ts1 echoed): tc1 is the vehicle's time, ns
+        # (tc1 may be 0 at simulated time 0, so the echo, not tc1, tells an answer)
+        ts1 = int(msg.ts1)
+        if ts1 in self._sent_timesync:
+            self._sent_timesync.discard(ts1)
+            self._advance(int(msg.tc1) * 1e-9)
+
+    # ------------------------------------------------------------------ dated answers
+    def _resolve(self, p: _Pending, t: float) -> None:
+        if p.kind == "status":
+            severity, text = p.payload
+            self.statustexts.append((t, severity, text))
+            self._emit(t, "STATUS", f"[{_severity(severity)}] {text}")
+            m = _DETECTION.search(text)
+            if m:
+                self._detection(t, int(m.group(1)), float(m.group(2)), text)
+            self._fault_text(t, text)
+            if _CRASH.search(text) and severity <= _M.MAV_SEVERITY_CRITICAL:
+                self.crashed = True
+                self.crash_text = text
+                self._emit(t, "CRASH", text)
+        elif p.kind == "ack":
+            command, result = p.payload
+            self.acks.append((t, command, result))
+            self._emit(t, "ACK", f"{_command_name(command)} {_result_name(result)}")
+            self._ack_effects(t, command, result)
+        elif p.kind == "param":
+            name, value = p.payload
+            self.params[name] = value
+            requested = self._sent_params.pop(name, None)
+            if requested is not None:
+                ok = value == requested
+                self._emit(t, "PARAM", f"{name} = {value:g}" + ("" if ok else
+                           f" (REFUSED: asked for {requested:g})"))
+        elif p.kind == "reached":
+            self.reached.append((t, p.payload))
+            self._emit(t, "MISSION", f"item {p.payload} reached")
+        elif p.kind == "mission_ack":
+            self.mission_acks.append((t, p.payload))
+
+    def _ack_effects(self, t: float, command: int, result: int) -> None:
+        accepted = result == _M.MAV_RESULT_ACCEPTED
+        if command == _M.MAV_CMD_MISSION_START and accepted and self.mission_start_s is None:
+            self.mission_start_s = t
+
+    def _fault_text(self, t: float, text: str) -> None:
+        """Injections from the simulator's STATUSTEXT (see the module docstring).
+
+        Each motor keeps the faults announced and not yet cleared, by description; the LOE
+        in force is the latest one's (0 when none). The simulator announces a replacement
+        before the "cleared" of the fault it replaces (and re-announces unchanged ones when
+        another motor's parameter changes), so a "cleared" removes the oldest entry with its
+        description, and the value in force changes only when the last entry does.
+        """
+        on = _FAULT_ON.match(text)
+        m = on or _FAULT_OFF.match(text)
+        if m is None:
+            return
+        motor = int(m.group(1))
+        what = text[m.end(1):].lstrip(": ")  # e.g. "loe 20 % (step)", "total loss"
+        active = self._active_faults.setdefault(motor, [])
+        before = active[-1] if active else ""
+        if on:
+            active.append(what)
+        elif what in active:
+            active.remove(what)
+        after = active[-1] if active else ""
+        if after != before:
+            self._injected(t, motor, _loe_of(after), text)
+
+    def _injected(self, t: float, motor: int, loe: float, text: str) -> None:
+        inj = Injection(motor=motor, loe=loe, time_s=t, text=text)
+        self.injections.append(inj)
+        self._emit(t, "INJECT", f"motor {motor} loss of effectiveness {loe:.3f} in force"
+                   f"{self._since_start(t)}")
+
+    def _since_start(self, t: float) -> str:
+        if self.mission_start_s is None:
+            return ""
+        return f", mission +{t - self.mission_start_s:.3f} s"
+
+    def _detection(self, t: float, motor: int, percent: float, text: str) -> None:
+        before = [i for i in self.injections
+                  if i.motor == motor and i.time_s <= t and i.loe != 0.0]
+        latency = t - before[-1].time_s if before else None
+        det = Detection(motor=motor, percent=percent, time_s=t, latency_s=latency, text=text)
+        self.detections.append(det)
+        lat = "no injection on that motor" if latency is None else \
+            f"latency {latency:.3f} s after the injection"
+        self._emit(t, "DETECT", f"motor {motor} fault detected ({percent:g} %), {lat}"
+                   f"{self._since_start(t)}")
+
+    # ------------------------------------------------------------------ results
+    def truth_ned(self, rows: np.ndarray) -> np.ndarray | None:
+        """True NED positions (m) of SIM_STATE rows; None until HOME_POSITION is known.
+
+        North and east: the integral of the true velocity (``vn``, ``ve``, trapezoids between
+        samples), anchored to the mean of the geodetic positions over each stretch without a
+        gap. The geodetic position alone is coarse: ``lat_int``/``lon_int`` resolve 1e-7
+        degree (about 1 cm), the float32 ``lat``/``lon`` 0.4 m at 35 degrees (they are used
+        where finer, near the equator or the prime meridian). The velocity carries the
+        millimetres, the mean of ~10^3 quantised fixes the constant. Down: ``alt`` (float32,
+        AMSL: 0.06 mm at 584 m) against home's altitude.
+        """
+        if self.home is None:
+            return None
+        lat_e7, lon_e7, alt_mm, hx, hy, hz = self.home
+        north_per_deg, east_per_deg = metres_per_degree(lat_e7 * 1e-7)
+        lat = _finest(rows[:, 7], rows[:, 4])
+        lon = _finest(rows[:, 8], rows[:, 5])
+        north = (lat - lat_e7 * 1e-7) * north_per_deg + hx
+        dlon = (lon - lon_e7 * 1e-7 + 180.0) % 360.0 - 180.0
+        east = dlon * east_per_deg + hy
+        down = (alt_mm * 1e-3 - rows[:, 6]) + hz
+        north = _velocity_aided(rows[:, 0], north, rows[:, 9])
+        east = _velocity_aided(rows[:, 0], east, rows[:, 10])
+        return np.column_stack([north, east, down])
+
+    def report(self) -> FlightReport:
+        """The table over the flight so far."""
+        truth = np.array(self._truth, dtype=float).reshape(-1, 11)
+        pos = self.truth_ned(truth) if len(truth) else None
+        if pos is None or not self._pos_ref or not self._att_ref:
+            return self._make_report()
+        t = truth[:, 0]
+        pos_ref = np.array(self._pos_ref)
+        att_ref = np.array(self._att_ref)
+        i_pos, fresh_pos = _hold(pos_ref[:, 0], t, fresh_s=_stale_after(pos_ref[:, 0]))
+        i_att, fresh_att = _hold(att_ref[:, 0], t, fresh_s=_stale_after(att_ref[:, 0]))
+        assert self.home is not None
+        home_alt_m = self.home[2] * 1e-3
+        threshold = max(self.airborne_alt_m,
+                        2.0 * float(np.spacing(np.float32(abs(home_alt_m) + 1.0))))
+        airborne = (-pos[:, 2] + self.home[5]) > threshold
+        flying = fresh_pos & fresh_att & airborne
+        n = int(np.count_nonzero(flying))
+        if n == 0:
+            return self._make_report()
+        pos_err = pos_ref[i_pos[flying], 1:4] - pos[flying]
+        att_err = att_ref[i_att[flying], 1:4] - truth[flying, 1:4]
+        att_err = np.degrees((att_err + np.pi) % (2.0 * np.pi) - np.pi)
+        errors = np.column_stack([pos_err, att_err])
+        rms: dict[str, float | None] = {axis: float(np.sqrt(np.mean(errors[:, k] ** 2)))
+                                        for k, (axis, _) in enumerate(AXES)}
+        mx: dict[str, float | None] = {axis: float(np.max(np.abs(errors[:, k])))
+                                       for k, (axis, _) in enumerate(AXES)}
+        effort = None
+        if self._servo:
+            servo = np.array(self._servo)
+            order = np.argsort(servo[:, 0], kind="stable")
+            servo = servo[order]
+            i_srv, have = _hold(servo[:, 0], t[flying], fresh_s=None)
+            if np.all(have):
+                effort = float(np.mean(np.sum(servo[i_srv, 1:5], axis=1)))
+        period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+        t_end = float(t[flying][-1])
+        return self._make_report(rms=rms, mx=mx, effort=effort, flight_s=n * period,
+                                 samples=n, t_end=t_end)
+
+    def _make_report(self, *, rms: dict[str, float | None] | None = None,
+                     mx: dict[str, float | None] | None = None, effort: float | None = None,
+                     flight_s: float = 0.0, samples: int = 0,
+                     t_end: float | None = None) -> FlightReport:
+        empty: dict[str, float | None] = {axis: None for axis, _ in AXES}
+        return FlightReport(rms=dict(empty) if rms is None else rms,
+                            max=dict(empty) if mx is None else mx, control_effort=effort,
+                            flight_s=flight_s, samples=samples,
+                            mission_start_s=self.mission_start_s, loe=self._loe_table(t_end),
+                            injections=list(self.injections), detections=list(self.detections),
+                            crashed=self.crashed, vehicle_time_s=self.clock_s,
+                            params=dict(self.params))
+
+    def _loe_table(self, t_end: float | None) -> list[dict[str, Any]]:
+        rows = []
+        for motor in (1, 2, 3, 4):
+            inj = [i for i in self.injections if i.motor == motor]
+            est = self._loe_est[motor]
+            if t_end is not None:
+                est = [e for e in est if e[0] <= t_end + 1e-9] or est
+            dets = [d for d in self.detections if d.motor == motor]
+            rows.append({
+                "motor": motor,
+                "injected": inj[-1].loe if inj else 0.0,
+                "injected_at_s": inj[-1].time_s if inj else None,
+                "estimated": est[-1][1] if est else None,
+                "detected_at_s": dets[0].time_s if dets else None,
+                "latency_s": dets[0].latency_s if dets else None,
+            })
+        return rows
+
+
+def _loe_of(what: str) -> float:
+    """LOE in force of a simulator fault description ("" = none; NaN: not a constant LOE)."""
+    if not what:
+        return 0.0
+    if what.startswith(("total loss", "float")):
+        return 1.0
+    m = re.match(r"loe ([0-9.eE+-]+) % \(step\)", what)
+    return float(m.group(1)) / 100.0 if m else math.nan
+
+
+_GAP_S = 0.5  # s without SIM_STATE that ends a stretch of velocity integration
+
+
+def _velocity_aided(t_s: np.ndarray, coarse_m: np.ndarray, vel_m_s: np.ndarray) -> np.ndarray:
+    """Positions from integrated velocity, anchored to the mean coarse position per stretch.
+
+    Parameters
+    ----------
+    t_s : (n,) sample times, s, non-decreasing
+    coarse_m : (n,) positions, m, quantised (degE7) but unbiased
+    vel_m_s : (n,) their exact time derivative at the samples, m/s
+    """
+    out = np.array(coarse_m, dtype=float)
+    n = len(t_s)
+    if n < 2:
+        return out
+    dt = np.diff(t_s)
+    breaks = np.flatnonzero(dt > _GAP_S) + 1
+    for lo, hi in zip(np.r_[0, breaks], np.r_[breaks, n], strict=True):
+        if hi - lo < 2:
+            continue
+        seg_t = t_s[lo:hi]
+        seg_v = vel_m_s[lo:hi]
+        # x_k = x_0 + sum of (v_i + v_i+1) / 2 * dt_i
+        integral = np.r_[0.0, np.cumsum(0.5 * (seg_v[1:] + seg_v[:-1]) * np.diff(seg_t))]
+        out[lo:hi] = integral + float(np.mean(coarse_m[lo:hi] - integral))
+    return out
+
+
+def _finest(deg_f32: np.ndarray, deg_e7: np.ndarray) -> np.ndarray:
+    """Per sample, the float32 degrees where their resolution beats 1e-7, else degE7."""
+    finer = np.spacing(np.abs(deg_f32).astype(np.float32)) < 1e-7
+    return np.where(finer, deg_f32, deg_e7 * 1e-7)
+
+
+def _stale_after(t_src: np.ndarray) -> float:
+    """Age (s) beyond which a sample of a stream with these time stamps counts as stopped.
+
+    One period less a millisecond: a stream that keeps coming has a fresh sample at least
+    once per period (time stamps are whole milliseconds of the vehicle's ticks), so a sample
+    a full period old means the stream, and the controller behind it, stopped.
+    """
+    if len(t_src) < 2:
+        return 0.0005
+    return max(0.0005, float(np.median(np.diff(t_src))) - 0.001)
+
+
+def _hold(t_src: np.ndarray, t_query: np.ndarray,
+          fresh_s: float | None = 0.005) -> tuple[np.ndarray, np.ndarray]:
+    """Sample-and-hold: index of the latest source sample at or before each query time.
+
+    Returns the indices (0 where none) and whether each is valid: a source sample exists at
+    or before the query and, when ``fresh_s`` is given, is no older than ``fresh_s`` seconds
+    (a reference that stopped coming means the controller went idle).
+    """
+    idx = np.searchsorted(t_src, t_query + 1e-9, side="right") - 1
+    valid = idx >= 0
+    idx = np.where(valid, idx, 0)
+    if fresh_s is not None and len(t_src):
+        valid &= (t_query - t_src[idx]) <= fresh_s + 1e-9
+    return idx, valid
+
+
+def _severity(severity: int) -> str:
+    names = _M.enums["MAV_SEVERITY"]
+    return names[severity].name.removeprefix("MAV_SEVERITY_") if severity in names else \
+        str(severity)
+
+
+def _command_name(command: int) -> str:
+    names = _M.enums["MAV_CMD"]
+    if command == _M.MAVLINK_MSG_ID_SET_MODE:
+        return "SET_MODE"
+    return names[command].name.removeprefix("MAV_CMD_") if command in names else str(command)
+
+
+def _result_name(result: int) -> str:
+    names = _M.enums["MAV_RESULT"]
+    return names[result].name.removeprefix("MAV_RESULT_") if result in names else str(result)
+
+
+_HANDLERS: dict[str, Callable[[FlightAnalyzer, MAVLinkMessage], None]] = {
+    "ATTITUDE_TARGET": FlightAnalyzer._on_attitude_target,
+    "POSITION_TARGET_LOCAL_NED": FlightAnalyzer._on_position_target,
+    "SIM_STATE": FlightAnalyzer._on_sim_state,
+    "SERVO_OUTPUT_RAW": FlightAnalyzer._on_servo,
+    "NAMED_VALUE_FLOAT": FlightAnalyzer._on_named_value,
+    "HOME_POSITION": FlightAnalyzer._on_home,
+    "HEARTBEAT": FlightAnalyzer._on_heartbeat,
+    "EXTENDED_SYS_STATE": FlightAnalyzer._on_extended_sys_state,
+    "MISSION_CURRENT": FlightAnalyzer._on_mission_current,
+    "MISSION_ITEM_REACHED": FlightAnalyzer._on_item_reached,
+    "STATUSTEXT": FlightAnalyzer._on_statustext,
+    "COMMAND_ACK": FlightAnalyzer._on_command_ack,
+    "PARAM_VALUE": FlightAnalyzer._on_param_value,
+    "MISSION_ACK": FlightAnalyzer._on_mission_ack,
+    "TIMESYNC": FlightAnalyzer._on_timesync,
+}
+
+
+def analyze_tlog(path: str | Path, *, pwm_max: float = PWM_MAX) -> FlightReport:
+    """The :class:`FlightReport` of a recorded flight (what ``ftc-gcs report`` prints)."""
+    analyzer = FlightAnalyzer(pwm_max=pwm_max)
+    for record in read_tlog(path):
+        analyzer.feed(record.message, record.unix_time_us)
+    return analyzer.report()
+
+
+def _fmt(value: float | None, digits: int = 4) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def format_report(report: FlightReport, title: str = "flight") -> str:
+    """The table as text: errors, control effort, LOE per motor, detections."""
+    lines = []
+    start = report.mission_start_s
+    head = f"{title}: {report.samples} in-flight samples, {report.flight_s:.2f} s in the air"
+    if start is not None:
+        head += f", mission started at vehicle t = {start:.2f} s"
+    if report.crashed:
+        head += "  CRASHED"
+    lines.append(head)
+    config = [f"{k} {report.params[k]:g}" for k in ("ATT_CTRL", "EST_TYPE", "DOB_TYPE")
+              if k in report.params]
+    if config:
+        lines.append("configuration: " + ", ".join(config))
+    lines.append(f"{'error':<10}{'RMS':>10}{'max':>10}")
+    for axis, unit in AXES:
+        lines.append(f"{axis + ' ' + unit:<10}{_fmt(report.rms[axis]):>10}"
+                     f"{_fmt(report.max[axis]):>10}")
+    lines.append(f"control effort {_fmt(report.control_effort, 5)} (mean sum of the 4 PWM)")
+    lines.append(f"{'motor':<7}{'injected':>9}{'at s':>9}{'estimated':>11}{'detected s':>12}"
+                 f"{'latency s':>11}")
+
+    def rel(t: float | None) -> str:
+        if t is None:
+            return "-"
+        return f"{t - start:.2f}" if start is not None else f"{t:.2f}"
+
+    for row in report.loe:
+        lines.append(f"{row['motor']:<7}{row['injected']:>9.3f}{rel(row['injected_at_s']):>9}"
+                     f"{_fmt(row['estimated'], 3):>11}{rel(row['detected_at_s']):>12}"
+                     f"{_fmt(row['latency_s'], 2):>11}")
+    if start is not None:
+        lines.append("(times in s after the mission start)")
+    return "\n".join(lines)

@@ -1,0 +1,299 @@
+"""``ftc-gcs`` (also ``python -m gcs``): fly the thesis mission over MAVLink and report on it.
+
+Usage::
+
+    ftc-gcs fly    [--connect URL | --spawn-vehicle [--speedup X] [--seed N] [--scenario S]]
+                   [--mission thesis|FILE] [--faults table7.3|FILE] [--fault SPEC ...]
+                   [--inject-via param|command]
+                   [--attitude pd|lqg] [--estimator ekf|tskf] [--dob none|vbdob|abdob]
+                   [--param NAME=VALUE ...]
+                   [--out-dir DIR] [--tlog PATH] [--event-log PATH] [--json PATH] [--quiet]
+                   [--connect-timeout S] [--link-timeout S] [--max-flight-s S] [--timeout S]
+    ftc-gcs demo   [--speedup X] [--seed N] [--out-dir DIR] [...fly options]
+    ftc-gcs report FLIGHT.tlog [--json PATH]
+
+``fly`` connects to a running vehicle (default: listen on UDP 14550, where ``ftc-vehicle``
+sends its telemetry), or with ``--spawn-vehicle`` starts ``python -m sim`` itself on loopback.
+``demo`` is ``fly --spawn-vehicle --faults table7.3`` with the Table 7.4 configuration (LQG
+attitude, EKF feedback, no DOB) at speed-up 10: the one-command demonstration.
+``report`` recomputes the table from any recorded flight.
+
+Fault specs: ``MOTOR:LOE@AT_S`` (``--fault 3:0.20@22``) or ``PARAM=VALUE@AT_S``
+(``--fault SIM_BARO_GLITCH=0.1@30``); times are simulated seconds after the mission start.
+
+Exit status: 0 flown and landed; 1 crash (or disarmed without flying); 2 bad usage or input
+file; 3 vehicle not found; 4 command refused; 5 mission rejected; 6 timeout (no answer, link
+lost, mission not finished); 130 interrupted. A failed flight prints one line
+``ftc-gcs: <kind>: <reason>`` on stderr (and the table of what was recorded, on stdout).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from datetime import datetime
+from pathlib import Path
+from typing import Any, NoReturn
+
+from gcs.analysis import analyze_tlog, format_report
+from gcs.errors import EXIT_INTERRUPTED, EXIT_USAGE
+from gcs.faults import (
+    TABLE_7_3,
+    FaultScheduleError,
+    FaultSpec,
+    load_schedule,
+    parse_fault_flag,
+    sorted_schedule,
+)
+from gcs.flight import FlightOutcome, FlightPlan, config_params, fly
+from gcs.mission import MissionFileError, WireItem, load_mission, thesis_mission
+from gcs.spawn import SpawnedVehicle, VehicleSpec
+from gcs.station import GroundStation
+
+PROG = "ftc-gcs"
+DEFAULT_URL = "udpin:0.0.0.0:14550"
+TABLE_TITLE = "flight"  # the same for fly, demo and report: report reprints the table exactly
+
+
+class _Parser(argparse.ArgumentParser):
+    """Argument errors on one line, exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"{PROG}: error: {message}", file=sys.stderr)
+        sys.exit(EXIT_USAGE)
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return value
+
+
+def _param(text: str) -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    try:
+        number = float(value)
+    except ValueError:
+        number = math.nan
+    if not sep or not name or not math.isfinite(number) or len(name) > 16:
+        raise argparse.ArgumentTypeError(f"{text!r} is not NAME=VALUE (name of at most 16 "
+                                         "characters, finite value)")
+    return name.upper(), number
+
+
+def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
+    link = p.add_argument_group("vehicle")
+    if not demo:
+        link.add_argument("--connect", default=None, metavar="URL",
+                          help=f"pymavlink connection string (default {DEFAULT_URL}; "
+                          "udpout:HOST:PORT to reach a vehicle's --bind)")
+        link.add_argument("--spawn-vehicle", action="store_true",
+                          help="start 'python -m sim' on loopback and fly it")
+    link.add_argument("--speedup", type=_positive, default=10.0,
+                      help="spawned vehicle: simulated s per wall s (default 10)")
+    link.add_argument("--seed", type=int, default=None, help="spawned vehicle: seed")
+    link.add_argument("--scenario", default=None, metavar="NAME|FILE",
+                      help="spawned vehicle: scenario whose world and configuration it "
+                      "simulates (faults are sent by the ground station)")
+    link.add_argument("--no-pause", action="store_true",
+                      help="spawned vehicle: do not hold simulated time at 0 while the "
+                      "flight is prepared")
+    link.add_argument("--vehicle-arg", action="append", default=[], metavar="ARG",
+                      help="spawned vehicle: extra ftc-vehicle option (repeatable)")
+    what = p.add_argument_group("flight")
+    what.add_argument("--mission", default="thesis", metavar="thesis|FILE",
+                      help="the thesis mission (default) or a QGC WPL 110 / TOML file")
+    what.add_argument("--faults", default=None if not demo else "table7.3",
+                      metavar="table7.3|FILE",
+                      help="fault schedule: Table 7.3 or a TOML file" +
+                      (" (default table7.3)" if demo else " (default: none)"))
+    what.add_argument("--fault", action="append", default=[], metavar="SPEC",
+                      help="one more fault, MOTOR:LOE@AT_S or PARAM=VALUE@AT_S (repeatable)")
+    what.add_argument("--inject-via", choices=("param", "command"), default="param",
+                      help="motor faults as PARAM_SET SIM_MOTn_LOE (default) or "
+                      "MAV_CMD_INJECT_FAILURE")
+    what.add_argument("--attitude", choices=("pd", "lqg"), default="lqg" if demo else None,
+                      help="ATT_CTRL" + (" (default lqg)" if demo else ""))
+    what.add_argument("--estimator", choices=("ekf", "tskf"), default="ekf" if demo else None,
+                      help="EST_TYPE" + (" (default ekf)" if demo else ""))
+    what.add_argument("--dob", choices=("none", "vbdob", "abdob"),
+                      default="none" if demo else None,
+                      help="DOB_TYPE" + (" (default none)" if demo else ""))
+    what.add_argument("--param", type=_param, action="append", default=[],
+                      metavar="NAME=VALUE", help="set a parameter before arming (repeatable)")
+    rec = p.add_argument_group("records")
+    rec.add_argument("--out-dir", type=Path, default=Path("out"),
+                     help="where the .tlog and event log go (default out/)")
+    rec.add_argument("--tlog", type=Path, default=None, help="the .tlog path")
+    rec.add_argument("--event-log", type=Path, default=None, help="the event log path")
+    rec.add_argument("--json", type=Path, default=None, help="also write the table as JSON")
+    rec.add_argument("--quiet", action="store_true", help="no event lines on stderr")
+    lim = p.add_argument_group("time limits")
+    lim.add_argument("--connect-timeout", type=_positive, default=None, metavar="S",
+                     help="wall s to wait for the vehicle (default 10; 60 for a vehicle "
+                     "started here, whose first start compiles the plant)")
+    lim.add_argument("--link-timeout", type=_positive, default=5.0, metavar="S",
+                     help="wall s of silence in flight before giving up (default 5)")
+    lim.add_argument("--max-flight-s", type=_positive, default=120.0, metavar="S",
+                     help="simulated s after the mission start (default 120)")
+    lim.add_argument("--timeout", type=_positive, default=900.0, metavar="S",
+                     help="wall s for the whole flight (default 900)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line."""
+    p = _Parser(prog=PROG, description="Fly the thesis mission over MAVLink and report on "
+                "it (see the module docstring of gcs.cli).")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    fly_p = sub.add_parser("fly", help="fly a mission with a vehicle and print the table")
+    _add_fly_options(fly_p, demo=False)
+    demo_p = sub.add_parser("demo", help="start a vehicle, fly the thesis mission with the "
+                            "Table 7.3 faults, print the table")
+    _add_fly_options(demo_p, demo=True)
+    rep = sub.add_parser("report", help="the table of a recorded flight (.tlog)")
+    rep.add_argument("tlog", type=Path)
+    rep.add_argument("--json", type=Path, default=None, help="also write it as JSON")
+    return p
+
+
+def _schedule(args: argparse.Namespace) -> list[FaultSpec]:
+    faults: list[FaultSpec] = []
+    if args.faults is not None:
+        key = args.faults.lower().replace(" ", "")
+        if key in ("table7.3", "table-7.3", "7.3", "thesis"):
+            faults += list(TABLE_7_3)
+        else:
+            faults += load_schedule(args.faults)
+    faults += [parse_fault_flag(text) for text in args.fault]
+    return sorted_schedule(faults)
+
+
+def _mission(args: argparse.Namespace) -> list[WireItem]:
+    if args.mission == "thesis":
+        return thesis_mission()
+    return load_mission(args.mission)
+
+
+def _write_json(path: Path, data: Any) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=2, allow_nan=False, default=_json_default) + "\n")
+
+
+def _json_default(value: object) -> object:
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def _clean(data: Any) -> Any:
+    """NaN/inf become null (JSON has neither)."""
+    if isinstance(data, float) and not math.isfinite(data):
+        return None
+    if isinstance(data, dict):
+        return {k: _clean(v) for k, v in data.items()}
+    if isinstance(data, list | tuple):
+        return [_clean(v) for v in data]
+    return data
+
+
+def _timing_lines(outcome: FlightOutcome) -> list[str]:
+    lines = []
+    for t in outcome.timing:
+        if t.error_s is None:
+            continue
+        lines.append(f"injection {t.fault.describe()} at mission +{t.fault.at_s:g} s: "
+                     f"took effect at vehicle t = {t.achieved_s:.3f} s, "
+                     f"timing error {t.error_s:+.3f} s")
+    for d in outcome.report.detections:
+        lat = "-" if d.latency_s is None else f"{d.latency_s:.2f} s"
+        lines.append(f"detection motor {d.motor} ({d.percent:g} %) at vehicle t = "
+                     f"{d.time_s:.2f} s, latency {lat}")
+    return lines
+
+
+def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
+    try:
+        faults = _schedule(args)
+        mission = _mission(args)
+        params = config_params(attitude=args.attitude, estimator=args.estimator, dob=args.dob)
+        params.update(dict(args.param))
+        plan = FlightPlan(mission=mission, faults=faults, params=params,
+                          inject_via=args.inject_via, max_flight_s=args.max_flight_s,
+                          connect_timeout_s=args.connect_timeout or (
+                              60.0 if demo or args.spawn_vehicle else 10.0),
+                          link_timeout_s=args.link_timeout, wall_timeout_s=args.timeout)
+    except (FaultScheduleError, MissionFileError, ValueError) as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    spawn = demo or args.spawn_vehicle
+    url = "udpin:127.0.0.1:0" if spawn else (args.connect or DEFAULT_URL)
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    stem = f"{'demo' if demo else 'flight'}-{stamp}"
+    tlog = args.tlog or args.out_dir / f"{stem}.tlog"
+    event_log = args.event_log or tlog.with_suffix(".events.log")
+    try:
+        gs = GroundStation.open(url, tlog=tlog, event_log=event_log,
+                                echo=None if args.quiet else sys.stderr)
+    except OSError as err:
+        print(f"{PROG}: error: cannot open {url}: {err.strerror or err}", file=sys.stderr)
+        return EXIT_USAGE
+    vehicle: SpawnedVehicle | None = None
+    try:
+        if spawn:
+            port = int(gs.conn.port.getsockname()[1])
+            spec = VehicleSpec(speedup=args.speedup, seed=args.seed, scenario=args.scenario,
+                               start_paused=not args.no_pause,
+                               max_sim_s=args.max_flight_s + 120.0,
+                               extra_args=tuple(args.vehicle_arg))
+            vehicle = SpawnedVehicle(spec, port, log_path=tlog.with_suffix(".vehicle.log"))
+            vehicle.start()
+            gs.log("LINK", f"started vehicle pid {vehicle.pid}: {' '.join(spec.command(port))}")
+        outcome = fly(gs, plan, vehicle_gone=None if vehicle is None else vehicle.why_gone)
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted; records kept in {tlog} and {event_log}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        gs.close()
+        if vehicle is not None:
+            vehicle.stop()
+    print(format_report(outcome.report, title=TABLE_TITLE))
+    for line in _timing_lines(outcome):
+        print(line)
+    print(f"records: {outcome.tlog} (tlog), {outcome.event_log} (events)")
+    if args.json is not None:
+        _write_json(args.json, _clean(outcome.to_json()))
+    if outcome.error is not None:
+        print(f"{PROG}: {outcome.error.one_line()}", file=sys.stderr)
+    return outcome.exit_code
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    if not args.tlog.is_file():
+        print(f"{PROG}: error: {args.tlog}: no such file", file=sys.stderr)
+        return EXIT_USAGE
+    report = analyze_tlog(args.tlog)
+    print(format_report(report, title=TABLE_TITLE))
+    for d in report.detections:
+        lat = "-" if d.latency_s is None else f"{d.latency_s:.2f} s"
+        print(f"detection motor {d.motor} ({d.percent:g} %) at vehicle t = {d.time_s:.2f} s, "
+              f"latency {lat}")
+    if args.json is not None:
+        _write_json(args.json, _clean(report.to_json()))
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``ftc-gcs``; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    if args.command == "report":
+        return cmd_report(args)
+    return cmd_fly(args, demo=args.command == "demo")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

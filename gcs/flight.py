@@ -1,0 +1,305 @@
+"""The whole flight a researcher or a CI job runs: connect, configure, upload, fly, inject, land.
+
+:func:`fly` reads top to bottom like the flight::
+
+    wait for the vehicle's HEARTBEAT           -> VehicleNotFound
+    ask for the table's telemetry at 100 Hz
+    read the parameters; set the autopilot configuration (ATT_CTRL, EST_TYPE, DOB_TYPE...)
+    wait for HOME_POSITION and the armable (PREARM_CHECK) flag
+    upload the mission                          -> MissionRejected
+    arm, AUTO, MISSION_START                    -> CommandRefused
+    if the vehicle was started paused (SIM_PAUSE = 1), start simulated time
+    until landed and disarmed: inject each fault on time (vehicle clock), watch for a crash,
+    a lost link, or a mission that does not end  -> Crashed, FlightTimeout
+
+Fault timing: each fault is sent when the vehicle clock (100 Hz ATTITUDE) reaches its target
+minus the measured command lag (:meth:`gcs.station.GroundStation.lead_s`), with a TIMESYNC in
+the same datagram so the time it took effect is known exactly; the error is logged.
+
+A vehicle started paused (``ftc-vehicle --start-paused``) flies exactly the headless runner's
+timeline: everything up to MISSION_START happens at simulated time 0, as in
+``sim.runner.fly``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from gcs.analysis import FlightReport, analyze_tlog
+from gcs.errors import CommandRefused, Crashed, FlightError, FlightTimeout
+from gcs.faults import FaultSpec, sorted_schedule
+from gcs.mission import WireItem
+from gcs.station import (
+    COPTER_MODE_AUTO,
+    TELEMETRY_HZ,
+    GroundStation,
+    InjectionTiming,
+    same_float32,
+)
+
+__all__ = ["CONFIG_PARAMS", "FlightOutcome", "FlightPlan", "config_params", "fly"]
+
+CONFIG_PARAMS: dict[str, tuple[str, ...]] = {
+    "ATT_CTRL": ("pd", "lqg"),
+    "EST_TYPE": ("ekf", "tskf"),
+    "DOB_TYPE": ("none", "vbdob", "abdob"),
+}
+"""Autopilot configuration parameters and the names of their values 0, 1, 2."""
+
+_MAV_LANDED_STATE_IN_AIR = 2
+
+
+def config_params(*, attitude: str | None = None, estimator: str | None = None,
+                  dob: str | None = None) -> dict[str, float]:
+    """The parameters selecting an autopilot configuration (only the ones given).
+
+    Parameters
+    ----------
+    attitude : {"pd", "lqg"} or None
+    estimator : {"ekf", "tskf"} or None
+    dob : {"none", "vbdob", "abdob"} or None
+
+    Raises
+    ------
+    ValueError
+        A name that is not one of the choices.
+    """
+    out: dict[str, float] = {}
+    for param, value in (("ATT_CTRL", attitude), ("EST_TYPE", estimator), ("DOB_TYPE", dob)):
+        if value is None:
+            continue
+        choices = CONFIG_PARAMS[param]
+        if value not in choices:
+            raise ValueError(f"{param}: {value!r} is not one of {', '.join(choices)}")
+        out[param] = float(choices.index(value))
+    return out
+
+
+@dataclass(frozen=True, kw_only=True)
+class FlightPlan:
+    """What to fly and how long to wait for things.
+
+    Attributes
+    ----------
+    mission : list of WireItem
+        Items seq 1..n (home is added).
+    faults : list of FaultSpec
+        Injections, at simulated seconds after the mission start.
+    params : dict of str to float
+        Parameters to set before arming (configuration first, in the given order).
+    inject_via : {"param", "command"}
+        How motor faults are sent (:meth:`GroundStation.inject`).
+    telemetry_hz : dict of str to float
+        Stream rates to ask for (simulated Hz).
+    max_flight_s : float
+        Simulated seconds after the mission start before the flight counts as timed out.
+    connect_timeout_s, link_timeout_s, ready_timeout_s, wall_timeout_s : float
+        Wall-clock limits: finding the vehicle, silence in flight, becoming armable, the
+        whole flight.
+    """
+
+    mission: Sequence[WireItem]
+    faults: Sequence[FaultSpec] = ()
+    params: dict[str, float] = field(default_factory=dict)
+    inject_via: str = "param"
+    telemetry_hz: dict[str, float] = field(default_factory=lambda: dict(TELEMETRY_HZ))
+    max_flight_s: float = 120.0  # s simulated
+    connect_timeout_s: float = 10.0  # s wall
+    link_timeout_s: float = 5.0  # s wall
+    ready_timeout_s: float = 30.0  # s wall
+    wall_timeout_s: float = 900.0  # s wall
+
+    def __post_init__(self) -> None:
+        if self.inject_via not in ("param", "command"):
+            raise ValueError(f"inject_via = {self.inject_via!r}: must be 'param' or 'command'")
+        for name in ("max_flight_s", "connect_timeout_s", "link_timeout_s", "ready_timeout_s",
+                     "wall_timeout_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
+
+
+@dataclass
+class FlightOutcome:
+    """How a flight went.
+
+    Attributes
+    ----------
+    report : FlightReport
+        The table, computed from the flight's .tlog (what ``ftc-gcs report`` prints).
+    timing : list of InjectionTiming
+        Each injection against its target.
+    error : FlightError or None
+        Why the flight failed (None: flown and landed).
+    tlog : Path or None
+    event_log : Path or None
+    """
+
+    report: FlightReport
+    timing: list[InjectionTiming]
+    error: FlightError | None
+    tlog: Path | None
+    event_log: Path | None
+
+    @property
+    def exit_code(self) -> int:
+        """0, or the error's exit code."""
+        return 0 if self.error is None else self.error.exit_code
+
+    def to_json(self) -> dict[str, object]:
+        """Report, injection timing and result, JSON-ready."""
+        out = self.report.to_json()
+        out["injection_timing"] = [
+            {"motor": t.fault.motor, "param": t.fault.param, "loe": t.fault.loe,
+             "at_s": t.fault.at_s, "target_s": t.target_s, "sent_at_s": t.sent_at_s,
+             "achieved_s": t.achieved_s, "error_s": t.error_s} for t in self.timing]
+        out["result"] = "ok" if self.error is None else self.error.one_line()
+        out["exit_code"] = self.exit_code
+        out["tlog"] = None if self.tlog is None else str(self.tlog)
+        out["event_log"] = None if self.event_log is None else str(self.event_log)
+        return out
+
+
+class _Injector:
+    """Sends the schedule's faults as the vehicle clock reaches them (a clock hook)."""
+
+    def __init__(self, gs: GroundStation, faults: Sequence[FaultSpec], via: str) -> None:
+        self._gs = gs
+        self._queue = list(sorted_schedule(list(faults)))
+        self._via = via
+        self._start_s: float | None = None
+
+    def start(self, mission_start_s: float) -> None:
+        self._start_s = mission_start_s
+        self._gs.on_clock(self)
+
+    def __call__(self, clock_s: float) -> None:
+        if self._start_s is None:
+            return
+        lead = self._gs.lead_s()
+        while self._queue and clock_s >= self._start_s + self._queue[0].at_s - lead:
+            fault = self._queue.pop(0)
+            self._gs.inject(fault, self._start_s + fault.at_s, via=self._via)
+
+    @property
+    def left(self) -> list[FaultSpec]:
+        return list(self._queue)
+
+
+def fly(gs: GroundStation, plan: FlightPlan,
+        progress: Callable[[GroundStation], None] | None = None,
+        vehicle_gone: Callable[[], str | None] | None = None) -> FlightOutcome:
+    """Fly ``plan`` with the vehicle on ``gs``; the records are closed at the end.
+
+    Parameters
+    ----------
+    gs : GroundStation
+        An open ground station (nothing flown yet).
+    plan : FlightPlan
+    progress : callable or None
+        Called about once per wall second during the flight.
+    vehicle_gone : callable or None
+        For a vehicle we started: why it can no longer answer (it exited), else None.
+
+    Returns
+    -------
+    FlightOutcome
+        Always (a failed flight carries its error); the report comes from the .tlog when
+        one is written, else from the live telemetry.
+    """
+    error: FlightError | None = None
+    wall0 = time.monotonic()
+    try:
+        _fly(gs, plan, progress, wall0, vehicle_gone)
+    except FlightError as err:
+        error = err
+        gs.log("RESULT", f"FAILED: {err.one_line()}")
+    except KeyboardInterrupt:
+        gs.log("RESULT", "interrupted")
+        gs.close()
+        raise
+    else:
+        gs.log("RESULT", "mission flown, vehicle landed and disarmed")
+    live = gs.report()
+    gs.close()
+    report = live
+    tlog = gs.tlog.path if gs.tlog is not None else None
+    if tlog is not None and tlog.exists():
+        report = analyze_tlog(tlog)
+    return FlightOutcome(report=report, timing=list(gs.injection_timing), error=error,
+                         tlog=tlog, event_log=gs.events.path)
+
+
+def _fly(gs: GroundStation, plan: FlightPlan,
+         progress: Callable[[GroundStation], None] | None, wall0: float,
+         vehicle_gone: Callable[[], str | None] | None) -> None:
+    if gs.analyzer.vehicle is None:
+        gs.wait_vehicle(plan.connect_timeout_s, vehicle_gone)
+    gs.wait_clock()
+    gs.request_streams(plan.telemetry_hz)
+    params = gs.fetch_params()
+    for name, value in plan.params.items():
+        if name not in params:
+            offered = ", ".join(n for n in sorted(params) if n[:4] == name[:4]) or "none alike"
+            raise CommandRefused(f"parameter {name} is not offered by the vehicle "
+                                 f"(similar: {offered})")
+        if same_float32(params[name], value):
+            gs.log("PARAM", f"{name} = {value:g} (already)")
+            continue
+        gs.set_param(name, value)
+    gs.wait_home()
+    gs.wait_armable(plan.ready_timeout_s)
+    gs.upload_mission(plan.mission)
+    injector = _Injector(gs, plan.faults, plan.inject_via)
+    gs.arm()
+    gs.set_mode(COPTER_MODE_AUTO)
+    start_s = gs.start_mission()
+    gs.log("FLIGHT", f"mission started at vehicle t = {start_s:.3f} s; "
+           f"{len(plan.faults)} fault(s) scheduled")
+    injector.start(start_s)
+    if gs.param_names.get("SIM_PAUSE", 0.0) != 0.0:
+        gs.set_param("SIM_PAUSE", 0.0)
+        gs.log("FLIGHT", "simulated time started (SIM_PAUSE = 0)")
+    _watch(gs, plan, injector, start_s, progress, wall0)
+
+
+def _watch(gs: GroundStation, plan: FlightPlan, injector: _Injector, start_s: float,
+           progress: Callable[[GroundStation], None] | None, wall0: float) -> None:
+    """Pump until landed and disarmed; raise on a crash, a lost link or a time-out."""
+    a = gs.analyzer
+    was_airborne = False
+    last_progress = time.monotonic()
+    while True:
+        gs.pump(0.02)
+        gs.confirm_param_faults()
+        clock = a.clock_s if a.clock_s is not None else start_s
+        if a.crashed:
+            raise Crashed(f"{a.crash_text} at vehicle t = {clock:.2f} s "
+                          f"(mission +{clock - start_s:.2f} s)")
+        if a.landed_state == _MAV_LANDED_STATE_IN_AIR:
+            was_airborne = True
+        if a.armed is False:
+            if injector.left:
+                gs.log("INJECT", "not sent (the flight ended first): "
+                       + ", ".join(f.describe() for f in injector.left))
+            if not was_airborne:
+                raise FlightError(f"the vehicle disarmed at t = {clock:.2f} s without taking "
+                                  "off")
+            return
+        silent = gs.wall_since_vehicle_s()
+        if silent > plan.link_timeout_s:
+            raise FlightTimeout(f"no telemetry from the vehicle for {silent:.1f} s (link lost) "
+                                f"at vehicle t = {clock:.2f} s (mission +{clock - start_s:.2f} s)")
+        if clock - start_s > plan.max_flight_s:
+            raise FlightTimeout(f"mission not finished {plan.max_flight_s:g} s (simulated) "
+                                "after its start")
+        if time.monotonic() - wall0 > plan.wall_timeout_s:
+            raise FlightTimeout(f"flight not finished after {plan.wall_timeout_s:g} s of wall "
+                                "time")
+        if progress is not None and time.monotonic() - last_progress >= 1.0:
+            last_progress = time.monotonic()
+            progress(gs)

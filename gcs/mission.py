@@ -1,0 +1,338 @@
+"""Missions as a ground station uploads them: MAVLink mission items, the thesis mission, files.
+
+A :class:`WireItem` is one MISSION_ITEM_INT as it goes on the wire (ArduPilot flavour: seq 0
+is home, the first real item is seq 1). :func:`thesis_mission` is the chapter-7 flight in
+those terms; :func:`load_mission` reads a mission file:
+
+- QGC WPL 110 text (what MAVProxy's ``wp save`` and Mission Planner write; ``.txt`` or
+  ``.waypoints``): a ``QGC WPL 110`` line, then one tab- or space-separated line per item
+  ``seq current frame command p1 p2 p3 p4 x y z autocontinue`` with x/y in degrees
+  (global frames) or metres (local frame). Its seq 0 is home.
+- TOML (``.toml``), an array of tables ``[[items]]`` without home, each either a named
+  command like the scenario files' missions::
+
+      [[items]]
+      command = "takeoff"        # waypoint | takeoff | land | rtl | change_speed
+      alt_m = 0.6                # takeoff: m above home
+      [[items]]
+      command = "waypoint"
+      pos_ned = [1.0, 0.0, -0.6] # m, NED about the vehicle's origin (home at boot)
+      hold_s = 1.0               # s
+      [[items]]
+      command = "change_speed"
+      speed_type = "ground"      # ground | climb | descent
+      speed_m_s = 0.15
+
+  or a raw item ``{ mav_cmd = 16, frame = 1, params = [0, 0, 0, 0], x = 0, y = 0, z = 0 }``
+  (frame numbers of MAV_FRAME; x/y in degrees or metres as above).
+
+Home (seq 0) is replaced by the vehicle's HOME_POSITION when the upload happens, as MAVProxy
+and QGroundControl do.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import tomllib
+
+from gcs.mavlink import MAVLinkMessage, mavlink2
+
+__all__ = [
+    "MissionFileError",
+    "WireItem",
+    "home_item",
+    "load_mission",
+    "thesis_mission",
+]
+
+_M = mavlink2
+_GLOBAL_FRAMES = frozenset({_M.MAV_FRAME_GLOBAL, _M.MAV_FRAME_GLOBAL_INT,
+                            _M.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                            _M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                            _M.MAV_FRAME_GLOBAL_TERRAIN_ALT, _M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT})
+_LOCAL_FRAMES = frozenset({_M.MAV_FRAME_LOCAL_NED, _M.MAV_FRAME_LOCAL_ENU,
+                           _M.MAV_FRAME_LOCAL_OFFSET_NED})
+_SPEED_TYPES = {"ground": 1, "climb": 2, "descent": 3}  # DO_CHANGE_SPEED param1
+_NAMED_COMMANDS = {"waypoint": _M.MAV_CMD_NAV_WAYPOINT, "takeoff": _M.MAV_CMD_NAV_TAKEOFF,
+                   "land": _M.MAV_CMD_NAV_LAND, "rtl": _M.MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                   "change_speed": _M.MAV_CMD_DO_CHANGE_SPEED}
+_NAN = math.nan
+
+
+class MissionFileError(ValueError):
+    """A mission file that cannot be used; the message names the file, the item and the key."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class WireItem:
+    """One mission item as MISSION_ITEM_INT carries it.
+
+    Attributes
+    ----------
+    command : int
+        MAV_CMD.
+    frame : int
+        MAV_FRAME.
+    params : tuple of 4 float
+        param1..param4 in the units MAV_CMD defines (NaN where the spec allows "default").
+    x, y : float
+        Latitude, longitude in degrees (global frames) or north, east in metres (local).
+    z : float
+        Altitude in metres (by frame), or down in metres (MAV_FRAME_LOCAL_NED).
+    autocontinue : bool
+    """
+
+    command: int
+    frame: int = _M.MAV_FRAME_MISSION
+    params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    autocontinue: bool = True
+
+    def _int_scale(self) -> float:
+        if self.frame in _GLOBAL_FRAMES:
+            return 1e7
+        if self.frame in _LOCAL_FRAMES:
+            return 1e4
+        return 1.0
+
+    def to_message(self, seq: int, target_system: int, target_component: int, *,
+                   current: bool = False) -> MAVLinkMessage:
+        """MISSION_ITEM_INT for this item at ``seq``."""
+        scale = self._int_scale()
+
+        def scaled(value: float) -> int:
+            if not math.isfinite(value):
+                return 0x7FFFFFFF  # INT32_MAX: "unset" in MISSION_ITEM_INT
+            return max(-0x7FFFFFFF, min(0x7FFFFFFF, int(round(value * scale))))
+
+        p1, p2, p3, p4 = self.params
+        return _M.MAVLink_mission_item_int_message(
+            target_system, target_component, seq, self.frame, self.command, int(current),
+            int(self.autocontinue), p1, p2, p3, p4, scaled(self.x), scaled(self.y),
+            float(self.z), _M.MAV_MISSION_TYPE_MISSION)
+
+    def describe(self) -> str:
+        """A short readable form, e.g. ``NAV_WAYPOINT LOCAL_NED (1, 0, -0.6) p1=1``."""
+        name = _M.enums["MAV_CMD"][self.command].name if self.command in _M.enums[
+            "MAV_CMD"] else str(self.command)
+        frame = _M.enums["MAV_FRAME"][self.frame].name if self.frame in _M.enums[
+            "MAV_FRAME"] else str(self.frame)
+        params = " ".join(f"p{i + 1}={v:g}" for i, v in enumerate(self.params)
+                          if v != 0 and not math.isnan(v))
+        where = "" if self.frame == _M.MAV_FRAME_MISSION else \
+            f" ({self.x:g}, {self.y:g}, {self.z:g})"
+        return f"{name.removeprefix('MAV_CMD_')} {frame.removeprefix('MAV_FRAME_')}{where}" \
+            + (f" {params}" if params else "")
+
+
+def home_item(lat_deg: float = 0.0, lon_deg: float = 0.0, alt_amsl_m: float = 0.0) -> WireItem:
+    """Seq 0: home, as ArduPilot expects it (NAV_WAYPOINT, MAV_FRAME_GLOBAL, AMSL)."""
+    return WireItem(command=_M.MAV_CMD_NAV_WAYPOINT, frame=_M.MAV_FRAME_GLOBAL,
+                    x=lat_deg, y=lon_deg, z=alt_amsl_m)
+
+
+def _change_speed(speed_type: str, speed_m_s: float) -> WireItem:
+    return WireItem(command=_M.MAV_CMD_DO_CHANGE_SPEED,
+                    params=(float(_SPEED_TYPES[speed_type]), float(speed_m_s), -1.0, 0.0))
+
+
+def _takeoff(alt_m: float) -> WireItem:
+    # lat = lon = 0 in a global frame: "here"; altitude above home (ArduPilot).
+    return WireItem(command=_M.MAV_CMD_NAV_TAKEOFF, frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                    params=(0.0, 0.0, 0.0, _NAN), z=float(alt_m))
+
+
+def _waypoint(pos_ned: Sequence[float], hold_s: float, yaw_deg: float | None) -> WireItem:
+    return WireItem(command=_M.MAV_CMD_NAV_WAYPOINT, frame=_M.MAV_FRAME_LOCAL_NED,
+                    params=(float(hold_s), 0.0, 0.0, _NAN if yaw_deg is None else yaw_deg),
+                    x=float(pos_ned[0]), y=float(pos_ned[1]), z=float(pos_ned[2]))
+
+
+def _land(pos_ned: Sequence[float] | None) -> WireItem:
+    if pos_ned is None:
+        return WireItem(command=_M.MAV_CMD_NAV_LAND, frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                        params=(0.0, 0.0, 0.0, _NAN))
+    return WireItem(command=_M.MAV_CMD_NAV_LAND, frame=_M.MAV_FRAME_LOCAL_NED,
+                    params=(0.0, 0.0, 0.0, _NAN), x=float(pos_ned[0]), y=float(pos_ned[1]),
+                    z=float(pos_ned[2]))
+
+
+def thesis_mission(*, alt_m: float = 0.6, side_m: float = 1.0, takeoff_s: float = 5.0,
+                   settle_s: float = 2.0, leg_s: float = 10.0, corner_hold_s: float = 1.0,
+                   final_hold_s: float = 2.0, land_s: float = 4.0) -> list[WireItem]:
+    """The chapter-7 flight: take off to 0.6 m, a 1 m square at 0.6 m, land (about 60 s).
+
+    The same items as the headless runner's mission (``fcu.navigator.thesis_mission``, which
+    the ground station may not import): peak speeds 1.5 d / T make each cubic segment take
+    the stated time.
+
+    =====  ==========================================  ====================
+    seq    item                                        planned reference
+    =====  ==========================================  ====================
+    1      DO_CHANGE_SPEED climb 0.18 m/s              t = 0
+    2      NAV_TAKEOFF 0.6 m                           0 - 5 s
+    3      NAV_WAYPOINT (0, 0, -0.6) hold 2 s          hold 5 - 7 s
+    4      DO_CHANGE_SPEED ground 0.15 m/s             t = 7
+    5..8   NAV_WAYPOINT the square, holds 1, 1, 1, 2   7 - 52 s
+    9      DO_CHANGE_SPEED descent 0.225 m/s           t = 52
+    10     NAV_LAND here                               52 - 56 s, then creep
+    =====  ==========================================  ====================
+
+    Returns
+    -------
+    list of WireItem
+        Items for seq 1..10 (home is added at upload).
+    """
+    for name, value in (("alt_m", alt_m), ("side_m", side_m), ("takeoff_s", takeoff_s),
+                        ("leg_s", leg_s), ("land_s", land_s)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
+    z = -float(alt_m)
+    items = [_change_speed("climb", 1.5 * alt_m / takeoff_s), _takeoff(alt_m),
+             _waypoint((0.0, 0.0, z), settle_s, None),
+             _change_speed("ground", 1.5 * side_m / leg_s)]
+    corners = [(side_m, 0.0), (side_m, side_m), (0.0, side_m), (0.0, 0.0)]
+    for i, (north, east) in enumerate(corners):
+        hold = final_hold_s if i == len(corners) - 1 else corner_hold_s
+        items.append(_waypoint((north, east, z), hold, None))
+    items += [_change_speed("descent", 1.5 * alt_m / land_s), _land(None)]
+    return items
+
+
+# ------------------------------------------------------------------------------ files
+
+
+def _fail(path: Path, where: str, why: str) -> MissionFileError:
+    return MissionFileError(f"{path}: {where}: {why}")
+
+
+def _number(path: Path, where: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _fail(path, where, f"{value!r} is not a number")
+    return float(value)
+
+
+def _vector3(path: Path, where: str, value: Any) -> tuple[float, float, float]:
+    if not isinstance(value, list) or len(value) != 3:
+        raise _fail(path, where, f"{value!r} must be three numbers [north, east, down] in m")
+    a, b, c = (_number(path, where, v) for v in value)
+    return a, b, c
+
+
+_NAMED_KEYS = {"waypoint": {"pos_ned", "hold_s", "yaw_deg"}, "takeoff": {"alt_m"},
+               "land": {"pos_ned"}, "rtl": set(), "change_speed": {"speed_type", "speed_m_s"}}
+_RAW_KEYS = {"mav_cmd", "frame", "params", "x", "y", "z", "autocontinue"}
+
+
+def _item_from_table(path: Path, index: int, table: Mapping[str, Any]) -> WireItem:
+    where = f"items[{index}]"
+    if "mav_cmd" in table:
+        extra = sorted(set(table) - _RAW_KEYS)
+        if extra:
+            raise _fail(path, where, f"unknown key {extra[0]} (raw items take "
+                        f"{', '.join(sorted(_RAW_KEYS))})")
+        params = table.get("params", [0.0, 0.0, 0.0, 0.0])
+        if not isinstance(params, list) or len(params) != 4:
+            raise _fail(path, f"{where}.params", f"{params!r} must be four numbers")
+        p = tuple(_number(path, f"{where}.params", v) for v in params)
+        return WireItem(command=int(_number(path, f"{where}.mav_cmd", table["mav_cmd"])),
+                        frame=int(_number(path, f"{where}.frame",
+                                          table.get("frame", _M.MAV_FRAME_MISSION))),
+                        params=(p[0], p[1], p[2], p[3]),
+                        x=_number(path, f"{where}.x", table.get("x", 0.0)),
+                        y=_number(path, f"{where}.y", table.get("y", 0.0)),
+                        z=_number(path, f"{where}.z", table.get("z", 0.0)),
+                        autocontinue=bool(table.get("autocontinue", True)))
+    command = table.get("command")
+    if command not in _NAMED_COMMANDS:
+        raise _fail(path, f"{where}.command", f"{command!r} must be one of "
+                    f"{', '.join(_NAMED_COMMANDS)} (or give a raw mav_cmd)")
+    extra = sorted(set(table) - _NAMED_KEYS[command] - {"command"})
+    if extra:
+        raise _fail(path, where, f"unknown key {extra[0]} for {command} (allowed: "
+                    f"{', '.join(sorted(_NAMED_KEYS[command])) or 'none'})")
+    if command == "waypoint":
+        if "pos_ned" not in table:
+            raise _fail(path, where, "a waypoint needs pos_ned = [north, east, down] (m)")
+        yaw = table.get("yaw_deg")
+        return _waypoint(_vector3(path, f"{where}.pos_ned", table["pos_ned"]),
+                         _number(path, f"{where}.hold_s", table.get("hold_s", 0.0)),
+                         None if yaw is None else _number(path, f"{where}.yaw_deg", yaw))
+    if command == "takeoff":
+        return _takeoff(_number(path, f"{where}.alt_m", table.get("alt_m", 0.0)))
+    if command == "land":
+        pos = table.get("pos_ned")
+        return _land(None if pos is None else _vector3(path, f"{where}.pos_ned", pos))
+    if command == "rtl":
+        return WireItem(command=_M.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+    speed_type = table.get("speed_type", "ground")
+    if speed_type not in _SPEED_TYPES:
+        raise _fail(path, f"{where}.speed_type", f"{speed_type!r} must be one of "
+                    f"{', '.join(_SPEED_TYPES)}")
+    return _change_speed(speed_type, _number(path, f"{where}.speed_m_s",
+                                             table.get("speed_m_s", 0.0)))
+
+
+def _load_toml(path: Path) -> list[WireItem]:
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as err:
+        raise MissionFileError(f"{path}: not valid TOML: {err}") from None
+    if "mission" in data and "items" not in data:  # a scenario file's [mission] table
+        data = data["mission"]
+    items = data.get("items")
+    if not isinstance(items, list) or not items:
+        raise _fail(path, "items", "must be a non-empty array of tables [[items]]")
+    return [_item_from_table(path, i, t) for i, t in enumerate(items)]
+
+
+def _load_wpl(path: Path) -> list[WireItem]:
+    lines = [ln.strip() for ln in path.read_text(encoding="utf-8").splitlines()]
+    lines = [ln for ln in lines if ln and not ln.startswith("#")]
+    if not lines or not lines[0].startswith("QGC WPL"):
+        raise _fail(path, "line 1", "a waypoint file starts with 'QGC WPL 110'")
+    items: list[WireItem] = []
+    for number, line in enumerate(lines[1:], start=2):
+        fields = line.split()
+        if len(fields) != 12:
+            raise _fail(path, f"line {number}", f"{len(fields)} fields, expected 12 (seq "
+                        "current frame command p1 p2 p3 p4 x y z autocontinue)")
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            raise _fail(path, f"line {number}", "a field is not a number") from None
+        items.append(WireItem(command=int(values[3]), frame=int(values[2]),
+                              params=(values[4], values[5], values[6], values[7]),
+                              x=values[8], y=values[9], z=values[10],
+                              autocontinue=bool(values[11])))
+    if len(items) < 2:
+        raise _fail(path, "items", "needs home (seq 0) and at least one item")
+    return items[1:]  # seq 0 is home, replaced by the vehicle's at upload
+
+
+def load_mission(path: str | Path) -> list[WireItem]:
+    """Mission items (without home) from a QGC WPL 110 or TOML file (see the module docstring).
+
+    Raises
+    ------
+    MissionFileError
+        Missing or unreadable file, bad syntax, unknown key, bad value.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise MissionFileError(f"{p}: no such mission file")
+    if p.suffix.lower() == ".toml":
+        return _load_toml(p)
+    return _load_wpl(p)
+
+
+def with_home(items: Sequence[WireItem], home: WireItem) -> list[WireItem]:
+    """``home`` as seq 0 followed by ``items`` (seq 1..n)."""
+    return [replace(home), *items]

@@ -1,0 +1,206 @@
+"""``ftc-vehicle`` (also ``python -m sim``): a simulated quadrotor that ground stations fly.
+
+Usage::
+
+    ftc-vehicle [--scenario NAME|FILE.toml] [--seed N] [--speedup X]
+                [--bind HOST:PORT] [--out HOST:PORT ...] [--sysid N] [--compid N]
+                [--home LAT,LON,ALT] [--duration S] [--with-faults] [--load-mission]
+                [--start-paused] [--timing-log PATH] [--realtime [PRIORITY]]
+
+The vehicle boots disarmed in STABILIZE on the ground at home, with the scenario's world and
+autopilot configuration (default ``baseline``) but no mission and no faults unless asked, and
+waits for a ground station: MAVLink 2 over UDP, listening on ``--bind`` (default
+127.0.0.1:14555) and sending telemetry to every ``--out`` (default 127.0.0.1:14550 and
+127.0.0.1:14540; ``--out none`` for none) and to whoever writes to it. It runs in real time,
+or ``--speedup`` times faster; the same seed flies the same trajectory at any speed-up.
+
+One line on stdout says where it listens; Ctrl-C or SIGTERM stops it cleanly (exit 0). A bad
+option or scenario prints one line and exits with status 2; an address that cannot be bound
+exits with status 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import socket
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from types import FrameType
+from typing import NoReturn
+
+PROG = "ftc-vehicle"
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (and exit status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"{PROG}: error: {message}", file=sys.stderr)
+        sys.exit(2)
+
+
+def _address(text: str, *, allow_port_zero: bool) -> tuple[str, int]:
+    host, sep, port_text = text.rpartition(":")
+    if not sep or not host:
+        raise argparse.ArgumentTypeError(f"{text!r} is not HOST:PORT")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: port {port_text!r} is not a number") \
+            from None
+    low = 0 if allow_port_zero else 1
+    if not low <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r}: port must be in {low}..65535")
+    try:
+        ip = socket.gethostbyname(host)
+    except OSError:
+        raise argparse.ArgumentTypeError(f"{text!r}: unknown host {host!r}") from None
+    return ip, port
+
+
+def _bind(text: str) -> tuple[str, int]:
+    return _address(text, allow_port_zero=True)
+
+
+def _out(text: str) -> tuple[str, int] | None:
+    if text == "none":
+        return None
+    return _address(text, allow_port_zero=False)
+
+
+def _home(text: str) -> tuple[float, float, float]:
+    parts = text.split(",")
+    try:
+        lat, lon, alt = (float(p) for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not LAT,LON,ALT (degrees, degrees, "
+                                         "metres AMSL)") from None
+    if not all(math.isfinite(v) for v in (lat, lon, alt)):
+        raise argparse.ArgumentTypeError(f"{text!r}: values must be finite")
+    if abs(lat) > 89.9 or abs(lon) > 180.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: latitude must be in -89.9..89.9 and "
+                                         "longitude in -180..180")
+    return lat, lon, alt
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return value
+
+
+def _int_in(low: int, high: int) -> argparse._ActionType:  # noqa: SLF001
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{value}: must be in {low}..{high}")
+        return value
+
+    return parse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line (no heavy imports: bad flags are reported at once)."""
+    p = _Parser(prog=PROG, description="A simulated quadrotor that ground stations fly "
+                "(MAVLink 2 over UDP).")
+    p.add_argument("--scenario", default="baseline", metavar="NAME|FILE",
+                   help="scenario whose world and autopilot to fly (default baseline)")
+    p.add_argument("--seed", type=_int_in(0, 2**63 - 1), default=None,
+                   help="seed of every random stream (default: the scenario's)")
+    p.add_argument("--speedup", type=_positive, default=1.0,
+                   help="simulated seconds per wall second (default 1, at most 1000)")
+    p.add_argument("--bind", type=_bind, default=("127.0.0.1", 14555), metavar="HOST:PORT",
+                   help="local UDP address (default 127.0.0.1:14555; port 0 = any free)")
+    p.add_argument("--out", type=_out, action="append", metavar="HOST:PORT",
+                   help="telemetry destination, repeatable (default 127.0.0.1:14550 and "
+                   "127.0.0.1:14540; 'none' for none)")
+    p.add_argument("--sysid", type=_int_in(1, 255), default=1, help="MAVLink system id (1)")
+    p.add_argument("--compid", type=_int_in(1, 255), default=1,
+                   help="MAVLink component id (1)")
+    p.add_argument("--home", type=_home, default=None, metavar="LAT,LON,ALT",
+                   help="home at boot, degrees and metres AMSL (default ArduPilot's CMAC "
+                   "-35.363261,149.165230,584)")
+    p.add_argument("--duration", "--max-sim-s", dest="duration", type=_positive, default=None,
+                   metavar="S", help="stop after S simulated seconds")
+    p.add_argument("--with-faults", action="store_true",
+                   help="schedule the scenario's faults (simulated time)")
+    p.add_argument("--load-mission", action="store_true",
+                   help="load the scenario's mission at boot (not started)")
+    p.add_argument("--start-paused", action="store_true",
+                   help="hold simulated time at 0 until SIM_PAUSE is set to 0")
+    p.add_argument("--timing-log", type=Path, default=None, metavar="PATH",
+                   help="write each tick's wall-clock start and busy time (CSV)")
+    p.add_argument("--realtime", type=_int_in(1, 99), nargs="?", const=10, default=0,
+                   metavar="PRIORITY", help="run the loop at SCHED_FIFO priority (default 10; "
+                   "needs CAP_SYS_NICE) for a steady tick period on a busy machine")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the vehicle until signalled or ``--duration``; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    stop = [False]
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop[0] = True
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+
+    from fcu.mavlink import GeoPoint
+    from fcu.mavlink.udp import DEFAULT_PEERS
+    from sim.config_loading import ConfigError
+    from sim.scenario import load_scenario
+    from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess
+
+    try:
+        scenario = load_scenario(args.scenario)
+        if args.seed is not None:
+            scenario = scenario.with_seed(args.seed)
+        outs = DEFAULT_PEERS if args.out is None else tuple(o for o in args.out if o)
+        origin = DEFAULT_HOME if args.home is None else GeoPoint(*args.home)
+        options = VehicleOptions(
+            scenario=scenario, speedup=args.speedup, sysid=args.sysid, compid=args.compid,
+            bind=args.bind, outs=outs, origin=origin, max_sim_s=args.duration,
+            with_faults=args.with_faults, load_mission=args.load_mission,
+            start_paused=args.start_paused, timing_log=args.timing_log,
+            realtime_priority=args.realtime)
+        process = VehicleProcess(options)
+    except (ConfigError, ValueError) as err:
+        parser.error(str(err))
+    try:
+        host, port = process.open()
+    except OSError as err:
+        print(f"{PROG}: cannot listen on {args.bind[0]}:{args.bind[1]}: {err.strerror or err}",
+              file=sys.stderr)
+        return 1
+    realtime = process.enter_realtime()
+    outs_text = ", ".join(f"{h}:{p}" for h, p in outs) or "none"
+    print(f"{PROG}: listening on udp {host}:{port} as sysid {args.sysid} compid "
+          f"{args.compid}; telemetry to {outs_text}; scenario {scenario.name} seed "
+          f"{scenario.seed}; speed-up {args.speedup:g}x"
+          + ("; paused (set SIM_PAUSE 0 to start)" if args.start_paused else "")
+          + (f"; {realtime}" if realtime else ""), flush=True)
+    try:
+        summary = process.run(lambda: stop[0])
+    finally:
+        process.close()
+    print(f"{PROG}: stopped at {summary.sim_s:.2f} s simulated, {summary.running_wall_s:.2f} s "
+          f"running wall time ({summary.ratio:.2f}x; {summary.cpu_ratio:.1f}x per CPU second), "
+          f"{summary.ticks} ticks, {summary.malformed} malformed datagrams", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

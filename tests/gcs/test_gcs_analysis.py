@@ -1,0 +1,238 @@
+"""The thesis table from telemetry, checked on synthetic MAVLink streams with known errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gcs.analysis import (
+    FlightAnalyzer,
+    _velocity_aided,
+    euler_from_quat,
+    format_report,
+    metres_per_degree,
+)
+from gcs.mavlink import decode_packet, mavlink2
+
+M = mavlink2
+HOME_LAT_E7, HOME_LON_E7, HOME_ALT_MM = -353632610, 1491652300, 584000
+NORTH_STEP_M = 1e-7 * metres_per_degree(HOME_LAT_E7 * 1e-7)[0]  # one degE7 of latitude
+
+
+def quat_from_euler(roll: float, pitch: float, yaw: float) -> list[float]:
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return [cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy]
+
+
+class Stream:
+    """Packs messages as a vehicle (1, 1) or a ground station (255, 190) and feeds them."""
+
+    def __init__(self) -> None:
+        self.vehicle = M.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.gcs = M.MAVLink(None, srcSystem=255, srcComponent=190)
+        self.events: list[tuple[float | None, str, str]] = []
+        self.analyzer = FlightAnalyzer(on_event=lambda e: self.events.append(
+            (e.time_s, e.kind, e.text)))
+
+    def v(self, msg: object) -> None:
+        self._feed(self.vehicle, msg)
+
+    def g(self, msg: object) -> None:
+        self._feed(self.gcs, msg)
+
+    def _feed(self, mav: object, msg: object) -> None:
+        packet = bytes(msg.pack(mav))  # type: ignore[attr-defined]
+        mav.seq = (mav.seq + 1) % 256  # type: ignore[attr-defined]
+        decoded = decode_packet(packet)
+        assert decoded is not None
+        self.analyzer.feed(decoded)
+
+    def boot(self) -> None:
+        self.v(M.MAVLink_heartbeat_message(2, 3, 81, 0, 3, 3))
+        self.v(M.MAVLink_home_position_message(HOME_LAT_E7, HOME_LON_E7, HOME_ALT_MM, 0, 0, 0,
+                                               [1, 0, 0, 0], 0, 0, 0, 0))
+
+    def tick(self, t_s: float, *, north_m: float, ref_north_m: float | None, roll: float,
+             ref_roll: float, alt_m: float = 0.6, servo_us: int = 1400,
+             vn_m_s: float = 0.0) -> None:
+        ms = int(round(t_s * 1e3))
+        self.v(M.MAVLink_attitude_message(ms, roll, 0, 0, 0, 0, 0))
+        if ref_north_m is not None:
+            self.v(M.MAVLink_position_target_local_ned_message(
+                ms, 1, 0, ref_north_m, 0, -0.6, 0, 0, 0, 0, 0, 0, 0, 0))
+            self.v(M.MAVLink_attitude_target_message(ms, 0, quat_from_euler(ref_roll, 0, 0),
+                                                     0, 0, 0, 0.5))
+        lat_e7 = HOME_LAT_E7 + int(round(north_m / NORTH_STEP_M))  # degE7: ~1.1 cm steps
+        self.v(M.MAVLink_sim_state_message(*quat_from_euler(roll, 0, 0), roll, 0, 0,
+                                           0, 0, 0, 0, 0, 0, lat_e7 * 1e-7, HOME_LON_E7 * 1e-7,
+                                           HOME_ALT_MM * 1e-3 + alt_m,
+                                           0, 0, vn_m_s, 0, 0, lat_e7, HOME_LON_E7))
+        self.v(M.MAVLink_servo_output_raw_message(int(round(t_s * 1e6)) & 0xFFFFFFFF, 0,
+                                                  *([servo_us] * 4), *([0] * 12)))
+
+
+def north_of(t_s: float) -> float:
+    """A smooth truth trajectory: 0.3 m/s mean, 2 cm wiggle at 1 Hz (m)."""
+    return 0.3 * t_s + 0.02 * math.sin(2 * math.pi * t_s)
+
+
+def vn_of(t_s: float) -> float:
+    return 0.3 + 0.02 * 2 * math.pi * math.cos(2 * math.pi * t_s)
+
+
+def test_errors_and_effort_of_a_known_stream() -> None:
+    s = Stream()
+    s.boot()
+    # on the ground with a reference: not counted (the runner's "off the ground")
+    s.tick(0.00, north_m=0.0, ref_north_m=0.0, roll=0.0, ref_roll=0.0, alt_m=0.0,
+           servo_us=1100, vn_m_s=vn_of(0.0))
+    # without a reference: not counted (controller idle)
+    s.tick(0.01, north_m=north_of(0.01), ref_north_m=None, roll=0.0, ref_roll=0.0,
+           servo_us=1100, vn_m_s=vn_of(0.01))
+    errs = []
+    for k in range(2, 202):
+        t = k * 0.01
+        err = 0.004 if k % 2 else -0.002
+        errs.append(err)
+        s.tick(t, north_m=north_of(t), ref_north_m=north_of(t) + err, roll=0.01, ref_roll=0.03,
+               vn_m_s=vn_of(t))
+    rep = s.analyzer.report()
+    assert rep.samples == 200
+    expected_rms = math.sqrt(np.mean(np.square(errs)))
+    # degE7 alone would be off by its 1.1 cm steps (3.2 mm RMS); the velocity-aided truth is
+    # off by a constant, the mean of ~200 quantisation errors: 3.2 mm / sqrt(200) = 0.23 mm,
+    # so 0.5 mm is about two of its standard deviations
+    assert rep.rms["x"] == pytest.approx(expected_rms, abs=5e-4)
+    assert rep.max["x"] == pytest.approx(0.004, abs=5e-4)
+    assert rep.rms["y"] == pytest.approx(0.0, abs=1e-6)
+    # the altitude went as float32 AMSL (584.6 m: ~3e-5 m resolution)
+    assert rep.rms["z"] == pytest.approx(0.0, abs=1e-4)
+    assert rep.rms["roll"] == pytest.approx(math.degrees(0.02), rel=1e-5)
+    # 1400 us = 0.4 of full scale = 0.02 PWM per motor: effort 0.08
+    assert rep.control_effort == pytest.approx(0.08, rel=1e-9)
+    assert rep.flight_s == pytest.approx(2.0)
+
+
+def test_velocity_aided_position_beats_the_quantisation() -> None:
+    t = np.arange(0.0, 20.0, 0.01)
+    truth = 0.5 * np.sin(0.7 * t) + 0.003 * np.sin(9.0 * t)
+    vel = 0.35 * np.cos(0.7 * t) + 0.027 * np.cos(9.0 * t)
+    step = 0.011  # m, one degE7 of latitude
+    coarse = np.round(truth / step) * step
+    t_gap = np.r_[t[:1000], t[1000:] + 5.0]  # a 5 s hole: two stretches, two anchors
+    aided = _velocity_aided(t_gap, coarse, vel)
+    quantised_rms = float(np.sqrt(np.mean((coarse - truth) ** 2)))
+    aided_rms = float(np.sqrt(np.mean((aided - truth) ** 2)))
+    assert quantised_rms > 2.5e-3  # step / sqrt(12) = 3.2 mm
+    assert aided_rms < 2e-4  # anchor error of ~10^3 unbiased fixes, trapezoid error ~1e-6
+
+
+def test_float_degrees_are_used_near_0_0_where_they_are_finer() -> None:
+    s = Stream()
+    s.v(M.MAVLink_heartbeat_message(2, 3, 81, 0, 3, 3))
+    s.v(M.MAVLink_home_position_message(0, 0, 0, 0, 0, 0, [1, 0, 0, 0], 0, 0, 0, 0))
+    north_per_deg, east_per_deg = metres_per_degree(0.0)
+    north_m, east_m = 0.0123456, -0.0071234  # not on the 1e-7 degree (1.1 cm) grid
+    lat, lon = north_m / north_per_deg, east_m / east_per_deg
+    s.v(M.MAVLink_attitude_message(1000, 0, 0, 0, 0, 0, 0))
+    s.v(M.MAVLink_sim_state_message(1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, lat, lon, 0.6,
+                                    0, 0, 0, 0, 0, int(round(lat * 1e7)),
+                                    int(round(lon * 1e7))))
+    rows = np.array(s.analyzer._truth)
+    pos = s.analyzer.truth_ned(rows)
+    assert pos is not None
+    assert pos[0, :2] == pytest.approx([north_m, east_m], abs=1e-7)  # float32 near 0
+
+
+def test_euler_from_quat_inverts_zyx() -> None:
+    for angles in [(0.1, -0.2, 0.3), (-0.5, 0.4, -3.0), (0.0, 0.0, math.pi - 1e-6)]:
+        assert euler_from_quat(quat_from_euler(*angles)) == pytest.approx(angles, abs=1e-9)
+
+
+def _status(s: Stream, t_s: float, text: str, severity: int = 4) -> None:
+    s.v(M.MAVLink_statustext_message(severity, text.encode(), 0, 0))
+    s.v(M.MAVLink_attitude_message(int(round(t_s * 1e3)), 0, 0, 0, 0, 0, 0))  # dates it
+
+
+def test_injections_follow_the_simulator_statustext_quirks() -> None:
+    s = Stream()
+    s.boot()
+    _status(s, 22.0, "SIM: SIM motor 3: motor 3: loe 20 % (step)")
+    _status(s, 38.0, "SIM: SIM motor 1: motor 1: loe 30 % (step)")
+    # changing motor 4 re-announces motors 1 and 3, then clears the replaced ones a tick later
+    _status(s, 48.0, "SIM: SIM motor 1: motor 1: loe 30 % (step)")
+    _status(s, 48.0, "SIM: SIM motor 3: motor 3: loe 20 % (step)")
+    _status(s, 48.0, "SIM: SIM motor 4: motor 4: loe 15 % (step)")
+    _status(s, 48.01, "SIM: cleared motor 1: loe 30 % (step)")
+    _status(s, 48.01, "SIM: cleared motor 3: loe 20 % (step)")
+    # a value change announces the new fault before the old one's "cleared"
+    _status(s, 50.0, "SIM: SIM motor 3: motor 3: loe 45 % (step)")
+    _status(s, 50.01, "SIM: cleared motor 3: loe 20 % (step)")
+    # scheduled scenario faults and INJECT_FAILURE use other words
+    _status(s, 51.0, "SIM: fault started: motor 2: loe 25 % (step)")
+    _status(s, 52.0, "SIM: injected motor 2: total loss")
+    _status(s, 53.0, "SIM: cleared motor 2: total loss")
+    final = {row["motor"]: row["injected"] for row in s.analyzer.report().loe}
+    assert final == {1: 0.30, 2: 0.25, 3: 0.45, 4: 0.15}
+    times = [(i.motor, i.loe, i.time_s) for i in s.analyzer.injections]
+    assert times[:3] == [(3, 0.2, 22.0), (1, 0.3, 38.0), (4, 0.15, 48.0)]
+
+
+def test_detection_latency_is_measured_from_the_injection() -> None:
+    s = Stream()
+    s.boot()
+    _status(s, 22.0, "SIM: SIM motor 3: motor 3: loe 20 % (step)")
+    _status(s, 22.71, "motor 3 lost about 19 % effectiveness", severity=2)
+    _status(s, 30.0, "motor 2 lost about 12 % effectiveness", severity=2)  # false alarm
+    d3, d2 = s.analyzer.detections
+    assert (d3.motor, d3.percent) == (3, 19.0)
+    assert d3.latency_s == pytest.approx(0.71, abs=1e-9)
+    assert d2.latency_s is None
+    assert any(kind == "DETECT" and "latency 0.710 s" in text for _, kind, text in s.events)
+
+
+def test_chunked_statustext_is_reassembled() -> None:
+    s = Stream()
+    s.boot()
+    text = "crash: touchdown at 3.20 m/s, " + "x" * 40
+    chunks = [text[i:i + 50] for i in range(0, len(text), 50)]
+    for seq, chunk in enumerate(chunks):
+        s.v(M.MAVLink_statustext_message(2, chunk.encode(), 7, seq))
+    s.v(M.MAVLink_attitude_message(1000, 0, 0, 0, 0, 0, 0))
+    assert s.analyzer.statustexts[-1] == (1.0, 2, text)
+    assert s.analyzer.crashed
+
+
+def test_timesync_answer_dates_a_command_even_at_time_zero() -> None:
+    s = Stream()
+    s.boot()
+    s.g(M.MAVLink_command_long_message(1, 1, M.MAV_CMD_MISSION_START, 0, 0, 0, 0, 0, 0, 0, 0))
+    s.g(M.MAVLink_timesync_message(0, 123456789))
+    s.v(M.MAVLink_command_ack_message(M.MAV_CMD_MISSION_START, 0, 0, 0, 255, 190))
+    s.v(M.MAVLink_timesync_message(0, 123456789))  # tc1 = 0 ns: the paused vehicle at t = 0
+    assert s.analyzer.mission_start_s == 0.0
+    # a TIMESYNC that answers nobody of ours is not a clock
+    s.v(M.MAVLink_timesync_message(5_000_000_000, 42))
+    assert s.analyzer.clock_s == 0.0
+
+
+def test_servo_time_is_unwrapped_against_the_clock() -> None:
+    s = Stream()
+    s.boot()
+    t_s = 4300.0  # beyond 2^32 us = 4294.97 s
+    s.v(M.MAVLink_attitude_message(int(t_s * 1e3), 0, 0, 0, 0, 0, 0))
+    s.v(M.MAVLink_servo_output_raw_message(int(t_s * 1e6) & 0xFFFFFFFF, 0, *([1500] * 4),
+                                           *([0] * 12)))
+    assert s.analyzer._servo[-1][0] == pytest.approx(t_s)
+
+
+def test_format_report_of_an_empty_flight_says_so() -> None:
+    s = Stream()
+    s.boot()
+    text = format_report(s.analyzer.report(), title="t")
+    assert "0 in-flight samples" in text and "x m" in text

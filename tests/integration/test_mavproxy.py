@@ -1,0 +1,137 @@
+"""MAVProxy (PyPI ``MAVProxy``), run without a terminal, drives the vehicle process.
+
+MAVProxy connects out to the vehicle (``--master=udpout:``; the vehicle answers whoever
+writes to it), with its default modules. Its interactive shell reads commands from a pipe:
+the test writes one command at a time and waits (bounded) for MAVProxy to print the answer,
+because MAVProxy's ``--cmd`` runs before any HEARTBEAT is heard. Closing the pipe (EOF) ends
+MAVProxy.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+STARTUP_S = 90.0  # s wall: MAVProxy imports, then (FTP tried first) the parameter download
+ANSWER_S = 20.0  # s wall
+
+
+class MavProxy:
+    """A MAVProxy process whose shell we type into and whose output we read."""
+
+    def __init__(self, master: str, workdir: Path) -> None:
+        exe = shutil.which("mavproxy.py", path=str(Path(sys.executable).parent))
+        assert exe is not None, "MAVProxy is not installed in this environment"
+        self.proc = subprocess.Popen(
+            [sys.executable, exe, f"--master={master}", "--no-state", "--source-system=255"],
+            cwd=workdir, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, text=True, bufsize=1)
+        self.output = ""
+        self._lock = threading.Lock()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        while True:
+            chunk = self.proc.stdout.read(1)
+            if not chunk:
+                return
+            with self._lock:
+                self.output += chunk
+
+    def mark(self) -> int:
+        with self._lock:
+            return len(self.output)
+
+    def expect(self, pattern: str, since: int = 0, timeout_s: float = ANSWER_S) -> re.Match:
+        """Wait for ``pattern`` (a regex) in the output after position ``since``."""
+        deadline = time.monotonic() + timeout_s
+        regex = re.compile(pattern)
+        while time.monotonic() < deadline:
+            with self._lock:
+                match = regex.search(self.output, since)
+            if match:
+                return match
+            if self.proc.poll() is not None:
+                break
+            time.sleep(0.05)
+        raise AssertionError(f"MAVProxy did not print {pattern!r} within {timeout_s} s; "
+                             f"output after {since}:\n{self.output[since:][-3000:]}")
+
+    def send(self, line: str) -> int:
+        """Type a command; returns the output position before it (for :meth:`expect`)."""
+        since = self.mark()
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+        return since
+
+    def close(self) -> bool:
+        """EOF on the shell ends MAVProxy (its exit status is always 1); True if it did.
+
+        A MAVProxy that lingers is killed (only this process) and False returned.
+        """
+        if self.proc.stdin is not None and not self.proc.stdin.closed:
+            self.proc.stdin.close()
+        try:
+            self.proc.wait(30)
+            return True
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait(30)
+            return False
+
+
+@pytest.mark.slow
+def test_mavproxy_shows_modes_arms_and_reads_parameters(start_vehicle, tmp_path: Path) -> None:
+    vehicle = start_vehicle("--speedup", "2")
+    host, port = vehicle.address
+    mp = MavProxy(f"udpout:{host}:{port}", tmp_path)
+    try:
+        mp.expect(r"Detected vehicle 1:1", timeout_s=STARTUP_S)
+        mp.expect(r"STABILIZE>", timeout_s=ANSWER_S)  # our mode, by ArduCopter name
+        count = int(mp.expect(r"Received (\d+) parameters", timeout_s=STARTUP_S).group(1))
+        assert count > 50
+        assert "FTP: request timed out" not in mp.output  # NAKed: parameters came at once
+
+        since = mp.send("mode GUIDED")
+        mp.expect(r"DO_SET_MODE: ACCEPTED", since)
+        mp.expect(r"GUIDED>", since)
+        since = mp.send("mode ACRO")  # an ArduCopter mode this vehicle does not fly
+        mp.expect(r"DO_SET_MODE: DENIED", since)
+        mp.expect(r"AP: Mode ACRO refused", since)
+        since = mp.send("arm throttle")
+        mp.expect(r"COMPONENT_ARM_DISARM: ACCEPTED", since)
+        mp.expect(r"ARMED", since)
+
+        since = mp.send("param show ATT_CTRL")
+        mp.expect(r"ATT_CTRL\s+1(\.0)?\b", since)
+        since = mp.send("param show SIM_ENGINE_*")
+        mp.expect(r"SIM_ENGINE_FAIL\s+0(\.0)?\b", since)
+        mp.expect(r"SIM_ENGINE_MUL\s+1(\.0)?\b", since)
+        since = mp.send("param set ATT_CTRL 0")  # armed: refused, value unchanged
+        mp.expect(r"AP: ATT_CTRL: change it disarmed on the ground", since)
+        # MAVProxy retries a PARAM_SET until the echo matches, three times, then gives up
+        mp.expect(r"Failed to set ATT_CTRL to 0 \(invalid returned value 1", since)
+        since = mp.send("param show ATT_CTRL")
+        mp.expect(r"ATT_CTRL\s+1(\.0)?\b", since)
+
+        since = mp.send("disarm")
+        mp.expect(r"DISARMED", since)
+        since = mp.send("mode LOITER")
+        mp.expect(r"LOITER>", since)
+        since = mp.send("param set WPNAV_SPEED 75")  # disarmed on the ground: accepted
+        mp.expect(r"AP: WPNAV_SPEED = 75: autopilot rebuilt", since)
+        since = mp.send("param show WPNAV_SPEED")
+        mp.expect(r"WPNAV_SPEED\s+75(\.0)?\b", since)
+    finally:
+        ended = mp.close()
+    assert ended, mp.output[-3000:]
