@@ -80,8 +80,10 @@ __all__ = [
     "FlightAnalyzer",
     "FlightEvent",
     "FlightReport",
+    "FlightSeries",
     "Injection",
     "analyze_tlog",
+    "replay_tlog",
     "euler_from_quat",
     "format_report",
 ]
@@ -216,6 +218,69 @@ class FlightReport:
         return out
 
 
+@dataclass(frozen=True, eq=False)
+class FlightSeries:
+    """The aligned telemetry of a flight (:meth:`FlightAnalyzer.series`), SI units, NED.
+
+    Attributes
+    ----------
+    time_s : (n,) SIM_STATE sample times on the vehicle clock, s
+    pos_ned : (n, 3) true position about the origin, m
+    euler_rad : (n, 3) true ZYX roll, pitch, yaw, rad
+    flying : (n,) bool, the samples the table counts (fresh references, airborne)
+    ref_pos_ned : (n, 3) POSITION_TARGET_LOCAL_NED held on the samples, m (NaN: none fresh)
+    ref_euler_rad : (n, 3) ATTITUDE_TARGET as ZYX Euler angles, held, rad (NaN: none fresh)
+    pwm_time_s : (m,) SERVO_OUTPUT_RAW times, s
+    pwm : (m, 4) motor commands 1..4 (unit duty, 0..pwm_max)
+    loe_estimate_time_s, loe_estimate : four (k_i,) arrays each, NAMED_VALUE_FLOAT LOE1..LOE4
+    injected_loe : (n, 4) loss of effectiveness in force on each motor (NaN: lock/hard-over)
+    pwm_max : motor command at PWM 2000 us
+    mission_start_s : vehicle time of MISSION_START, s, or None
+    injections, detections, events : what the analyzer saw, in order
+    home_ned : home's local (x, y, z), m, or None
+    """
+
+    time_s: np.ndarray
+    pos_ned: np.ndarray
+    euler_rad: np.ndarray
+    flying: np.ndarray
+    ref_pos_ned: np.ndarray
+    ref_euler_rad: np.ndarray
+    pwm_time_s: np.ndarray
+    pwm: np.ndarray
+    loe_estimate_time_s: tuple[np.ndarray, ...]
+    loe_estimate: tuple[np.ndarray, ...]
+    injected_loe: np.ndarray
+    pwm_max: float
+    mission_start_s: float | None
+    injections: list[Injection]
+    detections: list[Detection]
+    events: list[FlightEvent]
+    home_ned: tuple[float, float, float] | None
+
+    def position_error(self) -> np.ndarray:
+        """Reference minus truth on the flying samples, (k, 3), m (what the table uses)."""
+        return self.ref_pos_ned[self.flying] - self.pos_ned[self.flying]
+
+    def attitude_error_deg(self) -> np.ndarray:
+        """Reference minus truth on the flying samples, wrapped to +-180 deg, (k, 3)."""
+        err = self.ref_euler_rad[self.flying] - self.euler_rad[self.flying]
+        return np.degrees((err + np.pi) % (2.0 * np.pi) - np.pi)
+
+
+@dataclass(frozen=True, eq=False)
+class _Aligned:
+    truth: np.ndarray
+    pos: np.ndarray
+    pos_ref: np.ndarray
+    att_ref: np.ndarray
+    i_pos: np.ndarray
+    fresh_pos: np.ndarray
+    i_att: np.ndarray
+    fresh_att: np.ndarray
+    flying: np.ndarray
+
+
 @dataclass
 class _Pending:
     """A vehicle answer waiting for the next clock value to be dated."""
@@ -277,6 +342,7 @@ class FlightAnalyzer:
         self._sent_timesync: set[int] = set()  # ts1 of our TIMESYNC requests
         self._active_faults: dict[int, list[str]] = {}  # motor -> announced fault texts
         self.last_vehicle_unix_us: int | None = None
+        self.events: list[FlightEvent] = []  # every event emitted, in order
 
     # ------------------------------------------------------------------ feeding
     def feed(self, msg: MAVLinkMessage, unix_time_us: int | None = None) -> None:
@@ -301,8 +367,10 @@ class FlightAnalyzer:
                                           _M.MAV_TYPE_ADSB, _M.MAV_TYPE_ONBOARD_CONTROLLER))
 
     def _emit(self, time_s: float | None, kind: str, text: str) -> None:
+        event = FlightEvent(time_s, kind, text)
+        self.events.append(event)
         if self._on_event is not None:
-            self._on_event(FlightEvent(time_s, kind, text))
+            self._on_event(event)
 
     def _advance(self, time_s: float) -> None:
         if self.clock_s is None or time_s >= self.clock_s:
@@ -549,12 +617,12 @@ class FlightAnalyzer:
         east = _velocity_aided(rows[:, 0], east, rows[:, 10])
         return np.column_stack([north, east, down])
 
-    def report(self) -> FlightReport:
-        """The table over the flight so far."""
+    def _aligned(self) -> _Aligned | None:
+        """Truth, references and the flying mask on the SIM_STATE samples (None: no data)."""
         truth = np.array(self._truth, dtype=float).reshape(-1, 11)
         pos = self.truth_ned(truth) if len(truth) else None
         if pos is None or not self._pos_ref or not self._att_ref:
-            return self._make_report()
+            return None
         t = truth[:, 0]
         pos_ref = np.array(self._pos_ref)
         att_ref = np.array(self._att_ref)
@@ -566,6 +634,64 @@ class FlightAnalyzer:
                         2.0 * float(np.spacing(np.float32(abs(home_alt_m) + 1.0))))
         airborne = (-pos[:, 2] + self.home[5]) > threshold
         flying = fresh_pos & fresh_att & airborne
+        return _Aligned(truth=truth, pos=pos, pos_ref=pos_ref, att_ref=att_ref, i_pos=i_pos,
+                        fresh_pos=fresh_pos, i_att=i_att, fresh_att=fresh_att, flying=flying)
+
+    def _servo_sorted(self) -> np.ndarray:
+        servo = np.array(self._servo, dtype=float).reshape(-1, 5)
+        return servo[np.argsort(servo[:, 0], kind="stable")]
+
+    def series(self) -> FlightSeries:
+        """The aligned time series behind the table, for plots and recordings.
+
+        The same alignment as :meth:`report` (sample-and-hold of the references on the
+        SIM_STATE samples, the same flying mask), so errors over ``flying`` rows are exactly
+        the ones the table's RMS and maximum are taken over.
+        """
+        al = self._aligned()
+        servo = self._servo_sorted()
+        loe_t = tuple(np.array([e[0] for e in self._loe_est[m]], dtype=float)
+                      for m in (1, 2, 3, 4))
+        loe_v = tuple(np.array([e[1] for e in self._loe_est[m]], dtype=float)
+                      for m in (1, 2, 3, 4))
+        if al is None:
+            t = np.zeros(0)
+            pos = euler = ref_pos = ref_euler = np.zeros((0, 3))
+            flying = np.zeros(0, dtype=bool)
+        else:
+            t = al.truth[:, 0]
+            pos, euler = al.pos, al.truth[:, 1:4]
+            ref_pos = np.where(al.fresh_pos[:, None], al.pos_ref[al.i_pos, 1:4], np.nan)
+            ref_euler = np.where(al.fresh_att[:, None], al.att_ref[al.i_att, 1:4], np.nan)
+            flying = al.flying
+        return FlightSeries(
+            time_s=t, pos_ned=pos, euler_rad=euler, flying=flying, ref_pos_ned=ref_pos,
+            ref_euler_rad=ref_euler, pwm_time_s=servo[:, 0], pwm=servo[:, 1:5],
+            loe_estimate_time_s=loe_t, loe_estimate=loe_v,
+            injected_loe=self.injected_loe_at(t), pwm_max=self.pwm_max,
+            mission_start_s=self.mission_start_s, injections=list(self.injections),
+            detections=list(self.detections), events=list(self.events),
+            home_ned=None if self.home is None else self.home[3:6])
+
+    def injected_loe_at(self, time_s: np.ndarray) -> np.ndarray:
+        """The loss of effectiveness in force on motors 1..4 at each time, shape (n, 4).
+
+        From the simulator's announcements (:attr:`injections`), held until the next change;
+        NaN where the fault in force has no constant effectiveness (lock, hard-over).
+        """
+        out = np.zeros((len(time_s), 4))
+        for inj in sorted(self.injections, key=lambda i: i.time_s):
+            out[np.asarray(time_s) >= inj.time_s - 1e-9, inj.motor - 1] = inj.loe
+        return out
+
+    def report(self) -> FlightReport:
+        """The table over the flight so far."""
+        al = self._aligned()
+        if al is None:
+            return self._make_report()
+        truth, pos, flying = al.truth, al.pos, al.flying
+        pos_ref, att_ref, i_pos, i_att = al.pos_ref, al.att_ref, al.i_pos, al.i_att
+        t = truth[:, 0]
         n = int(np.count_nonzero(flying))
         if n == 0:
             return self._make_report()
@@ -579,9 +705,7 @@ class FlightAnalyzer:
                                        for k, (axis, _) in enumerate(AXES)}
         effort = None
         if self._servo:
-            servo = np.array(self._servo)
-            order = np.argsort(servo[:, 0], kind="stable")
-            servo = servo[order]
+            servo = self._servo_sorted()
             i_srv, have = _hold(servo[:, 0], t[flying], fresh_s=None)
             if np.all(have):
                 effort = float(np.mean(np.sum(servo[i_srv, 1:5], axis=1)))
@@ -732,12 +856,18 @@ _HANDLERS: dict[str, Callable[[FlightAnalyzer, MAVLinkMessage], None]] = {
 }
 
 
-def analyze_tlog(path: str | Path, *, pwm_max: float = PWM_MAX) -> FlightReport:
-    """The :class:`FlightReport` of a recorded flight (what ``ftc-gcs report`` prints)."""
-    analyzer = FlightAnalyzer(pwm_max=pwm_max)
+def replay_tlog(path: str | Path, *, pwm_max: float = PWM_MAX,
+                on_event: Callable[[FlightEvent], None] | None = None) -> FlightAnalyzer:
+    """A :class:`FlightAnalyzer` fed with every packet of a recorded flight."""
+    analyzer = FlightAnalyzer(pwm_max=pwm_max, on_event=on_event)
     for record in read_tlog(path):
         analyzer.feed(record.message, record.unix_time_us)
-    return analyzer.report()
+    return analyzer
+
+
+def analyze_tlog(path: str | Path, *, pwm_max: float = PWM_MAX) -> FlightReport:
+    """The :class:`FlightReport` of a recorded flight (what ``ftc-gcs report`` prints)."""
+    return replay_tlog(path, pwm_max=pwm_max).report()
 
 
 def _fmt(value: float | None, digits: int = 4) -> str:

@@ -8,15 +8,23 @@ Usage::
                    [--attitude pd|lqg] [--estimator ekf|tskf] [--dob none|vbdob|abdob]
                    [--param NAME=VALUE ...]
                    [--out-dir DIR] [--tlog PATH] [--event-log PATH] [--json PATH] [--quiet]
+                   [--rerun [URL]] [--rrd PATH] [--figures DIR] [--report DIR]
                    [--connect-timeout S] [--link-timeout S] [--max-flight-s S] [--timeout S]
     ftc-gcs demo   [--speedup X] [--seed N] [--out-dir DIR] [...fly options]
-    ftc-gcs report FLIGHT.tlog [--json PATH]
+    ftc-gcs report FLIGHT.tlog [--json PATH] [--rrd PATH] [--figures DIR] [--report DIR]
 
 ``fly`` connects to a running vehicle (default: listen on UDP 14550, where ``ftc-vehicle``
 sends its telemetry), or with ``--spawn-vehicle`` starts ``python -m sim`` itself on loopback.
 ``demo`` is ``fly --spawn-vehicle --faults table7.3`` with the Table 7.4 configuration (LQG
 attitude, EKF feedback, no DOB) at speed-up 10: the one-command demonstration.
 ``report`` recomputes the table from any recorded flight.
+
+Views of a flight: ``--rerun`` streams it live to a rerun viewer it starts (``--rerun URL``:
+to a viewer or server already running, e.g. ``rerun+http://127.0.0.1:9876/proxy``);
+``--rrd PATH`` saves a rerun recording, ``--figures DIR`` the thesis-style figures (PNG and
+PDF), ``--report DIR`` a Markdown report embedding them next to the table. The last three are
+made from the .tlog after the flight (also after a failed one), the same way ``report``
+makes them from any .tlog (:mod:`gcs.recording`, :mod:`gcs.figures`, :mod:`gcs.report`).
 
 Fault specs: ``MOTOR:LOE@AT_S`` (``--fault 3:0.20@22``) or ``PARAM=VALUE@AT_S``
 (``--fault SIM_BARO_GLITCH=0.1@30``); times are simulated seconds after the mission start.
@@ -135,6 +143,10 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
     rec.add_argument("--event-log", type=Path, default=None, help="the event log path")
     rec.add_argument("--json", type=Path, default=None, help="also write the table as JSON")
     rec.add_argument("--quiet", action="store_true", help="no event lines on stderr")
+    rec.add_argument("--rerun", nargs="?", const="spawn", default=None, metavar="URL",
+                     help="stream the flight live to a rerun viewer: one started here, or "
+                     "the viewer/server at URL (rerun+http://HOST:PORT/proxy)")
+    _add_view_options(rec)
     lim = p.add_argument_group("time limits")
     lim.add_argument("--connect-timeout", type=_positive, default=None, metavar="S",
                      help="wall s to wait for the vehicle (default 10; 60 for a vehicle "
@@ -145,6 +157,15 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                      help="simulated s after the mission start (default 120)")
     lim.add_argument("--timeout", type=_positive, default=900.0, metavar="S",
                      help="wall s for the whole flight (default 900)")
+
+
+def _add_view_options(group: Any) -> None:
+    group.add_argument("--rrd", type=Path, default=None, metavar="PATH",
+                       help="write a rerun recording of the flight (.rrd)")
+    group.add_argument("--figures", type=Path, default=None, metavar="DIR",
+                       help="write the thesis-style figures (PNG and PDF) there")
+    group.add_argument("--report", type=Path, default=None, metavar="DIR",
+                       help="write DIR/report.md with the table and its figures")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -160,6 +181,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="the table of a recorded flight (.tlog)")
     rep.add_argument("tlog", type=Path)
     rep.add_argument("--json", type=Path, default=None, help="also write it as JSON")
+    _add_view_options(rep)
     return p
 
 
@@ -243,6 +265,7 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
         print(f"{PROG}: error: cannot open {url}: {err.strerror or err}", file=sys.stderr)
         return EXIT_USAGE
     vehicle: SpawnedVehicle | None = None
+    live = _live_recorder(args.rerun, gs, stem) if args.rerun is not None else None
     try:
         if spawn:
             port = int(gs.conn.port.getsockname()[1])
@@ -261,12 +284,20 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
         gs.close()
         if vehicle is not None:
             vehicle.stop()
+        if live is not None:
+            live.close()
     print(format_report(outcome.report, title=TABLE_TITLE))
     for line in _timing_lines(outcome):
         print(line)
     print(f"records: {outcome.tlog} (tlog), {outcome.event_log} (events)")
     if args.json is not None:
         _write_json(args.json, _clean(outcome.to_json()))
+    if outcome.tlog is not None and outcome.tlog.exists():
+        try:
+            _write_views(args, outcome.tlog, outcome.report)
+        except OSError as err:  # the flight's own result stands; say what was not written
+            print(f"{PROG}: error: cannot write the views of the flight: {err}",
+                  file=sys.stderr)
     if outcome.error is not None:
         print(f"{PROG}: {outcome.error.one_line()}", file=sys.stderr)
     return outcome.exit_code
@@ -284,7 +315,56 @@ def cmd_report(args: argparse.Namespace) -> int:
               f"latency {lat}")
     if args.json is not None:
         _write_json(args.json, _clean(report.to_json()))
+    try:
+        _write_views(args, args.tlog, report)
+    except OSError as err:
+        print(f"{PROG}: error: cannot write the views of {args.tlog}: {err}", file=sys.stderr)
+        return EXIT_USAGE
     return 0
+
+
+def _live_recorder(target: str, gs: GroundStation, name: str) -> Any:
+    """A :class:`gcs.recording.LiveRecorder` on the ground station's clock (None: failed)."""
+    from gcs.recording import LiveRecorder, open_stream
+
+    try:
+        stream = open_stream(name, spawn=target == "spawn",
+                             connect_url=None if target == "spawn" else target)
+    except Exception as err:  # a viewer that cannot start must not stop the flight
+        print(f"{PROG}: warning: no live rerun stream ({target}): {err}", file=sys.stderr)
+        return None
+    live = LiveRecorder(stream, gs.analyzer, owns_stream=True)
+    gs.on_clock(live.on_clock)
+    return live
+
+
+def _write_views(args: argparse.Namespace, tlog: Path, report: Any) -> None:
+    """The --rrd, --figures and --report outputs of a recorded flight."""
+    if args.rrd is None and args.figures is None and args.report is None:
+        return
+    from gcs.analysis import replay_tlog
+
+    series = replay_tlog(tlog).series()
+    if args.rrd is not None:
+        from gcs.recording import open_stream, write_recording
+
+        stream = open_stream(tlog.stem, rrd_path=args.rrd)
+        try:
+            write_recording(series, stream)
+        finally:
+            stream.disconnect()
+        print(f"recording: {args.rrd}")
+    if args.figures is not None:
+        from gcs.figures import save_figures
+
+        save_figures(series, args.figures)
+        print(f"figures: {args.figures}")
+    if args.report is not None:
+        from gcs.report import write_report
+
+        path = write_report(args.report, report, series, title=f"Flight {tlog.stem}",
+                            source=str(tlog))
+        print(f"report: {path}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -33,12 +33,11 @@ and QGroundControl do.
 from __future__ import annotations
 
 import math
+import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
-
-import tomllib
 
 from gcs.mavlink import MAVLinkMessage, mavlink2
 
