@@ -1,4 +1,4 @@
-"""Headless composition root: the world and the autopilot flying a scenario as fast as the CPU allows.
+"""Headless composition root: world and autopilot fly a scenario as fast as the CPU allows.
 
 The loop is the same one the MAVLink vehicle process runs, minus the network::
 
@@ -82,7 +82,8 @@ class _Recorder:
 
     def log(self) -> FlightLog:
         k = self.n
-        return FlightLog(self.t[:k], self.flying[:k], self.free_flight[:k], self.ref_pos[:k], self.pos[:k],
+        return FlightLog(self.t[:k], self.flying[:k], self.free_flight[:k], self.ref_pos[:k],
+                         self.pos[:k],
                          self.est_pos[:k], self.ref_euler[:k], self.euler[:k], self.pwm[:k],
                          self.loe_est[:k], self.loe_true[:k], self.wind[:k])
 

@@ -1,4 +1,4 @@
-"""Scenario files: what a headless run flies, with which autopilot, in which world, with which faults.
+"""Scenario files: what a headless run flies, with which autopilot, world and faults.
 
 A scenario is a TOML file (the shipped ones live in ``sim/scenarios/``)::
 
@@ -25,7 +25,8 @@ A scenario is a TOML file (the shipped ones live in ``sim/scenarios/``)::
     kind = "loe"                     #   loe | lock | float | hardover | total_loss
     start_s = 38.0
     loe = 0.30
-    # sensor faults have `sensor = "baro"` (SensorFault), structural `mass_loss_kg` (StructuralFault)
+    # sensor faults have `sensor = "baro"` (SensorFault),
+    # structural ones `mass_loss_kg` (StructuralFault)
 
 A ``type = "actuator" | "sensor" | "structural"`` key may accompany a fault for readability;
 it must agree with the other keys.

@@ -14,13 +14,12 @@ from __future__ import annotations
 import math
 import multiprocessing
 import signal
+import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import IO, Any
-
-import tomllib
 
 #: Table 7.2, 7.4-7.10 runs, in thesis order.
 THESIS_RUNS = ("baseline", "lqg_loe", "pd_loe", "pd_vbdob_loe", "lqg_vbdob_loe",

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import math
 import re
+import tomllib
 
 import numpy as np
 import pytest
-import tomllib
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

@@ -8,10 +8,10 @@ time with L / V. All randomness comes from seeded generators, so every run is id
 from __future__ import annotations
 
 import math
+import tomllib
 
 import numpy as np
 import pytest
-import tomllib
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.linalg import solve_continuous_lyapunov
 from scipy.optimize import brentq
