@@ -28,11 +28,16 @@ SENSOR_NAMES = ("gyro", "accel", "mocap_pos", "mocap_att", "baro")
 
 
 class SensorSampleLike(Protocol):
-    """Structural type of one sensor sample."""
+    """Structural type of one sensor sample (read-only attributes)."""
 
-    sensor: str
-    time_s: float
-    value: np.ndarray
+    @property
+    def sensor(self) -> str: ...
+
+    @property
+    def time_s(self) -> float: ...
+
+    @property
+    def value(self) -> np.ndarray: ...
 
 
 @dataclass(frozen=True, slots=True)
