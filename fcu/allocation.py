@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fcu.floats import clip, floats
 from fcu.model import VehicleModel
 
 _EPS_PWM = 1e-12  # numerical slack on the PWM bounds, far below any physical PWM step
@@ -80,6 +81,10 @@ class Allocator:
         self._per_roll = np.array([0.0, 0.0, 1.0, -1.0]) / (2.0 * kl)  # PWM per N*m of U2
         self._per_pitch = np.array([1.0, -1.0, 0.0, 0.0]) / (2.0 * kl)  # PWM per N*m of U3
         self._per_yaw = np.array([1.0, 1.0, -1.0, -1.0]) / (4.0 * kk)  # PWM per N*m of U4
+        # the same as plain floats, for the per-tick path
+        self._per_thrust_f = float(self._per_thrust[0])
+        self._per_roll_f, self._per_pitch_f, self._per_yaw_f = (
+            self._per_roll.tolist(), self._per_pitch.tolist(), self._per_yaw.tolist())
 
     @property
     def max_thrust_n(self) -> float:
@@ -92,7 +97,7 @@ class Allocator:
         Exactly the inverse of eq. 3.2 when no motor saturates; otherwise see the module
         docstring.
         """
-        return self.allocate_report(thrust_n, torque_nm).pwm
+        return self._allocate(thrust_n, torque_nm)[0]
 
     def allocate_report(self, thrust_n: float, torque_nm: np.ndarray) -> AllocationResult:
         """Like :meth:`allocate`, returning also the scales the saturation strategy applied.
@@ -104,31 +109,40 @@ class Allocator:
         torque_nm : numpy.ndarray
             Requested [U2 roll, U3 pitch, U4 yaw], N*m, shape (3,).
         """
-        lo, hi = self.model.pwm_min, self.model.pwm_max
-        tau = np.asarray(torque_nm, dtype=float).reshape(3)
-        c0 = float(thrust_n) * self._per_thrust[0]  # requested collective PWM, c = U1/(4K)
-        d_rp = tau[0] * self._per_roll + tau[1] * self._per_pitch
-        d_yaw = tau[2] * self._per_yaw
-
-        # 1. collective and roll/pitch as requested, yaw scaled to fit
-        s_yaw = _largest_scale(c0 + d_rp, d_yaw, lo, hi)
-        if s_yaw is not None:
-            c, s_rp = c0, 1.0
-        else:
-            spread = float(np.ptp(d_rp))
-            if spread <= hi - lo:
-                # 2. roll/pitch fits the range: shift the collective to the nearest feasible
-                c_lo, c_hi = lo - float(d_rp.min()), hi - float(d_rp.max())
-                c, s_rp = float(np.clip(c0, c_lo, c_hi)), 1.0
-            else:
-                # 3. roll/pitch alone exceeds the range: scale it to the range, no yaw
-                s_rp = (hi - lo) / spread
-                c = lo - s_rp * float(d_rp.min())
-            s_yaw = _largest_scale(c + s_rp * d_rp, d_yaw, lo, hi) or 0.0
-        pwm = np.clip(c + s_rp * d_rp + s_yaw * d_yaw, lo, hi)
+        pwm, s_yaw, s_rp, c, c0 = self._allocate(thrust_n, torque_nm)
         saturated = bool(s_yaw < 1.0 or s_rp < 1.0 or c != c0)
         return AllocationResult(pwm=pwm, yaw_scale=float(s_yaw), roll_pitch_scale=float(s_rp),
                                 collective_shift_pwm=float(c - c0), saturated=saturated)
+
+    def _allocate(self, thrust_n: float, torque_nm: np.ndarray
+                  ) -> tuple[np.ndarray, float, float, float, float]:
+        """The strategy of the module docstring: (pwm, s_yaw, s_rp, c, c0)."""
+        lo, hi = self.model.pwm_min, self.model.pwm_max
+        # four motors in plain floats (numpy's per-call overhead would dominate)
+        t_roll, t_pitch, t_yaw = floats(torque_nm, 3)
+        c0 = float(thrust_n) * self._per_thrust_f  # requested collective PWM, c = U1/(4K)
+        d_rp = [t_roll * r + t_pitch * p for r, p in zip(self._per_roll_f, self._per_pitch_f,
+                                                          strict=True)]
+        d_yaw = [t_yaw * y for y in self._per_yaw_f]
+
+        # 1. collective and roll/pitch as requested, yaw scaled to fit
+        s_yaw = _largest_scale_f([c0 + d for d in d_rp], d_yaw, lo, hi)
+        if s_yaw is not None:
+            c, s_rp = c0, 1.0
+        else:
+            rp_min, rp_max = min(d_rp), max(d_rp)
+            spread = rp_max - rp_min
+            if spread <= hi - lo:
+                # 2. roll/pitch fits the range: shift the collective to the nearest feasible
+                c, s_rp = clip(c0, lo - rp_min, hi - rp_max), 1.0
+            else:
+                # 3. roll/pitch alone exceeds the range: scale it to the range, no yaw
+                s_rp = (hi - lo) / spread
+                c = lo - s_rp * rp_min
+            s_yaw = _largest_scale_f([c + s_rp * d for d in d_rp], d_yaw, lo, hi) or 0.0
+        pwm = np.array([clip(c + s_rp * d + s_yaw * y, lo, hi)
+                        for d, y in zip(d_rp, d_yaw, strict=True)])
+        return pwm, s_yaw, s_rp, c, c0
 
     def mix(self, pwm: np.ndarray) -> tuple[float, np.ndarray]:
         """Eq. 3.2: thrust U1 (N) and torques [U2, U3, U4] (N*m, shape (3,)) from PWM u[4]."""
@@ -138,7 +152,15 @@ class Allocator:
 
 def _largest_scale(base: np.ndarray, pattern: np.ndarray, lo: float, hi: float) -> float | None:
     """Largest s in [0, 1] with lo <= base + s * pattern <= hi, or None if s = 0 is infeasible."""
-    if np.any(base < lo - _EPS_PWM) or np.any(base > hi + _EPS_PWM):
+    return _largest_scale_f(np.asarray(base, dtype=float).tolist(),
+                            np.asarray(pattern, dtype=float).tolist(), lo, hi)
+
+
+def _largest_scale_f(base: list[float], pattern: list[float], lo: float, hi: float
+                     ) -> float | None:
+    """:func:`_largest_scale` on plain floats."""
+    lo_tol, hi_tol = lo - _EPS_PWM, hi + _EPS_PWM
+    if any(b < lo_tol or b > hi_tol for b in base):
         return None
     s = 1.0
     for b, p in zip(base, pattern, strict=True):

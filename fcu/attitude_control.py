@@ -50,12 +50,16 @@ Yaw errors are wrapped to [-pi, pi] (roll and pitch too, harmlessly).
 
 from __future__ import annotations
 
+import functools
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import control
 import numpy as np
 
+from fcu.floats import clip, floats, wrap_pi
 from fcu.model import VehicleModel
 
 
@@ -75,8 +79,15 @@ def euler_rates(euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
     """
     phi, theta = float(euler_rad[0]), float(euler_rad[1])
     p, q, r = (float(v) for v in rate_frd)
-    sp, cp, ct, tt = np.sin(phi), np.cos(phi), np.cos(theta), np.tan(theta)
-    return np.array([p + sp * tt * q + cp * tt * r, cp * q - sp * r, (sp * q + cp * r) / ct])
+    return np.array(_euler_rates(phi, theta, p, q, r))
+
+
+def _euler_rates(phi: float, theta: float, p: float, q: float, r: float
+                 ) -> tuple[float, float, float]:
+    """:func:`euler_rates` on plain floats (the per-tick path)."""
+    # numpy's tan (math.tan may differ in the last bit); sin and cos agree
+    sp, cp, ct, tt = math.sin(phi), math.cos(phi), math.cos(theta), float(np.tan(theta))
+    return p + sp * tt * q + cp * tt * r, cp * q - sp * r, (sp * q + cp * r) / ct
 
 
 class AttitudeController(Protocol):
@@ -130,16 +141,10 @@ class MotorLead:
         if not target_bandwidth_rad_s > motor_bandwidth_rad_s:
             raise ValueError(f"motor_lead_rad_s = {target_bandwidth_rad_s!r}: must exceed the "
                              f"motor bandwidth ({motor_bandwidth_rad_s} rad/s) or be None")
-        w, wd = float(motor_bandwidth_rad_s), float(target_bandwidth_rad_s)
-        target = control.c2d(control.tf([wd], [1.0, wd]), dt_s, method="zoh")
-        motor = control.c2d(control.tf([w], [1.0, w]), dt_s, method="zoh")
-        self.transfer_function = target / motor  # discrete, first order over first order
-        realised = control.ss(self.transfer_function)
-        self._a = float(np.asarray(realised.A)[0, 0])
-        self._b = float(np.asarray(realised.B)[0, 0])
-        self._c = float(np.asarray(realised.C)[0, 0])
-        self._d = float(np.asarray(realised.D)[0, 0])
-        self._x = np.zeros(3)
+        # discrete, first order over first order (designed once per configuration)
+        self.transfer_function, self._a, self._b, self._c, self._d = _lead_design(
+            float(motor_bandwidth_rad_s), float(target_bandwidth_rad_s), float(dt_s))
+        self._x = [0.0, 0.0, 0.0]  # filter state per axis
 
     @property
     def high_frequency_gain(self) -> float:
@@ -148,14 +153,37 @@ class MotorLead:
 
     def reset(self) -> None:
         """Zero the filter state."""
-        self._x = np.zeros(3)
+        self._x = [0.0, 0.0, 0.0]
 
     def step(self, torque_nm: np.ndarray) -> np.ndarray:
         """Lead-filtered torque (N*m), shape (3,)."""
-        u = np.asarray(torque_nm, dtype=float)
-        y = self._c * self._x + self._d * u  # y[k] = C x[k] + D u[k]
-        self._x = self._a * self._x + self._b * u  # x[k+1] = A x[k] + B u[k]
+        return np.array(self._step(floats(torque_nm, 3)))
+
+    def _step(self, u: list[float]) -> list[float]:
+        """:meth:`step` on plain floats."""
+        a, b, c, d, x = self._a, self._b, self._c, self._d, self._x
+        y = [c * x[i] + d * u[i] for i in range(3)]  # y[k] = C x[k] + D u[k]
+        self._x = [a * x[i] + b * u[i] for i in range(3)]  # x[k+1] = A x[k] + B u[k]
         return y
+
+
+# The designs of this module (_lead_design, _shared_axis_lqr, _reference_filter_design) call
+# python-control's c2d and dlqr, hence scipy's expm and solve, which wake OpenBLAS's worker
+# threads; those then spin for about 0.1 s of CPU time. Each design is a pure function of
+# its (hashable) parameters, so it is made once per process and configuration: a process
+# that builds many controllers (a batch of flights, a benchmark, the tests) pays that once.
+# Cached arrays are read-only.
+@functools.lru_cache(maxsize=16)
+def _lead_design(w: float, wd: float, dt_s: float
+                 ) -> tuple[control.TransferFunction, float, float, float, float]:
+    """:class:`MotorLead`'s ``C(z)`` and its first-order realisation (A, B, C, D)."""
+    target = control.c2d(control.tf([wd], [1.0, wd]), dt_s, method="zoh")
+    motor = control.c2d(control.tf([w], [1.0, w]), dt_s, method="zoh")
+    transfer_function = target / motor  # discrete, first order over first order
+    realised = control.ss(transfer_function)
+    return (transfer_function, float(np.asarray(realised.A)[0, 0]),
+            float(np.asarray(realised.B)[0, 0]), float(np.asarray(realised.C)[0, 0]),
+            float(np.asarray(realised.D)[0, 0]))
 
 
 def _make_lead(model: VehicleModel, motor_lead_rad_s: float | None,
@@ -223,6 +251,8 @@ class AttitudePD:
         self._inertia = model.inertia_diag
         self._kp = np.array(self.gains.kp)
         self._kd = np.array(self.gains.kd)
+        self._inertia_f, self._kp_f, self._kd_f = (self._inertia.tolist(), self._kp.tolist(),
+                                                   self._kd.tolist())
         self.lead = _make_lead(model, self.gains.motor_lead_rad_s, self.dt_s)
 
     def reset(self) -> None:
@@ -233,13 +263,19 @@ class AttitudePD:
     def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, ref_euler_rad: np.ndarray,
              ref_rate: np.ndarray, ref_acc: np.ndarray) -> np.ndarray:
         """Torques [U2, U3, U4] (N*m) by eq. 5.6; arguments as in the module docstring."""
-        euler = np.asarray(euler_rad, dtype=float)
-        e = wrap_angle(np.asarray(ref_euler_rad, dtype=float) - euler)  # eq. 5.1 (rad)
-        e_dot = np.asarray(ref_rate, dtype=float) - euler_rates(euler, rate_frd)  # rad/s
-        # eq. 5.6: U = I (ddot_ref + kp e + kd e_dot)
-        torque = self._inertia * (np.asarray(ref_acc, dtype=float) + self._kp * e
-                                  + self._kd * e_dot)
-        return torque if self.lead is None else self.lead.step(torque)
+        # per axis in plain floats (3-vectors: numpy's overhead would dominate)
+        euler, ref = floats(euler_rad, 3), floats(ref_euler_rad, 3)
+        ref_rate_f, ref_acc_f = floats(ref_rate, 3), floats(ref_acc, 3)
+        p, q, r = floats(rate_frd, 3)
+        rates = _euler_rates(euler[0], euler[1], p, q, r)
+        inertia, kp, kd = self._inertia_f, self._kp_f, self._kd_f
+        torque = []
+        for i in range(3):
+            e = wrap_pi(ref[i] - euler[i])  # eq. 5.1 (rad)
+            e_dot = ref_rate_f[i] - rates[i]  # rad/s
+            # eq. 5.6: U = I (ddot_ref + kp e + kd e_dot)
+            torque.append(inertia[i] * (ref_acc_f[i] + kp[i] * e + kd[i] * e_dot))
+        return np.array(torque if self.lead is None else self.lead._step(torque))
 
 
 # --------------------------------------------------------------------------------------------
@@ -339,9 +375,20 @@ def design_axis_lqr(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, float
                          riccati=np.asarray(riccati), closed_loop_poles=np.asarray(poles))
 
 
+@functools.lru_cache(maxsize=32)
+def _shared_axis_lqr(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, float, float],
+                     r_torque: float) -> AxisLqrDesign:
+    """:func:`design_axis_lqr`, made once per configuration (read-only arrays)."""
+    design = design_axis_lqr(inertia_kgm2, dt_s, q_diag, r_torque)
+    for arr in (design.a, design.b, design.q, design.r, design.gain, design.riccati,
+                design.closed_loop_poles):
+        arr.setflags(write=False)
+    return design
+
+
 @dataclass
 class _LqrState:
-    integral: np.ndarray = field(default_factory=lambda: np.zeros(3))  # rad*s per axis
+    integral: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # rad*s per axis
 
 
 class AttitudeLQR:
@@ -371,8 +418,9 @@ class AttitudeLQR:
         self.dt_s = float(dt_s)
         w = self.weights
         self.designs: tuple[AxisLqrDesign, ...] = tuple(
-            design_axis_lqr(model.inertia[i], self.dt_s,
-                            (w.q_integral[i], w.q_angle[i], w.q_rate[i]), w.r_torque[i])
+            _shared_axis_lqr(float(model.inertia[i]), self.dt_s,
+                             (float(w.q_integral[i]), float(w.q_angle[i]),
+                              float(w.q_rate[i])), float(w.r_torque[i]))
             for i in range(3))
         self._inertia = model.inertia_diag
         self._k = np.vstack([d.gain for d in self.designs])  # (3, 3)
@@ -382,6 +430,10 @@ class AttitudeLQR:
             self._z_limit = np.where(k_int > 0, np.array(w.integral_torque_limit_nm) / k_int,
                                      0.0)
         self.lead = _make_lead(model, w.motor_lead_rad_s, self.dt_s)
+        # the same as plain floats, for the per-tick path
+        self._k_f = self._k.tolist()
+        self._inertia_f = self._inertia.tolist()
+        self._z_limit_f = self._z_limit.tolist()
         self._state = _LqrState()
 
     @property
@@ -397,7 +449,7 @@ class AttitudeLQR:
     @property
     def integral(self) -> np.ndarray:
         """Current integral states z (rad*s), shape (3,)."""
-        return self._state.integral.copy()
+        return np.array(self._state.integral)
 
     def reset(self) -> None:
         """Zero the integrators and the lead."""
@@ -408,17 +460,24 @@ class AttitudeLQR:
     def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, ref_euler_rad: np.ndarray,
              ref_rate: np.ndarray, ref_acc: np.ndarray) -> np.ndarray:
         """Torques [U2, U3, U4] (N*m) by eq. 5.9; arguments as in the module docstring."""
-        euler = np.asarray(euler_rad, dtype=float)
-        err = wrap_angle(euler - np.asarray(ref_euler_rad, dtype=float))  # angle - ref, rad
-        err_dot = euler_rates(euler, rate_frd) - np.asarray(ref_rate, dtype=float)  # rad/s
-        k = self._k
+        # per axis in plain floats (3-vectors: numpy's overhead would dominate)
+        euler, ref = floats(euler_rad, 3), floats(ref_euler_rad, 3)
+        ref_rate_f, ref_acc_f = floats(ref_rate, 3), floats(ref_acc, 3)
+        p, q, r = floats(rate_frd, 3)
+        rates = _euler_rates(euler[0], euler[1], p, q, r)
+        k, inertia, z_lim, dt = self._k_f, self._inertia_f, self._z_limit_f, self.dt_s
         z = self._state.integral
-        # eq. 5.9: u = r - K x, r = I ref_acc, x = [z, e, e_dot]
-        torque = self._inertia * np.asarray(ref_acc, dtype=float) \
-            - (k[:, 0] * z + k[:, 1] * err + k[:, 2] * err_dot)
-        # z[k+1] = z[k] + dt e[k], clamped (anti-windup)
-        self._state.integral = np.clip(z + self.dt_s * err, -self._z_limit, self._z_limit)
-        return torque if self.lead is None else self.lead.step(torque)
+        torque, z_next = [], []
+        for i in range(3):
+            err = wrap_pi(euler[i] - ref[i])  # angle - ref, rad
+            err_dot = rates[i] - ref_rate_f[i]  # rad/s
+            # eq. 5.9: u = r - K x, r = I ref_acc, x = [z, e, e_dot]
+            torque.append(inertia[i] * ref_acc_f[i]
+                          - (k[i][0] * z[i] + k[i][1] * err + k[i][2] * err_dot))
+            # z[k+1] = z[k] + dt e[k], clamped (anti-windup)
+            z_next.append(clip(z[i] + dt * err, -z_lim[i], z_lim[i]))
+        self._state.integral = z_next
+        return np.array(torque if self.lead is None else self.lead._step(torque))
 
 
 # --------------------------------------------------------------------------------------------
@@ -441,6 +500,15 @@ class AttitudeReference:
     euler_rad: np.ndarray
     rate: np.ndarray
     acc: np.ndarray
+
+
+@functools.lru_cache(maxsize=16)
+def _reference_filter_design(dt_s: float, wf: float, zf: float
+                             ) -> tuple[control.StateSpace, control.StateSpace]:
+    """:class:`AttitudeReferenceFilter`'s continuous model and its ZOH discretisation."""
+    continuous = control.ss([[0.0, 1.0], [-wf * wf, -2.0 * zf * wf]], [[0.0], [wf * wf]],
+                            np.eye(2), np.zeros((2, 1)))
+    return continuous, control.c2d(continuous, dt_s, method="zoh")
 
 
 class AttitudeReferenceFilter:
@@ -483,34 +551,42 @@ class AttitudeReferenceFilter:
         self.damping = float(damping)
         wf, zf = self.bandwidth_rad_s, self.damping
         # states [theta_f, theta_f'], input theta_r - (wrapped offset handled in step)
-        self.continuous = control.ss([[0.0, 1.0], [-wf * wf, -2.0 * zf * wf]],
-                                     [[0.0], [wf * wf]], np.eye(2), np.zeros((2, 1)))
-        self.discrete = control.c2d(self.continuous, self.dt_s, method="zoh")
+        self.continuous, self.discrete = _reference_filter_design(self.dt_s, wf, zf)
         self._a = np.asarray(self.discrete.A)
         self._b = np.asarray(self.discrete.B)[:, 0]
-        self._angle: np.ndarray | None = None  # theta_f per axis, rad (unwrapped)
-        self._rate = np.zeros(3)  # theta_f', rad/s
+        self._a_f, self._b_f = self._a.tolist(), self._b.tolist()
+        self._angle: list[float] | None = None  # theta_f per axis, rad (unwrapped)
+        self._rate = [0.0, 0.0, 0.0]  # theta_f', rad/s
 
     def reset(self, euler_rad: np.ndarray | None = None) -> None:
         """Forget the state; start at rest on ``euler_rad`` (else on the next input)."""
-        self._angle = None if euler_rad is None else np.asarray(euler_rad, dtype=float).copy()
-        self._rate = np.zeros(3)
+        self._angle = None if euler_rad is None else floats(euler_rad, 3)
+        self._rate = [0.0, 0.0, 0.0]
 
-    def step(self, ref_euler_rad: np.ndarray) -> AttitudeReference:
+    def step(self, ref_euler_rad: np.ndarray | Sequence[float]) -> AttitudeReference:
         """Filter one raw reference [roll, pitch, yaw] (rad); see the class docstring."""
-        raw = np.asarray(ref_euler_rad, dtype=float).reshape(3)
+        raw = floats(ref_euler_rad, 3)
         if self._angle is None:
-            self._angle = raw.copy()
+            self._angle = list(raw)
         wf, zf = self.bandwidth_rad_s, self.damping
-        # work in coordinates relative to the filter angle: input offset wrapped
-        offset = wrap_angle(raw - self._angle)  # theta_r - theta_f, rad
+        (a00, a01), (a10, a11) = self._a_f
+        b0, b1 = self._b_f
         angle, rate = self._angle, self._rate
-        acc = wf * wf * offset - 2.0 * zf * wf * rate  # theta_f'' at the start of the interval
-        out = AttitudeReference(euler_rad=wrap_angle(angle), rate=rate.copy(), acc=acc)
-        # [theta_f, theta_f'][k+1] = A [theta_f, theta_f'][k] + B theta_r[k]  (ZOH), with
-        # theta_r[k] = theta_f[k] + offset so a 2 pi jump of the raw yaw is not followed
-        new_angle = self._a[0, 0] * angle + self._a[0, 1] * rate + self._b[0] * (angle + offset)
-        new_rate = self._a[1, 0] * angle + self._a[1, 1] * rate + self._b[1] * (angle + offset)
-        # the dynamics are shift-invariant in the angle (A[:, 0] + B = [1, 0]): keep it wrapped
-        self._angle, self._rate = wrap_angle(new_angle), new_rate
+        out_angle, acc, new_angle, new_rate = [], [], [], []
+        for i in range(3):  # per axis, in plain floats
+            th, th_dot = angle[i], rate[i]
+            # work in coordinates relative to the filter angle: input offset wrapped
+            offset = wrap_pi(raw[i] - th)  # theta_r - theta_f, rad
+            # theta_f'' at the start of the interval
+            acc.append(wf * wf * offset - 2.0 * zf * wf * th_dot)
+            out_angle.append(wrap_pi(th))
+            # [theta_f, theta_f'][k+1] = A [theta_f, theta_f'][k] + B theta_r[k]  (ZOH), with
+            # theta_r[k] = theta_f[k] + offset so a 2 pi jump of the raw yaw is not followed;
+            # the dynamics are shift-invariant in the angle (A[:, 0] + B = [1, 0]): keep it
+            # wrapped
+            new_angle.append(wrap_pi(a00 * th + a01 * th_dot + b0 * (th + offset)))
+            new_rate.append(a10 * th + a11 * th_dot + b1 * (th + offset))
+        out = AttitudeReference(euler_rad=np.array(out_angle), rate=np.array(rate),
+                                acc=np.array(acc))
+        self._angle, self._rate = new_angle, new_rate
         return out

@@ -18,6 +18,7 @@ only through the samples (:mod:`fcu.hal`); it never sees injected faults.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Literal
@@ -36,7 +37,7 @@ from fcu.attitude_control import (
 )
 from fcu.disturbance_observer import make_dob
 from fcu.ekf import ExtendedKalmanEstimator
-from fcu.estimation import StateEstimate
+from fcu.estimation import StateEstimate, group_samples
 from fcu.fault_detection import LoeFaultDetector
 from fcu.guidance import Reference
 from fcu.hal import SensorSampleLike
@@ -50,6 +51,9 @@ AttitudeKind = Literal["pd", "lqg"]
 EstimatorKind = Literal["ekf", "tskf"]
 DobKind = Literal["none", "vbdob", "abdob"]
 HeightSource = Literal["mocap", "baro"]
+
+_NO_EVIDENCE = np.full(4, np.nan)  # what the fault detector gets outside free flight
+_NO_EVIDENCE.setflags(write=False)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -163,6 +167,7 @@ class Autopilot:
             else AttitudePD(model, cfg.pd, self.dt_s))
         self.dob = make_dob(cfg.dob, model, self.dt_s, cfg.dob_cutoff_rad_s)
         self.allocator = Allocator(model)
+        self._sensor_kinds = self.ekf.sensor_kinds | self.tskf.sensor_kinds
         det = cfg.detector
         self.detector = LoeFaultDetector(det.threshold, det.persistence_s,
                                          recovery_threshold=det.recovery_threshold,
@@ -191,14 +196,15 @@ class Autopilot:
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, samples: Iterable[SensorSampleLike]) -> np.ndarray:
         """One control tick at ``time_s``; returns PWM u1..u4 to hold until the next tick."""
-        batch = list(samples)
-        tskf_estimate = self.tskf.step(time_s, self._pwm, batch)
+        # one averaging of the tick's samples, shared by both estimators
+        batches = group_samples(samples, self._sensor_kinds)
+        tskf_estimate = self.tskf.step_grouped(time_s, self._pwm, batches)
         if self.config.estimator == "ekf":
-            estimate = self.ekf.step(time_s, self._pwm, batch)
+            estimate = self.ekf.step_grouped(time_s, self._pwm, batches)
         else:
             estimate = tskf_estimate
-        loe = np.clip(self.tskf.loe_estimate, 0.0, 1.0)
-        healthy = bool(np.all(np.isfinite(estimate.pos_ned)))
+        loe = self.tskf.loe_estimate  # a fresh array, clipped to [0, 1]
+        healthy = all(map(math.isfinite, estimate.pos_ned.tolist()))
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
                                   float(estimate.euler_rad[2]), estimator_healthy=healthy)
         for ev in nav.events:
@@ -210,7 +216,7 @@ class Autopilot:
         # motion it should cause is not evidence of a fault. Outside free flight the
         # detector gets no evidence either way.
         in_free_flight = flying and nav.landed_state == LandedState.IN_AIR
-        for det in self.detector.step(time_s, loe if in_free_flight else np.full(4, np.nan)):
+        for det in self.detector.step(time_s, loe if in_free_flight else _NO_EVIDENCE):
             self._events.append(AutopilotEvent(
                 det.time_s, "fault_detected" if det.kind == "fault" else "fault_cleared",
                 det.message, "critical" if det.kind == "fault" else "notice",
@@ -234,8 +240,7 @@ class Autopilot:
         cmd: PositionCommand = self.position.step(estimate.pos_ned, estimate.vel_ned,
                                                   ref.pos_ned, ref.vel_ned, ref.acc_ned,
                                                   ref.yaw_rad)
-        att_ref = self.attitude_filter.step(
-            np.array([cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad]))
+        att_ref = self.attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad))
         torque = self.attitude.step(estimate.euler_rad, estimate.rate_frd, att_ref.euler_rad,
                                     att_ref.rate, att_ref.acc)
         d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)

@@ -57,9 +57,10 @@ from typing import Literal, Protocol
 
 import control
 import numpy as np
+from numba import njit
 from scipy.linalg import block_diag
 
-from fcu.attitude_control import wrap_angle
+from fcu.floats import floats, wrap_pi
 from fcu.model import VehicleModel
 
 DobKind = Literal["none", "vbdob", "abdob"]
@@ -113,6 +114,45 @@ def _block_system(systems: list[control.StateSpace]) -> control.StateSpace:
                       block_diag(*[np.asarray(g.D) for g in systems]))
 
 
+@njit(cache=True, error_model="numpy")
+def dob_update(am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np.ndarray,
+               cm: np.ndarray, dm: np.ndarray, ct: np.ndarray, xm: np.ndarray,
+               xt: np.ndarray, prev_meas: np.ndarray, meas: np.ndarray,
+               tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One tick of both discrete DOB channels (all three axes).
+
+    ``x_y[k] = A_y x_y[k-1] + B_y y[k-1]``, ``x_tau[k] = A_tau x_tau[k-1] + B_tau tau[k-1]``,
+    ``d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]``; returns the two states and
+    ``d_hat`` (N*m, shape (3,)).
+    """
+    # x[k] = A x[k-1] + B u[k-1], for each channel
+    xm_next = am @ xm + bm @ prev_meas
+    xt_next = at @ xt + bt @ tau
+    # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]   (D_tau = 0)
+    d_hat = cm @ xm_next + dm @ meas + ct @ xt_next
+    return xm_next, xt_next, d_hat
+
+
+_Design = tuple[list[tuple[control.TransferFunction, control.TransferFunction]],
+                control.StateSpace, control.StateSpace]
+_DESIGNS: dict[tuple[object, ...], _Design] = {}  # made by _discretise, see _DiscreteDob
+_MAX_DESIGNS = 32
+
+
+def _discretise(channels: list[tuple[control.TransferFunction, control.TransferFunction]],
+                dt_s: float, motor_bandwidth_rad_s: float | None) -> _Design:
+    """The channels (with the motor model in the torque path) and both discretisations."""
+    if motor_bandwidth_rad_s is not None:
+        motor = control.tf([motor_bandwidth_rad_s], [1.0, motor_bandwidth_rad_s])
+        channels = [(meas_tf, torque_tf * motor) for meas_tf, torque_tf in channels]
+    # measurement: sampled, smooth -> FOH (exact for ramps: a constant rate reads as no
+    # acceleration); torque: held between ticks -> ZOH (exact, strictly proper)
+    meas = _block_system([control.ss(m) for m, _ in channels])
+    torque = _block_system([control.ss(t) for _, t in channels])
+    return (channels, control.c2d(meas, dt_s, method="foh"),
+            control.c2d(torque, dt_s, method="zoh"))
+
+
 class _DiscreteDob:
     """Shared machinery: d_hat = F_meas(z) y + F_torque(z) tau, three axes."""
 
@@ -133,16 +173,21 @@ class _DiscreteDob:
         self.dt_s = float(dt_s)
         self.cutoff_rad_s = float(cutoff_rad_s)
         self.motor_bandwidth_rad_s = motor_bandwidth_rad_s
-        if motor_bandwidth_rad_s is not None:
-            motor = control.tf([motor_bandwidth_rad_s], [1.0, motor_bandwidth_rad_s])
-            channels = [(meas_tf, torque_tf * motor) for meas_tf, torque_tf in channels]
-        self.channels = channels  # per axis (measurement filter, torque filter), continuous
-        # measurement: sampled, smooth -> FOH (exact for ramps: a constant rate reads as no
-        # acceleration); torque: held between ticks -> ZOH (exact, strictly proper)
-        meas = _block_system([control.ss(m) for m, _ in channels])
-        torque = _block_system([control.ss(t) for _, t in channels])
-        self.discrete_measurement = control.c2d(meas, self.dt_s, method="foh")
-        self.discrete_torque = control.c2d(torque, self.dt_s, method="zoh")
+        # The discretisation (python-control c2d, hence scipy's expm) wakes OpenBLAS's worker
+        # threads, which then spin for about 0.1 s of CPU time. The channels are a pure
+        # function of the subclass and these parameters, so each design is made once per
+        # process (a batch of flights, a benchmark, the tests pay it once) and shared.
+        key = (type(self), tuple(float(i) for i in model.inertia), self.dt_s,
+               self.cutoff_rad_s, motor_bandwidth_rad_s)
+        design = _DESIGNS.get(key)
+        if design is None:
+            design = _discretise(channels, self.dt_s, motor_bandwidth_rad_s)
+            if len(_DESIGNS) >= _MAX_DESIGNS:
+                _DESIGNS.clear()
+            _DESIGNS[key] = design
+        # per axis (measurement filter, torque filter), continuous; their discretisations
+        channels_shared, self.discrete_measurement, self.discrete_torque = design
+        self.channels = list(channels_shared)
         dm, dtq = self.discrete_measurement, self.discrete_torque
         self._am, self._bm = np.asarray(dm.A), np.asarray(dm.B)
         self._cm, self._dm = np.asarray(dm.C), np.asarray(dm.D)
@@ -151,6 +196,10 @@ class _DiscreteDob:
             raise AssertionError("torque channel must be strictly proper after ZOH")
         # steady-state map for a constant measurement: x = (I - A)^-1 B y
         self._xm_per_meas = np.linalg.solve(np.eye(self._am.shape[0]) - self._am, self._bm)
+        # contiguous copies for the compiled per-tick update
+        self._k_am, self._k_bm, self._k_at, self._k_bt, self._k_cm, self._k_dm, self._k_ct = (
+            np.ascontiguousarray(m, dtype=float) for m in (
+                self._am, self._bm, self._at, self._bt, self._cm, self._dm, self._ct))
         self._xm = np.zeros(self._am.shape[0])
         self._xt = np.zeros(self._at.shape[0])
         self._prev_meas: np.ndarray | None = None
@@ -171,14 +220,16 @@ class _DiscreteDob:
         if self._prev_meas is None:
             # start at rest on the first measurement: no derivative kick from y(0) != 0
             self._xm = self._xm_per_meas @ y
-        else:
-            tau = np.asarray(torque_applied_nm, dtype=float).reshape(3)
-            # x[k] = A x[k-1] + B u[k-1], for each channel
-            self._xm = self._am @ self._xm + self._bm @ self._prev_meas
-            self._xt = self._at @ self._xt + self._bt @ tau
+            self._prev_meas = y
+            # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]   (D_tau = 0)
+            return self._cm @ self._xm + self._dm @ y + self._ct @ self._xt
+        tau = np.asarray(torque_applied_nm, dtype=float).reshape(3)
+        # x[k] = A x[k-1] + B u[k-1] for each channel; d_hat[k] (dob_update)
+        self._xm, self._xt, d_hat = dob_update(
+            self._k_am, self._k_bm, self._k_at, self._k_bt, self._k_cm, self._k_dm, self._k_ct,
+            self._xm, self._xt, self._prev_meas, y, tau)
         self._prev_meas = y
-        # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]   (D_tau = 0)
-        return self._cm @ self._xm + self._dm @ y + self._ct @ self._xt
+        return d_hat
 
 
 class AccelerationDob(_DiscreteDob):
@@ -210,7 +261,7 @@ class AccelerationDob(_DiscreteDob):
                      control.tf([-w * w], den))  # -Q
                     for inertia in model.inertia]
         super().__init__(model, dt_s, w, channels, motor_bandwidth_rad_s)
-        self._unwrapped: np.ndarray | None = None
+        self._unwrapped: list[float] | None = None  # rad, per axis
 
     def reset(self) -> None:
         """Forget the filter state and the angle unwrapping."""
@@ -218,12 +269,13 @@ class AccelerationDob(_DiscreteDob):
         self._unwrapped = None
 
     def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
-        euler = np.asarray(euler_rad, dtype=float).reshape(3)
+        euler = floats(euler_rad, 3)
         if self._unwrapped is None:
-            self._unwrapped = euler.copy()
+            self._unwrapped = euler
         else:
-            self._unwrapped = self._unwrapped + wrap_angle(euler - wrap_angle(self._unwrapped))
-        return self._unwrapped.copy()
+            self._unwrapped = [u + wrap_pi(e - wrap_pi(u))
+                               for u, e in zip(self._unwrapped, euler, strict=True)]
+        return np.array(self._unwrapped)
 
 
 class VelocityDob(_DiscreteDob):

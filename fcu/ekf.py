@@ -90,7 +90,6 @@ from fcu.estimation import (
     StateEstimate,
     check_height_source,
     group_samples,
-    wrap_angle,
 )
 from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
@@ -284,22 +283,43 @@ def discrete_transition(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
         ``Q = dt sum_j w_j Phi(c_j dt) Qc Phi(c_j dt)'`` (3-point Gauss-Legendre on [0, 1]),
         ``Phi(s) = sum_{n<=4} (A s)^n / n!``.
     """
+    n = 16
     x_next = rk4_step(x, u, dt, p, on_ground)
-    a = model_jacobian(x, p, on_ground)
-    eye = np.eye(16)
-    ad = a * dt
+    ad = model_jacobian(x, p, on_ground)
+    ad *= dt  # A dt
     ad2 = ad @ ad
     ad3 = ad2 @ ad
     ad4 = ad3 @ ad
+    # (the element-wise sums below are written as loops: the same operations in the same
+    # order as the matrix expressions in the comments, without their temporaries)
     # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24
-    f_mat = eye + ad + ad2 / 2.0 + ad3 / 6.0 + ad4 / 24.0
+    f_mat = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            eye_ij = 1.0 if i == j else 0.0
+            f_mat[i, j] = (eye_ij + ad[i, j] + ad2[i, j] / 2.0 + ad3[i, j] / 6.0
+                           + ad4[i, j] / 24.0)
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
-    q_mat = np.zeros((16, 16))
+    q_mat = np.zeros((n, n))
+    phi = np.empty((n, n))
+    phi_qc = np.empty((n, n))
     r = math.sqrt(0.6) / 2.0
     for c, weight in ((0.5 - r, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + r, 5.0 / 18.0)):
-        phi = eye + ad * c + ad2 * (c * c / 2.0) + ad3 * (c ** 3 / 6.0) + ad4 * (c ** 4 / 24.0)
-        q_mat += weight * ((phi * qc_diag) @ phi.T)
+        c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
+        for i in range(n):
+            for j in range(n):
+                eye_ij = 1.0 if i == j else 0.0
+                # Phi = I + A dt c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24
+                phi_ij = (eye_ij + ad[i, j] * c + ad2[i, j] * c2 + ad3[i, j] * c3
+                          + ad4[i, j] * c4)
+                phi[i, j] = phi_ij
+                phi_qc[i, j] = phi_ij * qc_diag[j]  # Phi Qc (Qc diagonal)
+        # Q += w Phi Qc Phi'
+        term = phi_qc @ phi.T
+        for i in range(n):
+            for j in range(n):
+                q_mat[i, j] += weight * term[i, j]
     q_mat *= dt
     return x_next, f_mat, q_mat
 
@@ -344,6 +364,127 @@ def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatA
     return x_post, p_post, s_mat, s_inv, k_gain
 
 
+@njit(cache=True, error_model="numpy")
+def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
+                       p: FloatArray, on_ground: bool, qc_diag: FloatArray
+                       ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """One filterpy ``predict`` of the EKF in a single compiled call.
+
+    Returns ``x_{k+1|k}`` (RK4, yaw wrapped to [-pi, pi)), ``F``, ``Q``
+    (:func:`discrete_transition`) and ``P_{k+1|k} = F P F' + Q``.
+    """
+    # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
+    x_next, f_mat, q_mat = discrete_transition(x, u, dt, p, on_ground, qc_diag)
+    x_next[YAW_INDEX] = (x_next[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    # P = F P F' + Q
+    p_next = (f_mat @ p_mat) @ f_mat.T + q_mat
+    return x_next, f_mat, q_mat, p_next
+
+
+@njit(cache=True, error_model="numpy")
+def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatArray,
+                   delta: float, u: FloatArray, p: FloatArray, on_ground: bool,
+                   r_mat: FloatArray, wrap_yaw: bool
+                   ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                              FloatArray, float]:
+    """One sequential measurement update of a channel ``h(x) = S (x - delta f(x, u))``.
+
+    One of the estimator's sequential updates in one compiled call (module docstring,
+    "Measurements"): ``H = S (I - delta A(x))`` (``S`` when ``|delta| < 1e-9``),
+    ``y = z - h(x)`` (yaw wrapped when ``wrap_yaw``), :func:`kalman_update`, posterior yaw
+    wrapped, and the NIS.
+
+    Returns
+    -------
+    x_post, p_post, y, s_mat, s_inv, k_gain, nis
+        Shapes (16,), (16, 16), (m,), (m, m), (m, m), (16, m); ``nis = y' S^-1 y``.
+    """
+    if abs(delta) < 1e-9:
+        h_mat = sel
+        hx = sel @ x
+    else:
+        # H = S (I - delta A(x))
+        h_mat = sel - delta * (sel @ model_jacobian(x, p, on_ground))
+        # h(x) = S (x - delta f(x, u))
+        hx = sel @ (x - delta * model_derivative(x, u, p, on_ground))
+    # y = z - h(x)  (attitude: yaw difference wrapped)
+    y = z - hx
+    if wrap_yaw:
+        y[2] = (y[2] + math.pi) % (2.0 * math.pi) - math.pi
+    # K = P H' (H P H' + R)^-1;  x = x + K y;  P = (I-KH) P (I-KH)' + K R K'
+    x_post, p_post, s_mat, s_inv, k_gain = kalman_update(x, p_mat, y, h_mat, r_mat)
+    x_post[YAW_INDEX] = (x_post[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    # NIS = y' S^-1 y
+    nis = y @ s_inv @ y
+    return x_post, p_post, y, s_mat, s_inv, k_gain, nis
+
+
+@njit(cache=True, error_model="numpy")
+def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: FloatArray,
+                       on_ground: bool, sel_stack: FloatArray, rows: np.ndarray,
+                       sample_var: FloatArray, model_var: FloatArray, wrap_yaw: np.ndarray,
+                       counts: np.ndarray, deltas: FloatArray, z_stack: FloatArray
+                       ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                                  FloatArray, FloatArray, int]:
+    """A tick's sequential updates, channel after channel, each by :func:`channel_update`.
+
+    Parameters
+    ----------
+    x, p_mat : ndarrays, shapes (16,), (16, 16)
+        Prior state and covariance.
+    u, p, on_ground
+        As for :func:`channel_update`.
+    sel_stack : ndarray, shape (rows_total, 16)
+        Every channel's selection ``S``, stacked in update order.
+    rows : ndarray of int, shape (n_ch, 2)
+        First and end row of each channel in ``sel_stack`` and ``z_stack``.
+    sample_var, model_var : ndarrays, shape (n_ch,)
+        Noise variance of one sample (divided by the count) and the model error (not), so
+        ``R = (sample_var / count + model_var) I``.
+    wrap_yaw : ndarray of bool, shape (n_ch,)
+        The channel's third entry is a yaw (its innovation is wrapped).
+    counts : ndarray of int, shape (n_ch,)
+        Samples averaged into each channel's measurement; 0 = no update this tick.
+    deltas : ndarray, shape (n_ch,)
+        How long before the tick each channel's batch was taken, s.
+    z_stack : ndarray, shape (rows_total,)
+        The measurements (entries of channels without an update are ignored).
+
+    Returns
+    -------
+    x_post, p_post, y_stack, s_stack, nis, s_inv, k_gain, last
+        Posterior; innovations stacked like ``z_stack``; each channel's ``S`` in the
+        top-left block of ``s_stack[c]`` (shape (n_ch, m_max, m_max)); each NIS; ``S^-1`` and
+        ``K`` of the last update; the index of the last channel updated (-1: none).
+    """
+    n_ch = rows.shape[0]
+    m_max = 1
+    for c in range(n_ch):
+        m_max = max(m_max, rows[c, 1] - rows[c, 0])
+    y_stack = np.zeros(z_stack.shape[0])
+    s_stack = np.zeros((n_ch, m_max, m_max))
+    nis = np.zeros(n_ch)
+    s_inv = np.zeros((0, 0))
+    k_gain = np.zeros((x.shape[0], 0))
+    last = -1
+    for c in range(n_ch):
+        if counts[c] <= 0:
+            continue
+        i0, i1 = rows[c, 0], rows[c, 1]
+        m = i1 - i0
+        # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
+        r_mat = np.zeros((m, m))
+        for i in range(m):
+            r_mat[i, i] = sample_var[c] / counts[c] + model_var[c]
+        x, p_mat, y, s_mat, s_inv, k_gain, nis[c] = channel_update(
+            x, p_mat, z_stack[i0:i1].copy(), np.ascontiguousarray(sel_stack[i0:i1]),
+            deltas[c], u, p, on_ground, r_mat, wrap_yaw[c])
+        y_stack[i0:i1] = y
+        s_stack[c, :m, :m] = s_mat
+        last = c
+    return x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last
+
+
 @dataclass(frozen=True, kw_only=True)
 class EkfProcessNoise:
     """Continuous-time process-noise spectral densities of the EKF (white noise on each row).
@@ -384,13 +525,6 @@ class EkfProcessNoise:
                         + [self.ang_accel] * 3 + [self.thrust] * 4)
 
 
-def _attitude_residual(a: FloatArray, b: FloatArray) -> FloatArray:
-    """Innovation ``a - b`` of (roll, pitch, yaw) with the yaw difference wrapped."""
-    y = a - b
-    y[2] = (y[2] + math.pi) % (2.0 * math.pi) - math.pi
-    return y
-
-
 class _Channel:
     """A measurement channel: ``h(x) = S x`` at the sample time, and its noise."""
 
@@ -399,9 +533,14 @@ class _Channel:
         self.sensor = sensor
         self.selection = np.ascontiguousarray(selection, dtype=float)  # S, shape (m, 16)
         self.value_index = np.array(value_index)  # entries of the sample value used
+        if list(value_index) != list(range(value_index[0], value_index[-1] + 1)):
+            raise ValueError(f"value_index = {value_index!r}: must be consecutive")
+        self.value_slice = slice(value_index[0], value_index[-1] + 1)  # the same, as a slice
         m = self.selection.shape[0]
         self.sample_r = np.eye(m) * sigma ** 2  # R of one sample; divided by n for a mean
         self.model_r = np.eye(m) * model_sigma ** 2  # model error, not reduced by averaging
+        self.wrap_yaw = sensor == "mocap_att"  # innovation's third entry is a yaw difference
+        self.no_value = [0.0] * m  # placeholder measurement of a tick without an update
 
 
 def _select(columns: tuple[int, ...], signs: tuple[float, ...] | None = None) -> FloatArray:
@@ -415,13 +554,16 @@ class _QuadrotorEKF(ExtendedKalmanFilter):
     """filterpy's EKF with the nonlinear prediction of this module and a compiled update.
 
     filterpy's ``predict(u)`` calls :meth:`predict_x`, then applies ``P = F P F' + Q`` with the
-    ``F`` and ``Q`` that :meth:`predict_x` just set, and stores ``x_prior``, ``P_prior``.
+    ``F`` and ``Q`` that :meth:`predict_x` just set, and stores ``x_prior``, ``P_prior``;
+    :meth:`predict` here does the same in one compiled call (:func:`predict_covariance`).
 
     :meth:`update` keeps filterpy's signature and effects (``y``, ``S``, ``SI``, ``K``, ``z``,
     ``x_post``, ``P_post``; Joseph-form covariance) but runs the matrix algebra in
     :func:`kalman_update`: filterpy's own version (scipy ``inv`` with its argument checks,
     ``deepcopy``) costs 16-35 us per call on this machine, and a tick has three or four.
-    ``tests/fcu/test_ekf.py`` checks the two against each other.
+    ``tests/fcu/test_ekf.py`` checks the two against each other. The estimator goes one step
+    further and runs a whole tick's updates in one compiled call (:func:`sequential_updates`,
+    the same algebra), then sets the same attributes as the last :meth:`update` would.
     """
 
     x: FloatArray
@@ -445,6 +587,13 @@ class _QuadrotorEKF(ExtendedKalmanFilter):
         self.x = np.zeros(STATE_DIM)
         self.step_dt_s = 0.0  # set before each predict()
         self.on_ground = False  # set before each predict()
+
+    def predict(self, u: FloatArray = 0) -> None:  # type: ignore[assignment]
+        """filterpy's ``predict`` (``predict_x``, ``P = F P F' + Q``, priors), compiled."""
+        self.x, self.F, self.Q, self.P = predict_covariance(
+            self.x, self.P, u, self.step_dt_s, self.params, self.on_ground, self.qc_diag)
+        self.x_prior = self.x.copy()
+        self.P_prior = self.P.copy()
 
     def predict_x(self, u: FloatArray = 0) -> None:  # type: ignore[assignment]
         # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
@@ -512,7 +661,8 @@ class ExtendedKalmanEstimator:
 
     Notes
     -----
-    Each tick the autopilot calls ``step(time_s, pwm_applied, samples)`` with the tick time,
+    Each tick the autopilot calls ``step(time_s, pwm_applied, samples)`` (or
+    :meth:`step_grouped` with the samples already averaged) with the tick time,
     the PWM that was held since the previous tick (the command returned by the previous tick,
     after saturation) and the samples produced since the previous tick.
     """
@@ -547,8 +697,19 @@ class ExtendedKalmanEstimator:
         self._weight_n = model.mass * model.gravity
         self._channels = self._make_channels()
         self._kinds = frozenset(c.sensor for c in self._channels)
+        # the channels stacked for the compiled update of a whole tick (sequential_updates)
+        self._sel_stack = np.ascontiguousarray(np.vstack([c.selection for c in self._channels]))
+        sizes = np.array([c.selection.shape[0] for c in self._channels])
+        ends = np.cumsum(sizes)
+        self._rows = np.ascontiguousarray(np.column_stack((ends - sizes, ends)), dtype=np.int64)
+        self._rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self._rows]
+        self._sample_var = np.array([float(c.sample_r[0, 0]) for c in self._channels])
+        self._model_var = np.array([float(c.model_r[0, 0]) for c in self._channels])
+        self._wrap_yaw = np.array([c.wrap_yaw for c in self._channels])
         self.filter = _QuadrotorEKF(self._params, self.process_noise.diagonal())
         self._innovations: dict[str, Innovation] = {}
+        # (sensor, y, S, NIS) of this tick's updates, turned into _innovations on request
+        self._innovation_parts: list[tuple[str, FloatArray, FloatArray, float]] = []
         self._time_s = 0.0
         self._estimate: StateEstimate | None = None
         self.reset()
@@ -602,6 +763,7 @@ class ExtendedKalmanEstimator:
         f.P_post = f.P.copy()
         self._time_s = float(time_s)
         self._innovations = {}
+        self._innovation_parts = []
         self._estimate = self._make_estimate()
 
     def step(self, time_s: float, pwm_applied: ArrayLike,
@@ -622,6 +784,13 @@ class ExtendedKalmanEstimator:
         StateEstimate
             Posterior at ``time_s``.
         """
+        return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds))
+
+    def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
+                     batches: Mapping[str, SampleBatch]) -> StateEstimate:
+        """:meth:`step` with the tick's samples already averaged by
+        :func:`fcu.estimation.group_samples` (batches of kinds this filter does not use are
+        ignored), so that several estimators can share one grouping."""
         time_s = float(time_s)
         u = np.asarray(pwm_applied, dtype=float).reshape(4)
         dt = time_s - self._time_s
@@ -640,13 +809,25 @@ class ExtendedKalmanEstimator:
             f.x_prior = f.x.copy()
             f.P_prior = f.P.copy()
         self._time_s = time_s
-        batches = group_samples(samples, self._kinds)
         self._innovations = {}
+        self._innovation_parts = []
+        counts: list[int] = []
+        deltas: list[float] = []
+        z_l: list[float] = []
         for channel in self._channels:
             batch = batches.get(channel.sensor)
             # on the ground the accelerometer feels the ground reaction, not the thrust
             if batch is not None and not (channel.sensor == "accel" and f.on_ground):
-                self._update(channel, batch, u)
+                counts.append(batch.count)
+                # s, how long before the tick the batch was taken
+                deltas.append(time_s - batch.time_s)
+                z_l += batch.value.tolist()[channel.value_slice]
+            else:
+                counts.append(0)
+                deltas.append(0.0)
+                z_l += channel.no_value
+        if any(counts):
+            self._update_all(counts, np.array(deltas), np.array(z_l), u)
         self._estimate = self._make_estimate()
         return self._estimate
 
@@ -658,41 +839,35 @@ class ExtendedKalmanEstimator:
         near = x[Z_INDEX] >= self.ground_z_ned - self.ground_margin_m
         return bool(near and float(np.sum(x[THRUST])) < self._weight_n)
 
-    def _update(self, channel: _Channel, batch: SampleBatch, u: FloatArray) -> None:
+    def _update_all(self, counts: list[int], deltas: FloatArray, z_stack: FloatArray,
+                    u: FloatArray) -> None:
+        """The tick's sequential updates (module docstring, "Measurements") in one call."""
         f = self.filter
-        sel = channel.selection
-        z = batch.value[channel.value_index]
-        delta = self._time_s - batch.time_s  # s, how long before the tick the batch was taken
-        # R = sigma^2 / n for the mean of n samples (+ model error for the accelerometer)
-        r_mat = channel.sample_r / batch.count + channel.model_r
-        params = self._params
-        on_ground = f.on_ground
-        if abs(delta) < 1e-9:
-            h_jacobian: Callable[[FloatArray], FloatArray] = lambda x: sel  # noqa: E731
-            h_x: Callable[[FloatArray], FloatArray] = lambda x: sel @ x  # noqa: E731
-        else:
-            def h_jacobian(x: FloatArray) -> FloatArray:
-                # H = S (I - delta A(x))
-                return sel - delta * (sel @ model_jacobian(x, params, on_ground))
-
-            def h_x(x: FloatArray) -> FloatArray:
-                # h(x) = S (x - delta f(x, u))
-                return sel @ (x - delta * model_derivative(x, u, params, on_ground))
-
-        residual = _attitude_residual if channel.sensor == "mocap_att" else np.subtract
-        # y = z - h(x);  S = H P H' + R;  K = P H' S^-1;  x = x + K y;
-        # P = (I - K H) P (I - K H)' + K R K'
-        f.update(z, h_jacobian, h_x, R=r_mat, residual=residual)
-        f.x[YAW_INDEX] = wrap_angle(float(f.x[YAW_INDEX]))
-        y = f.y
-        # NIS = y' S^-1 y
-        nis = float(y @ f.SI @ y)
-        self._innovations[channel.sensor] = Innovation(channel.sensor, self._time_s, y.copy(),
-                                                      f.S.copy(), nis)
+        # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
+        # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
+        # (filterpy's update contract, as _QuadrotorEKF.update)
+        x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last = sequential_updates(
+            f.x, f.P, u, self._params, f.on_ground, self._sel_stack, self._rows,
+            self._sample_var, self._model_var, self._wrap_yaw, np.array(counts), deltas,
+            z_stack)
+        f.x, f.P = x, p_mat
+        rows = self._rows_list
+        i0, i1 = rows[last]
+        f.y, f.S, f.SI, f.K = y_stack[i0:i1], s_stack[last, :i1 - i0, :i1 - i0], s_inv, k_gain
+        f.z = z_stack[i0:i1].copy()
+        f.x_post = x.copy()
+        f.P_post = p_mat.copy()
+        # the Innovation records are built on request (last_innovation)
+        nis_l = nis.tolist()
+        for c, channel in enumerate(self._channels):
+            if counts[c] > 0:
+                i0, i1 = rows[c]
+                self._innovation_parts.append((channel.sensor, y_stack[i0:i1],
+                                               s_stack[c, :i1 - i0, :i1 - i0], nis_l[c]))
 
     def _make_estimate(self) -> StateEstimate:
         f = self.filter
-        return StateEstimate.from_vector(self._time_s, f.x, np.diag(f.P))
+        return StateEstimate._from_owned(self._time_s, f.x.copy(), f.P.diagonal().copy())
 
     # ---- inspection ------------------------------------------------------------------------
     @property
@@ -705,6 +880,11 @@ class ExtendedKalmanEstimator:
     def time_s(self) -> float:
         """Time of the latest estimate, s."""
         return self._time_s
+
+    @property
+    def sensor_kinds(self) -> frozenset[str]:
+        """The sensor kinds this estimator uses (samples of other kinds are ignored)."""
+        return self._kinds
 
     @property
     def x(self) -> FloatArray:
@@ -734,6 +914,11 @@ class ExtendedKalmanEstimator:
     @property
     def last_innovation(self) -> Mapping[str, Innovation]:
         """Innovation, its covariance and NIS of each sensor updated at the latest tick."""
+        if self._innovation_parts:
+            for sensor, y, s_mat, nis in self._innovation_parts:
+                self._innovations[sensor] = Innovation(sensor, self._time_s, y.copy(),
+                                                       s_mat.copy(), float(nis))
+            self._innovation_parts = []
         return dict(self._innovations)
 
 

@@ -43,6 +43,7 @@ FloatArray = NDArray[np.float64]
 ArrayLikeFloat = FloatArray | list[float] | tuple[float, ...]
 
 HeightSource = Literal["mocap", "baro"]
+_FLOAT64 = np.dtype(np.float64)
 HEIGHT_SOURCES: tuple[str, ...] = ("mocap", "baro")
 
 # ---- state layout shared by the EKF and the TSKF --------------------------------------------
@@ -160,16 +161,25 @@ class StateEstimate:
                                self.thrust_n))
 
     @classmethod
+    def _from_owned(cls, time_s: float, x: FloatArray, covariance_diag: FloatArray
+                    ) -> StateEstimate:
+        """:meth:`from_vector` for float64 arrays of shape (16,) that the caller hands over
+        (fresh, held by no one else): the fields are slices of ``x``, no copies."""
+        euler = x[EULER]
+        euler[2] = wrap_angle(float(euler[2]))
+        return cls(float(time_s), x[POS], x[VEL], euler, x[RATE], x[THRUST], covariance_diag)
+
+    @classmethod
     def from_vector(cls, time_s: float, x: ArrayLikeFloat,
                     covariance_diag: ArrayLikeFloat) -> StateEstimate:
         """Build an estimate from a state vector ``x`` (16,) and a covariance diagonal (16,)."""
+        # one private copy; the fields are disjoint slices of it (cheaper than five copies)
         xv = np.array(x, dtype=float).reshape(STATE_DIM)
         pv = np.array(covariance_diag, dtype=float).reshape(STATE_DIM)
-        euler = xv[EULER].copy()
+        euler = xv[EULER]
         euler[2] = wrap_angle(float(euler[2]))
-        return cls(time_s=float(time_s), pos_ned=xv[POS].copy(), vel_ned=xv[VEL].copy(),
-                   euler_rad=euler, rate_frd=xv[RATE].copy(), thrust_n=xv[THRUST].copy(),
-                   covariance_diag=pv)
+        return cls(time_s=float(time_s), pos_ned=xv[POS], vel_ned=xv[VEL], euler_rad=euler,
+                   rate_frd=xv[RATE], thrust_n=xv[THRUST], covariance_diag=pv)
 
 
 @dataclass(frozen=True, slots=True)
@@ -236,37 +246,52 @@ def group_samples(samples: Iterable[SensorSampleLike],
         ``mocap_att`` yaw is averaged as offsets from the first reading, so readings on both
         sides of +-pi average correctly (result wrapped to [-pi, pi)).
     """
-    values: dict[str, list[FloatArray]] = {}
+    # Plain-float arithmetic: a tick holds ~8 three-element samples, for which numpy's
+    # per-call overhead dwarfs the sums. Same operations in the same order as an
+    # element-wise numpy mean, hence the same rounding.
+    values: dict[str, list[list[float]]] = {}
     times: dict[str, list[float]] = {}
+    isfinite = math.isfinite
     for sample in samples:
         name = sample.sensor
         if name not in kinds:
             continue
-        value = np.asarray(sample.value, dtype=float).reshape(-1)
-        if not all(map(math.isfinite, value.tolist())):
+        value = sample.value
+        if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.ndim == 1:
+            vals = value.tolist()
+        else:
+            vals = np.asarray(value, dtype=float).reshape(-1).tolist()
+        if not all(map(isfinite, vals)):
             continue
         if name in values:
-            values[name].append(value)
+            if len(vals) != len(values[name][0]):
+                raise ValueError(f"{name} sample at {sample.time_s!r} s has {len(vals)} "
+                                 f"values, earlier ones {len(values[name][0])}")
+            values[name].append(vals)
             times[name].append(float(sample.time_s))
         else:
-            values[name] = [value]
+            values[name] = [vals]
             times[name] = [float(sample.time_s)]
     batches: dict[str, SampleBatch] = {}
-    for name, vals in values.items():
-        count = len(vals)
-        mean = vals[0].copy()
+    for name, rows in values.items():
+        count = len(rows)
+        mean = list(rows[0])
         if count > 1:
+            n = len(mean)
             if name == "mocap_att":
-                yaw0 = float(mean[2])
-                for v in vals[1:]:
-                    mean[:2] += v[:2]
+                yaw0 = mean[2]
+                for v in rows[1:]:
+                    mean[0] += v[0]
+                    mean[1] += v[1]
                     # yaw offset from the first reading, wrapped to [-pi, pi)
-                    mean[2] += yaw0 + wrap_angle(float(v[2]) - yaw0)
+                    mean[2] += yaw0 + wrap_angle(v[2] - yaw0)
             else:
-                for v in vals[1:]:
-                    mean += v
-            mean /= count
+                for v in rows[1:]:
+                    for i in range(n):
+                        mean[i] += v[i]
+            mean = [m / count for m in mean]
         if name == "mocap_att":
-            mean[2] = wrap_angle(float(mean[2]))
-        batches[name] = SampleBatch(value=mean, time_s=sum(times[name]) / count, count=count)
+            mean[2] = wrap_angle(mean[2])
+        batches[name] = SampleBatch(value=np.array(mean), time_s=sum(times[name]) / count,
+                                    count=count)
     return batches

@@ -135,10 +135,10 @@ class LoeFaultDetector:
         list of FaultDetection
             Events decided at this tick (usually empty).
         """
-        values = np.asarray(loe_estimate, dtype=float).reshape(self.n_motors)
+        values = np.asarray(loe_estimate, dtype=float).reshape(self.n_motors).tolist()
         events: list[FaultDetection] = []
         for i in range(self.n_motors):
-            value = float(values[i])
+            value = values[i]
             if not math.isfinite(value):
                 self._since[i] = None
                 continue

@@ -30,6 +30,7 @@ simulated seconds passed in by the caller.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -102,7 +103,43 @@ class Reference:
 
     def at_rest(self) -> Reference:
         """The same position and yaw with zero velocity, acceleration and yaw rate."""
-        return Reference.hold(self.pos_ned, self.yaw_rad)
+        return Reference._hold_checked(self.pos_ned, self.yaw_rad)
+
+    # Guidance builds a reference every control tick from values it has already validated
+    # (segment end points are read-only checked copies). The two constructors below skip the
+    # public constructor's copies and array checks, which cost more than the rest of a
+    # guidance tick, and give the same result: the arrays are read-only and nobody else
+    # holds a writable view of them, the yaw is wrapped the same way, and anything
+    # non-finite still goes through the public constructor and its error.
+    @classmethod
+    def _from_floats(cls, pos: list[float], vel: list[float], acc: list[float],
+                     yaw_rad: float, yaw_rate_rad_s: float) -> Reference:
+        """A reference from freshly computed floats (three per vector)."""
+        if not (all(map(math.isfinite, pos + vel + acc)) and math.isfinite(yaw_rad)
+                and math.isfinite(yaw_rate_rad_s)):
+            return cls(pos_ned=np.array(pos), vel_ned=np.array(vel), acc_ned=np.array(acc),
+                       yaw_rad=yaw_rad, yaw_rate_rad_s=yaw_rate_rad_s)  # raises
+        rows = np.array((pos, vel, acc))  # one allocation; the vectors are its rows
+        rows.setflags(write=False)
+        return cls._assemble(rows[0], rows[1], rows[2], yaw_rad, yaw_rate_rad_s)
+
+    @classmethod
+    def _hold_checked(cls, pos_ned: np.ndarray, yaw_rad: float) -> Reference:
+        """:meth:`hold` at a position that is already a checked read-only 3-vector (shared)."""
+        if not is_finite(yaw_rad):
+            return cls.hold(pos_ned, yaw_rad)  # raises
+        return cls._assemble(pos_ned, _ZERO3, _ZERO3, yaw_rad, 0.0)
+
+    @classmethod
+    def _assemble(cls, pos_ned: np.ndarray, vel_ned: np.ndarray, acc_ned: np.ndarray,
+                  yaw_rad: float, yaw_rate_rad_s: float) -> Reference:
+        ref = object.__new__(cls)
+        object.__setattr__(ref, "pos_ned", pos_ned)
+        object.__setattr__(ref, "vel_ned", vel_ned)
+        object.__setattr__(ref, "acc_ned", acc_ned)
+        object.__setattr__(ref, "yaw_rad", wrap_pi(float(yaw_rad)))
+        object.__setattr__(ref, "yaw_rate_rad_s", float(yaw_rate_rad_s))
+        return ref
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -196,6 +233,10 @@ class CubicSegment:
         _check_times(self.t0_s, self.duration_s, allow_inf=False)
         object.__setattr__(self, "start_pos_ned", _vec3(self.start_pos_ned, "start_pos_ned"))
         object.__setattr__(self, "end_pos_ned", _vec3(self.end_pos_ned, "end_pos_ned"))
+        # per-tick constants of evaluate(), as plain floats
+        object.__setattr__(self, "_start_f", self.start_pos_ned.tolist())
+        object.__setattr__(self, "_delta_f", (self.end_pos_ned - self.start_pos_ned).tolist())
+        object.__setattr__(self, "_end_ref", None)  # the hold at the end, once built
 
     @property
     def end_time_s(self) -> float:
@@ -212,20 +253,25 @@ class CubicSegment:
 
     def evaluate(self, time_s: float) -> Reference:
         """Reference at ``time_s`` (s); clamped to the end points outside the segment."""
-        delta = self.end_pos_ned - self.start_pos_ned
         dyaw = wrap_pi(self.end_yaw_rad - self.start_yaw_rad)
         T = self.duration_s
         if T == 0.0 or time_s >= self.t0_s + T:
-            return Reference.hold(self.end_pos_ned, self.start_yaw_rad + dyaw)
+            end_ref: Reference | None = self._end_ref  # type: ignore[attr-defined]
+            if end_ref is None:  # the same reference every time: build it once
+                end_ref = Reference._hold_checked(self.end_pos_ned, self.start_yaw_rad + dyaw)
+                object.__setattr__(self, "_end_ref", end_ref)
+            return end_ref
         if time_s < self.t0_s:
-            return Reference.hold(self.start_pos_ned, self.start_yaw_rad)
+            return Reference._hold_checked(self.start_pos_ned, self.start_yaw_rad)
         s = (time_s - self.t0_s) / T
         h = 3.0 * s**2 - 2.0 * s**3  # shape function
         dh = (6.0 * s - 6.0 * s**2) / T  # dh/dt
         ddh = (6.0 - 12.0 * s) / T**2  # d2h/dt2
-        return Reference(pos_ned=self.start_pos_ned + delta * h, vel_ned=delta * dh,
-                         acc_ned=delta * ddh, yaw_rad=self.start_yaw_rad + dyaw * h,
-                         yaw_rate_rad_s=dyaw * dh)
+        # p = p0 + (p1 - p0) h,  v = (p1 - p0) dh/dt,  a = (p1 - p0) d2h/dt2  (plain floats)
+        p0, delta = self._start_f, self._delta_f  # type: ignore[attr-defined]
+        return Reference._from_floats([p0[i] + delta[i] * h for i in range(3)],
+                                      [d * dh for d in delta], [d * ddh for d in delta],
+                                      self.start_yaw_rad + dyaw * h, dyaw * dh)
 
 
 @dataclass(frozen=True, eq=False)
@@ -240,6 +286,7 @@ class HoldSegment:
     def __post_init__(self) -> None:
         _check_times(self.t0_s, self.duration_s, allow_inf=True)
         object.__setattr__(self, "pos_ned", _vec3(self.pos_ned, "pos_ned"))
+        object.__setattr__(self, "_ref", None)  # the constant reference, once built
 
     @property
     def end_time_s(self) -> float:
@@ -248,7 +295,11 @@ class HoldSegment:
 
     def evaluate(self, time_s: float) -> Reference:
         """The constant reference (any ``time_s``)."""
-        return Reference.hold(self.pos_ned, self.yaw_rad)
+        ref: Reference | None = self._ref  # type: ignore[attr-defined]
+        if ref is None:
+            ref = Reference._hold_checked(self.pos_ned, self.yaw_rad)
+            object.__setattr__(self, "_ref", ref)
+        return ref
 
 
 @dataclass(frozen=True, eq=False)
@@ -277,12 +328,15 @@ class RampSegment:
     def evaluate(self, time_s: float) -> Reference:
         """Reference at ``time_s``, s."""
         if time_s < self.t0_s:
-            return Reference.hold(self.start_pos_ned, self.yaw_rad)
+            return Reference._hold_checked(self.start_pos_ned, self.yaw_rad)
         if time_s >= self.end_time_s:
             return Reference.hold(self.start_pos_ned + self.vel_ned * self.duration_s,
                                   self.yaw_rad)
-        pos = self.start_pos_ned + self.vel_ned * (time_s - self.t0_s)
-        return Reference(pos_ned=pos, vel_ned=self.vel_ned, acc_ned=_ZERO3, yaw_rad=self.yaw_rad)
+        # p = p0 + v (t - t0)  (plain floats)
+        dt_s = time_s - self.t0_s
+        p0, vel = self.start_pos_ned.tolist(), self.vel_ned.tolist()
+        return Reference._from_floats([p0[i] + vel[i] * dt_s for i in range(3)], vel,
+                                      [0.0, 0.0, 0.0], self.yaw_rad, 0.0)
 
 
 Segment = CubicSegment | HoldSegment | RampSegment
@@ -341,7 +395,11 @@ class Trajectory:
                 raise ValueError(f"segments[{i + 1}].t0_s = {b.t0_s!r}: must equal the end "
                                  f"of segments[{i}] ({a.end_time_s!r})")
         self._segments: tuple[Segment, ...] = tuple(segments)
-        self._starts_s = np.array([seg.t0_s for seg in self._segments])
+        self._starts_s = [float(seg.t0_s) for seg in self._segments]  # for bisect
+        self._start_s = float(self._segments[0].t0_s)
+        self._end_s = float(self._segments[-1].end_time_s)
+        self._before_ref: Reference | None = None  # the rest references outside, once built
+        self._after_ref: Reference | None = None
         self.arrival_times_s: tuple[float, ...] = tuple(float(t) for t in arrival_times_s)
 
     @property
@@ -352,12 +410,12 @@ class Trajectory:
     @property
     def start_time_s(self) -> float:
         """Start of the first segment, s."""
-        return float(self._segments[0].t0_s)
+        return self._start_s
 
     @property
     def end_time_s(self) -> float:
         """End of the last segment, s (inf when it lasts forever)."""
-        return float(self._segments[-1].end_time_s)
+        return self._end_s
 
     def segment_index(self, time_s: float) -> int:
         """Index of the segment active at ``time_s`` (s); clamped to the first/last segment.
@@ -365,15 +423,19 @@ class Trajectory:
         At a join the later segment is active (``searchsorted`` on the start times), so a
         zero-length segment followed by another is never active.
         """
-        idx = int(np.searchsorted(self._starts_s, time_s, side="right")) - 1
+        idx = bisect.bisect_right(self._starts_s, time_s) - 1
         return min(max(idx, 0), len(self._segments) - 1)
 
     def evaluate(self, time_s: float) -> Reference:
         """Reference at ``time_s`` (s)."""
-        if time_s < self.start_time_s:
-            return self._segments[0].evaluate(self.start_time_s).at_rest()
-        if time_s >= self.end_time_s:
-            return self._segments[-1].evaluate(self.end_time_s).at_rest()
+        if time_s < self._start_s:
+            if self._before_ref is None:  # the same reference every time: build it once
+                self._before_ref = self._segments[0].evaluate(self._start_s).at_rest()
+            return self._before_ref
+        if time_s >= self._end_s:
+            if self._after_ref is None:
+                self._after_ref = self._segments[-1].evaluate(self._end_s).at_rest()
+            return self._after_ref
         return self._segments[self.segment_index(time_s)].evaluate(time_s)
 
     @classmethod

@@ -612,8 +612,8 @@ class Navigator:
         self._time_s = float(time_s)
         pos = np.asarray(estimate_pos_ned, dtype=float).reshape(-1)
         vel = np.asarray(estimate_vel_ned, dtype=float).reshape(-1)
-        good = pos.shape == (3,) and vel.shape == (3,) and bool(
-            np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))) and is_finite(
+        good = pos.shape == (3,) and vel.shape == (3,) and all(
+            map(math.isfinite, pos.tolist() + vel.tolist())) and is_finite(
             float(estimate_yaw_rad))
         if good:
             self._est_pos_ned, self._est_vel_ned = pos.copy(), vel.copy()

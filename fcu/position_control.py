@@ -50,13 +50,13 @@ limit (conditional integration).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from fcu.floats import clip, floats, sign
 from fcu.model import VehicleModel
-
-_E3 = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -136,14 +136,21 @@ def attitude_from_specific_force(force_ned: np.ndarray, yaw_rad: float
     ``force_ned`` is the specific force the thrust must produce (``mu - g e3``, m/s^2); the
     body z axis is placed on ``-force/|force|`` (derivation in the module docstring).
     """
-    f = np.asarray(force_ned, dtype=float)
-    norm = float(np.linalg.norm(f))
+    f0, f1, f2 = floats(force_ned, 3)
+    return _attitude_from_force(f0, f1, f2, float(yaw_rad))
+
+
+def _attitude_from_force(f0: float, f1: float, f2: float, yaw_rad: float
+                         ) -> tuple[float, float]:
+    """:func:`attitude_from_specific_force` on plain floats (the per-tick path)."""
+    # |f| (the sum of squares in the order numpy's norm of a 3-vector adds them)
+    norm = math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
     if norm <= 0.0:
         return 0.0, 0.0
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    b = -f / norm  # desired body z axis in NED
-    v_x, v_y, v_z = c * b[0] + s * b[1], -s * b[0] + c * b[1], b[2]  # v = Rz(psi)^T b
-    roll = float(np.arcsin(np.clip(-v_y, -1.0, 1.0)))  # v_y = -sin(phi)
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    b0, b1, b2 = -f0 / norm, -f1 / norm, -f2 / norm  # desired body z axis in NED
+    v_x, v_y, v_z = c * b0 + s * b1, -s * b0 + c * b1, b2  # v = Rz(psi)^T b
+    roll = float(np.arcsin(clip(-v_y, -1.0, 1.0)))  # v_y = -sin(phi)
     pitch = float(np.arctan2(v_x, v_z))  # v_x/v_z = tan(theta)
     return roll, pitch
 
@@ -176,16 +183,21 @@ class PositionController:
         # |ki z| <= limit  <=>  |z| <= limit / ki (unbounded where ki = 0: z stays 0 there)
         with np.errstate(divide="ignore"):
             self._z_limit = np.where(self._ki > 0, np.array(g.integral_limit) / self._ki, 0.0)
-        self._integral = np.zeros(3)  # m*s, int (ref_pos - pos) dt
+        # the same as plain floats, for the per-tick path
+        self._kp_f, self._kd_f, self._ki_f = (self._kp.tolist(), self._kd.tolist(),
+                                              self._ki.tolist())
+        self._z_limit_f = self._z_limit.tolist()
+        self._tan_tilt_max = float(np.tan(self.gains.tilt_max_rad))
+        self._integral_f = [0.0, 0.0, 0.0]  # m*s, int (ref_pos - pos) dt
 
     @property
     def integral(self) -> np.ndarray:
         """Integral of the position error, m*s, NED, shape (3,)."""
-        return self._integral.copy()
+        return np.array(self._integral_f)
 
     def reset(self) -> None:
         """Zero the integrator."""
-        self._integral = np.zeros(3)
+        self._integral_f = [0.0, 0.0, 0.0]
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, ref_pos: np.ndarray,
              ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float) -> PositionCommand:
@@ -200,36 +212,48 @@ class PositionController:
         yaw_ref : float
             Yaw reference psi_d, rad (used to resolve the tilt into roll and pitch).
         """
-        m, g = self.model.mass, self.model.gravity
-        e = np.asarray(ref_pos, dtype=float) - np.asarray(pos_ned, dtype=float)  # eq. 5.1
-        e_dot = np.asarray(ref_vel, dtype=float) - np.asarray(vel_ned, dtype=float)  # eq. 5.2
-        z = np.clip(self._integral + e * self.dt_s, -self._z_limit, self._z_limit)
+        m, g, dt = self.model.mass, self.model.gravity, self.dt_s
+        # per axis in plain floats (3-vectors: numpy's overhead would dominate)
+        p, v = floats(pos_ned, 3), floats(vel_ned, 3)
+        rp, rv, ra = floats(ref_pos, 3), floats(ref_vel, 3), floats(ref_acc, 3)
+        kp, kd, ki, z_lim = self._kp_f, self._kd_f, self._ki_f, self._z_limit_f
+        e = [rp[i] - p[i] for i in range(3)]  # eq. 5.1
+        e_dot = [rv[i] - v[i] for i in range(3)]  # eq. 5.2
+        integral = self._integral_f
+        z = [clip(integral[i] + e[i] * dt, -z_lim[i], z_lim[i]) for i in range(3)]
         # eq. 5.3: mu = ref_acc + kp e + kd e_dot + ki int e
-        mu_free = np.asarray(ref_acc, dtype=float) + self._kp * e + self._kd * e_dot \
-            + self._ki * z
-        mu = self._limit(mu_free)
+        mu_free = [ra[i] + kp[i] * e[i] + kd[i] * e_dot[i] + ki[i] * z[i] for i in range(3)]
+        mu = self._limit_f(mu_free)
         # conditional integration: where limited, do not integrate deeper into the limit
-        limited = np.abs(mu - mu_free) > 1e-12
-        deeper = limited & (np.sign(e) == np.sign(mu_free - mu))
-        self._integral = np.where(deeper, self._integral, z)
+        new_integral = []
+        for i in range(3):
+            limited = abs(mu[i] - mu_free[i]) > 1e-12
+            deeper = limited and sign(e[i]) == sign(mu_free[i] - mu[i])
+            new_integral.append(integral[i] if deeper else z[i])
+        self._integral_f = new_integral
         # f = mu - g e3; U1 = m |f|; body z along -f (eq. 5.4, module docstring)
-        force = mu - g * _E3
-        thrust = m * float(np.linalg.norm(force))
-        roll, pitch = attitude_from_specific_force(force, float(yaw_ref))
+        f0, f1, f2 = mu[0] - 0.0, mu[1] - 0.0, mu[2] - g
+        thrust = m * math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
+        roll, pitch = _attitude_from_force(f0, f1, f2, float(yaw_ref))
         return PositionCommand(thrust_n=thrust, roll_ref_rad=roll, pitch_ref_rad=pitch,
-                               accel_cmd_ned=mu)
+                               accel_cmd_ned=np.array(mu))
 
     def _limit(self, mu: np.ndarray) -> np.ndarray:
         """Apply the vertical, tilt and total-thrust limits to mu (m/s^2, NED)."""
+        return np.array(self._limit_f(floats(mu, 3)))
+
+    def _limit_f(self, mu: list[float]) -> list[float]:
+        """:meth:`_limit` on plain floats."""
         m, g = self.model.mass, self.model.gravity
-        out = mu.copy()
+        out = list(mu)
         # 1. vertical specific force (up) -f_z = g - mu_z within the thrust range
-        up = float(np.clip(g - mu[2], self.thrust_min_n / m, self.thrust_max_n / m))
+        up = clip(g - mu[2], self.thrust_min_n / m, self.thrust_max_n / m)
         out[2] = g - up
         # 2. horizontal: tilt limit, then the remaining thrust budget
         horiz = float(np.hypot(mu[0], mu[1]))
-        budget = up * np.tan(self.gains.tilt_max_rad)
-        budget = min(budget, float(np.sqrt(max((self.thrust_max_n / m) ** 2 - up**2, 0.0))))
+        budget = up * self._tan_tilt_max
+        budget = min(budget, math.sqrt(max((self.thrust_max_n / m) ** 2 - up**2, 0.0)))
         if horiz > budget:
-            out[:2] = mu[:2] * (budget / horiz)
+            scale = budget / horiz
+            out[0], out[1] = mu[0] * scale, mu[1] * scale
         return out

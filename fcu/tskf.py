@@ -60,6 +60,7 @@ algebraically the Kalman filter on the 20-state model [x; gamma] (Hsieh and Chen
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -88,8 +89,8 @@ from fcu.estimation import (
     StateEstimate,
     check_height_source,
     group_samples,
-    wrap_angle,
 )
+from fcu.floats import clip
 from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
 
@@ -223,6 +224,21 @@ def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
                             g_d=contiguous(b_ext_d[:, N_MOTORS]), q_d=contiguous(q_d))
 
 
+@functools.lru_cache(maxsize=16)
+def _shared_hover_model(model: VehicleModel, dt_s: float, qc_diag: tuple[float, ...],
+                        on_ground: bool) -> LinearHoverModel:
+    """:func:`hover_model`, built once per process and configuration (read-only arrays).
+
+    Its discretisation calls scipy's ``expm`` and ``solve``, which wake OpenBLAS's worker
+    threads; those then spin for about 0.1 s of CPU time. A process that builds many
+    filters (a batch of flights, a benchmark, the tests) pays that once.
+    """
+    lm = hover_model(model, dt_s, np.array(qc_diag), on_ground)
+    for arr in (lm.a_c, lm.b_c, lm.g_c, lm.a_d, lm.b_d, lm.g_d, lm.q_d):
+        arr.setflags(write=False)
+    return lm
+
+
 class _Channel:
     """One measurement kind: ``y = S x`` at its sample time, its noise, and ``S A_c``."""
 
@@ -236,6 +252,10 @@ class _Channel:
         # S A_c of the flight and ground models, for C = S (I - delta A_c)
         self.sel_a = {False: selection @ flight.a_c, True: selection @ ground.a_c}
         self.ones = np.ones(selection.shape[0])
+        self.rows = selection.shape[0]
+        if list(value_index) != list(range(value_index[0], value_index[-1] + 1)):
+            raise ValueError(f"value_index = {value_index!r}: must be consecutive")
+        self.value_slice = slice(value_index[0], value_index[-1] + 1)  # value_index, a slice
 
 
 @njit(cache=True, error_model="numpy")
@@ -339,6 +359,71 @@ def tskf_update(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: FloatAr
     return x_bar_post, p_x_post, gamma_post, p_gamma_post, v_post, s_bar, innovation, s_gamma
 
 
+@njit(cache=True, error_model="numpy")
+def tskf_correct(sel: FloatArray, sel_a: FloatArray, row_delta: FloatArray, y: FloatArray,
+                 r_diag: FloatArray, yaw_row: int, x_bar: FloatArray, p_x: FloatArray,
+                 gamma: FloatArray, p_gamma: FloatArray,
+                 v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
+                                         FloatArray, FloatArray, FloatArray, FloatArray,
+                                         FloatArray]:
+    """One tick's stacked measurement update in one compiled call (module docstring).
+
+    Parameters
+    ----------
+    sel, sel_a : ndarrays, shape (m, n)
+        Stacked selections ``S`` of the measurements that arrived and ``S A_c``.
+    row_delta : ndarray, shape (m,)
+        Per row, how long before the tick its batch was taken (``delta``, s).
+    y : ndarray, shape (m,)
+        The stacked measurements.
+    r_diag : ndarray, shape (m,)
+        Diagonal of ``R_{k+1}``.
+    yaw_row : int
+        Row holding the yaw measurement (its residual is wrapped), or -1.
+    x_bar, p_x, gamma, p_gamma, v : ndarrays
+        Priors, as for :func:`tskf_update`.
+
+    Returns
+    -------
+    The outputs of :func:`tskf_update` (posterior yaw wrapped to [-pi, pi)), then the
+    residual ``r_{k+1}``.
+    """
+    # C = S (I - delta A_c): each row mapped back to its batch's mean sample time
+    c = sel - row_delta.reshape(-1, 1) * sel_a
+    # r_{k+1} = y_{k+1} - C_{k+1} x_bar_{k+1|k}   (yaw wrapped)
+    r = y - c @ x_bar
+    if yaw_row >= 0:
+        r[yaw_row] = (r[yaw_row] + math.pi) % (2.0 * math.pi) - math.pi
+    # eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24
+    (x_bar_post, p_x_post, gamma_post, p_gamma_post, v_post, s_bar, innovation,
+     s_gamma) = tskf_update(c, r, r_diag, x_bar, p_x, gamma, p_gamma, v)
+    x_bar_post[YAW_INDEX] = (x_bar_post[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    return (x_bar_post, p_x_post, gamma_post, p_gamma_post, v_post, s_bar, innovation,
+            s_gamma, r)
+
+
+@njit(cache=True, error_model="numpy")
+def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: FloatArray,
+                v: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Compensated estimate (eq. 6.25) and the diagonal of its covariance (eq. 6.26).
+
+    Returns ``x_hat = x_bar + V gamma_hat``, shape (n,), and
+    ``diag(V P^gamma V' + P^x)``, shape (n,).
+    """
+    # x_hat = x_bar + V gamma_hat   (eq. 6.25)
+    x_hat = x_bar + v @ gamma
+    # P = V P^gamma V' + P^x   (eq. 6.26): diagonal only, diag(V P^g V')_i = sum_j (V P^g)_ij V_ij
+    vp = v @ p_gamma
+    n, n_g = v.shape
+    p_diag = np.empty(n)
+    for i in range(n):
+        acc = vp[i, 0] * v[i, 0]
+        for j in range(1, n_g):
+            acc += vp[i, j] * v[i, j]
+        p_diag[i] = p_x[i, i] + acc
+    return x_hat, p_diag
+
+
 # Default random-walk variance of gamma per 10 ms step (eq. 6.9): see TwoStageKalmanFilter.
 DEFAULT_Q_GAMMA = 1e-4
 
@@ -395,7 +480,8 @@ class TwoStageKalmanFilter:
 
     Notes
     -----
-    Each tick: ``step(time_s, pwm_applied, samples)`` with the tick time, the PWM held since
+    Each tick: ``step(time_s, pwm_applied, samples)`` (or :meth:`step_grouped` with the
+    samples already averaged) with the tick time, the PWM held since
     the previous tick (after saturation: the filter's E_k = -B_k diag(u_k) needs what the
     motors were actually asked for) and the samples produced since the previous tick.
     """
@@ -429,12 +515,18 @@ class TwoStageKalmanFilter:
                                     else InitialUncertainty())
         self.ground_z_ned = ground_z_ned
         self.ground_margin_m = float(ground_margin_m)
-        qc = self.process_noise.diagonal()
-        self.flight_model = hover_model(model, self.dt_s, qc, on_ground=False)
-        self.ground_model = hover_model(model, self.dt_s, qc, on_ground=True)
+        qc = tuple(self.process_noise.diagonal().tolist())
+        # designed once per configuration and shared (read-only): _shared_hover_model
+        self.flight_model = _shared_hover_model(model, self.dt_s, qc, False)
+        self.ground_model = _shared_hover_model(model, self.dt_s, qc, True)
         self._weight_n = model.mass * model.gravity
         self._channels = self._make_channels()
         self._kinds = frozenset(ch.sensor for ch in self._channels)
+        # every channel stacked, for the usual tick on which all of them deliver
+        self._sel_all = np.ascontiguousarray(np.vstack([ch.selection for ch in self._channels]))
+        self._sel_a_all = {g: np.ascontiguousarray(np.vstack([ch.sel_a[g]
+                                                              for ch in self._channels]))
+                           for g in (False, True)}
         self.reset()
 
     def _make_channels(self) -> tuple[_Channel, ...]:
@@ -523,6 +615,13 @@ class TwoStageKalmanFilter:
         StateEstimate
             ``x_hat_{k|k}`` (eq. 6.25) with the diagonal of eq. 6.26.
         """
+        return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds))
+
+    def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
+                     batches: Mapping[str, SampleBatch]) -> StateEstimate:
+        """:meth:`step` with the tick's samples already averaged by
+        :func:`fcu.estimation.group_samples` (batches of kinds this filter does not use are
+        ignored), so that several estimators can share one grouping."""
         time_s = float(time_s)
         u = np.asarray(pwm_applied, dtype=float).reshape(N_MOTORS)
         n_steps_f = (time_s - self._time_s) / self.dt_s
@@ -536,13 +635,16 @@ class TwoStageKalmanFilter:
         if n_steps == 0:
             self._keep_prior()
         self._time_s = time_s
-        self._update(group_samples(samples, self._kinds))
+        self._update(batches)
         self._estimate = self._make_estimate()
         return self._estimate
 
     # ---- filter maths ----------------------------------------------------------------------
     def _current_model(self) -> LinearHoverModel:
-        x_hat = self.x_bar + self.V @ self.gamma_raw
+        x_bar, v, gamma, x_hat = self._x_hat_of
+        if not (x_bar is self.x_bar and v is self.V and gamma is self.gamma_raw):
+            # x_hat = x_bar + V gamma_hat   (eq. 6.25)
+            x_hat = self.x_bar + self.V @ self.gamma_raw
         on_ground = (self.ground_z_ned is not None
                      and x_hat[Z_INDEX] >= self.ground_z_ned - self.ground_margin_m
                      and float(np.sum(x_hat[THRUST])) < self._weight_n)
@@ -565,22 +667,26 @@ class TwoStageKalmanFilter:
         self.V_prior = self.V.copy()
 
     def _update(self, batches: Mapping[str, SampleBatch]) -> None:
-        c_l: list[FloatArray] = []
-        y_l: list[FloatArray] = []
-        r_l: list[FloatArray] = []
+        present: list[_Channel] = []
+        row_delta: list[float] = []
+        y_l: list[float] = []
+        r_l: list[float] = []
         blocks: list[tuple[str, int, int]] = []
+        yaw_row = -1
         m = 0
         for ch in self._channels:
             batch = batches.get(ch.sensor)
             if batch is None:
                 continue
-            delta = self._time_s - batch.time_s
+            present.append(ch)
+            k = ch.rows
             # C = S (I - delta A_c): the rows mapped back to the batch's mean sample time
-            c_l.append(ch.selection - delta * ch.sel_a[self.on_ground])
-            y_l.append(batch.value[ch.value_index])
+            row_delta += [self._time_s - batch.time_s] * k
+            y_l += batch.value.tolist()[ch.value_slice]
             # R = sigma^2 / n for the mean of n samples
-            r_l.append(ch.ones * (ch.sample_var / batch.count))
-            k = len(ch.ones)
+            r_l += [ch.sample_var / batch.count] * k
+            if ch.sensor == "mocap_att":
+                yaw_row = m + 2
             blocks.append((ch.sensor, m, m + k))
             m += k
         self._blocks = blocks
@@ -590,26 +696,24 @@ class TwoStageKalmanFilter:
             self.innovation = np.zeros(0)
             self.innovation_cov = np.zeros((0, 0))
             return
-        c = np.vstack(c_l)
-        # r_{k+1} = y_{k+1} - C_{k+1} x_bar_{k+1|k}   (yaw wrapped)
-        r = np.concatenate(y_l) - c @ self.x_bar
-        for name, i0, _i1 in blocks:
-            if name == "mocap_att":
-                r[i0 + 2] = wrap_angle(float(r[i0 + 2]))
-        # eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24 (tskf_update)
+        on_ground = self.on_ground
+        if len(present) == len(self._channels):
+            sel, sel_a = self._sel_all, self._sel_a_all[on_ground]
+        else:
+            sel = np.vstack([ch.selection for ch in present])
+            sel_a = np.vstack([ch.sel_a[on_ground] for ch in present])
+        # r = y - C x_bar (yaw wrapped); eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24 (tskf_update)
         (self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V, self.residual_cov,
-         self.innovation, self.innovation_cov) = tskf_update(
-            c, r, np.concatenate(r_l), self.x_bar, self.P_x, self.gamma_raw, self.P_gamma,
-            self.V)
-        self.x_bar[YAW_INDEX] = wrap_angle(float(self.x_bar[YAW_INDEX]))
-        self.residual = r
+         self.innovation, self.innovation_cov, self.residual) = tskf_correct(
+            sel, sel_a, np.array(row_delta), np.array(y_l), np.array(r_l), yaw_row,
+            self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V)
 
     def _make_estimate(self) -> StateEstimate:
-        # x_hat = x_bar + V gamma_hat   (eq. 6.25)
-        x_hat = self.x_bar + self.V @ self.gamma_raw
-        # P = V P^gamma V' + P^x   (eq. 6.26): diagonal only
-        p_diag = np.diag(self.P_x) + ((self.V @ self.P_gamma) * self.V).sum(axis=1)
-        return StateEstimate.from_vector(self._time_s, x_hat, p_diag)
+        # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
+        x_hat, p_diag = tskf_output(self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V)
+        # kept for the next time update's ground test (same x_hat while nothing changed)
+        self._x_hat_of = (self.x_bar, self.V, self.gamma_raw, x_hat.copy())
+        return StateEstimate._from_owned(self._time_s, x_hat, p_diag)
 
     # ---- inspection ------------------------------------------------------------------------
     @property
@@ -623,9 +727,14 @@ class TwoStageKalmanFilter:
         return self._time_s
 
     @property
+    def sensor_kinds(self) -> frozenset[str]:
+        """The sensor kinds this estimator uses (samples of other kinds are ignored)."""
+        return self._kinds
+
+    @property
     def loe_estimate(self) -> FloatArray:
         """Per-motor loss of effectiveness gamma_hat clipped to [0, 1], shape (4,)."""
-        return np.clip(self.gamma_raw, 0.0, 1.0)
+        return np.array([clip(g, 0.0, 1.0) for g in self.gamma_raw.tolist()])
 
     @property
     def loe_std(self) -> FloatArray:

@@ -505,6 +505,67 @@ def _plant_step(
         x[i] = xn[i]
 
 
+@njit(cache=True)
+def _inside_band(value: float, lo: float, hi: float, margin: float) -> bool:
+    """``lo <= value <= hi`` with ``value`` at least ``margin`` (relative) inside finite ends."""
+    if value != value:
+        return False
+    if lo > -math.inf and not value >= lo + abs(lo) * margin:
+        return False
+    return not (hi < math.inf and not value <= hi - abs(hi) * margin)
+
+
+# Python's math.hypot may differ from the compiled one in the last bit: an airspeed this
+# close (relative) to a band end is left to the caller.
+_HYPOT_MARGIN = 1e-12
+
+_STEPS_DONE, _STEPS_STOPPED, _STEPS_CONTACT = 0, 1, 2  # why _plant_steps returned
+
+
+@njit(cache=True, error_model="numpy")
+def _plant_steps(
+    n_max: int, step0: int, dt: float, t_limit: float, x: FloatArray, u_eff: FloatArray,
+    mass_kg: float, p: FloatArray, flags: FloatArray, work: FloatArray,
+    was_on_ground: bool, was_crashed: bool, check_band: bool, band: FloatArray,
+    winds: FloatArray, wind_prev: FloatArray, accel_every: int, specific_force: FloatArray,
+    states: FloatArray, forces: FloatArray,
+) -> tuple[int, int]:
+    """Up to ``n_max`` :func:`_plant_step` calls with the PWM, mass and per-step wind held,
+    for :class:`sim.world.World`'s compiled stepping (see ``World._steps_compiled``).
+
+    Step ``j`` (the plant's step count ``step0 + j`` before it) uses ``winds[j]``; it is not
+    taken when it starts at or after ``t_limit`` or, with ``check_band``, when the altitude
+    ``-z`` or the airspeed relative to the previous wind (``wind_prev``, then ``winds[j - 1]``)
+    leaves ``band`` = (h_lo, h_hi, v_lo, v_hi). After step count ``k`` a multiple of
+    ``accel_every`` the specific force is recomputed. ``states[j]`` and ``forces[j]``
+    receive the state and the latest specific force after step ``j`` (``specific_force``
+    is updated in place too). Returns ``(steps, why)``: why is _STEPS_DONE, _STEPS_STOPPED
+    (the next step was not taken) or _STEPS_CONTACT (the last step changed on_ground or
+    crashed from ``was_on_ground`` / ``was_crashed``).
+    """
+    h_lo, h_hi, v_lo, v_hi = band[0], band[1], band[2], band[3]
+    for j in range(n_max):
+        k0 = step0 + j
+        if not k0 * dt < t_limit:
+            return j, _STEPS_STOPPED
+        w = winds[j]
+        if check_band:
+            prev = wind_prev if j == 0 else winds[j - 1]
+            airspeed = math.hypot(x[3] - prev[0], x[4] - prev[1])
+            if not (_inside_band(-x[2], h_lo, h_hi, 0.0)
+                    and _inside_band(airspeed, v_lo, v_hi, _HYPOT_MARGIN)):
+                return j, _STEPS_STOPPED
+        _plant_step(x, u_eff, w, mass_kg, p, dt, flags, work)
+        if (k0 + 1) % accel_every == 0:
+            specific_force[:] = specific_force_frd(x, w, mass_kg, p)
+        states[j] = x
+        forces[j] = specific_force
+        if (flags[_F_ON_GROUND] > 0.5) != was_on_ground or \
+                (flags[_F_CRASHED] > 0.5) != was_crashed:
+            return j + 1, _STEPS_CONTACT
+    return n_max, _STEPS_DONE
+
+
 class RigidBodyPlant:
     """Stateful plant: PWM saturation, RK4 of :func:`derivative`, and ground contact.
 
@@ -618,7 +679,24 @@ class RigidBodyPlant:
         if u.shape != (4,) or w.shape != (3,) or not mass_kg > 0.0:
             raise ValueError(f"u_pwm shape {u.shape} (want (4,)), wind_ned shape {w.shape} "
                              f"(want (3,)), mass_kg = {mass_kg!r} (want > 0)")
-        _plant_step(self._x, u, w, float(mass_kg), self._params, self.dt_s, self._flags,
+        return self._step_checked(u, w, float(mass_kg))
+
+    def _stepping_state(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """``(x, params, flags, work)`` for :class:`sim.world.World`'s compiled stepping, which
+        advances them with :func:`_plant_step` and reports the steps with
+        :meth:`_count_steps`."""
+        return self._x, self._params, self._flags, self._work
+
+    def _count_steps(self, n_steps: int) -> None:
+        """Account for ``n_steps`` steps taken by the world's compiled stepping."""
+        self._steps += n_steps
+
+    def _step_checked(self, u_pwm: FloatArray, wind_ned: FloatArray,
+                      mass_kg: float) -> FloatArray:
+        """:meth:`step` for a caller whose inputs are known good: float64 arrays of shapes
+        (4,) and (3,) and a float mass > 0 (the world's stepping loop, which checks its
+        command once per call instead of once per plant step)."""
+        _plant_step(self._x, u_pwm, wind_ned, mass_kg, self._params, self.dt_s, self._flags,
                     self._work)
         self._steps += 1
         return self._state_view

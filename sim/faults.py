@@ -596,6 +596,19 @@ class FaultEngine:
         return out
 
     # ------------------------------------------------------------------ the hot paths
+    def _stepping_state(self) -> tuple[int, np.ndarray, float, float]:
+        """What :class:`sim.world.World`'s compiled stepping needs to stand in for
+        :meth:`actuator_inputs` and :meth:`mass_kg` on steps that start before the next
+        change: ``(mode, gains, mass_kg, next_change_s)``. Until ``next_change_s`` the
+        effective PWM is the command itself (mode 0) or the command times ``gains`` (mode 1),
+        and the mass is constant; mode 2 (time-varying or overriding faults) needs
+        :meth:`actuator_inputs` at every step."""
+        return self._act_mode, self._act_gain, self._mass_kg, self._next_change_s
+
+    def _set_clock(self, time_s: float) -> None:
+        """Set the clock as the calls :meth:`_stepping_state` stood in for would have."""
+        self._clock_s = time_s
+
     def actuator_inputs(self, time_s: float, pwm_cmd: np.ndarray) -> np.ndarray:
         """PWM the motors see at ``time_s`` given the commanded ``pwm_cmd``.
 

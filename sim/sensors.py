@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from functools import reduce
 
 import numpy as np
+from numba import njit
 
 from sim.config_loading import finite, require
 from sim.faults import FaultEngine
@@ -188,10 +189,14 @@ class SensorSuite:
             decimations.append(steps)
         self._decimation = tuple(decimations)
         cycle = reduce(math.lcm, decimations)
+        self._due_mask: np.ndarray | None = None  # (cycle, 5) int8: sensor i due at step k
         if cycle <= _MAX_CYCLE:
             self._cycle = cycle
             self._due: tuple[tuple[int, ...], ...] = tuple(
                 tuple(i for i, d in enumerate(decimations) if k % d == 0) for k in range(cycle))
+            self._due_mask = np.zeros((cycle, len(SENSOR_NAMES)), dtype=np.int8)
+            for k, due in enumerate(self._due):
+                self._due_mask[k, list(due)] = 1
         else:  # pathological rates: no table, test every sensor each step
             self._cycle = 1
             self._due = ((-1,),)
@@ -215,16 +220,55 @@ class SensorSuite:
         self._rngs = [np.random.default_rng(s) for s in self._seeds]
         self._rows: list[list[list[float]]] = [[] for _ in SENSOR_NAMES]
         self._pos = [0] * len(SENSOR_NAMES)
+        # the same noise rows as an array, for the world's compiled stepping
+        self._noise = np.zeros((len(SENSOR_NAMES), _NOISE_BLOCK, 3))
 
     def _refill(self, i: int) -> list[list[float]]:
         """Pre-draw the next block of noise rows of sensor ``i`` (zeros when sigma is 0)."""
         n = _AXES[i]
         if self._sigma[i] > 0.0:
-            rows = (self._rngs[i].standard_normal((_NOISE_BLOCK, n)) * self._sigma[i]).tolist()
+            block = self._rngs[i].standard_normal((_NOISE_BLOCK, n)) * self._sigma[i]
+            rows = block.tolist()
+            self._noise[i, :, :n] = block
         else:
             rows = [[0.0] * n] * _NOISE_BLOCK  # adding +0.0 leaves the truth exact
+            self._noise[i] = 0.0
         self._rows[i] = rows
         return rows
+
+    def _compiled_steps_available(self, step_index: int, n_steps: int) -> int:
+        """How many of the plant steps after ``step_index`` :meth:`_compiled_readings` can
+        serve (up to ``n_steps``): those whose due sensors have pre-drawn noise left (a new
+        block is drawn by :meth:`sample`). 0 without a due table (unusual rates)."""
+        if self._due_mask is None:
+            return 0
+        rows, pos = self._rows, self._pos
+        if all(len(rows[i]) - pos[i] >= n_steps for i in range(len(SENSOR_NAMES))):
+            return n_steps  # each sensor fires at most once per step
+        left = [len(rows[i]) - pos[i] for i in range(len(SENSOR_NAMES))]
+        for j in range(n_steps):
+            for i in self._due[(step_index + 1 + j) % self._cycle]:
+                left[i] -= 1
+                if left[i] < 0:
+                    return j
+        return n_steps
+
+    def _compiled_readings(self, step_index: int, states: np.ndarray, forces: np.ndarray,
+                           n_steps: int) -> tuple[np.ndarray, list[int], list[int]]:
+        """The noisy readings :meth:`sample` would produce at the ``n_steps`` plant steps
+        after ``step_index`` (state and specific force after each in ``states``, ``forces``;
+        at most :meth:`_compiled_steps_available` steps), before the fault engine:
+        ``(readings, sensor_indices, step_indices)``, in the order of :meth:`sample`."""
+        size = len(SENSOR_NAMES) * n_steps
+        readings = np.empty((size, 3))
+        sensor = np.empty(size, dtype=np.int64)
+        step = np.empty(size, dtype=np.int64)
+        next_row = np.array(self._pos, dtype=np.int64)
+        assert self._due_mask is not None  # _compiled_steps_available() returned > 0
+        m = _readings_kernel(step_index, n_steps, states, forces, self._due_mask, self._noise,
+                             next_row, readings, sensor, step)
+        self._pos = next_row.tolist()
+        return readings, sensor[:m].tolist(), step[:m].tolist()
 
     def sample(self, step_index: int, time_s: float, state: np.ndarray,
                specific_force_frd: np.ndarray) -> Sequence[SensorSample]:
@@ -279,6 +323,51 @@ class SensorSuite:
             value = self._faults.corrupt(name, time_s, reading, self._sigma_vec[i])
             samples.append(SensorSample(name, time_s, value))
         return tuple(samples)
+
+
+_euler_zyx_compiled = njit(cache=True)(_euler_zyx)
+_wrap_pi_compiled = njit(cache=True)(_wrap_pi)
+
+
+@njit(cache=True, error_model="numpy")
+def _readings_kernel(step0: int, n_steps: int, states: np.ndarray, forces: np.ndarray,
+                     due_mask: np.ndarray, noise: np.ndarray, next_row: np.ndarray,
+                     readings: np.ndarray, sensor: np.ndarray, step: np.ndarray) -> int:
+    """The noisy readings of :meth:`SensorSuite.sample` for plant steps ``step0 + 1`` to
+    ``step0 + n_steps`` (state ``states[j]`` and specific force ``forces[j]`` after step
+    ``step0 + 1 + j``), in the same order and with the same operations, before the fault
+    engine. Every due sensor must have ``noise`` rows from ``next_row`` on (advanced in
+    place). Writes ``readings[m]``, ``sensor[m]`` (index into SENSOR_NAMES) and ``step[m]``
+    (step index) per reading; returns their number."""
+    m = 0
+    cycle = due_mask.shape[0]
+    for j in range(n_steps):
+        k = step0 + 1 + j
+        xs = states[j]
+        for i in range(due_mask.shape[1]):
+            if not due_mask[k % cycle, i]:
+                continue
+            r = noise[i, next_row[i]]
+            next_row[i] += 1
+            out = readings[m]
+            if i == _GYRO:
+                out[0], out[1], out[2] = xs[10] + r[0], xs[11] + r[1], xs[12] + r[2]
+            elif i == _ACCEL:
+                f = forces[j]
+                out[0], out[1], out[2] = f[0] + r[0], f[1] + r[1], f[2] + r[2]
+            elif i == _POS:
+                out[0], out[1], out[2] = xs[0] + r[0], xs[1] + r[1], xs[2] + r[2]
+            elif i == _ATT:
+                roll, pitch, yaw = _euler_zyx_compiled(xs[6], xs[7], xs[8], xs[9])
+                out[0] = _wrap_pi_compiled(roll + r[0])
+                out[1] = pitch + r[1]
+                out[2] = _wrap_pi_compiled(yaw + r[2])
+            else:
+                out[0] = -xs[2] + r[0]  # altitude = -z_ned
+            sensor[m] = i
+            step[m] = k
+            m += 1
+    return m
 
 
 def _divisor_rates(plant_rate_hz: float) -> list[str]:

@@ -110,6 +110,7 @@ References
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import operator
 from dataclasses import dataclass
@@ -485,6 +486,42 @@ class DrydenWind:
         self._block = block
         self._rows = iter(block[first_row:].tolist())
         self._next_row = self._rows.__next__
+
+    def _preview(self, n_steps: int) -> tuple[np.ndarray, np.ndarray, int]:
+        """The winds of the next steps if the discretisation stays (no retune) and no new
+        block of normals is needed, without advancing: ``(winds, x_after, n)`` with
+        ``winds`` (n, 3), n <= ``n_steps`` limited by the normals left in the block and
+        ``x_after`` the states after all n. Take steps with :meth:`_accept`. For
+        :class:`sim.world.World`'s compiled stepping; :meth:`step` checks the cache band."""
+        if not self._active:
+            winds = np.empty((n_steps, 3))
+            winds[:] = self._mean_ned
+            return winds, np.array(self._x), n_steps
+        block = self._block
+        row = block.shape[0] - operator.length_hint(self._rows)  # next unused row
+        n = min(n_steps, block.shape[0] - row)
+        winds = np.empty((n, 3))
+        x = np.array(self._x)
+        _dryden_kernel(block[row:row + n], x, self._coef_arr, winds)
+        return winds, x, n
+
+    def _accept(self, n_steps: int, x_after: np.ndarray, n_previewed: int) -> None:
+        """Advance by the first ``n_steps`` steps of the last :meth:`_preview`."""
+        if not self._active or n_steps == 0:
+            return
+        if n_steps != n_previewed:  # recompute the states after the steps taken
+            block = self._block
+            row = block.shape[0] - operator.length_hint(self._rows)
+            x_after = np.array(self._x)
+            _dryden_kernel(block[row:row + n_steps], x_after, self._coef_arr,
+                           np.empty((n_steps, 3)))
+        self._x = x_after.tolist()
+        next(itertools.islice(self._rows, n_steps - 1, None))
+
+    @property
+    def _cache_band(self) -> tuple[bool, np.ndarray]:
+        """(turbulence active, the band (h_lo, h_hi, v_lo, v_hi) of :meth:`step`'s cache)."""
+        return self._active, np.array(self._band)
 
     def _draw_block(self) -> np.ndarray:
         """The next block of standard normals, shape (BLOCK_STEPS, 5); the only draw site."""

@@ -28,18 +28,21 @@ import numpy as np
 from sim.airframe import Airframe
 from sim.config_loading import finite, require
 from sim.dynamics import (
+    _STEPS_CONTACT,
     POS_NED,
     QUAT_WXYZ,
     RATE_FRD,
+    STATE_SIZE,
     THRUST_N,
     VEL_NED,
     RigidBodyPlant,
+    _plant_steps,
     pack_params,
     quat_to_euler,
     specific_force_frd,
 )
 from sim.faults import FaultEngine, FaultEvent
-from sim.sensors import SensorConfig, SensorSample, SensorSuite
+from sim.sensors import _AXES, SENSOR_NAMES, SensorConfig, SensorSample, SensorSuite
 from sim.wind import DrydenWind, WindConfig
 
 
@@ -89,6 +92,16 @@ class PlantEvent:
 WorldEvent = FaultEvent | PlantEvent
 
 
+# ---- compiled stepping ------------------------------------------------------------------
+# The loop of World.step costs ~8 us of Python per plant step. On the usual steps (no fault
+# starts or ends, no time-varying actuator fault, the wind inside its cache band, noise at
+# hand) World._steps_compiled takes several steps in three compiled calls, each in the module
+# that owns the maths (the wind's recursion, the plant steps, the sensor readings), with the
+# same operations in the same order; every other step goes through the Python loop. Sensor
+# readings are corrupted by the fault engine and wrapped into samples afterwards, in their
+# original order (corruption never feeds back into the plant within a call).
+
+
 class World:
     """Plant, wind, sensors and faults stepped together.
 
@@ -134,7 +147,8 @@ class World:
 
     def set_wind(self, config: WindConfig) -> None:
         """Replace the wind model from now on (its random stream continues from the seed)."""
-        self.wind = DrydenWind(config, self.dt_s, np.random.default_rng(self._wind_seed.spawn(1)[0]))
+        self.wind = DrydenWind(config, self.dt_s,
+                               np.random.default_rng(self._wind_seed.spawn(1)[0]))
 
     # ------------------------------------------------------------------ stepping
     @property
@@ -158,20 +172,79 @@ class World:
             Plant steps to take.
         """
         pwm = np.asarray(pwm_cmd, dtype=np.float64)
+        if pwm.shape != (4,):
+            raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
         samples: list[SensorSample] = []
+        done = 0
+        while done < n_steps:
+            steps = self._steps_compiled(pwm, n_steps - done, samples)
+            done += steps
+            if done < n_steps and steps == 0:  # the next step needs the Python objects
+                self._steps_python(pwm, 1, samples)
+                done += 1
+        return samples
+
+    def _steps_compiled(self, pwm: np.ndarray, n_steps: int,
+                        samples: list[SensorSample]) -> int:
+        """As many of the next ``n_steps`` steps as the compiled path can take (comment at
+        the top of the section); returns how many were taken (0: the next needs Python)."""
+        faults, wind, sensors, plant = self.faults, self.wind, self.sensors, self.plant
+        mode, gains, mass, next_change_s = faults._stepping_state()
+        step0, dt = self._steps, self.dt_s
+        if mode == 2 or not step0 * dt < next_change_s:
+            return 0
+        n = sensors._compiled_steps_available(step0, n_steps)
+        if n == 0:
+            return 0
+        # the winds these steps would see without a retune (the plant steps check the band)
+        winds, wind_x, n = wind._preview(n)
+        if n == 0:
+            return 0
+        check_band, band = wind._cache_band
+        u_eff = pwm if mode == 0 else pwm * gains
+        x, params, flags, work = plant._stepping_state()
+        states = np.empty((n, STATE_SIZE))
+        forces = np.empty((n, 3))
+        steps, why = _plant_steps(
+            n, step0, dt, next_change_s, x, u_eff, mass, params, flags, work,
+            self._was_on_ground, self._was_crashed, check_band, band, winds, self._wind_ned,
+            self._accel_every, self._specific_force, states, forces)
+        if steps == 0:
+            return 0
+        plant._count_steps(steps)
+        wind._accept(steps, wind_x, n)
+        self._steps += steps
+        self._wind_ned = winds[steps - 1].copy()
+        self._pwm_effective = u_eff
+        # the readings (sensors.sample's), then the fault engine, in their original order
+        readings, sensor, step = sensors._compiled_readings(step0, states, forces, steps)
+        sigma = sensors._sigma_vec
+        for j, (i, k) in enumerate(zip(sensor, step, strict=True)):
+            name, time_s = SENSOR_NAMES[i], k * dt
+            value = faults.corrupt(name, time_s, readings[j, :_AXES[i]].copy(), sigma[i])
+            samples.append(SensorSample(name, time_s, value))
+        if not step or step[-1] != self._steps:
+            faults._set_clock((self._steps - 1) * dt)  # as mass_kg() at the last step
+        if why == _STEPS_CONTACT:
+            self._contact_changed()
+        return steps
+
+    def _steps_python(self, pwm: np.ndarray, n_steps: int, samples: list[SensorSample]) -> None:
+        """``n_steps`` steps of the loop of :meth:`step`, one object call at a time."""
         plant, faults, wind, sensors = self.plant, self.faults, self.wind, self.sensors
         x = plant.state
         dt = self.dt_s
         params = self._params
         for _ in range(n_steps):
             t = self._steps * dt
+            # (4,) float64 from the fault engine, a mass > 0 (checked when faults are
+            # scheduled), a (3,) wind: the plant's per-step input checks are not needed
             u_eff = faults.actuator_inputs(t, pwm)
             mass = faults.mass_kg(t)
-            vx, vy = x[3], x[4]
             wind_prev = self._wind_ned
-            airspeed = math.hypot(vx - wind_prev[0], vy - wind_prev[1])
-            wind_ned = wind.step(-x[2], airspeed)
-            plant.step(u_eff, wind_ned, mass)
+            airspeed = math.hypot(x.item(3) - wind_prev.item(0), x.item(4) - wind_prev.item(1))
+            wind_ned = wind.step(-x.item(2), airspeed)
+            plant._step_checked(u_eff, wind_ned, mass)
             self._steps += 1
             k = self._steps
             if k % self._accel_every == 0:
@@ -183,7 +256,6 @@ class World:
             self._pwm_effective = u_eff
             if plant.on_ground != self._was_on_ground or plant.crashed != self._was_crashed:
                 self._contact_changed()
-        return samples
 
     def _contact_changed(self) -> None:
         t = self.time_s
