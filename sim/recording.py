@@ -65,6 +65,8 @@ lists entities, components and timelines from Python.
 from __future__ import annotations
 
 import math
+import signal
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -408,13 +410,23 @@ class FlightRecorder:
 
     # ------------------------------------------------------------------ sending
     def _flush(self) -> None:
+        """Send the buffered rows as one unit: Ctrl-C waits until they are all sent.
+
+        An interrupt in the middle would leave some entities sent and others not, and the
+        final :meth:`close` would then send the sent ones twice (duplicate rows).
+        """
         c = self._cols
         n = c.n
         if n == 0:
             return
-        self._send_series(n)
-        self._send_scene(n)
-        c.n = 0
+        blocked = _block_sigint()
+        try:
+            self._send_series(n)
+            self._send_scene(n)
+            c.n = 0
+        finally:
+            if blocked:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
     def _send_series(self, n: int) -> None:
         import rerun as rr
@@ -508,3 +520,12 @@ def open_recorder(scenario: Scenario, *, rrd_path: str | Path | None = None,
     stream = open_stream(scenario.name, rrd_path=rrd_path, spawn=spawn,
                          connect_url=connect_url, recording_id=recording_id)
     return FlightRecorder(stream, scenario, config, owns_stream=True)
+
+
+def _block_sigint() -> bool:
+    """Hold SIGINT back (delivered when unblocked) where the platform allows; True if done."""
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not \
+            threading.main_thread():
+        return False
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    return True
