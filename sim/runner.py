@@ -12,6 +12,8 @@ starts the mission through the same navigator commands a ground station would se
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -148,21 +150,51 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     for refusal in start_mission(autopilot, scenario):
         record(0.0, "runner", refusal)
     interrupted = False
+    stop = _StopRequest(interruptible)
     try:
         for _ in range(n_ticks):
             pwm = _tick(world, autopilot, pwm, steps_per_tick, rec, record)
             if on_tick is not None:
                 on_tick(world, autopilot)
+            if stop.requested:
+                interrupted = True
+                break
     except KeyboardInterrupt:
         if not interruptible or rec.n == 0:
             raise
         interrupted = True
+    finally:
+        stop.restore()
     wall_s = time.perf_counter() - wall0
     log = rec.log()
     result = FlightResult(scenario, log, events, world.plant.crashed, world.time_s, wall_s,
                           interrupted=interrupted)
     result.metrics = flight_metrics(result, autopilot)
     return result
+
+
+class _StopRequest:
+    """Ctrl-C as a request to stop between ticks, never inside one.
+
+    An interrupt raised asynchronously could land inside a compiled (numba) kernel, where it
+    surfaces as a SystemError, or between two half-updated parts of the stack. While an
+    interruptible flight runs in the main thread, SIGINT only sets :attr:`requested`; the loop
+    ends after the tick in progress.
+    """
+
+    def __init__(self, enabled: bool) -> None:
+        self.requested = False
+        self._previous: Any = None
+        if enabled and threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        self.requested = True
+
+    def restore(self) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
 
 
 def _tick(world: World, autopilot: Autopilot, pwm: np.ndarray, steps_per_tick: int,
