@@ -49,6 +49,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from fcu.navigator import LandedState, MissionState  # one definition of each enum
+
 __all__ = [
     "AttitudeTarget",
     "BatteryState",
@@ -102,27 +104,6 @@ class MavState(IntEnum):
     CRITICAL = 5
     EMERGENCY = 6
     POWEROFF = 7
-
-
-class LandedState(IntEnum):
-    """MAV_LANDED_STATE values for EXTENDED_SYS_STATE.landed_state."""
-
-    UNDEFINED = 0
-    ON_GROUND = 1
-    IN_AIR = 2
-    TAKEOFF = 3
-    LANDING = 4
-
-
-class MissionState(IntEnum):
-    """MISSION_STATE values for MISSION_CURRENT.mission_state."""
-
-    UNKNOWN = 0
-    NO_MISSION = 1
-    NOT_STARTED = 2
-    ACTIVE = 3
-    PAUSED = 4
-    COMPLETE = 5
 
 
 class Severity(IntEnum):
