@@ -25,8 +25,8 @@ from typing import Literal
 
 import numpy as np
 
-from fcu.allocation import Allocator
-from fcu.attitude_control import (
+from fcu.control.allocation import Allocator
+from fcu.control.attitude import (
     AttitudeController,
     AttitudeLQR,
     AttitudePD,
@@ -35,17 +35,23 @@ from fcu.attitude_control import (
     AttitudeReferenceFilter,
     LqrWeights,
 )
-from fcu.disturbance_observer import make_dob
-from fcu.ekf import ExtendedKalmanEstimator
-from fcu.estimation import StateEstimate, group_samples
-from fcu.fault_detection import LoeFaultDetector
-from fcu.guidance import Reference
+from fcu.control.dob import make_dob
+from fcu.control.position import PositionCommand, PositionController, PositionGains
+from fcu.estimation.ekf import ExtendedKalmanEstimator
+from fcu.estimation.state import StateEstimate, group_samples
+from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
-from fcu.navigator import CommandResult, LandedState, Navigator, NavigatorConfig, NavOutput
-from fcu.position_control import PositionCommand, PositionController, PositionGains
-from fcu.tskf import TwoStageKalmanFilter
-from fcu.validation import is_finite, require
+from fcu.monitoring.loe_detector import LoeFaultDetector
+from fcu.navigation.guidance import Reference
+from fcu.navigation.navigator import (
+    CommandResult,
+    LandedState,
+    Navigator,
+    NavigatorConfig,
+    NavOutput,
+)
+from flightdata.config import finite, require
 
 AttitudeKind = Literal["pd", "lqg"]
 EstimatorKind = Literal["ekf", "tskf"]
@@ -58,7 +64,7 @@ _NO_EVIDENCE.setflags(write=False)
 
 @dataclass(frozen=True, kw_only=True)
 class DetectorConfig:
-    """Settings of the LOE fault detector (:mod:`fcu.fault_detection`)."""
+    """Settings of the LOE fault detector (:mod:`fcu.monitoring.loe_detector`)."""
 
     threshold: float = 0.1  # LOE fraction above which a motor is suspected
     persistence_s: float = 0.5  # s above the threshold before a fault is declared
@@ -66,14 +72,14 @@ class DetectorConfig:
     recovery_persistence_s: float = 1.0  # s below it before recovery is declared
 
     def __post_init__(self) -> None:
-        require(is_finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
+        require(finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
                 self.threshold, "must lie in (0, 1)")
-        require(is_finite(self.recovery_threshold)
+        require(finite(self.recovery_threshold)
                 and 0.0 <= self.recovery_threshold < self.threshold, "recovery_threshold",
                 self.recovery_threshold, f"must lie in [0, threshold = {self.threshold})")
         for name in ("persistence_s", "recovery_persistence_s"):
             value = getattr(self, name)
-            require(is_finite(value) and value >= 0.0, name, value, "must be >= 0 s")
+            require(finite(value) and value >= 0.0, name, value, "must be >= 0 s")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -103,11 +109,11 @@ class AutopilotConfig:
                 "must be 'none', 'vbdob' or 'abdob'")
         require(self.height_source in ("mocap", "baro"), "height_source", self.height_source,
                 "must be 'mocap' or 'baro'")
-        require(is_finite(self.loop_rate_hz) and 20.0 <= self.loop_rate_hz <= 1000.0,
+        require(finite(self.loop_rate_hz) and 20.0 <= self.loop_rate_hz <= 1000.0,
                 "loop_rate_hz", self.loop_rate_hz, "must be within [20, 1000] Hz")
-        require(is_finite(self.dob_cutoff_rad_s) and self.dob_cutoff_rad_s > 0,
+        require(finite(self.dob_cutoff_rad_s) and self.dob_cutoff_rad_s > 0,
                 "dob_cutoff_rad_s", self.dob_cutoff_rad_s, "must be > 0 rad/s")
-        require(is_finite(self.attitude_ref_bandwidth_rad_s)
+        require(finite(self.attitude_ref_bandwidth_rad_s)
                 and self.attitude_ref_bandwidth_rad_s > 0, "attitude_ref_bandwidth_rad_s",
                 self.attitude_ref_bandwidth_rad_s, "must be > 0 rad/s")
 

@@ -96,7 +96,7 @@ WGS84_E2 = 6.69437999014e-3
 _DETECTION = re.compile(r"motor\s+(\d)\s+lost about\s+(\d+(?:\.\d+)?)\s*%\s*effectiveness",
                         re.IGNORECASE)
 _CRASH = re.compile(r"\bcrash", re.IGNORECASE)
-# the simulator's fault STATUSTEXTs (sim/vehicle_port.py, sim/faults.py describe())
+# the simulator's fault STATUSTEXTs (sim/vehicle_port.py, sim/world/faults.py describe())
 _FAULT_ON = re.compile(r"^SIM: (?:fault started: |injected |SIM motor [1-4]: )motor ([1-4]): ")
 _FAULT_OFF = re.compile(r"^SIM: (?:fault (?:ended|cleared): |cleared |ended )motor ([1-4]): ")
 _UINT32_US = 1 << 32

@@ -46,6 +46,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any, NoReturn
 
+from flightdata import vocabulary
 from gcs.analysis import analyze_tlog, format_report
 from gcs.errors import EXIT_INTERRUPTED, EXIT_USAGE
 from gcs.faults import (
@@ -127,11 +128,12 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
     what.add_argument("--inject-via", choices=("param", "command"), default="param",
                       help="motor faults as PARAM_SET SIM_MOTn_LOE (default) or "
                       "MAV_CMD_INJECT_FAILURE")
-    what.add_argument("--attitude", choices=("pd", "lqg"), default="lqg" if demo else None,
+    what.add_argument("--attitude", choices=vocabulary.ATTITUDE_LAWS,
+                      default="lqg" if demo else None,
                       help="ATT_CTRL" + (" (default lqg)" if demo else ""))
-    what.add_argument("--estimator", choices=("ekf", "tskf"), default="ekf" if demo else None,
+    what.add_argument("--estimator", choices=vocabulary.ESTIMATORS, default="ekf" if demo else None,
                       help="EST_TYPE" + (" (default ekf)" if demo else ""))
-    what.add_argument("--dob", choices=("none", "vbdob", "abdob"),
+    what.add_argument("--dob", choices=vocabulary.DISTURBANCE_OBSERVERS,
                       default="none" if demo else None,
                       help="DOB_TYPE" + (" (default none)" if demo else ""))
     what.add_argument("--param", type=_param, action="append", default=[],

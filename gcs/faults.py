@@ -42,6 +42,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from flightdata import thesis
+
 __all__ = [
     "TABLE_7_3",
     "FaultScheduleError",
@@ -104,12 +106,9 @@ class FaultSpec:
         return f"{self.param} = {self.value:g}"
 
 
-TABLE_7_3: tuple[FaultSpec, ...] = (
-    FaultSpec(motor=3, loe=0.20, at_s=22.0),
-    FaultSpec(motor=1, loe=0.30, at_s=38.0),
-    FaultSpec(motor=4, loe=0.15, at_s=48.0),
-)
-"""Thesis Table 7.3: the chapter-7 actuator faults, in time order."""
+TABLE_7_3: tuple[FaultSpec, ...] = tuple(
+    FaultSpec(motor=f.motor, loe=f.loe, at_s=f.start_s) for f in thesis.TABLE_7_3)
+"""Thesis Table 7.3 (:data:`flightdata.thesis.TABLE_7_3`) as a schedule, in time order."""
 
 
 def sorted_schedule(faults: list[FaultSpec] | tuple[FaultSpec, ...]) -> list[FaultSpec]:

@@ -29,6 +29,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from flightdata import vocabulary
 from gcs.analysis import FlightReport, analyze_tlog
 from gcs.errors import CommandRefused, Crashed, FlightError, FlightTimeout
 from gcs.faults import FaultSpec, sorted_schedule
@@ -41,27 +42,15 @@ from gcs.station import (
     same_float32,
 )
 
-__all__ = ["CONFIG_PARAMS", "FlightOutcome", "FlightPlan", "config_params", "fly"]
-
-CONFIG_PARAMS: dict[str, tuple[str, ...]] = {
-    "ATT_CTRL": ("pd", "lqg"),
-    "EST_TYPE": ("ekf", "tskf"),
-    "DOB_TYPE": ("none", "vbdob", "abdob"),
-}
-"""Autopilot configuration parameters and the names of their values 0, 1, 2."""
+__all__ = ["FlightOutcome", "FlightPlan", "config_params", "fly"]
 
 _MAV_LANDED_STATE_IN_AIR = 2
 
 
 def config_params(*, attitude: str | None = None, estimator: str | None = None,
                   dob: str | None = None) -> dict[str, float]:
-    """The parameters selecting an autopilot configuration (only the ones given).
-
-    Parameters
-    ----------
-    attitude : {"pd", "lqg"} or None
-    estimator : {"ekf", "tskf"} or None
-    dob : {"none", "vbdob", "abdob"} or None
+    """The parameters selecting an autopilot configuration (only the ones given), with the
+    values of :mod:`flightdata.vocabulary`.
 
     Raises
     ------
@@ -69,13 +58,9 @@ def config_params(*, attitude: str | None = None, estimator: str | None = None,
         A name that is not one of the choices.
     """
     out: dict[str, float] = {}
-    for param, value in (("ATT_CTRL", attitude), ("EST_TYPE", estimator), ("DOB_TYPE", dob)):
-        if value is None:
-            continue
-        choices = CONFIG_PARAMS[param]
-        if value not in choices:
-            raise ValueError(f"{param}: {value!r} is not one of {', '.join(choices)}")
-        out[param] = float(choices.index(value))
+    for key, value in (("attitude", attitude), ("estimator", estimator), ("dob", dob)):
+        if value is not None:
+            out[vocabulary.CONFIG_PARAMS[key]] = float(vocabulary.choice_value(key, value))
     return out
 
 

@@ -39,6 +39,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from flightdata.mission import MissionItem
+from flightdata.mission import thesis_mission as shared_thesis_mission
 from gcs.mavlink import MAVLinkMessage, mavlink2
 
 __all__ = [
@@ -47,6 +49,7 @@ __all__ = [
     "home_item",
     "load_mission",
     "thesis_mission",
+    "wire_item",
 ]
 
 _M = mavlink2
@@ -137,72 +140,37 @@ def home_item(lat_deg: float = 0.0, lon_deg: float = 0.0, alt_amsl_m: float = 0.
                     x=lat_deg, y=lon_deg, z=alt_amsl_m)
 
 
-def _change_speed(speed_type: str, speed_m_s: float) -> WireItem:
-    return WireItem(command=_M.MAV_CMD_DO_CHANGE_SPEED,
-                    params=(float(_SPEED_TYPES[speed_type]), float(speed_m_s), -1.0, 0.0))
-
-
-def _takeoff(alt_m: float) -> WireItem:
-    # lat = lon = 0 in a global frame: "here"; altitude above home (ArduPilot).
-    return WireItem(command=_M.MAV_CMD_NAV_TAKEOFF, frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-                    params=(0.0, 0.0, 0.0, _NAN), z=float(alt_m))
-
-
-def _waypoint(pos_ned: Sequence[float], hold_s: float, yaw_deg: float | None) -> WireItem:
-    return WireItem(command=_M.MAV_CMD_NAV_WAYPOINT, frame=_M.MAV_FRAME_LOCAL_NED,
-                    params=(float(hold_s), 0.0, 0.0, _NAN if yaw_deg is None else yaw_deg),
-                    x=float(pos_ned[0]), y=float(pos_ned[1]), z=float(pos_ned[2]))
-
-
-def _land(pos_ned: Sequence[float] | None) -> WireItem:
-    if pos_ned is None:
+def wire_item(item: MissionItem) -> WireItem:
+    """The MISSION_ITEM_INT of one mission item (local NED targets; take-off and landing
+    "here" as lat = lon = 0 in a relative-altitude frame, altitude above home, as ArduPilot
+    reads them)."""
+    if item.command == "change_speed":
+        return WireItem(command=_M.MAV_CMD_DO_CHANGE_SPEED,
+                        params=(float(_SPEED_TYPES[item.speed_type]), float(item.speed_m_s),
+                                -1.0, 0.0))
+    if item.command == "takeoff":
+        return WireItem(command=_M.MAV_CMD_NAV_TAKEOFF,
+                        frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                        params=(0.0, 0.0, 0.0, _NAN), z=float(item.alt_m))
+    if item.command == "rtl":
+        return WireItem(command=_M.MAV_CMD_NAV_RETURN_TO_LAUNCH)
+    if item.command == "land" and item.pos_ned is None:
         return WireItem(command=_M.MAV_CMD_NAV_LAND, frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
                         params=(0.0, 0.0, 0.0, _NAN))
-    return WireItem(command=_M.MAV_CMD_NAV_LAND, frame=_M.MAV_FRAME_LOCAL_NED,
-                    params=(0.0, 0.0, 0.0, _NAN), x=float(pos_ned[0]), y=float(pos_ned[1]),
-                    z=float(pos_ned[2]))
+    assert item.pos_ned is not None, "a waypoint has a position (MissionItem checks it)"
+    north, east, down = item.pos_ned
+    if item.command == "land":
+        return WireItem(command=_M.MAV_CMD_NAV_LAND, frame=_M.MAV_FRAME_LOCAL_NED,
+                        params=(0.0, 0.0, 0.0, _NAN), x=north, y=east, z=down)
+    yaw = _NAN if item.yaw_rad is None else math.degrees(item.yaw_rad)
+    return WireItem(command=_M.MAV_CMD_NAV_WAYPOINT, frame=_M.MAV_FRAME_LOCAL_NED,
+                    params=(float(item.hold_s), 0.0, 0.0, yaw), x=north, y=east, z=down)
 
 
-def thesis_mission(*, alt_m: float = 0.6, side_m: float = 1.0, takeoff_s: float = 5.0,
-                   settle_s: float = 2.0, leg_s: float = 10.0, corner_hold_s: float = 1.0,
-                   final_hold_s: float = 2.0, land_s: float = 4.0) -> list[WireItem]:
-    """The chapter-7 flight: take off to 0.6 m, a 1 m square at 0.6 m, land (about 60 s).
-
-    The same items as the headless runner's mission (``fcu.navigator.thesis_mission``, which
-    the ground station may not import): peak speeds 1.5 d / T make each cubic segment take
-    the stated time.
-
-    =====  ==========================================  ====================
-    seq    item                                        planned reference
-    =====  ==========================================  ====================
-    1      DO_CHANGE_SPEED climb 0.18 m/s              t = 0
-    2      NAV_TAKEOFF 0.6 m                           0 - 5 s
-    3      NAV_WAYPOINT (0, 0, -0.6) hold 2 s          hold 5 - 7 s
-    4      DO_CHANGE_SPEED ground 0.15 m/s             t = 7
-    5..8   NAV_WAYPOINT the square, holds 1, 1, 1, 2   7 - 52 s
-    9      DO_CHANGE_SPEED descent 0.225 m/s           t = 52
-    10     NAV_LAND here                               52 - 56 s, then creep
-    =====  ==========================================  ====================
-
-    Returns
-    -------
-    list of WireItem
-        Items for seq 1..10 (home is added at upload).
-    """
-    for name, value in (("alt_m", alt_m), ("side_m", side_m), ("takeoff_s", takeoff_s),
-                        ("leg_s", leg_s), ("land_s", land_s)):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
-    z = -float(alt_m)
-    items = [_change_speed("climb", 1.5 * alt_m / takeoff_s), _takeoff(alt_m),
-             _waypoint((0.0, 0.0, z), settle_s, None),
-             _change_speed("ground", 1.5 * side_m / leg_s)]
-    corners = [(side_m, 0.0), (side_m, side_m), (0.0, side_m), (0.0, 0.0)]
-    for i, (north, east) in enumerate(corners):
-        hold = final_hold_s if i == len(corners) - 1 else corner_hold_s
-        items.append(_waypoint((north, east, z), hold, None))
-    items += [_change_speed("descent", 1.5 * alt_m / land_s), _land(None)]
-    return items
+def thesis_mission(**plan: float) -> list[WireItem]:
+    """The chapter-7 flight (:func:`flightdata.mission.thesis_mission`, same keyword
+    arguments) as items seq 1..10; home is added at upload."""
+    return [wire_item(item) for item in shared_thesis_mission(**plan)]
 
 
 # ------------------------------------------------------------------------------ files
@@ -257,26 +225,35 @@ def _item_from_table(path: Path, index: int, table: Mapping[str, Any]) -> WireIt
     if extra:
         raise _fail(path, where, f"unknown key {extra[0]} for {command} (allowed: "
                     f"{', '.join(sorted(_NAMED_KEYS[command])) or 'none'})")
-    if command == "waypoint":
-        if "pos_ned" not in table:
-            raise _fail(path, where, "a waypoint needs pos_ned = [north, east, down] (m)")
-        yaw = table.get("yaw_deg")
-        return _waypoint(_vector3(path, f"{where}.pos_ned", table["pos_ned"]),
-                         _number(path, f"{where}.hold_s", table.get("hold_s", 0.0)),
-                         None if yaw is None else _number(path, f"{where}.yaw_deg", yaw))
-    if command == "takeoff":
-        return _takeoff(_number(path, f"{where}.alt_m", table.get("alt_m", 0.0)))
-    if command == "land":
-        pos = table.get("pos_ned")
-        return _land(None if pos is None else _vector3(path, f"{where}.pos_ned", pos))
-    if command == "rtl":
-        return WireItem(command=_M.MAV_CMD_NAV_RETURN_TO_LAUNCH)
-    speed_type = table.get("speed_type", "ground")
-    if speed_type not in _SPEED_TYPES:
-        raise _fail(path, f"{where}.speed_type", f"{speed_type!r} must be one of "
-                    f"{', '.join(_SPEED_TYPES)}")
-    return _change_speed(speed_type, _number(path, f"{where}.speed_m_s",
-                                             table.get("speed_m_s", 0.0)))
+    try:
+        if command == "waypoint":
+            if "pos_ned" not in table:
+                raise _fail(path, where, "a waypoint needs pos_ned = [north, east, down] (m)")
+            yaw = table.get("yaw_deg")
+            item = MissionItem(
+                command="waypoint", pos_ned=_vector3(path, f"{where}.pos_ned", table["pos_ned"]),
+                hold_s=_number(path, f"{where}.hold_s", table.get("hold_s", 0.0)),
+                yaw_rad=None if yaw is None else math.radians(
+                    _number(path, f"{where}.yaw_deg", yaw)))
+        elif command == "takeoff":
+            item = MissionItem(command="takeoff",
+                               alt_m=_number(path, f"{where}.alt_m", table.get("alt_m", 0.0)))
+        elif command == "land":
+            pos = table.get("pos_ned")
+            item = MissionItem(command="land", pos_ned=None if pos is None else
+                               _vector3(path, f"{where}.pos_ned", pos))
+        elif command == "rtl":
+            item = MissionItem(command="rtl")
+        else:
+            item = MissionItem(command="change_speed",
+                               speed_type=table.get("speed_type", "ground"),
+                               speed_m_s=_number(path, f"{where}.speed_m_s",
+                                                 table.get("speed_m_s", 0.0)))
+    except ValueError as err:  # ConfigError: "<key> = <value>: <allowed>"
+        if isinstance(err, MissionFileError):
+            raise
+        raise _fail(path, where, str(err)) from None
+    return wire_item(item)
 
 
 def _load_toml(path: Path) -> list[WireItem]:

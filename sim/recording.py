@@ -75,8 +75,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from sim.dynamics import quat_to_euler
 from sim.metrics import wrap_angle_rad
+from sim.world.dynamics import quat_to_euler
 
 if TYPE_CHECKING:
     import rerun as rr

@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 
 from fcu.autopilot import Autopilot
-from fcu.navigator import LandedState
-from sim.dynamics import quat_to_euler
-from sim.faults import FaultEvent
+from fcu.navigation.navigator import LandedState
 from sim.metrics import control_effort, tracking_errors
 from sim.scenario import Scenario
 from sim.world import PlantEvent, World
+from sim.world.dynamics import quat_to_euler
+from sim.world.faults import FaultEvent
 
 AUTO_MODE = 3  # ArduCopter AUTO
 

@@ -8,9 +8,9 @@ A scenario is a TOML file (the shipped ones live in ``sim/scenarios/``)::
     seed = 1                         # every random stream of the run derives from it
 
     [world]                          # optional: plant_rate_hz (Hz, >= 500)
-    [airframe]                       # optional: sim.airframe.Airframe fields (Table 7.1)
-    [wind]                           # optional: sim.wind.WindConfig fields
-    [sensors]                        # optional: sim.sensors.SensorConfig fields
+    [airframe]                       # optional: sim.world.airframe.Airframe fields (Table 7.1)
+    [wind]                           # optional: sim.world.wind.WindConfig fields
+    [sensors]                        # optional: sim.world.sensors.SensorConfig fields
     [autopilot]                      # fcu.autopilot.AutopilotConfig fields:
     attitude = "lqg"                 #   "pd" | "lqg"
     estimator = "ekf"                #   "ekf" | "tskf"
@@ -19,9 +19,9 @@ A scenario is a TOML file (the shipped ones live in ``sim/scenarios/``)::
     [mission]                        # optional, default the thesis mission:
     kind = "thesis"                  #   "thesis" (take off to 0.6 m, 1 m square, land) or
                                      #   "items" with [[mission.items]] tables
-                                     #   (fcu.navigator.MissionItem fields, local NED)
+                                     #   (fcu.navigation.navigator.MissionItem fields, local NED)
     [[faults]]                       # any number; the keys choose the kind:
-    motor = 1                        #   actuator (sim.faults.ActuatorFault)
+    motor = 1                        #   actuator (sim.world.faults.ActuatorFault)
     kind = "loe"                     #   loe | lock | float | hardover | total_loss
     start_s = 38.0
     loe = 0.30
@@ -45,12 +45,12 @@ from typing import Any
 
 from fcu.autopilot import AutopilotConfig
 from fcu.model import VehicleModel
-from fcu.navigator import MissionItem, thesis_mission
-from sim.airframe import Airframe
-from sim.config_loading import ConfigError, finite, from_mapping, load_toml, require
-from sim.faults import Fault, fault_from_mapping
-from sim.wind import WindConfig
+from flightdata.config import ConfigError, finite, from_mapping, load_toml, require
+from flightdata.mission import MissionItem, thesis_mission
 from sim.world import WorldConfig
+from sim.world.airframe import Airframe
+from sim.world.faults import Fault, fault_from_mapping
+from sim.world.wind import WindConfig
 
 #: Default wind of a scenario: indoor air, as the Qball-X4 flew. A 0.3 m/s mean draught from
 #: the west and Dryden turbulence scaled by a wind of 1.5 m/s at 6 m (W20): sigma_w = 0.15

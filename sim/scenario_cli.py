@@ -27,7 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from sim.config_loading import ConfigError
+from flightdata.config import ConfigError
 from sim.scenario import load_scenario, shipped_names
 
 

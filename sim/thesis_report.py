@@ -1,6 +1,6 @@
 """Chapter 7 beside ours: run every thesis configuration and case, write a Markdown report.
 
-The thesis figures come from ``sim/data/thesis_tables.toml`` (a copy kept inside the package).
+The thesis figures come from :func:`flightdata.thesis.thesis_tables`.
 Errors are reference minus truth, RMS and maximum over the flight (m and deg); control effort
 is the time mean of the sum of the four PWM commands.
 
@@ -14,27 +14,12 @@ from __future__ import annotations
 import math
 import multiprocessing
 import signal
-import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import IO, Any
 
-#: Table 7.2, 7.4-7.10 runs, in thesis order.
-THESIS_RUNS = ("baseline", "lqg_loe", "pd_loe", "pd_vbdob_loe", "lqg_vbdob_loe",
-               "lqg_abdob_loe", "tskf_pd_abdob_loe", "tskf_lqg_abdob_loe")
-#: Table 7.11 cases.
-THESIS_CASES = tuple(f"case{i}" for i in range(1, 9))
-#: Runs the thesis has no table for but whose comparison it implies.
-EXTRA_RUNS = ("pd_abdob_loe", "tskf_step")
-AXES = (("x", "m"), ("y", "m"), ("z", "m"), ("roll", "deg"), ("pitch", "deg"), ("yaw", "deg"))
-
-
-def thesis_tables() -> dict[str, Any]:
-    """The transcribed thesis figures."""
-    text = (resources.files("sim") / "data" / "thesis_tables.toml").read_text()
-    return tomllib.loads(text)
+from flightdata.thesis import AXES, EXTRA_RUNS, THESIS_CASES, THESIS_RUNS, thesis_tables
 
 
 @dataclass

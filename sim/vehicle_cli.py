@@ -160,7 +160,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     from fcu.mavlink import GeoPoint
     from fcu.mavlink.udp import DEFAULT_PEERS
-    from sim.config_loading import ConfigError
+    from flightdata.config import ConfigError
     from sim.scenario import load_scenario
     from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess
 

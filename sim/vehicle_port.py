@@ -54,7 +54,7 @@ SIM_FI_<S>_DRIFT   unit/s       drift rate of an INJECT_FAILURE <sensor> DRIFT
 
 with ``<S>`` one of GYR (rad/s), ACC (m/s^2), MAG (heading, rad), BAR (m), GPS (m).
 
-MAV_CMD_INJECT_FAILURE (420) mapping onto :mod:`sim.faults`
+MAV_CMD_INJECT_FAILURE (420) mapping onto :mod:`sim.world.faults`
 -----------------------------------------------------------
 param1 unit, param2 type, param3 instance (0 = all motors / the one sensor; motors 1..4 in
 the thesis numbering of docs/design.md). Faults start at the current simulated time.
@@ -109,12 +109,12 @@ from fcu.mavlink.port import (
     VehicleEvent,
     VehicleSnapshot,
 )
-from fcu.navigator import CommandResult as NavResult
-from fcu.navigator import MissionItem as NavItem
-from fcu.navigator import Mode, mode_name
-from sim.faults import ActuatorFault, Fault, FaultEvent, SensorFault, StructuralFault
-from sim.wind import WindConfig
+from fcu.navigation.navigator import CommandResult as NavResult
+from fcu.navigation.navigator import Mode, mode_name
+from flightdata.mission import MissionItem as NavItem
 from sim.world import PlantEvent, World, WorldConfig
+from sim.world.faults import ActuatorFault, Fault, FaultEvent, SensorFault, StructuralFault
+from sim.world.wind import WindConfig
 
 __all__ = ["BRAKE_ARMABLE", "SimParams", "SimVehicle", "VehicleSetup", "vehicle_autopilot_config",
            "warm_up"]

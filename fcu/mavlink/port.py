@@ -49,7 +49,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from fcu.navigator import LandedState, MissionState  # one definition of each enum
+from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 
 __all__ = [
     "AttitudeTarget",

@@ -19,7 +19,7 @@ from vehicle_harness import ANSWER_S, ROOT, Gcs, M, mission_item
 
 from fcu.mavlink.geo import geo_to_ned
 from fcu.mavlink.port import GeoPoint
-from fcu.navigator import MissionItem
+from flightdata.mission import MissionItem
 from sim.runner import fly
 from sim.scenario import load_scenario
 

@@ -17,7 +17,6 @@ from matplotlib.lines import Line2D
 from mpl_toolkits.mplot3d.art3d import Line3D
 from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-from sim.faults import ActuatorFault
 from sim.figures import (
     FIGURE_KINDS,
     fault_onsets_s,
@@ -33,6 +32,7 @@ from sim.metrics import wrap_angle_rad
 from sim.runner import FlightResult, fly
 from sim.scenario import load_scenario
 from sim.thesis_report import render_markdown, thesis_tables
+from sim.world.faults import ActuatorFault
 
 REPO = Path(__file__).resolve().parents[2]
 FAULT_AT_S = 6.0  # s, in the hover after the 5 s take-off

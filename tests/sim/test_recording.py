@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from sim.faults import ActuatorFault
 from sim.recording import (
     MOTORS,
     SIM_TIMELINE,
@@ -32,6 +31,7 @@ from sim.recording import (
 from sim.runner import FlightResult, fly
 from sim.scenario import Scenario, load_scenario
 from sim.scenario_cli import main
+from sim.world.faults import ActuatorFault
 
 REPO = Path(__file__).resolve().parents[2]
 FAULT_AT_S = 6.0  # s, motor 3 loses 30 % while hovering after the take-off (5 s)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.config_loading import ConfigError
+from flightdata.config import ConfigError
 from sim.runner import fly
 from sim.scenario import load_scenario, shipped_names
 from sim.scenario_cli import main

@@ -1,0 +1,1 @@
+"""State and fault estimation: the EKF and the Two-Stage Kalman Filter on one state layout."""

@@ -1,0 +1,298 @@
+"""What the state estimators share: the estimate they publish, the state layout, sensor noise,
+the height-source switch and the grouping of one tick's sensor samples.
+
+Both estimators (:mod:`fcu.estimation.ekf`, :mod:`fcu.estimation.tskf`) carry the same
+16-entry state, in this order:
+
+=======  ===========================  =======
+index    name                         unit
+=======  ===========================  =======
+0:3      pos_ned (x, y, z)            m
+3:6      vel_ned                      m/s
+6:9      euler_rad (roll, pitch, yaw) rad
+9:12     rate_frd (p, q, r)           rad/s
+12:16    thrust_n (T1..T4)            N
+=======  ===========================  =======
+
+(The TSKF's linear hover model carries Euler-angle rates in 9:12; at hover they equal the body
+rates to first order, see :mod:`fcu.estimation.tskf`.)
+
+The autopilot loop calls an estimator once per control tick with the samples produced since
+the previous tick. Samples of one kind are averaged (:func:`group_samples`) and the average is
+treated as one measurement taken at the samples' mean time; the estimators map their state at
+the tick back to that time to first order (``h(x) = S (x - delta f(x))``, ``delta`` = tick
+time minus mean sample time), so a 250 Hz gyro averaged over a 10 ms tick carries no lag bias.
+
+Height source (like ArduPilot's ``EK3_SRC1_POSZ``): ``"mocap"`` (default) takes height from
+the motion-capture z; ``"baro"`` takes it from the barometer and uses motion capture for the
+horizontal position only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Iterable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fcu.hal import SENSOR_NAMES, SensorSampleLike
+
+FloatArray = NDArray[np.float64]
+ArrayLikeFloat = FloatArray | list[float] | tuple[float, ...]
+
+HeightSource = Literal["mocap", "baro"]
+_FLOAT64 = np.dtype(np.float64)
+HEIGHT_SOURCES: tuple[str, ...] = ("mocap", "baro")
+
+# ---- state layout shared by the EKF and the TSKF --------------------------------------------
+STATE_DIM = 16  # entries of the estimator state
+POS = slice(0, 3)  # pos_ned, m
+VEL = slice(3, 6)  # vel_ned, m/s
+EULER = slice(6, 9)  # roll, pitch, yaw, rad
+RATE = slice(9, 12)  # p, q, r (FRD), rad/s
+THRUST = slice(12, 16)  # T1..T4, N
+YAW_INDEX = 8  # index of yaw in the state
+Z_INDEX = 2  # index of z_ned in the state
+STATE_NAMES: tuple[str, ...] = (
+    "x_ned", "y_ned", "z_ned", "vx_ned", "vy_ned", "vz_ned", "roll", "pitch", "yaw",
+    "p", "q", "r", "thrust1", "thrust2", "thrust3", "thrust4",
+)
+
+
+def check_height_source(height_source: str) -> HeightSource:
+    """Return ``height_source`` if it is ``"mocap"`` or ``"baro"``, else raise ValueError."""
+    if height_source not in HEIGHT_SOURCES:
+        raise ValueError(f"height_source = {height_source!r}: must be one of "
+                         f"{', '.join(map(repr, HEIGHT_SOURCES))}")
+    return height_source  # type: ignore[return-value]
+
+
+def wrap_angle(angle_rad: float) -> float:
+    """Wrap an angle to [-pi, pi), rad."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorNoise:
+    """Measurement noise the estimators assume (1 sigma per sample, per axis).
+
+    Defaults are the simulator's documented sensor noise (docs/design.md).
+    """
+
+    gyro: float = 0.003  # rad/s
+    accel: float = 0.03  # m/s^2 (not used by the estimators, kept for completeness)
+    mocap_pos: float = 0.0005  # m
+    mocap_att: float = 0.002  # rad
+    baro: float = 0.02  # m
+
+    def __post_init__(self) -> None:
+        for name in SENSOR_NAMES:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} = {value!r}: noise sigma must be a finite number > 0")
+
+
+@dataclass(frozen=True, kw_only=True)
+class InitialUncertainty:
+    """One-sigma uncertainty of the initial state when an estimator is reset without one.
+
+    Wide enough for a vehicle anywhere near home: the first mocap updates pin position and
+    attitude (yaw too), the motion the rest.
+    """
+
+    pos: float = 0.5  # m
+    vel: float = 0.5  # m/s
+    euler: float = 0.3  # rad
+    rate: float = 0.2  # rad/s
+    thrust: float = 1.0  # N
+
+    def diagonal(self) -> FloatArray:
+        """Covariance diagonal in the state order, shape (16,)."""
+        return np.array([self.pos] * 3 + [self.vel] * 3 + [self.euler] * 3
+                        + [self.rate] * 3 + [self.thrust] * 4) ** 2
+
+
+@dataclass(frozen=True, slots=True)
+class StateEstimate:
+    """An estimator's output at one control tick.
+
+    Attributes
+    ----------
+    time_s : float
+        Simulated time of the estimate, s.
+    pos_ned : ndarray, shape (3,)
+        Position, NED, m (home origin on the ground; z down).
+    vel_ned : ndarray, shape (3,)
+        Velocity, NED, m/s.
+    euler_rad : ndarray, shape (3,)
+        Roll, pitch, yaw (ZYX), rad; yaw wrapped to [-pi, pi).
+    rate_frd : ndarray, shape (3,)
+        Body rates p, q, r (FRD), rad/s.
+    thrust_n : ndarray, shape (4,)
+        Motor thrusts T1..T4 (motor numbering of eq. 3.2), N.
+    covariance_diag : ndarray, shape (16,)
+        Diagonal of the estimate's covariance in the state order of this module (units
+        squared).
+    """
+
+    time_s: float
+    pos_ned: FloatArray
+    vel_ned: FloatArray
+    euler_rad: FloatArray
+    rate_frd: FloatArray
+    thrust_n: FloatArray
+    covariance_diag: FloatArray
+
+    @property
+    def alt_m(self) -> float:
+        """Altitude above home, up positive, m."""
+        return -float(self.pos_ned[2])
+
+    @property
+    def std(self) -> FloatArray:
+        """One-sigma uncertainty of each state, shape (16,), units of the state."""
+        return np.sqrt(np.maximum(self.covariance_diag, 0.0))
+
+    def to_vector(self) -> FloatArray:
+        """The state as one vector, shape (16,), in the order of this module."""
+        return np.concatenate((self.pos_ned, self.vel_ned, self.euler_rad, self.rate_frd,
+                               self.thrust_n))
+
+    @classmethod
+    def _from_owned(cls, time_s: float, x: FloatArray, covariance_diag: FloatArray
+                    ) -> StateEstimate:
+        """:meth:`from_vector` for float64 arrays of shape (16,) that the caller hands over
+        (fresh, held by no one else): the fields are slices of ``x``, no copies."""
+        euler = x[EULER]
+        euler[2] = wrap_angle(float(euler[2]))
+        return cls(float(time_s), x[POS], x[VEL], euler, x[RATE], x[THRUST], covariance_diag)
+
+    @classmethod
+    def from_vector(cls, time_s: float, x: ArrayLikeFloat,
+                    covariance_diag: ArrayLikeFloat) -> StateEstimate:
+        """Build an estimate from a state vector ``x`` (16,) and a covariance diagonal (16,)."""
+        # one private copy; the fields are disjoint slices of it (cheaper than five copies)
+        xv = np.array(x, dtype=float).reshape(STATE_DIM)
+        pv = np.array(covariance_diag, dtype=float).reshape(STATE_DIM)
+        euler = xv[EULER]
+        euler[2] = wrap_angle(float(euler[2]))
+        return cls(time_s=float(time_s), pos_ned=xv[POS], vel_ned=xv[VEL], euler_rad=euler,
+                   rate_frd=xv[RATE], thrust_n=xv[THRUST], covariance_diag=pv)
+
+
+@dataclass(frozen=True, slots=True)
+class Innovation:
+    """One measurement update's innovation, kept for fault detection and consistency checks.
+
+    Attributes
+    ----------
+    sensor : str
+        Sensor kind (``"mocap_pos"``, ``"mocap_att"``, ``"gyro"``, ``"baro"``).
+    time_s : float
+        Tick time of the update, s.
+    residual : ndarray, shape (m,)
+        Innovation ``y - h(x_prior)`` (yaw wrapped), sensor units.
+    covariance : ndarray, shape (m, m)
+        Its covariance ``S = H P H' + R``, sensor units squared.
+    nis : float
+        Normalised innovation squared ``y' S^-1 y`` (chi-square with m degrees of freedom for a
+        consistent filter).
+    """
+
+    sensor: str
+    time_s: float
+    residual: FloatArray
+    covariance: FloatArray
+    nis: float
+
+
+@dataclass(frozen=True, slots=True)
+class SampleBatch:
+    """The samples of one sensor kind within one tick, reduced to one measurement.
+
+    Attributes
+    ----------
+    value : ndarray, shape (n,)
+        Mean of the sample values (angles averaged without wrap-around jumps), sensor units.
+    time_s : float
+        Mean sample time, s.
+    count : int
+        Number of samples averaged.
+    """
+
+    value: FloatArray
+    time_s: float
+    count: int
+
+
+def group_samples(samples: Iterable[SensorSampleLike],
+                  kinds: Collection[str] = SENSOR_NAMES) -> dict[str, SampleBatch]:
+    """Average one tick's samples per sensor kind.
+
+    Parameters
+    ----------
+    samples : iterable of SensorSampleLike
+        Samples produced since the previous tick, any order, any mix of kinds. Samples of
+        kinds not in ``kinds`` are ignored; samples holding a non-finite value are dropped.
+    kinds : collection of str
+        Sensor kinds to keep.
+
+    Returns
+    -------
+    dict of str to SampleBatch
+        One batch per kept sensor kind that delivered at least one usable sample. The
+        ``mocap_att`` yaw is averaged as offsets from the first reading, so readings on both
+        sides of +-pi average correctly (result wrapped to [-pi, pi)).
+    """
+    # Plain-float arithmetic: a tick holds ~8 three-element samples, for which numpy's
+    # per-call overhead dwarfs the sums. Same operations in the same order as an
+    # element-wise numpy mean, hence the same rounding.
+    values: dict[str, list[list[float]]] = {}
+    times: dict[str, list[float]] = {}
+    isfinite = math.isfinite
+    for sample in samples:
+        name = sample.sensor
+        if name not in kinds:
+            continue
+        value = sample.value
+        if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.ndim == 1:
+            vals = value.tolist()
+        else:
+            vals = np.asarray(value, dtype=float).reshape(-1).tolist()
+        if not all(map(isfinite, vals)):
+            continue
+        if name in values:
+            if len(vals) != len(values[name][0]):
+                raise ValueError(f"{name} sample at {sample.time_s!r} s has {len(vals)} "
+                                 f"values, earlier ones {len(values[name][0])}")
+            values[name].append(vals)
+            times[name].append(float(sample.time_s))
+        else:
+            values[name] = [vals]
+            times[name] = [float(sample.time_s)]
+    batches: dict[str, SampleBatch] = {}
+    for name, rows in values.items():
+        count = len(rows)
+        mean = list(rows[0])
+        if count > 1:
+            n = len(mean)
+            if name == "mocap_att":
+                yaw0 = mean[2]
+                for v in rows[1:]:
+                    mean[0] += v[0]
+                    mean[1] += v[1]
+                    # yaw offset from the first reading, wrapped to [-pi, pi)
+                    mean[2] += yaw0 + wrap_angle(v[2] - yaw0)
+            else:
+                for v in rows[1:]:
+                    for i in range(n):
+                        mean[i] += v[i]
+            mean = [m / count for m in mean]
+        if name == "mocap_att":
+            mean[2] = wrap_angle(mean[2])
+        batches[name] = SampleBatch(value=np.array(mean), time_s=sum(times[name]) / count,
+                                    count=count)
+    return batches

@@ -1,0 +1,1 @@
+"""Health monitoring: fault detection and isolation on what the estimators report."""
