@@ -25,6 +25,7 @@ from fcu.autopilot import Autopilot
 from fcu.navigation.navigator import LandedState
 from sim.metrics import control_effort, tracking_errors
 from sim.scenario import Scenario
+from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World
 from sim.world.dynamics import quat_to_euler
 from sim.world.faults import FaultEvent
@@ -126,16 +127,10 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
         the result covers the ticks flown and has ``interrupted = True``. When False (the
         default) the interrupt propagates.
     """
-    world = World(scenario.world, scenario.seed)
-    for fault in scenario.faults:
-        world.faults.schedule(fault)
-    autopilot = Autopilot(scenario.autopilot)
-    plant_hz = scenario.world.plant_rate_hz
+    stack = SimulatedStack(scenario.world, scenario.autopilot, scenario.seed,
+                           scenario.faults)
+    world, autopilot = stack.world, stack.autopilot
     loop_hz = scenario.autopilot.loop_rate_hz
-    steps_per_tick = round(plant_hz / loop_hz)
-    if abs(steps_per_tick * loop_hz - plant_hz) > 1e-9 * plant_hz:
-        raise ValueError(f"autopilot.loop_rate_hz = {loop_hz:g}: must divide the plant rate "
-                         f"{plant_hz:g} Hz")
     n_ticks = int(round(scenario.duration_s * loop_hz))
     rec = _Recorder(n_ticks + 1)
     events: list[tuple[float, str, str]] = []
@@ -146,14 +141,15 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
             on_event(time_s, source, text)
 
     wall0 = time.perf_counter()
-    pwm = autopilot.step(0.0, [])
+    stack.first_tick()
     for refusal in start_mission(autopilot, scenario):
         record(0.0, "runner", refusal)
     interrupted = False
     stop = _StopRequest(interruptible)
     try:
         for _ in range(n_ticks):
-            pwm = _tick(world, autopilot, pwm, steps_per_tick, rec, record)
+            stack.tick()
+            _record(stack, rec, record)
             if on_tick is not None:
                 on_tick(world, autopilot)
             if stop.requested:
@@ -197,12 +193,11 @@ class _StopRequest:
             self._previous = None
 
 
-def _tick(world: World, autopilot: Autopilot, pwm: np.ndarray, steps_per_tick: int,
-          rec: _Recorder, record: EventCallback) -> np.ndarray:
-    """One autopilot tick: step the world, the autopilot, log it; returns the new PWM."""
-    samples = world.step(pwm, steps_per_tick)
+def _record(stack: SimulatedStack, rec: _Recorder, record: EventCallback) -> None:
+    """Log the tick just taken and pass its events on."""
+    world, autopilot = stack.world, stack.autopilot
     t = world.time_s
-    pwm = autopilot.step(t, samples)
+    pwm = stack.pwm
     status = autopilot.status
     assert status is not None
     x = world.plant.state
@@ -225,14 +220,14 @@ def _tick(world: World, autopilot: Autopilot, pwm: np.ndarray, steps_per_tick: i
         rec.ref_pos[k] = rec.pos[k]
         rec.ref_euler[k] = rec.euler[k]
     rec.n += 1
-    for ev in autopilot.drain_events():
+    autopilot_events, world_events = stack.drain_events()
+    for ev in autopilot_events:
         record(ev.time_s, "autopilot", ev.text)
-    for wev in world.drain_events():
+    for wev in world_events:
         if isinstance(wev, FaultEvent):
             record(wev.time_s, "sim", f"{wev.kind}: {wev.description}")
         elif isinstance(wev, PlantEvent):
             record(wev.time_s, "sim", wev.description)
-    return pwm
 
 
 def _euler_of(x: np.ndarray) -> np.ndarray:

@@ -34,10 +34,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fcu.mavlink import EndpointConfig, GeoPoint, MavlinkEndpoint, UdpLink
+from fcu.mavlink.autopilot_port import vehicle_autopilot_config
 from fcu.mavlink.link import Address
 from fcu.mavlink.udp import DEFAULT_PEERS
 from sim.scenario import Scenario
-from sim.vehicle_port import SimVehicle, VehicleSetup, vehicle_autopilot_config, warm_up
+from sim.stack import warm_up
+from sim.vehicle_port import SimVehicle, VehicleSetup
 
 __all__ = ["DEFAULT_BIND", "DEFAULT_HOME", "MAX_LAG_S", "SERVICE_PERIOD_S", "RunSummary",
            "VehicleOptions", "VehicleProcess", "build_setup"]
@@ -130,7 +132,7 @@ class VehicleProcess:
         self.link = UdpLink(options.bind[0], options.bind[1], default_peers=options.outs)
         model = self.vehicle.config.model
         self.endpoint = MavlinkEndpoint(
-            self.vehicle, self.link,
+            self.vehicle.port, self.link,
             config=EndpointConfig(sysid=options.sysid, compid=options.compid,
                                   pwm_max=model.pwm_max, boot_unix_time_s=time.time()),
             injector=self.vehicle, extra_params=[self.vehicle.sim_params])
@@ -146,7 +148,8 @@ class VehicleProcess:
             The address cannot be bound.
         """
         self.link.open()
-        warm_up(self.vehicle.setup)
+        setup = self.vehicle.setup
+        warm_up(setup.world, setup.autopilot, setup.seed)
         self.vehicle.first_tick()
         gc.collect()
         gc.freeze()  # start-up objects are never collected: shorter collections in flight

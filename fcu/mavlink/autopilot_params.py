@@ -1,0 +1,185 @@
+"""The autopilot's configuration as ArduPilot-style parameters (the table lives with the code
+whose configuration it exposes, as ArduPilot keeps a library's parameters with the library).
+
+:data:`AUTOPILOT_PARAMS` maps each parameter to a field of :class:`fcu.autopilot.AutopilotConfig`:
+``ATT_CTRL``, ``EST_TYPE``, ``DOB_TYPE``, ``HGT_SOURCE`` select the configuration choices of
+:mod:`flightdata.vocabulary` (value = index of the choice); the position gains
+``POS_XY_*``/``POS_Z_*``, the PD gains ``ATT_PD_*``, the LQR weights ``LQR_*``, the DOB cut-off,
+the fault detector's threshold and persistence, and the navigator's settings under their
+ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY`` s...).
+:class:`fcu.mavlink.autopilot_port.AutopilotPort` applies them: a change rebuilds the
+autopilot with the new configuration, so it is accepted only disarmed on the ground, except
+the parameters with ``live_speed`` (``WPNAV_SPEED``, ``WPNAV_SPEED_UP``, ``WPNAV_SPEED_DN``),
+which also act at once in flight like DO_CHANGE_SPEED.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any, TypeVar
+
+from fcu.autopilot import AutopilotConfig
+from flightdata import vocabulary
+
+__all__ = ["AUTOPILOT_PARAMS", "ApParam", "find_param"]
+
+Getter = Callable[[AutopilotConfig], float]
+Setter = Callable[[AutopilotConfig, float], AutopilotConfig]
+
+
+@dataclass(frozen=True)
+class ApParam:
+    """One autopilot parameter: its definition and how it reads/writes the configuration."""
+
+    name: str
+    description: str
+    get: Getter
+    set: Setter
+    min_value: float = -math.inf
+    max_value: float = math.inf
+    allowed: tuple[float, ...] | None = None
+    integer: bool = False
+    live_speed: str | None = None  # DO_CHANGE_SPEED type applied at once in flight
+    read_only: bool = False
+
+
+C = TypeVar("C")
+
+
+def _with(obj: C, name: str, value: Any) -> C:
+    """The frozen dataclass ``obj`` with field ``name`` replaced (its checks run again)."""
+    changes: dict[str, Any] = {name: value}
+    return replace(obj, **changes)  # type: ignore[type-var]
+
+
+def _enum_param(attr: str, description: str) -> ApParam:
+    """A configuration choice (:data:`flightdata.vocabulary.CONFIG_CHOICES`) as the parameter
+    :data:`flightdata.vocabulary.CONFIG_PARAMS` names, valued by the choice's index."""
+    choices = vocabulary.CONFIG_CHOICES[attr]
+    return ApParam(
+        vocabulary.CONFIG_PARAMS[attr], description,
+        get=lambda c: float(choices.index(getattr(c, attr))),
+        set=lambda c, v: _with(c, attr, choices[int(v)]),
+        min_value=0, max_value=len(choices) - 1,
+        allowed=tuple(float(i) for i in range(len(choices))), integer=True)
+
+
+def _axes(values: tuple[float, float, float], value: float, axes: tuple[int, ...]
+          ) -> tuple[float, float, float]:
+    out = list(values)
+    for i in axes:
+        out[i] = float(value)
+    return (out[0], out[1], out[2])
+
+
+def _gain_param(name: str, group: str, attr: str, axes: tuple[int, ...], unit: str,
+                description: str, lo: float = 0.0, hi: float = 1e9) -> ApParam:
+    return ApParam(
+        name, f"{description}, {unit}",
+        get=lambda c: float(getattr(getattr(c, group), attr)[axes[0]]),
+        set=lambda c, v: _with(c, group, _with(
+            getattr(c, group), attr, _axes(getattr(getattr(c, group), attr), v, axes))),
+        min_value=lo, max_value=hi)
+
+
+def _nav_param(name: str, attr: str, scale: float, unit: str, description: str,
+               lo: float, hi: float, live_speed: str | None = None) -> ApParam:
+    """A NavigatorConfig field shown in ArduCopter units (``value = field * scale``)."""
+    return ApParam(
+        name, f"{description}, {unit}",
+        get=lambda c: float(getattr(c.navigator, attr)) * scale,
+        set=lambda c, v: replace(c, navigator=_with(c.navigator, attr, v / scale)),
+        min_value=lo, max_value=hi, live_speed=live_speed)
+
+
+def _top_param(name: str, attr: str, unit: str, description: str, lo: float,
+               hi: float) -> ApParam:
+    return ApParam(name, f"{description}, {unit}", get=lambda c: float(getattr(c, attr)),
+                    set=lambda c, v: _with(c, attr, float(v)), min_value=lo,
+                    max_value=hi)
+
+
+def _detector_param(name: str, attr: str, unit: str, description: str, lo: float,
+                    hi: float) -> ApParam:
+    return ApParam(name, f"{description}, {unit}",
+                    get=lambda c: float(getattr(c.detector, attr)),
+                    set=lambda c, v: replace(c, detector=_with(c.detector, attr, float(v))),
+                    min_value=lo, max_value=hi)
+
+
+AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
+    _enum_param("attitude",
+                "Attitude controller: 0 PD (eq. 5.6), 1 LQG (LQR + integral, eq. 5.10)"),
+    _enum_param("estimator",
+                "Estimate fed to the controllers: 0 EKF, 1 TSKF"),
+    _enum_param("dob",
+                "Disturbance observer: 0 none, 1 VbDOB, 2 AbDOB (eq. 6.27-6.30)"),
+    _enum_param("height_source",
+                "Height source: 0 motion capture, 1 barometer"),
+    ApParam("ARMING_CHECK", "Pre-arm checks: 1 all, always (read-only; COMPONENT_ARM_DISARM "
+             "p2 = 21196 forces)", get=lambda c: 1.0, set=lambda c, v: c, min_value=0,
+             max_value=1, integer=True, read_only=True),
+    ApParam("SCHED_LOOP_RATE", "Autopilot loop rate, Hz (read-only)",
+             get=lambda c: float(c.loop_rate_hz), set=lambda c, v: c, min_value=0,
+             max_value=1e6, read_only=True),
+    _top_param("DOB_CUTOFF", "dob_cutoff_rad_s", "rad/s", "DOB Q-filter cut-off", 0.01, 1e3),
+    _top_param("ATT_REF_BW", "attitude_ref_bandwidth_rad_s", "rad/s",
+               "Attitude reference filter bandwidth", 0.01, 1e3),
+    _gain_param("POS_XY_KP", "position", "kp", (0, 1), "1/s^2", "Horizontal position P gain"),
+    _gain_param("POS_XY_KD", "position", "kd", (0, 1), "1/s", "Horizontal position D gain"),
+    _gain_param("POS_XY_KI", "position", "ki", (0, 1), "1/s^3", "Horizontal position I gain"),
+    _gain_param("POS_Z_KP", "position", "kp", (2,), "1/s^2", "Vertical position P gain"),
+    _gain_param("POS_Z_KD", "position", "kd", (2,), "1/s", "Vertical position D gain"),
+    _gain_param("POS_Z_KI", "position", "ki", (2,), "1/s^3", "Vertical position I gain"),
+    _gain_param("ATT_PD_RP_KP", "pd", "kp", (0, 1), "1/s^2", "PD roll/pitch angle gain"),
+    _gain_param("ATT_PD_RP_KD", "pd", "kd", (0, 1), "1/s", "PD roll/pitch rate gain"),
+    _gain_param("ATT_PD_Y_KP", "pd", "kp", (2,), "1/s^2", "PD yaw angle gain"),
+    _gain_param("ATT_PD_Y_KD", "pd", "kd", (2,), "1/s", "PD yaw rate gain"),
+    _gain_param("LQR_QINT_RP", "lqr", "q_integral", (0, 1), "1/(rad*s)^2",
+                "LQR roll/pitch integral weight", 1e-9),
+    _gain_param("LQR_QANG_RP", "lqr", "q_angle", (0, 1), "1/rad^2",
+                "LQR roll/pitch angle weight", 1e-9),
+    _gain_param("LQR_QRATE_RP", "lqr", "q_rate", (0, 1), "1/(rad/s)^2",
+                "LQR roll/pitch rate weight", 1e-9),
+    _gain_param("LQR_R_RP", "lqr", "r_torque", (0, 1), "1/(N*m)^2",
+                "LQR roll/pitch torque weight", 1e-9),
+    _gain_param("LQR_QINT_Y", "lqr", "q_integral", (2,), "1/(rad*s)^2",
+                "LQR yaw integral weight", 1e-9),
+    _gain_param("LQR_QANG_Y", "lqr", "q_angle", (2,), "1/rad^2", "LQR yaw angle weight", 1e-9),
+    _gain_param("LQR_QRATE_Y", "lqr", "q_rate", (2,), "1/(rad/s)^2", "LQR yaw rate weight",
+                1e-9),
+    _gain_param("LQR_R_Y", "lqr", "r_torque", (2,), "1/(N*m)^2", "LQR yaw torque weight", 1e-9),
+    _detector_param("FD_THRESH", "threshold", "fraction",
+                    "Fault detector: LOE above which a motor is suspected", 0.01, 0.99),
+    _detector_param("FD_PERSIST", "persistence_s", "s",
+                    "Fault detector: time above the threshold before a fault is declared",
+                    0.0, 60.0),
+    _nav_param("WPNAV_SPEED", "speed_horizontal_m_s", 100.0, "cm/s",
+               "Horizontal leg speed", 1.0, 500.0, live_speed="ground"),
+    _nav_param("WPNAV_SPEED_UP", "speed_up_m_s", 100.0, "cm/s", "Climb speed", 1.0, 500.0,
+               live_speed="climb"),
+    _nav_param("WPNAV_SPEED_DN", "speed_down_m_s", 100.0, "cm/s", "Descent speed", 1.0,
+               500.0, live_speed="descent"),
+    _nav_param("WPNAV_ACCEL", "accel_m_s2", 100.0, "cm/s/s", "Peak leg acceleration", 1.0,
+               1000.0),
+    _nav_param("WPNAV_RADIUS", "wp_radius_m", 100.0, "cm", "Waypoint reached radius", 1.0,
+               1000.0),
+    _nav_param("RTL_ALT", "rtl_alt_m", 100.0, "cm", "RTL return altitude above home", 10.0,
+               1000.0),
+    _nav_param("RTL_LOIT_TIME", "rtl_hold_s", 1000.0, "ms", "RTL hold above home", 0.0,
+               60000.0),
+    _nav_param("LAND_SPEED", "land_creep_speed_m_s", 100.0, "cm/s",
+               "Final landing descent speed", 1.0, 200.0),
+    _nav_param("DISARM_DELAY", "idle_disarm_delay_s", 1.0, "s",
+               "Auto-disarm after arming without take-off (0 never)", 0.0, 127.0),
+)
+
+
+def find_param(name: str) -> ApParam | None:
+    """The autopilot parameter called ``name``, if there is one."""
+    return _BY_NAME.get(name)
+
+
+_BY_NAME = {p.name: p for p in AUTOPILOT_PARAMS}

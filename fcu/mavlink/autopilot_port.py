@@ -1,0 +1,430 @@
+"""The MAVLink endpoint's view of an autopilot: telemetry snapshots, commands, parameters.
+
+:class:`AutopilotPort` implements :class:`fcu.mavlink.port.VehiclePort` over one
+:class:`fcu.autopilot.Autopilot`, held by a host (the composition root's tick loop, which
+may have the autopilot replaced: a parameter change rebuilds it). What only the simulator
+knows (truth for SIM_STATE, its own STATUSTEXTs, fault injection, ``SIM_*`` parameters) is
+plugged in by the composition root: a truth callable, :meth:`AutopilotPort.post` for its
+events, and the endpoint's ``injector`` and ``extra_params``.
+
+Parameters (:mod:`fcu.mavlink.autopilot_params`): a change rebuilds the autopilot with the
+new configuration (keeping the loaded mission, home and mode), so it is accepted only
+disarmed on the ground; in flight it is refused with the reason, except ``WPNAV_SPEED``,
+``WPNAV_SPEED_UP`` and ``WPNAV_SPEED_DN``, which also act at once like DO_CHANGE_SPEED.
+``SCHED_LOOP_RATE`` (the autopilot rate) is read-only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+from typing import Protocol
+
+import numpy as np
+
+from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
+from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
+from fcu.mavlink.port import (
+    AttitudeTarget,
+    CommandResult,
+    GeoPoint,
+    MavState,
+    MissionItem,
+    MissionItemReached,
+    ParamSpec,
+    PositionTarget,
+    SensorHealth,
+    Severity,
+    SimTruth,
+    StatusText,
+    VehicleEvent,
+    VehicleSnapshot,
+)
+from fcu.navigation.navigator import CommandResult as NavResult
+from fcu.navigation.navigator import Mode, mode_name
+from flightdata.mission import MAV_CMD_BY_COMMAND, SPEED_TYPE_BY_MAV_PARAM
+from flightdata.mission import MissionItem as NavItem
+
+__all__ = ["BRAKE_ARMABLE", "AutopilotHost", "AutopilotPort", "vehicle_autopilot_config"]
+
+BRAKE_ARMABLE = int(Mode.BRAKE)
+"""MAVSDK switches to BRAKE before arming when the vehicle sits in AUTO, RTL or LAND."""
+
+_SEVERITY = {"info": Severity.INFO, "notice": Severity.NOTICE, "warning": Severity.WARNING,
+             "critical": Severity.CRITICAL}
+
+
+def vehicle_autopilot_config(config: AutopilotConfig) -> AutopilotConfig:
+    """``config`` with BRAKE added to the armable modes (what MAVSDK's arm needs)."""
+    nav = config.navigator
+    if BRAKE_ARMABLE in nav.armable_modes:
+        return config
+    return replace(config, navigator=replace(
+        nav, armable_modes=(*nav.armable_modes, BRAKE_ARMABLE)))
+
+
+class AutopilotHost(Protocol):
+    """What holds the autopilot between ticks (e.g. :class:`sim.stack.SimulatedStack`)."""
+
+    autopilot: Autopilot  # replaced when a parameter change rebuilds the autopilot
+    pwm: np.ndarray  # PWM held until the next tick, (4,)
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time of the last tick, s."""
+        ...
+
+
+class AutopilotPort:
+    """:class:`fcu.mavlink.port.VehiclePort` over the autopilot a host holds.
+
+    Parameters
+    ----------
+    host : AutopilotHost
+        Holds the autopilot (and its PWM) between ticks.
+    origin : GeoPoint
+        Geodetic position of the NED origin (home at boot).
+    truth : callable, optional
+        Simulator truth for SIM_STATE (None outside simulation, or no callable).
+
+    Notes
+    -----
+    Call :meth:`collect` after every tick with the autopilot's events; call the endpoint
+    between ticks. Not thread-safe: everything runs on the vehicle loop's thread.
+    """
+
+    def __init__(self, host: AutopilotHost, origin: GeoPoint, *,
+                 truth: Callable[[], SimTruth | None] | None = None) -> None:
+        self.host = host
+        self.origin = origin
+        self._truth = truth if truth is not None else (lambda: None)
+        self._config = host.autopilot.config
+        self._events: list[VehicleEvent] = []
+        self._snap: VehicleSnapshot | None = None
+
+    @property
+    def autopilot(self) -> Autopilot:
+        """The autopilot in force."""
+        return self.host.autopilot
+
+    # ------------------------------------------------------------------ events
+    def collect(self, events: Sequence[AutopilotEvent]) -> None:
+        """After a tick: the autopilot's events become STATUSTEXT / MISSION_ITEM_REACHED."""
+        self._snap = None
+        for ev in events:
+            if ev.kind == "refused":
+                continue  # the endpoint reports refusals with the command's ACK
+            if ev.kind == "item_reached" and ev.seq is not None:
+                self._events.append(MissionItemReached(int(ev.seq)))
+            self.post(_SEVERITY.get(ev.severity, Severity.INFO), ev.text)
+
+    def post(self, severity: int, text: str) -> None:
+        """Queue a STATUSTEXT (the composition root's own messages go here too)."""
+        self._events.append(StatusText(int(severity), text))
+
+    def invalidate(self) -> None:
+        """Forget the cached snapshot (something outside the autopilot changed)."""
+        self._snap = None
+
+    def drain_events(self) -> list[VehicleEvent]:
+        """STATUSTEXT and MISSION_ITEM_REACHED since the previous call, oldest first."""
+        events, self._events = self._events, []
+        return events
+
+    # ------------------------------------------------------------------ VehiclePort: telemetry
+    def snapshot(self) -> VehicleSnapshot:
+        """Telemetry state after the last tick (cached until the next tick or command)."""
+        if self._snap is None:
+            self._snap = self._build_snapshot()
+        return self._snap
+
+    def _build_snapshot(self) -> VehicleSnapshot:
+        ap = self.host.autopilot
+        nav = ap.navigator
+        status = ap.status
+        t = self.host.time_s
+        if status is None:
+            return VehicleSnapshot(time_s=t, armed=False, custom_mode=int(nav.mode),
+                                   pos_ned=np.zeros(3), vel_ned=np.zeros(3),
+                                   euler_rad=np.zeros(3), rate_frd=np.zeros(3),
+                                   origin=self.origin, home_pos_ned=nav.home_pos_ned,
+                                   system_status=MavState.BOOT,
+                                   health=SensorHealth(ahrs=False, prearm=False))
+        est = status.estimate
+        healthy = bool(np.all(np.isfinite(est.pos_ned)) and np.all(np.isfinite(est.vel_ned))
+                       and np.all(np.isfinite(est.euler_rad)))
+        detected = any(status.fault_detected)
+        failsafe = bool(nav.failsafe_sources)
+        armed = nav.armed
+        if detected:
+            system_status = MavState.CRITICAL
+        elif armed:
+            system_status = MavState.ACTIVE
+        else:
+            system_status = MavState.STANDBY
+        position_target = None
+        if status.reference is not None:
+            ref = status.reference
+            position_target = PositionTarget(pos_ned=ref.pos_ned, vel_ned=ref.vel_ned,
+                                              acc_ned=ref.acc_ned, yaw_rad=ref.yaw_rad)
+        attitude_target = None
+        if status.attitude_reference is not None:
+            att = status.attitude_reference
+            model = ap.model
+            full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max
+            attitude_target = AttitudeTarget(
+                euler_rad=att.euler_rad, rate_frd=_body_rates(att.euler_rad, att.rate),
+                thrust=min(max(status.thrust_cmd_n / full_thrust_n, 0.0), 1.0))
+        progress = nav.mission_progress()
+        return VehicleSnapshot(
+            time_s=t, armed=armed, custom_mode=int(nav.mode),
+            pos_ned=est.pos_ned, vel_ned=est.vel_ned, euler_rad=est.euler_rad,
+            rate_frd=est.rate_frd, origin=self.origin, home_pos_ned=nav.home_pos_ned,
+            system_status=system_status, landed_state=int(nav.landed_state),
+            position_target=position_target, attitude_target=attitude_target,
+            pwm=np.array(status.pwm), truth=self._truth(), loe=np.array(status.loe_estimate),
+            health=SensorHealth(gps=healthy, ahrs=healthy, motors=not detected,
+                                prearm=self._prearm_ok(healthy)),
+            mission_seq=progress.current_seq, mission_state=int(progress.state),
+            failsafe_active=failsafe)
+
+    def _prearm_ok(self, healthy: bool) -> bool:
+        """The navigator's arming checks, as far as they can be judged without arming."""
+        nav = self.host.autopilot.navigator
+        if nav.armed:
+            return True
+        status = self.host.autopilot.status
+        if status is None or not healthy or nav.failsafe_sources:
+            return False
+        cfg = nav.config
+        est = status.estimate
+        on_ground = (-float(est.pos_ned[2]) < cfg.land_detect_alt_m
+                     and abs(float(est.vel_ned[2])) < cfg.land_detect_speed_m_s)
+        return on_ground and int(nav.mode) in cfg.armable_modes
+
+    # ------------------------------------------------------------------ VehiclePort: commands
+    def _nav(self, what: str, result: NavResult) -> CommandResult:
+        self._snap = None  # the command may have changed mode, arming, targets...
+        if result.accepted:
+            return CommandResult.ok()
+        return CommandResult.denied(f"{what} refused: {result.reason}")
+
+    def arm(self, *, force: bool) -> CommandResult:
+        """COMPONENT_ARM_DISARM p1 = 1 (the navigator's pre-arm checks unless forced)."""
+        return self._nav("Arm", self.host.autopilot.navigator.arm(force))
+
+    def disarm(self, *, force: bool) -> CommandResult:
+        """COMPONENT_ARM_DISARM p1 = 0 (refused in flight unless forced)."""
+        return self._nav("Disarm", self.host.autopilot.navigator.disarm(force))
+
+    def set_mode(self, custom_mode: int) -> CommandResult:
+        """DO_SET_MODE / SET_MODE: the navigator's modes; others refused with the reason."""
+        return self._nav(f"Mode {mode_name(custom_mode)}",
+                         self.host.autopilot.navigator.set_mode(int(custom_mode)))
+
+    def takeoff(self, alt_m: float) -> CommandResult:
+        """NAV_TAKEOFF in GUIDED, ``alt_m`` above home."""
+        return self._nav("Takeoff", self.host.autopilot.navigator.takeoff(float(alt_m)))
+
+    def land(self) -> CommandResult:
+        """NAV_LAND: switch to LAND."""
+        return self._nav("Land", self.host.autopilot.navigator.land())
+
+    def return_to_launch(self) -> CommandResult:
+        """NAV_RETURN_TO_LAUNCH: switch to RTL."""
+        return self._nav("RTL", self.host.autopilot.navigator.return_to_launch())
+
+    def goto(self, pos_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
+        """SET_POSITION_TARGET_* / DO_REPOSITION: a cubic leg to ``pos_ned`` (GUIDED only)."""
+        return self._nav("Go-to", self.host.autopilot.navigator.go_to(pos_ned, yaw_rad))
+
+    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
+        """Velocity set-points are not flown by this autopilot (position legs only)."""
+        return CommandResult.not_supported(
+            "Velocity targets not supported: send a position target")
+
+    def change_speed(self, speed_m_s: float, speed_type: str) -> CommandResult:
+        """DO_CHANGE_SPEED for legs planned from now on."""
+        return self._nav("Change speed",
+                         self.host.autopilot.navigator.change_speed(float(speed_m_s), speed_type))
+
+    def set_home(self, pos_ned: np.ndarray | None) -> CommandResult:
+        """DO_SET_HOME; None = the current estimated position."""
+        if pos_ned is None:
+            status = self.host.autopilot.status
+            if status is None:
+                return CommandResult.denied("Set home refused: no position estimate yet")
+            pos_ned = np.array(status.estimate.pos_ned)
+        return self._nav("Set home", self.host.autopilot.navigator.set_home(pos_ned))
+
+    def mission_set(self, items: Sequence[MissionItem]) -> CommandResult:
+        """Replace the mission (converted to navigator items; unsupported commands refused)."""
+        converted: list[NavItem] = []
+        for item in items:
+            nav_item = _to_nav_item(item)
+            if isinstance(nav_item, CommandResult):
+                return nav_item
+            converted.append(nav_item)
+        nav = self.host.autopilot.navigator
+        result = nav.load_mission(converted) if converted else nav.clear_mission()
+        return self._nav("Mission", result)
+
+    def mission_start(self) -> CommandResult:
+        """MISSION_START: AUTO from the current item."""
+        return self._nav("Mission start", self.host.autopilot.navigator.start_mission())
+
+    def mission_set_current(self, seq: int) -> CommandResult:
+        """MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT."""
+        return self._nav("Set mission current",
+                         self.host.autopilot.navigator.set_current_item(int(seq)))
+
+    def reboot(self) -> CommandResult:
+        """PREFLIGHT_REBOOT_SHUTDOWN: restart the autopilot (the simulated world goes on)."""
+        nav = self.host.autopilot.navigator
+        if nav.armed:
+            return CommandResult.denied("Reboot refused: disarm first")
+        error = self._rebuild(self._config, keep_mode=False)
+        if error:
+            return CommandResult.denied(f"Reboot failed: {error}")
+        self.post(Severity.NOTICE, "Autopilot rebooted")
+        return CommandResult.ok()
+
+    def trigger_failsafe(self, source: str, action: str) -> CommandResult:
+        """GCS-loss failsafe from the endpoint: LAND/RTL in flight, disarm on the ground."""
+        return self._nav("Failsafe", self.host.autopilot.navigator.trigger_failsafe(source, action))
+
+    def clear_failsafe(self, source: str) -> CommandResult:
+        """The failsafe source is over (the mode stays)."""
+        return self._nav("Failsafe clear", self.host.autopilot.navigator.clear_failsafe(source))
+
+    # ------------------------------------------------------------------ autopilot parameters
+    @property
+    def config(self) -> AutopilotConfig:
+        """The autopilot configuration in force."""
+        return self._config
+
+    def param_specs(self) -> Sequence[ParamSpec]:
+        """The autopilot configuration as parameters (see the module docstring)."""
+        return [ParamSpec(name=p.name, value=p.get(self._config), min_value=p.min_value,
+                          max_value=p.max_value, allowed=p.allowed, integer=p.integer,
+                          description=p.description) for p in AUTOPILOT_PARAMS]
+
+    def set_param(self, name: str, value: float) -> CommandResult:
+        """Apply a validated autopilot parameter: rebuild on the ground, refuse in flight."""
+        spec = find_param(name)
+        if spec is None:
+            return CommandResult.denied(f"unknown parameter {name}")
+        if spec.read_only:
+            return CommandResult.denied("read-only")  # the value in force is echoed back
+        try:
+            new = spec.set(self._config, float(value))
+        except (ValueError, TypeError) as err:
+            return CommandResult.denied(str(err))
+        nav = self.host.autopilot.navigator
+        if nav.armed or not nav.landed:
+            if spec.live_speed is None:
+                return CommandResult.denied("change it disarmed on the ground (the "
+                                            "autopilot is rebuilt with it)")
+            speed_m_s = spec.get(new) / 100.0
+            result = nav.change_speed(speed_m_s, spec.live_speed)
+            if not result.accepted:
+                return CommandResult.denied(result.reason)
+            self._config = new
+            self._snap = None
+            return CommandResult.ok()
+        error = self._rebuild(new, keep_mode=True)
+        if error:
+            return CommandResult.denied(error)
+        self.post(Severity.INFO, f"{name} = {value:g}: autopilot rebuilt")
+        return CommandResult.ok()
+
+    def _rebuild(self, config: AutopilotConfig, *, keep_mode: bool) -> str:
+        """Replace the autopilot by one built from ``config`` at the current time.
+
+        Keeps the loaded mission, home and (``keep_mode``) the flight mode. Returns "" or
+        why the configuration could not be built (the old autopilot then stays).
+        """
+        t = self.host.time_s
+        old_nav = self.host.autopilot.navigator
+        try:
+            ap = Autopilot(config)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
+            return f"cannot build the autopilot: {err}"
+        ap.ekf.reset(t)
+        ap.tskf.reset(t)
+        ap.step(t, [])
+        nav = ap.navigator
+        if old_nav.mission_items:
+            nav.load_mission(old_nav.mission_items)
+        home = old_nav.home_pos_ned
+        if not np.array_equal(home, nav.home_pos_ned):
+            nav.set_home(home)
+        if keep_mode and old_nav.mode != nav.mode:
+            nav.set_mode(int(old_nav.mode))
+        ap.step(t, [])
+        ap.drain_events()  # the rebuild's own mode/mission lines: not news to the pilot
+        self.host.autopilot = ap
+        self._config = config
+        self.host.pwm = np.array(ap.pwm)
+        self._snap = None
+        return ""
+
+
+def _body_rates(euler_rad: np.ndarray, euler_rate: np.ndarray) -> np.ndarray:
+    """Body rates p, q, r (rad/s) of ZYX Euler angles and their derivatives."""
+    phi, theta = float(euler_rad[0]), float(euler_rad[1])
+    dphi, dtheta, dpsi = (float(v) for v in euler_rate)
+    sp, cp = math.sin(phi), math.cos(phi)
+    st, ct = math.sin(theta), math.cos(theta)
+    # p = phi' - psi' sin(theta); q = theta' cos(phi) + psi' sin(phi) cos(theta);
+    # r = -theta' sin(phi) + psi' cos(phi) cos(theta)
+    return np.array([dphi - dpsi * st, dtheta * cp + dpsi * sp * ct,
+                     -dtheta * sp + dpsi * cp * ct])
+
+
+def _to_nav_item(item: MissionItem) -> NavItem | CommandResult:
+    """A MAVLink mission item (SI, NED) as a navigator item, or why it cannot be flown."""
+    where = f"item {item.seq}"
+    cmd = item.command
+    try:
+        if cmd == MAV_CMD_BY_COMMAND["waypoint"]:
+            hold_s = item.params[0]
+            if not (math.isfinite(hold_s) and hold_s >= 0.0):
+                return CommandResult.denied(f"{where}: hold time {hold_s} s must be >= 0")
+            if item.north_east_m is None:
+                if item.down_m is not None:
+                    return CommandResult.denied(f"{where}: a waypoint needs a latitude and "
+                                                "longitude (0, 0 = here is not supported)")
+                pos = None
+            else:
+                assert item.down_m is not None
+                pos = (item.north_east_m[0], item.north_east_m[1], item.down_m)
+            return NavItem(command="waypoint", pos_ned=pos, hold_s=float(hold_s),
+                           yaw_rad=item.yaw_rad)
+        if cmd == MAV_CMD_BY_COMMAND["takeoff"]:
+            if item.alt_m is None:
+                return CommandResult.denied(f"{where}: NAV_TAKEOFF needs an altitude")
+            return NavItem(command="takeoff", alt_m=float(item.alt_m))
+        if cmd == MAV_CMD_BY_COMMAND["land"]:
+            land_pos = None if item.north_east_m is None else (
+                item.north_east_m[0], item.north_east_m[1], 0.0)
+            return NavItem(command="land", pos_ned=land_pos)
+        if cmd == MAV_CMD_BY_COMMAND["rtl"]:
+            return NavItem(command="rtl")
+        if cmd == MAV_CMD_BY_COMMAND["change_speed"]:
+            kind = item.params[0]
+            speed = item.params[1]
+            if kind not in SPEED_TYPE_BY_MAV_PARAM:
+                return CommandResult.denied(f"{where}: DO_CHANGE_SPEED speed type {kind} "
+                                            "not in 0..3")
+            if speed == -1.0:
+                return CommandResult.denied(f"{where}: DO_CHANGE_SPEED -1 (no change) is "
+                                            "not supported in missions")
+            return NavItem(command="change_speed", speed_m_s=float(speed),
+                           speed_type=SPEED_TYPE_BY_MAV_PARAM[int(kind)])  # type: ignore[arg-type]
+    except ValueError as err:
+        return CommandResult.denied(f"{where}: {err}")
+    return CommandResult.not_supported(
+        f"{where}: MAV_CMD {cmd} not supported (NAV_WAYPOINT 16, NAV_RETURN_TO_LAUNCH 20, "
+        "NAV_LAND 21, NAV_TAKEOFF 22, DO_CHANGE_SPEED 178 are)")
