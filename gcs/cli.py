@@ -4,7 +4,7 @@ Usage::
 
     ftc-gcs fly    [--connect URL | --spawn-vehicle [--speedup X] [--seed N] [--scenario S]]
                    [--mission thesis|FILE] [--faults table7.3|FILE] [--fault SPEC ...]
-                   [--inject-via param|command]
+                   [--inject-via command|param]
                    [--attitude pd|lqg] [--estimator ekf|tskf] [--dob none|vbdob|abdob]
                    [--param NAME=VALUE ...]
                    [--out-dir DIR] [--tlog PATH] [--event-log PATH] [--json PATH] [--quiet]
@@ -125,9 +125,10 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                       (" (default table7.3)" if demo else " (default: none)"))
     what.add_argument("--fault", action="append", default=[], metavar="SPEC",
                       help="one more fault, MOTOR:LOE@AT_S or PARAM=VALUE@AT_S (repeatable)")
-    what.add_argument("--inject-via", choices=("param", "command"), default="param",
-                      help="motor faults as PARAM_SET SIM_MOTn_LOE (default) or "
-                      "MAV_CMD_INJECT_FAILURE")
+    what.add_argument("--inject-via", choices=("command", "param"), default="command",
+                      help="motor faults as MAV_CMD_INJECT_FAILURE scheduled on the "
+                      "vehicle's clock (default: exact timing) or as PARAM_SET SIM_MOTn_LOE "
+                      "sent ahead (ArduPilot-SITL style)")
     what.add_argument("--attitude", choices=vocabulary.ATTITUDE_LAWS,
                       default="lqg" if demo else None,
                       help="ATT_CTRL" + (" (default lqg)" if demo else ""))

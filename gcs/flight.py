@@ -76,8 +76,9 @@ class FlightPlan:
         Injections, at simulated seconds after the mission start.
     params : dict of str to float
         Parameters to set before arming (configuration first, in the given order).
-    inject_via : {"param", "command"}
-        How motor faults are sent (:meth:`GroundStation.inject`).
+    inject_via : {"command", "param"}
+        How motor faults are sent (:meth:`GroundStation.inject`): scheduled on the vehicle's
+        clock (exact) or set as a parameter when due.
     telemetry_hz : dict of str to float
         Stream rates to ask for (simulated Hz).
     max_flight_s : float
@@ -90,7 +91,7 @@ class FlightPlan:
     mission: Sequence[WireItem]
     faults: Sequence[FaultSpec] = ()
     params: dict[str, float] = field(default_factory=dict)
-    inject_via: str = "param"
+    inject_via: str = "command"
     telemetry_hz: dict[str, float] = field(default_factory=lambda: dict(TELEMETRY_HZ))
     max_flight_s: float = 120.0  # s simulated
     connect_timeout_s: float = 10.0  # s wall
@@ -99,8 +100,8 @@ class FlightPlan:
     wall_timeout_s: float = 900.0  # s wall
 
     def __post_init__(self) -> None:
-        if self.inject_via not in ("param", "command"):
-            raise ValueError(f"inject_via = {self.inject_via!r}: must be 'param' or 'command'")
+        if self.inject_via not in ("command", "param"):
+            raise ValueError(f"inject_via = {self.inject_via!r}: must be 'command' or 'param'")
         for name in ("max_flight_s", "connect_timeout_s", "link_timeout_s", "ready_timeout_s",
                      "wall_timeout_s"):
             value = getattr(self, name)
@@ -150,7 +151,9 @@ class FlightOutcome:
 
 
 class _Injector:
-    """Sends the schedule's faults as the vehicle clock reaches them (a clock hook)."""
+    """Delivers the schedule's faults: motor faults sent as commands are scheduled on the
+    vehicle's clock as soon as the mission starts; the others are sent as the vehicle clock
+    reaches them (a clock hook, ``lead_s`` ahead)."""
 
     def __init__(self, gs: GroundStation, faults: Sequence[FaultSpec], via: str) -> None:
         self._gs = gs
@@ -158,8 +161,14 @@ class _Injector:
         self._via = via
         self._start_s: float | None = None
 
+    def _scheduled_on_vehicle(self, fault: FaultSpec) -> bool:
+        return self._via == "command" and fault.motor is not None and fault.loe > 0
+
     def start(self, mission_start_s: float) -> None:
         self._start_s = mission_start_s
+        for fault in [f for f in self._queue if self._scheduled_on_vehicle(f)]:
+            self._gs.inject(fault, mission_start_s + fault.at_s, via=self._via)
+            self._queue.remove(fault)
         self._gs.on_clock(self)
 
     def __call__(self, clock_s: float) -> None:

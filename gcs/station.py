@@ -146,7 +146,8 @@ class GroundStation:
         self.param_names: dict[str, float] = {}
         self.param_count: int | None = None
         self.injection_timing: list[InjectionTiming] = []
-        self._inflight: list[tuple[FaultSpec, float, float]] = []  # fault, target, sent at
+        # fault, target, sent at, scheduled on the vehicle's clock (no lag to learn from)
+        self._inflight: list[tuple[FaultSpec, float, float, bool]] = []
         self._lag_samples_s: list[float] = []
         self._sent_clock: float | None = None  # vehicle clock when the last command left
         self.closed = False
@@ -679,55 +680,63 @@ class GroundStation:
             return 0.01
         return max(0.01, float(np.median(self._lag_samples_s[-9:])))
 
-    def inject(self, fault: FaultSpec, target_s: float, *, via: str = "param") -> None:
-        """Send ``fault`` now (no waiting for the echo: the clock keeps running).
+    def inject(self, fault: FaultSpec, target_s: float, *, via: str = "command") -> None:
+        """Inject ``fault`` at vehicle time ``target_s``.
 
         Parameters
         ----------
         fault : FaultSpec
         target_s : float
-            Vehicle time it is meant for (recorded for the timing check).
-        via : {"param", "command"}
-            ``param``: PARAM_SET SIM_MOTn_LOE = loe (ArduPilot-SITL style). ``command``:
-            PARAM_SET SIM_FI_LOE = loe, then MAV_CMD_INJECT_FAILURE (unit MOTOR 101, type WRONG
-            4, instance = motor; type OK 0 when loe = 0), what MAVSDK's Failure plugin sends.
-            Parameter faults are always a PARAM_SET. A TIMESYNC request rides in the same
-            datagram, dating the injection exactly.
+            Vehicle (simulated) time it is meant for.
+        via : {"command", "param"}
+            ``command`` (motor faults): PARAM_SET SIM_FI_LOE = loe (echo awaited), then
+            MAV_CMD_INJECT_FAILURE (unit MOTOR 101, type WRONG 4, instance = motor; type OK
+            0 when loe = 0) with param4 = ``target_s``: the vehicle schedules the fault on its
+            own clock, so it takes effect at ``target_s`` exactly whatever the link's delay
+            or load; this blocks until the vehicle acknowledges (send it ahead of time).
+            ``param``: PARAM_SET SIM_MOTn_LOE = loe now (ArduPilot-SITL style, effective
+            when it arrives), with a TIMESYNC request in the same datagram dating it; send
+            it :meth:`lead_s` ahead. Parameter faults (SIM_BARO_GLITCH...) are always a
+            PARAM_SET of the second kind.
         """
         sysid, compid = self.target
         clock = self.analyzer.clock_s if self.analyzer.clock_s is not None else math.nan
-        self._inflight.append((fault, target_s, clock))
+        scheduled = via == "command" and fault.motor is not None and fault.loe > 0
+        self._inflight.append((fault, target_s, clock, scheduled))
         start = self.analyzer.mission_start_s
         rel = f" (mission +{target_s - start:.3f} s)" if start is not None else ""
-        self.log("INJECT", f"sending {fault.describe()} for t = {target_s:.3f} s{rel}, "
-                 f"lead {self.lead_s():.3f} s")
+        self.log("INJECT", f"{'scheduling' if scheduled else 'sending'} {fault.describe()} "
+                 f"for t = {target_s:.3f} s{rel}"
+                 + ("" if scheduled else f", lead {self.lead_s():.3f} s"))
 
-        def param_set(name: str, value: float, timesync: bool) -> None:
+        def param_set(name: str, value: float) -> None:
             self.send(_M.MAVLink_param_set_message(sysid, compid, name.encode("ascii"),
                                                    float(value), _M.MAV_PARAM_TYPE_REAL32),
-                      with_timesync=timesync)
+                      with_timesync=True)
 
         if fault.param is not None:
-            param_set(fault.param, fault.value, True)
-        elif via == "command":
-            if fault.loe > 0:
-                param_set("SIM_FI_LOE", fault.loe, False)
+            param_set(fault.param, fault.value)
+        elif scheduled:
+            self.set_param("SIM_FI_LOE", fault.loe)
+            self.command(_M.MAV_CMD_INJECT_FAILURE,
+                         (101.0, 4.0, float(fault.motor or 0), float(target_s)),
+                         what=f"INJECT_FAILURE motor {fault.motor}")
+        elif via == "command":  # a clear (loe 0): effective when it arrives
             self.send(_M.MAVLink_command_long_message(
-                sysid, compid, _M.MAV_CMD_INJECT_FAILURE, 0, 101.0,
-                4.0 if fault.loe > 0 else 0.0, float(fault.motor or 0), 0.0, 0.0, 0.0, 0.0),
-                with_timesync=True)
+                sysid, compid, _M.MAV_CMD_INJECT_FAILURE, 0, 101.0, 0.0,
+                float(fault.motor or 0), 0.0, 0.0, 0.0, 0.0), with_timesync=True)
         else:
-            param_set(f"SIM_MOT{fault.motor}_LOE", fault.loe, True)
+            param_set(f"SIM_MOT{fault.motor}_LOE", fault.loe)
 
     def _match_injection(self, event: FlightEvent) -> None:
         """An INJECT event from the analyzer: pair it with the oldest in-flight motor fault."""
-        for i, (fault, target, sent) in enumerate(self._inflight):
+        for i, (fault, target, sent, scheduled) in enumerate(self._inflight):
             if fault.motor is not None and f"motor {fault.motor} " in event.text:
                 del self._inflight[i]
                 achieved = event.time_s
                 timing = InjectionTiming(fault, target, sent, achieved)
                 self.injection_timing.append(timing)
-                if achieved is not None:
+                if achieved is not None and not scheduled:
                     self._lag_samples_s.append(max(0.0, achieved - sent))
                     self.log("INJECT", f"motor {fault.motor} took effect at t = "
                              f"{achieved:.3f} s, timing error {timing.error_s:+.3f} s")
@@ -736,20 +745,20 @@ class GroundStation:
     def confirm_param_faults(self) -> None:
         """Pair parameter faults (SIM_BARO_GLITCH...) with their PARAM_VALUE echoes."""
         still = []
-        for fault, target, sent in self._inflight:
+        for fault, target, sent, scheduled in self._inflight:
             if fault.param is None:
-                still.append((fault, target, sent))
+                still.append((fault, target, sent, scheduled))
                 continue
             value = self.analyzer.params.get(fault.param)
             if value is not None and same_float32(value, fault.value):
                 self.injection_timing.append(InjectionTiming(fault, target, sent, None))
             else:
-                still.append((fault, target, sent))
+                still.append((fault, target, sent, scheduled))
         self._inflight = still
 
     def pending_injections(self) -> list[FaultSpec]:
         """Faults sent but not yet confirmed."""
-        return [f for f, _, _ in self._inflight]
+        return [f for f, _, _, _ in self._inflight]
 
     # ------------------------------------------------------------------ hooks, results
     def on_clock(self, hook: Callable[[float], None]) -> None:

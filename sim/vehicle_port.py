@@ -73,7 +73,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import AutopilotPort
@@ -259,7 +259,8 @@ class SimVehicle:
                         accel_frd=truth.accel_frd)
 
     # ------------------------------------------------------------------ FailureInjector
-    def inject_failure(self, unit: int, failure_type: int, instance: int) -> CommandResult:
+    def inject_failure(self, unit: int, failure_type: int, instance: int,
+                       at_s: float | None = None) -> CommandResult:
         """MAV_CMD_INJECT_FAILURE onto the world's fault engine (module docstring table)."""
         self.port.invalidate()
         what = f"{_UNIT_NAMES.get(unit, str(unit))} {_TYPE_NAMES.get(failure_type, '?')}"
@@ -276,7 +277,7 @@ class SimVehicle:
                 return CommandResult.not_supported(
                     f"Inject failure: {what} not supported (OK, OFF, STUCK, GARBAGE, WRONG, "
                     "DRIFT, INTERMITTENT are)")
-            return self._inject(what, instance, [f for f in faults if f is not None])
+            return self._inject([f for f in faults if f is not None], at_s)
         if unit in _SENSOR_UNITS:
             sensor, axis, stem, _ = _SENSOR_UNITS[unit]
             if instance not in (0, 1):
@@ -292,7 +293,7 @@ class SimVehicle:
                 return CommandResult.not_supported(
                     f"Inject failure: {what} not supported (OK, OFF, STUCK, GARBAGE, WRONG, "
                     "DRIFT are)")
-            return self._inject(what, instance, [fault])
+            return self._inject([fault], at_s)
         return CommandResult.not_supported(
             f"Inject failure: unit {_UNIT_NAMES.get(unit, unit)} not simulated (MOTOR, GYRO, "
             "ACCEL, MAG, BARO, GPS are)")
@@ -331,12 +332,26 @@ class SimVehicle:
                                rate=self.sim_params.value(f"SIM_FI_{stem}_DRIFT"))
         return None
 
-    def _inject(self, what: str, instance: int, faults: list[Fault]) -> CommandResult:
+    def _inject(self, faults: list[Fault], at_s: float | None) -> CommandResult:
         t = self.world.time_s
+        if at_s is not None and at_s > t:
+            return self._schedule(faults, at_s)
         for fault in faults:
             fault_id = self.world.faults.apply_now(fault, t)
             self._quiet_ids.add(fault_id)
             self.port.post(Severity.WARNING, f"SIM: injected {fault.describe()}")
+        return CommandResult.ok()
+
+    def _schedule(self, faults: list[Fault], at_s: float) -> CommandResult:
+        """Schedule ``faults`` at simulated time ``at_s``; the engine's own events announce
+        them ("fault scheduled", then "fault started"). A repeat of a pending identical
+        injection (a command re-sent because its ACK was lost) adds nothing."""
+        engine = self.world.faults
+        pending = {s.fault for s in engine.scheduled()}
+        for fault in faults:
+            timed = replace(fault, start_s=at_s)  # injected faults have no end (end_s None)
+            if timed not in pending:
+                engine.schedule(timed)
         return CommandResult.ok()
 
     def _clear_unit(self, what: str, match: Callable[[Fault], bool]) -> CommandResult:

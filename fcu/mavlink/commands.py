@@ -23,7 +23,8 @@ DO_SET_HOME 179 (p1 = 1: here; else p5..p7), DO_REPOSITION 192 (p4 yaw deg, posi
 DO_SET_MISSION_CURRENT 224 (p1 seq), PREFLIGHT_REBOOT_SHUTDOWN 246 (p1 = 1 reboot; 0 no-op),
 MISSION_START 300 (p1/p2 ignored: runs from the current item),
 COMPONENT_ARM_DISARM 400 (p1 1/0, p2 = 21196 forces),
-GET_HOME_POSITION 410, INJECT_FAILURE 420 (p1 unit, p2 type, p3 instance),
+GET_HOME_POSITION 410, INJECT_FAILURE 420 (p1 unit, p2 type, p3 instance, p4 simulated time
+of the injection, s since boot, 0 = now),
 GET_MESSAGE_INTERVAL 510, SET_MESSAGE_INTERVAL 511 (p1 message id, p2 interval us: -1 stop,
 0 default), REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES 520.
 """
@@ -350,7 +351,9 @@ class CommandDispatcher:
             return _denied(f"Inject failure: instance {r.params[2]} not in 0..255")
         if self._injector is None:
             return _unsupported("Inject failure: no fault injector on this vehicle")
-        return _from_result(self._injector.inject_failure(unit, kind, instance))
+        at = r.params[3]  # our extension: simulated time of the injection, 0/NaN = now
+        at_s = float(at) if math.isfinite(at) and at > 0.0 else None
+        return _from_result(self._injector.inject_failure(unit, kind, instance, at_s))
 
     # ----------------------------------------------------------------------- messages
     def _send_message(self, msg_id: int) -> CommandOutcome:

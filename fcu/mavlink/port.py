@@ -21,7 +21,9 @@ them through unchanged; the injector decides what it supports and answers
 where the full table and the magnitudes live) maps them onto the simulator's fault kinds
 (instance 0 = every instance, 1..4 = that one; motors in the thesis numbering of
 docs/design.md; ``OK`` clears whatever the unit had, except faults its ``SIM_*`` parameters
-hold):
+hold). param4, unused by the MAVLink spec, may carry the simulated time (s since boot) at
+which the injection takes effect, so that a ground station can place a fault on the
+simulation's clock exactly whatever the link's delay; 0 (what MAVSDK sends) means now:
 
 =====================  ====================================================================
 unit                   types
@@ -508,8 +510,11 @@ class ParamProvider(Protocol):
 class FailureInjector(Protocol):
     """Narrow fault-injection port (MAV_CMD_INJECT_FAILURE); see the module docstring."""
 
-    def inject_failure(self, unit: int, failure_type: int, instance: int) -> CommandResult:
-        """Inject (``failure_type`` != 0) or clear (0) a failure of ``unit`` ``instance``."""
+    def inject_failure(self, unit: int, failure_type: int, instance: int,
+                       at_s: float | None = None) -> CommandResult:
+        """Inject (``failure_type`` != 0) or clear (0) a failure of ``unit`` ``instance``;
+        ``at_s``: simulated time (s since boot) at which an injection takes effect, None =
+        now (an ``at_s`` already past also means now)."""
         ...
 
 

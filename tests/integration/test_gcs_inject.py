@@ -1,8 +1,10 @@
 """Both injection routes, parameter faults and a crash, on a short hover mission.
 
 ``--inject-via command`` sends MAV_CMD_INJECT_FAILURE (unit MOTOR, type WRONG, instance =
-motor) after setting SIM_FI_LOE, as MAVSDK's Failure plugin would; a parameter fault sets a
-SIM_* parameter at its time; a total loss of one motor in flight ends in a crash (exit 1).
+motor) after setting SIM_FI_LOE, as MAVSDK's Failure plugin would, with param4 = the simulated
+time it is due (the vehicle schedules it); ``param`` sets SIM_MOTn_LOE when due; a parameter
+fault sets a SIM_* parameter at its time; a total loss of one motor in flight ends in a crash
+(exit 1).
 """
 
 from __future__ import annotations
@@ -46,9 +48,22 @@ def test_inject_failure_command_and_a_parameter_fault(vehicle_link) -> None:  # 
     report = outcome.report
     injections = [(i.motor, i.loe) for i in report.injections]
     assert injections == [(2, 0.25)]
-    assert report.injections[0].text == "SIM: injected motor 2: loe 25 % (step)"
+    # scheduled on the vehicle's clock: announced when it starts, on the planned tick
+    assert report.injections[0].text == "SIM: fault started: motor 2: loe 25 % (step)"
+    assert motor_fault.error_s == pytest.approx(0.0, abs=1e-9)
     assert [d.motor for d in report.detections] == [2]
     assert report.params["SIM_MASS_DROP"] == pytest.approx(0.3)
+
+
+@pytest.mark.vehicle(speedup=10, seed=2)
+def test_a_parameter_injection_takes_effect_on_arrival(vehicle_link) -> None:  # type: ignore[no-untyped-def]
+    outcome = vehicle_link.fly(mission=HOVER, inject_via="param",
+                               faults=[FaultSpec(motor=2, loe=0.25, at_s=6.0)])
+    assert outcome.error is None, outcome.error
+    (timing,) = outcome.timing
+    # sent ahead by the measured lag: lands within a few ticks of its target, load permitting
+    assert timing.error_s is not None and abs(timing.error_s) <= 1.0  # s simulated
+    assert outcome.report.injections[0].text == "SIM: SIM motor 2: motor 2: loe 25 % (step)"
 
 
 def test_total_loss_of_a_motor_is_a_crash(tmp_path: Path) -> None:

@@ -307,9 +307,12 @@ class FakeInjector:
     """Supports motor OFF/WRONG/OK and gyro STUCK; everything else UNSUPPORTED."""
 
     calls: list[tuple[int, int, int]] = field(default_factory=list)
+    times: list[float | None] = field(default_factory=list)
 
-    def inject_failure(self, unit: int, failure_type: int, instance: int) -> CommandResult:
+    def inject_failure(self, unit: int, failure_type: int, instance: int,
+                       at_s: float | None = None) -> CommandResult:
         self.calls.append((unit, failure_type, instance))
+        self.times.append(at_s)
         if unit == M.FAILURE_UNIT_SYSTEM_MOTOR and failure_type in (0, 1, 4):
             if instance > 4:
                 return CommandResult.denied(f"motor {instance} does not exist")

@@ -210,6 +210,17 @@ def test_inject_failure_reaches_the_injector(fly: tuple[Gcs, VehicleThread]) -> 
     assert gcs.ack(M.MAV_CMD_INJECT_FAILURE, 101, 1, 9).result == DENIED  # no motor 9
     assert vehicle.injector is not None
     assert vehicle.injector.calls == [(101, 4, 3), (101, 0, 0), (101, 1, 9)]
+    assert vehicle.injector.times == [None, None, None]  # param4 = 0: now
+
+
+def test_inject_failure_param4_is_the_simulated_time_of_the_injection(
+        fly: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = fly
+    assert gcs.ack(M.MAV_CMD_INJECT_FAILURE, 101, 4, 3, 22.5).result == ACCEPTED
+    assert gcs.ack(M.MAV_CMD_INJECT_FAILURE, 101, 4, 3, NAN).result == ACCEPTED
+    assert gcs.ack(M.MAV_CMD_INJECT_FAILURE, 101, 4, 3, -1.0).result == ACCEPTED
+    assert vehicle.injector is not None
+    assert vehicle.injector.times == [22.5, None, None]  # NaN and negative: now
 
 
 def test_inject_failure_without_an_injector_is_unsupported() -> None:
