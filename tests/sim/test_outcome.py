@@ -1,0 +1,106 @@
+"""The outcome judge on hand-made truth sequences: each limit decides, and only once."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from sim.outcome import MissionArea, OutcomeJudge, OutcomeLimits, tilt_deg
+
+LEVEL = (0.0, 0.0, 0.0)
+AREA = [(0.0, 0.0, 0.0), (1.0, 1.0, -0.6)]  # home and the thesis square at 0.6 m
+
+
+def fly(judge: OutcomeJudge, seconds: float, t0: float = 0.0, z: float = -0.6,
+        north: float = 0.5, euler: tuple[float, float, float] = LEVEL) -> float:
+    t = t0
+    for _ in range(int(round(seconds / 0.01))):
+        t += 0.01
+        judge.observe(t, (north, 0.5, z), euler, False, None, True)
+    return t
+
+
+def touch(judge: OutcomeJudge, t: float, speed: float, armed: bool = True,
+          euler: tuple[float, float, float] = LEVEL) -> float:
+    t += 0.01
+    judge.observe(t, (0.5, 0.5, 0.0), euler, True, speed, armed)
+    return t
+
+
+def test_a_gentle_landing_then_disarm_is_landed_at_the_touchdown() -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    t = fly(judge, 5.0)
+    t_down = touch(judge, t, 0.1)
+    assert judge.outcome is None  # still armed on the ground
+    touch(judge, t_down + 1.0, 0.1, armed=False)
+    assert judge.outcome is not None
+    assert (judge.outcome.kind, judge.outcome.cause) == ("landed", "touchdown")
+    assert judge.outcome.time_s == pytest.approx(t_down)
+    assert judge.drain() == [judge.outcome] and judge.drain() == []
+
+
+@pytest.mark.parametrize(("speed", "roll_deg", "cause"), [(2.6, 0.0, "impact_speed"),
+                                                          (0.5, 48.0, "impact_tilt")])
+def test_a_hard_or_tilted_touchdown_is_a_crash(speed: float, roll_deg: float,
+                                               cause: str) -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    t = fly(judge, 2.0, euler=(math.radians(roll_deg), 0.0, 0.0))
+    t_down = touch(judge, t, speed)
+    assert judge.outcome is not None
+    assert (judge.outcome.kind, judge.outcome.cause) == ("crashed", cause)
+    assert judge.outcome.time_s == pytest.approx(t_down)
+    # what follows (hops, a later gentle landing) does not change a crash
+    t = fly(judge, 1.0, t0=t_down)
+    touch(judge, t, 0.1, armed=False)
+    assert judge.outcome.kind == "crashed" and judge.drain() == [judge.outcome]
+
+
+def test_limits_are_exclusive_bounds() -> None:
+    judge = OutcomeJudge(MissionArea(AREA), OutcomeLimits(impact_speed_m_s=1.5))
+    touch(judge, fly(judge, 1.0), 1.5, armed=False)  # exactly the limit: not a crash
+    assert judge.outcome is not None and judge.outcome.kind == "landed"
+
+
+def test_leaving_the_mission_area_by_five_metres_is_a_flyaway() -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    t = fly(judge, 1.0, north=1.0 + 4.99)  # 4.99 m north of the square: not yet
+    assert judge.outcome is None
+    t = fly(judge, 0.01, t0=t, north=1.0 + 5.01)
+    assert judge.outcome is not None and judge.outcome.kind == "flyaway"
+    assert judge.outcome.time_s == pytest.approx(t)
+    assert judge.outcome.distance_m == pytest.approx(5.01)
+
+
+def test_climbing_away_is_a_flyaway_too() -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    fly(judge, 1.0, z=-0.6 - 5.2)
+    assert judge.outcome is not None and judge.outcome.kind == "flyaway"
+
+
+def test_end_of_run_in_the_air_on_the_ground_and_never_flown() -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    t = fly(judge, 1.0)
+    assert judge.finish(t).kind == "airborne"
+    judge = OutcomeJudge(MissionArea(AREA))
+    t = touch(judge, fly(judge, 1.0), 0.2)
+    outcome = judge.finish(t + 3.0)
+    assert (outcome.kind, outcome.time_s) == ("landed", pytest.approx(t))
+    judge = OutcomeJudge(MissionArea(AREA))
+    judge.observe(0.01, (0.0, 0.0, 0.0), LEVEL, True, None, False)
+    assert (judge.finish(60.0).kind, judge.finish(60.0).cause) == ("landed", "no_flight")
+
+
+def test_rearming_starts_a_new_flight() -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    touch(judge, fly(judge, 1.0), 0.1, armed=False)
+    assert judge.outcome is not None and judge.outcome.kind == "landed"
+    judge.rearm()
+    touch(judge, fly(judge, 1.0, t0=10.0), 3.0)
+    assert [o.kind for o in judge.drain()] == ["landed", "crashed"]
+
+
+def test_tilt_is_the_angle_of_the_body_z_axis_from_the_vertical() -> None:
+    assert tilt_deg((math.radians(30.0), 0.0, 1.0)) == pytest.approx(30.0)
+    assert tilt_deg((math.radians(30.0), math.radians(40.0), 0.0)) == pytest.approx(
+        math.degrees(math.acos(math.cos(math.radians(30.0)) * math.cos(math.radians(40.0)))))
