@@ -111,6 +111,7 @@ from fcu.mavlink.port import (
 )
 from fcu.navigation.navigator import CommandResult as NavResult
 from fcu.navigation.navigator import Mode, mode_name
+from flightdata.geometry import body_rates_from_euler_rates as _body_rates
 from flightdata.mission import MissionItem as NavItem
 from sim.world import PlantEvent, World, WorldConfig
 from sim.world.faults import ActuatorFault, Fault, FaultEvent, SensorFault, StructuralFault
@@ -845,18 +846,6 @@ def warm_up(setup: VehicleSetup, ticks: int = 50) -> None:
     world.truth()
     world.drain_events()
     autopilot.drain_events()
-
-
-def _body_rates(euler_rad: np.ndarray, euler_rate: np.ndarray) -> np.ndarray:
-    """Body rates p, q, r (rad/s) of ZYX Euler angles and their derivatives."""
-    phi, theta = float(euler_rad[0]), float(euler_rad[1])
-    dphi, dtheta, dpsi = (float(v) for v in euler_rate)
-    sp, cp = math.sin(phi), math.cos(phi)
-    st, ct = math.sin(theta), math.cos(theta)
-    # p = phi' - psi' sin(theta); q = theta' cos(phi) + psi' sin(phi) cos(theta);
-    # r = -theta' sin(phi) + psi' cos(phi) cos(theta)
-    return np.array([dphi - dpsi * st, dtheta * cp + dpsi * sp * ct,
-                     -dtheta * sp + dpsi * cp * ct])
 
 
 def _to_nav_item(item: MissionItem) -> NavItem | CommandResult:
