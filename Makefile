@@ -20,8 +20,8 @@ test: setup
 	$(BIN)/python -m pytest -q
 
 lint: setup
-	$(BIN)/ruff check sim fcu gcs tests
-	$(BIN)/mypy sim fcu gcs
+	$(BIN)/ruff check sim fcu gcs flightdata tests
+	$(BIN)/mypy sim fcu gcs flightdata
 
 bench: setup
 	$(BIN)/ftc-bench

@@ -2,7 +2,10 @@
 
 Modules: :mod:`gcs.mavlink` (dialect and wire version, .tlog reading), :mod:`gcs.station`
 (the link: commands, parameters, missions, injections), :mod:`gcs.flight` (the whole flight),
-:mod:`gcs.analysis` (the thesis table from telemetry), :mod:`gcs.mission`,
-:mod:`gcs.faults`, :mod:`gcs.records` (.tlog and event log), :mod:`gcs.spawn` (a vehicle child
-process), :mod:`gcs.cli` (``ftc-gcs``), :mod:`gcs.pytest_plugin` (the ``vehicle_link`` fixture).
+:mod:`gcs.analysis` (telemetry to the thesis table and a flight series), :mod:`gcs.alignment`
+(truth and references on the SIM_STATE samples), :mod:`gcs.table` (the table and its text),
+:mod:`gcs.report` (the Markdown report), :mod:`gcs.mission`, :mod:`gcs.faults`,
+:mod:`gcs.records` (.tlog and event log), :mod:`gcs.spawn` (a vehicle child process),
+:mod:`gcs.cli` (``ftc-gcs``), :mod:`gcs.pytest_plugin` (the ``vehicle_link`` fixture).
+Figures, recordings and metrics are the shared toolkit's (:mod:`flightdata`).
 """

@@ -1,9 +1,11 @@
 """The thesis table from telemetry: what a ground station can compute from the MAVLink stream.
 
 :class:`FlightAnalyzer` is fed every packet of a flight in order (live from the link, or
-from a .tlog) and produces a :class:`FlightReport`. ``ftc-gcs fly`` and ``ftc-gcs report``
-run the same code over the same packets, so a report recomputed from a flight's .tlog equals
-the table printed at the end of that flight.
+from a .tlog) and produces a :class:`gcs.table.FlightReport` (:meth:`FlightAnalyzer.report`)
+and the aligned arrays behind it as a :class:`flightdata.series.FlightSeries`
+(:meth:`FlightAnalyzer.series`, for figures and recordings). ``ftc-gcs fly`` and
+``ftc-gcs report`` run the same code over the same packets, so a report recomputed from a
+flight's .tlog equals the table printed at the end of that flight.
 
 Sources (vehicle messages; docs: fcu/mavlink/messages.py)
 ---------------------------------------------------------
@@ -17,7 +19,7 @@ true position              SIM_STATE lat_int, lon_int (degE7; the float32 lat, l
                            latitude/longitude/altitude minus home's local x, y, z). degE7
                            resolves only ~1 cm horizontally, so north and east are the
                            integral of SIM_STATE's true velocity vn, ve anchored to the mean
-                           geodetic position (:meth:`FlightAnalyzer.truth_ned`)
+                           geodetic position (:func:`gcs.alignment.truth_ned`)
 motor commands             SERVO_OUTPUT_RAW servo1..4 = motors 1..4,
                            u = pwm_max (PWM_us - 1000) / 1000
 LOE estimates              NAMED_VALUE_FLOAT LOE1..LOE4 (TSKF)
@@ -58,41 +60,33 @@ that).
 
 Errors are reference minus truth: RMS and maximum of |error| in x, y, z (m) and roll, pitch,
 yaw (deg, wrapped to +-180); control effort is the mean over those samples of the sum of
-the four motor commands (thesis Table 7.2: 0.0796 at hover).
+the four motor commands (thesis Table 7.2: 0.0796 at hover), computed by
+:mod:`flightdata.metrics` as the runner's are.
 """
 
 from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from flightdata.geometry import euler_from_quat
+from flightdata.metrics import control_effort, detection_latency_s, tracking_errors
+from flightdata.series import FlightEvent, FlightSeries
+from flightdata.thesis import AXES
+from gcs.alignment import Aligned, align, hold, truth_ned
 from gcs.mavlink import MAVLinkMessage, mavlink2, read_tlog
+from gcs.table import Detection, FlightReport, Injection
 
-__all__ = [
-    "AXES",
-    "Detection",
-    "FlightAnalyzer",
-    "FlightEvent",
-    "FlightReport",
-    "FlightSeries",
-    "Injection",
-    "analyze_tlog",
-    "replay_tlog",
-    "euler_from_quat",
-    "format_report",
-]
+__all__ = ["FlightAnalyzer", "analyze_tlog", "replay_tlog"]
 
 _M = mavlink2
-AXES = (("x", "m"), ("y", "m"), ("z", "m"), ("roll", "deg"), ("pitch", "deg"), ("yaw", "deg"))
 PWM_MAX = 0.05  # motor command at full power (Qball-X4, thesis Table 7.1)
-WGS84_A_M = 6378137.0  # m
-WGS84_E2 = 6.69437999014e-3
 _DETECTION = re.compile(r"motor\s+(\d)\s+lost about\s+(\d+(?:\.\d+)?)\s*%\s*effectiveness",
                         re.IGNORECASE)
 _CRASH = re.compile(r"\bcrash", re.IGNORECASE)
@@ -100,24 +94,6 @@ _CRASH = re.compile(r"\bcrash", re.IGNORECASE)
 _FAULT_ON = re.compile(r"^SIM: (?:fault started: |injected |SIM motor [1-4]: )motor ([1-4]): ")
 _FAULT_OFF = re.compile(r"^SIM: (?:fault (?:ended|cleared): |cleared |ended )motor ([1-4]): ")
 _UINT32_US = 1 << 32
-
-
-def euler_from_quat(q_wxyz: Iterable[float]) -> tuple[float, float, float]:
-    """ZYX roll, pitch, yaw (rad) of a quaternion [w, x, y, z], body FRD to NED."""
-    w, x, y, z = (float(v) for v in q_wxyz)
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return roll, pitch, yaw
-
-
-def metres_per_degree(lat_deg: float) -> tuple[float, float]:
-    """Metres per degree of latitude and longitude at ``lat_deg`` (WGS84 radii of curvature)."""
-    s2 = math.sin(math.radians(lat_deg)) ** 2
-    w = math.sqrt(1.0 - WGS84_E2 * s2)
-    rad = math.pi / 180.0
-    return (WGS84_A_M * (1.0 - WGS84_E2) / (w * w * w) * rad,
-            WGS84_A_M / w * math.cos(math.radians(lat_deg)) * rad)
 
 
 def _text(raw: object) -> str:
@@ -128,157 +104,6 @@ def _text(raw: object) -> str:
 
 def _f32(value: float) -> float:
     return float(np.float32(value))
-
-
-@dataclass(frozen=True)
-class FlightEvent:
-    """Something the ground station saw, for the event log.
-
-    Attributes
-    ----------
-    time_s : float or None
-        Vehicle simulated time, s.
-    kind : str
-        ACK, PARAM, STATUS, MODE, ARM, MISSION, LANDED, INJECT, DETECT, CRASH.
-    text : str
-    """
-
-    time_s: float | None
-    kind: str
-    text: str
-
-
-@dataclass(frozen=True)
-class Injection:
-    """A loss of effectiveness the vehicle accepted.
-
-    Attributes
-    ----------
-    motor : int
-        1..4.
-    loe : float
-        Loss of effectiveness now in force (0 clears).
-    time_s : float
-        Vehicle time at which it took effect, s.
-    text : str
-        The simulator's STATUSTEXT.
-    """
-
-    motor: int
-    loe: float
-    time_s: float
-    text: str
-
-
-@dataclass(frozen=True)
-class Detection:
-    """A fault detection the vehicle reported (STATUSTEXT), with its latency.
-
-    Attributes
-    ----------
-    motor : int
-    percent : float
-        The loss the vehicle estimated, %.
-    time_s : float
-        Vehicle time of the report, s.
-    latency_s : float or None
-        Time since the latest injection on that motor took effect; None when there was none.
-    text : str
-    """
-
-    motor: int
-    percent: float
-    time_s: float
-    latency_s: float | None
-    text: str
-
-
-@dataclass
-class FlightReport:
-    """The thesis-style result of one flight (units: m, deg, PWM, s)."""
-
-    rms: dict[str, float | None]
-    max: dict[str, float | None]
-    control_effort: float | None
-    flight_s: float
-    samples: int
-    mission_start_s: float | None
-    loe: list[dict[str, Any]]
-    injections: list[Injection]
-    detections: list[Detection]
-    crashed: bool
-    vehicle_time_s: float | None
-    params: dict[str, float] = field(default_factory=dict)
-
-    def to_json(self) -> dict[str, Any]:
-        """A JSON-ready dict (keys as ``ftc-scenario run --json`` where they overlap)."""
-        out = asdict(self)
-        out["injections"] = [asdict(i) for i in self.injections]
-        out["detections"] = [asdict(d) for d in self.detections]
-        return out
-
-
-@dataclass(frozen=True, eq=False)
-class FlightSeries:
-    """The aligned telemetry of a flight (:meth:`FlightAnalyzer.series`), SI units, NED.
-
-    Attributes
-    ----------
-    time_s : (n,) SIM_STATE sample times on the vehicle clock, s
-    pos_ned : (n, 3) true position about the origin, m
-    euler_rad : (n, 3) true ZYX roll, pitch, yaw, rad
-    flying : (n,) bool, the samples the table counts (fresh references, airborne)
-    ref_pos_ned : (n, 3) POSITION_TARGET_LOCAL_NED held on the samples, m (NaN: none fresh)
-    ref_euler_rad : (n, 3) ATTITUDE_TARGET as ZYX Euler angles, held, rad (NaN: none fresh)
-    pwm_time_s : (m,) SERVO_OUTPUT_RAW times, s
-    pwm : (m, 4) motor commands 1..4 (unit duty, 0..pwm_max)
-    loe_estimate_time_s, loe_estimate : four (k_i,) arrays each, NAMED_VALUE_FLOAT LOE1..LOE4
-    injected_loe : (n, 4) loss of effectiveness in force on each motor (NaN: lock/hard-over)
-    pwm_max : motor command at PWM 2000 us
-    mission_start_s : vehicle time of MISSION_START, s, or None
-    injections, detections, events : what the analyzer saw, in order
-    home_ned : home's local (x, y, z), m, or None
-    """
-
-    time_s: np.ndarray
-    pos_ned: np.ndarray
-    euler_rad: np.ndarray
-    flying: np.ndarray
-    ref_pos_ned: np.ndarray
-    ref_euler_rad: np.ndarray
-    pwm_time_s: np.ndarray
-    pwm: np.ndarray
-    loe_estimate_time_s: tuple[np.ndarray, ...]
-    loe_estimate: tuple[np.ndarray, ...]
-    injected_loe: np.ndarray
-    pwm_max: float
-    mission_start_s: float | None
-    injections: list[Injection]
-    detections: list[Detection]
-    events: list[FlightEvent]
-    home_ned: tuple[float, float, float] | None
-
-    def position_error(self) -> np.ndarray:
-        """Reference minus truth on the flying samples, (k, 3), m (what the table uses)."""
-        return self.ref_pos_ned[self.flying] - self.pos_ned[self.flying]
-
-    def attitude_error_deg(self) -> np.ndarray:
-        """Reference minus truth on the flying samples, wrapped to +-180 deg, (k, 3)."""
-        err = self.ref_euler_rad[self.flying] - self.euler_rad[self.flying]
-        return np.degrees((err + np.pi) % (2.0 * np.pi) - np.pi)
-
-
-@dataclass(frozen=True, eq=False)
-class _Aligned:
-    truth: np.ndarray
-    pos: np.ndarray
-    pos_ref: np.ndarray
-    att_ref: np.ndarray
-    i_pos: np.ndarray
-    fresh_pos: np.ndarray
-    i_att: np.ndarray
-    fresh_att: np.ndarray
-    flying: np.ndarray
 
 
 @dataclass
@@ -581,9 +406,8 @@ class FlightAnalyzer:
         return f", mission +{t - self.mission_start_s:.3f} s"
 
     def _detection(self, t: float, motor: int, percent: float, text: str) -> None:
-        before = [i for i in self.injections
-                  if i.motor == motor and i.time_s <= t and i.loe != 0.0]
-        latency = t - before[-1].time_s if before else None
+        latency = detection_latency_s(t, motor,
+                                      ((i.motor, i.loe, i.time_s) for i in self.injections))
         det = Detection(motor=motor, percent=percent, time_s=t, latency_s=latency, text=text)
         self.detections.append(det)
         lat = "no injection on that motor" if latency is None else \
@@ -593,49 +417,17 @@ class FlightAnalyzer:
 
     # ------------------------------------------------------------------ results
     def truth_ned(self, rows: np.ndarray) -> np.ndarray | None:
-        """True NED positions (m) of SIM_STATE rows; None until HOME_POSITION is known.
+        """True NED positions (m) of SIM_STATE rows; None until HOME_POSITION is known
+        (:func:`gcs.alignment.truth_ned`)."""
+        return None if self.home is None else truth_ned(rows, self.home)
 
-        North and east: the integral of the true velocity (``vn``, ``ve``, trapezoids between
-        samples), anchored to the mean of the geodetic positions over each stretch without a
-        gap. The geodetic position alone is coarse: ``lat_int``/``lon_int`` resolve 1e-7
-        degree (about 1 cm), the float32 ``lat``/``lon`` 0.4 m at 35 degrees (they are used
-        where finer, near the equator or the prime meridian). The velocity carries the
-        millimetres, the mean of ~10^3 quantised fixes the constant. Down: ``alt`` (float32,
-        AMSL: 0.06 mm at 584 m) against home's altitude.
-        """
-        if self.home is None:
-            return None
-        lat_e7, lon_e7, alt_mm, hx, hy, hz = self.home
-        north_per_deg, east_per_deg = metres_per_degree(lat_e7 * 1e-7)
-        lat = _finest(rows[:, 7], rows[:, 4])
-        lon = _finest(rows[:, 8], rows[:, 5])
-        north = (lat - lat_e7 * 1e-7) * north_per_deg + hx
-        dlon = (lon - lon_e7 * 1e-7 + 180.0) % 360.0 - 180.0
-        east = dlon * east_per_deg + hy
-        down = (alt_mm * 1e-3 - rows[:, 6]) + hz
-        north = _velocity_aided(rows[:, 0], north, rows[:, 9])
-        east = _velocity_aided(rows[:, 0], east, rows[:, 10])
-        return np.column_stack([north, east, down])
-
-    def _aligned(self) -> _Aligned | None:
+    def _aligned(self) -> Aligned | None:
         """Truth, references and the flying mask on the SIM_STATE samples (None: no data)."""
         truth = np.array(self._truth, dtype=float).reshape(-1, 11)
-        pos = self.truth_ned(truth) if len(truth) else None
-        if pos is None or not self._pos_ref or not self._att_ref:
+        if self.home is None or not len(truth) or not self._pos_ref or not self._att_ref:
             return None
-        t = truth[:, 0]
-        pos_ref = np.array(self._pos_ref)
-        att_ref = np.array(self._att_ref)
-        i_pos, fresh_pos = _hold(pos_ref[:, 0], t, fresh_s=_stale_after(pos_ref[:, 0]))
-        i_att, fresh_att = _hold(att_ref[:, 0], t, fresh_s=_stale_after(att_ref[:, 0]))
-        assert self.home is not None
-        home_alt_m = self.home[2] * 1e-3
-        threshold = max(self.airborne_alt_m,
-                        2.0 * float(np.spacing(np.float32(abs(home_alt_m) + 1.0))))
-        airborne = (-pos[:, 2] + self.home[5]) > threshold
-        flying = fresh_pos & fresh_att & airborne
-        return _Aligned(truth=truth, pos=pos, pos_ref=pos_ref, att_ref=att_ref, i_pos=i_pos,
-                        fresh_pos=fresh_pos, i_att=i_att, fresh_att=fresh_att, flying=flying)
+        return align(truth, np.array(self._pos_ref), np.array(self._att_ref), self.home,
+                     self.airborne_alt_m)
 
     def _servo_sorted(self) -> np.ndarray:
         servo = np.array(self._servo, dtype=float).reshape(-1, 5)
@@ -646,7 +438,10 @@ class FlightAnalyzer:
 
         The same alignment as :meth:`report` (sample-and-hold of the references on the
         SIM_STATE samples, the same flying mask), so errors over ``flying`` rows are exactly
-        the ones the table's RMS and maximum are taken over.
+        the ones the table's RMS and maximum are taken over. Motor commands and LOE
+        estimates keep their own message times; telemetry carries no wind, no position
+        estimate and no take-off/landing phase (those fields are None). Fault onsets are
+        the injections that took effect (not the clearings).
         """
         al = self._aligned()
         servo = self._servo_sorted()
@@ -665,13 +460,12 @@ class FlightAnalyzer:
             ref_euler = np.where(al.fresh_att[:, None], al.att_ref[al.i_att, 1:4], np.nan)
             flying = al.flying
         return FlightSeries(
-            time_s=t, pos_ned=pos, euler_rad=euler, flying=flying, ref_pos_ned=ref_pos,
+            time_s=t, flying=flying, pos_ned=pos, euler_rad=euler, ref_pos_ned=ref_pos,
             ref_euler_rad=ref_euler, pwm_time_s=servo[:, 0], pwm=servo[:, 1:5],
-            loe_estimate_time_s=loe_t, loe_estimate=loe_v,
-            injected_loe=self.injected_loe_at(t), pwm_max=self.pwm_max,
-            mission_start_s=self.mission_start_s, injections=list(self.injections),
-            detections=list(self.detections), events=list(self.events),
-            home_ned=None if self.home is None else self.home[3:6])
+            pwm_max=self.pwm_max, loe_estimate_time_s=loe_t, loe_estimate=loe_v,
+            loe_injected=self.injected_loe_at(t),
+            fault_times_s=tuple(sorted({i.time_s for i in self.injections if i.loe != 0.0})),
+            events=tuple(self.events))
 
     def injected_loe_at(self, time_s: np.ndarray) -> np.ndarray:
         """The loss of effectiveness in force on motors 1..4 at each time, shape (n, 4).
@@ -695,20 +489,16 @@ class FlightAnalyzer:
         n = int(np.count_nonzero(flying))
         if n == 0:
             return self._make_report()
-        pos_err = pos_ref[i_pos[flying], 1:4] - pos[flying]
-        att_err = att_ref[i_att[flying], 1:4] - truth[flying, 1:4]
-        att_err = np.degrees((att_err + np.pi) % (2.0 * np.pi) - np.pi)
-        errors = np.column_stack([pos_err, att_err])
-        rms: dict[str, float | None] = {axis: float(np.sqrt(np.mean(errors[:, k] ** 2)))
-                                        for k, (axis, _) in enumerate(AXES)}
-        mx: dict[str, float | None] = {axis: float(np.max(np.abs(errors[:, k])))
-                                       for k, (axis, _) in enumerate(AXES)}
+        errors = tracking_errors(pos_ref[i_pos[flying], 1:4], pos[flying],
+                                 att_ref[i_att[flying], 1:4], truth[flying, 1:4])
+        rms: dict[str, float | None] = {axis: fig.rms for axis, fig in errors.items()}
+        mx: dict[str, float | None] = {axis: fig.max for axis, fig in errors.items()}
         effort = None
         if self._servo:
             servo = self._servo_sorted()
-            i_srv, have = _hold(servo[:, 0], t[flying], fresh_s=None)
+            i_srv, have = hold(servo[:, 0], t[flying], fresh_s=None)
             if np.all(have):
-                effort = float(np.mean(np.sum(servo[i_srv, 1:5], axis=1)))
+                effort = control_effort(servo[i_srv, 1:5])
         period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
         t_end = float(t[flying][-1])
         return self._make_report(rms=rms, mx=mx, effort=effort, flight_s=n * period,
@@ -754,69 +544,6 @@ def _loe_of(what: str) -> float:
         return 1.0
     m = re.match(r"loe ([0-9.eE+-]+) % \(step\)", what)
     return float(m.group(1)) / 100.0 if m else math.nan
-
-
-_GAP_S = 0.5  # s without SIM_STATE that ends a stretch of velocity integration
-
-
-def _velocity_aided(t_s: np.ndarray, coarse_m: np.ndarray, vel_m_s: np.ndarray) -> np.ndarray:
-    """Positions from integrated velocity, anchored to the mean coarse position per stretch.
-
-    Parameters
-    ----------
-    t_s : (n,) sample times, s, non-decreasing
-    coarse_m : (n,) positions, m, quantised (degE7) but unbiased
-    vel_m_s : (n,) their exact time derivative at the samples, m/s
-    """
-    out = np.array(coarse_m, dtype=float)
-    n = len(t_s)
-    if n < 2:
-        return out
-    dt = np.diff(t_s)
-    breaks = np.flatnonzero(dt > _GAP_S) + 1
-    for lo, hi in zip(np.r_[0, breaks], np.r_[breaks, n], strict=True):
-        if hi - lo < 2:
-            continue
-        seg_t = t_s[lo:hi]
-        seg_v = vel_m_s[lo:hi]
-        # x_k = x_0 + sum of (v_i + v_i+1) / 2 * dt_i
-        integral = np.r_[0.0, np.cumsum(0.5 * (seg_v[1:] + seg_v[:-1]) * np.diff(seg_t))]
-        out[lo:hi] = integral + float(np.mean(coarse_m[lo:hi] - integral))
-    return out
-
-
-def _finest(deg_f32: np.ndarray, deg_e7: np.ndarray) -> np.ndarray:
-    """Per sample, the float32 degrees where their resolution beats 1e-7, else degE7."""
-    finer = np.spacing(np.abs(deg_f32).astype(np.float32)) < 1e-7
-    return np.where(finer, deg_f32, deg_e7 * 1e-7)
-
-
-def _stale_after(t_src: np.ndarray) -> float:
-    """Age (s) beyond which a sample of a stream with these time stamps counts as stopped.
-
-    One period less a millisecond: a stream that keeps coming has a fresh sample at least
-    once per period (time stamps are whole milliseconds of the vehicle's ticks), so a sample
-    a full period old means the stream, and the controller behind it, stopped.
-    """
-    if len(t_src) < 2:
-        return 0.0005
-    return max(0.0005, float(np.median(np.diff(t_src))) - 0.001)
-
-
-def _hold(t_src: np.ndarray, t_query: np.ndarray,
-          fresh_s: float | None = 0.005) -> tuple[np.ndarray, np.ndarray]:
-    """Sample-and-hold: index of the latest source sample at or before each query time.
-
-    Returns the indices (0 where none) and whether each is valid: a source sample exists at
-    or before the query and, when ``fresh_s`` is given, is no older than ``fresh_s`` seconds
-    (a reference that stopped coming means the controller went idle).
-    """
-    idx = np.searchsorted(t_src, t_query + 1e-9, side="right") - 1
-    valid = idx >= 0
-    idx = np.where(valid, idx, 0)
-    if fresh_s is not None and len(t_src):
-        valid &= (t_query - t_src[idx]) <= fresh_s + 1e-9
-    return idx, valid
 
 
 def _severity(severity: int) -> str:
@@ -868,43 +595,3 @@ def replay_tlog(path: str | Path, *, pwm_max: float = PWM_MAX,
 def analyze_tlog(path: str | Path, *, pwm_max: float = PWM_MAX) -> FlightReport:
     """The :class:`FlightReport` of a recorded flight (what ``ftc-gcs report`` prints)."""
     return replay_tlog(path, pwm_max=pwm_max).report()
-
-
-def _fmt(value: float | None, digits: int = 4) -> str:
-    return "-" if value is None else f"{value:.{digits}f}"
-
-
-def format_report(report: FlightReport, title: str = "flight") -> str:
-    """The table as text: errors, control effort, LOE per motor, detections."""
-    lines = []
-    start = report.mission_start_s
-    head = f"{title}: {report.samples} in-flight samples, {report.flight_s:.2f} s in the air"
-    if start is not None:
-        head += f", mission started at vehicle t = {start:.2f} s"
-    if report.crashed:
-        head += "  CRASHED"
-    lines.append(head)
-    config = [f"{k} {report.params[k]:g}" for k in ("ATT_CTRL", "EST_TYPE", "DOB_TYPE")
-              if k in report.params]
-    if config:
-        lines.append("configuration: " + ", ".join(config))
-    lines.append(f"{'error':<10}{'RMS':>10}{'max':>10}")
-    for axis, unit in AXES:
-        lines.append(f"{axis + ' ' + unit:<10}{_fmt(report.rms[axis]):>10}"
-                     f"{_fmt(report.max[axis]):>10}")
-    lines.append(f"control effort {_fmt(report.control_effort, 5)} (mean sum of the 4 PWM)")
-    lines.append(f"{'motor':<7}{'injected':>9}{'at s':>9}{'estimated':>11}{'detected s':>12}"
-                 f"{'latency s':>11}")
-
-    def rel(t: float | None) -> str:
-        if t is None:
-            return "-"
-        return f"{t - start:.2f}" if start is not None else f"{t:.2f}"
-
-    for row in report.loe:
-        lines.append(f"{row['motor']:<7}{row['injected']:>9.3f}{rel(row['injected_at_s']):>9}"
-                     f"{_fmt(row['estimated'], 3):>11}{rel(row['detected_at_s']):>12}"
-                     f"{_fmt(row['latency_s'], 2):>11}")
-    if start is not None:
-        lines.append("(times in s after the mission start)")
-    return "\n".join(lines)

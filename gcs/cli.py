@@ -24,7 +24,8 @@ to a viewer or server already running, e.g. ``rerun+http://127.0.0.1:9876/proxy`
 ``--rrd PATH`` saves a rerun recording, ``--figures DIR`` the thesis-style figures (PNG and
 PDF), ``--report DIR`` a Markdown report embedding them next to the table. The last three are
 made from the .tlog after the flight (also after a failed one), the same way ``report``
-makes them from any .tlog (:mod:`gcs.recording`, :mod:`gcs.figures`, :mod:`gcs.report`).
+makes them from any .tlog (:mod:`flightdata.recording`, :mod:`flightdata.figures`,
+:mod:`gcs.report`).
 
 Fault specs: ``MOTOR:LOE@AT_S`` (``--fault 3:0.20@22``) or ``PARAM=VALUE@AT_S``
 (``--fault SIM_BARO_GLITCH=0.1@30``); times are simulated seconds after the mission start.
@@ -47,7 +48,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from flightdata import vocabulary
-from gcs.analysis import analyze_tlog, format_report
+from gcs.analysis import analyze_tlog
 from gcs.errors import EXIT_INTERRUPTED, EXIT_USAGE
 from gcs.faults import (
     TABLE_7_3,
@@ -61,6 +62,7 @@ from gcs.flight import FlightOutcome, FlightPlan, config_params, fly
 from gcs.mission import MissionFileError, WireItem, load_mission, thesis_mission
 from gcs.spawn import SpawnedVehicle, VehicleSpec
 from gcs.station import GroundStation
+from gcs.table import format_report
 
 PROG = "ftc-gcs"
 DEFAULT_URL = "udpin:0.0.0.0:14550"
@@ -327,8 +329,16 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def _live_recorder(target: str, gs: GroundStation, name: str) -> Any:
-    """A :class:`gcs.recording.LiveRecorder` on the ground station's clock (None: failed)."""
-    from gcs.recording import LiveRecorder, open_stream
+    """A :class:`flightdata.recording.LiveRecorder` on the ground station's clock (None:
+    failed).
+
+    It sends :meth:`gcs.analysis.FlightAnalyzer.series` of what has arrived every second of
+    vehicle time, at most every 0.5 s of wall time (the series is rebuilt each time), the
+    newest 0.1 s held back. Its north/east positions are the velocity-aided truth anchored to
+    the geodetic mean of the samples so far, which may move by a few mm as more arrive; the
+    recording written from the .tlog after the flight (``--rrd``) is exact.
+    """
+    from flightdata.recording import LiveRecorder, open_stream
 
     try:
         stream = open_stream(name, spawn=target == "spawn",
@@ -336,7 +346,7 @@ def _live_recorder(target: str, gs: GroundStation, name: str) -> Any:
     except Exception as err:  # a viewer that cannot start must not stop the flight
         print(f"{PROG}: warning: no live rerun stream ({target}): {err}", file=sys.stderr)
         return None
-    live = LiveRecorder(stream, gs.analyzer, owns_stream=True)
+    live = LiveRecorder(stream, gs.analyzer.series, owns_stream=True)
     gs.on_clock(live.on_clock)
     return live
 
@@ -349,7 +359,7 @@ def _write_views(args: argparse.Namespace, tlog: Path, report: Any) -> None:
 
     series = replay_tlog(tlog).series()
     if args.rrd is not None:
-        from gcs.recording import open_stream, write_recording
+        from flightdata.recording import open_stream, write_recording
 
         stream = open_stream(tlog.stem, rrd_path=args.rrd)
         try:
@@ -358,7 +368,7 @@ def _write_views(args: argparse.Namespace, tlog: Path, report: Any) -> None:
             stream.disconnect()
         print(f"recording: {args.rrd}")
     if args.figures is not None:
-        from gcs.figures import save_figures
+        from flightdata.figures import save_figures
 
         save_figures(series, args.figures)
         print(f"figures: {args.figures}")

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from flightdata import vocabulary
-from gcs.analysis import FlightReport, analyze_tlog
+from gcs.analysis import analyze_tlog
 from gcs.errors import CommandRefused, Crashed, FlightError, FlightTimeout
 from gcs.faults import FaultSpec, sorted_schedule
 from gcs.mission import WireItem
@@ -41,6 +41,7 @@ from gcs.station import (
     InjectionTiming,
     same_float32,
 )
+from gcs.table import FlightReport
 
 __all__ = ["FlightOutcome", "FlightPlan", "config_params", "fly"]
 

@@ -1,26 +1,20 @@
 """A Markdown report of one flight: the thesis table with its figures next to it.
 
 ``ftc-gcs fly --report DIR`` and ``ftc-gcs report FLIGHT.tlog --report DIR`` write
-``DIR/report.md`` and the figures of :mod:`gcs.figures` (PNG embedded, PDF linked) in
-``DIR/figures/``, all from the flight's .tlog.
+``DIR/report.md`` and every figure of :mod:`flightdata.figures` (PNG embedded, PDF linked)
+in ``DIR/figures/``, all from the flight's .tlog.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from gcs.analysis import FlightReport, FlightSeries, format_report
-from gcs.figures import FIGURE_KINDS, save_figures
+from flightdata.figures import save_figures
+from flightdata.report import relative_paths, section_lines, table_lines
+from flightdata.series import FlightSeries
+from gcs.table import FlightReport, format_report
 
-__all__ = ["FIGURE_CAPTIONS", "render_markdown", "write_report"]
-
-FIGURE_CAPTIONS = {
-    "trajectory": "trajectory (Fig. 7.3)",
-    "xyz": "X, Y, Z and errors (Fig. 7.4-7.6)",
-    "rpy": "roll, pitch, yaw and errors (Fig. 7.7-7.8)",
-    "pwm": "motor PWM (Fig. 7.9)",
-    "loe": "effectiveness, injected and estimated (Fig. 6.2)",
-}
+__all__ = ["render_markdown", "write_report"]
 
 
 def render_markdown(report: FlightReport, figures: dict[str, list[str]], *, title: str,
@@ -36,21 +30,13 @@ def render_markdown(report: FlightReport, figures: dict[str, list[str]], *, titl
                   "times are the vehicle's simulated clock.", ""]
     lines += ["```text", format_report(report, title="flight"), "```", ""]
     if report.detections:
-        lines += ["| motor | detected at (s) | estimated loss (%) | latency (s) |",
-                  "|---:|---:|---:|---:|"]
-        for d in report.detections:
-            lat = "-" if d.latency_s is None else f"{d.latency_s:.2f}"
-            lines.append(f"| {d.motor} | {d.time_s:.2f} | {d.percent:g} | {lat} |")
+        lines += table_lines(
+            ("motor", "detected at (s)", "estimated loss (%)", "latency (s)"),
+            ([str(d.motor), f"{d.time_s:.2f}", f"{d.percent:g}",
+              "-" if d.latency_s is None else f"{d.latency_s:.2f}"] for d in report.detections),
+            "rrrr")
         lines.append("")
-    for kind in FIGURE_KINDS:
-        if kind not in figures:
-            continue
-        paths = figures[kind]
-        caption = FIGURE_CAPTIONS[kind]
-        lines += [f"## {caption}", "", f"![{caption}]({paths[0]})", ""]
-        pdfs = [p for p in paths[1:] if p.endswith(".pdf")]
-        if pdfs:
-            lines += ["PDF: " + ", ".join(f"[{kind}]({p})" for p in pdfs), ""]
+    lines += section_lines(figures)
     return "\n".join(lines)
 
 
@@ -60,8 +46,7 @@ def write_report(out_dir: str | Path, report: FlightReport, series: FlightSeries
     root = Path(out_dir)
     root.mkdir(parents=True, exist_ok=True)
     written = save_figures(series, root / "figures", name=None)
-    rel = {kind: [p.relative_to(root).as_posix() for p in paths]
-           for kind, paths in written.items()}
     path = root / "report.md"
-    path.write_text(render_markdown(report, rel, title=title, source=source) + "\n")
+    path.write_text(render_markdown(report, relative_paths(written, root), title=title,
+                                    source=source) + "\n")
     return path

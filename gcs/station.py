@@ -36,12 +36,14 @@ from typing import Any
 
 import numpy as np
 
-from gcs.analysis import FlightAnalyzer, FlightEvent, FlightReport
+from flightdata.series import FlightEvent
+from gcs.analysis import FlightAnalyzer
 from gcs.errors import CommandRefused, FlightTimeout, MissionRejected, VehicleNotFound
 from gcs.faults import FaultSpec
 from gcs.mavlink import MAVLinkMessage, decode_packet, mavlink2, open_link
 from gcs.mission import WireItem, home_item
 from gcs.records import EventLog, TlogWriter
+from gcs.table import FlightReport
 
 __all__ = [
     "COPTER_MODE_AUTO",

@@ -15,40 +15,28 @@ from __future__ import annotations
 import signal
 import threading
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from fcu.autopilot import Autopilot
 from fcu.navigation.navigator import LandedState
-from sim.metrics import control_effort, tracking_errors
+from flightdata.geometry import euler_from_quat
+from flightdata.metrics import series_metrics
+from flightdata.recording import LiveRecorder, RecordingConfig, open_stream
+from flightdata.series import FlightEvent, FlightSeries
 from sim.scenario import Scenario
 from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World
-from sim.world.dynamics import quat_to_euler
 from sim.world.faults import FaultEvent
 
+if TYPE_CHECKING:
+    import rerun as rr
+
 AUTO_MODE = 3  # ArduCopter AUTO
-
-
-@dataclass
-class FlightLog:
-    """Per-tick arrays of a run (n ticks), SI units, NED."""
-
-    time_s: np.ndarray  # (n,)
-    flying: np.ndarray  # (n,) bool, a reference was tracked and the vehicle was airborne
-    free_flight: np.ndarray  # (n,) bool, the navigator was in the air (not taking off/landing)
-    ref_pos_ned: np.ndarray  # (n, 3)
-    pos_ned: np.ndarray  # (n, 3) truth
-    est_pos_ned: np.ndarray  # (n, 3) estimate fed to the controllers
-    ref_euler_rad: np.ndarray  # (n, 3) attitude reference tracked
-    euler_rad: np.ndarray  # (n, 3) truth
-    pwm: np.ndarray  # (n, 4) commanded
-    loe_estimate: np.ndarray  # (n, 4) TSKF
-    loe_true: np.ndarray  # (n, 4) injected
-    wind_ned: np.ndarray  # (n, 3)
 
 
 @dataclass
@@ -56,7 +44,7 @@ class FlightResult:
     """What a run produced: metrics, events and the log."""
 
     scenario: Scenario
-    log: FlightLog
+    log: FlightSeries  # every tick, with simulator truth, the estimate and the wind
     events: list[tuple[float, str, str]]  # (time_s, source, text)
     crashed: bool
     sim_s: float
@@ -65,11 +53,21 @@ class FlightResult:
     interrupted: bool = False  # ended early by Ctrl-C (``fly(..., interruptible=True)``)
 
 
-class _Recorder:
-    """Preallocated per-tick storage."""
+class TickLog:
+    """Preallocated per-tick storage of a headless flight (the runner's and the recorder's).
 
-    def __init__(self, n: int) -> None:
+    Parameters
+    ----------
+    capacity : int
+        Ticks it can hold.
+    pwm_max : float
+        Full-power motor command of the airframe (unit duty).
+    """
+
+    def __init__(self, capacity: int, pwm_max: float) -> None:
+        n = capacity
         self.n = 0
+        self.pwm_max = pwm_max
         self.t = np.zeros(n)
         self.flying = np.zeros(n, dtype=bool)
         self.free_flight = np.zeros(n, dtype=bool)
@@ -80,15 +78,58 @@ class _Recorder:
         self.euler = np.zeros((n, 3))
         self.pwm = np.zeros((n, 4))
         self.loe_est = np.zeros((n, 4))
-        self.loe_true = np.zeros((n, 4))
+        self.loe_injected = np.zeros((n, 4))
         self.wind = np.zeros((n, 3))
 
-    def log(self) -> FlightLog:
+    def append(self, world: World, autopilot: Autopilot) -> None:
+        """Store the tick just flown: truth, estimate, references, commands, wind."""
+        status = autopilot.status
+        assert status is not None
+        x = world.plant.state
+        t = world.time_s
         k = self.n
-        return FlightLog(self.t[:k], self.flying[:k], self.free_flight[:k], self.ref_pos[:k],
-                         self.pos[:k],
-                         self.est_pos[:k], self.ref_euler[:k], self.euler[:k], self.pwm[:k],
-                         self.loe_est[:k], self.loe_true[:k], self.wind[:k])
+        self.t[k] = t
+        self.pos[k] = x[0:3]
+        self.euler[k] = euler_from_quat(x[6:10])
+        self.est_pos[k] = status.estimate.pos_ned
+        self.pwm[k] = status.pwm
+        self.loe_est[k] = status.loe_estimate
+        self.loe_injected[k] = world.faults.true_loe(t)
+        self.wind[k] = world.wind_ned
+        if (status.reference is not None and status.attitude_reference is not None
+                and not world.plant.on_ground):
+            self.flying[k] = True
+            self.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
+            self.ref_pos[k] = status.reference.pos_ned
+            self.ref_euler[k] = status.attitude_reference.euler_rad
+        else:
+            self.ref_pos[k] = self.pos[k]
+            self.ref_euler[k] = self.euler[k]
+        self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
+
+    def series(self, events: Sequence[tuple[float, str, str]] = ()) -> FlightSeries:
+        """The ticks so far as a :class:`FlightSeries` (views, not copies).
+
+        Fault onsets are taken from ``events`` (:func:`fault_onsets_s`).
+        """
+        k = self.n
+        t = self.t[:k]
+        return FlightSeries(
+            time_s=t, flying=self.flying[:k], pos_ned=self.pos[:k], euler_rad=self.euler[:k],
+            ref_pos_ned=self.ref_pos[:k], ref_euler_rad=self.ref_euler[:k],
+            pwm_time_s=t, pwm=self.pwm[:k], pwm_max=self.pwm_max,
+            loe_estimate_time_s=(t,) * 4,
+            loe_estimate=tuple(self.loe_est[:k, j] for j in range(4)),
+            loe_injected=self.loe_injected[:k], free_flight=self.free_flight[:k],
+            est_pos_ned=self.est_pos[:k], wind_ned=self.wind[:k],
+            fault_times_s=tuple(fault_onsets_s(events)),
+            events=tuple(FlightEvent(t_s, source, text) for t_s, source, text in events))
+
+
+def fault_onsets_s(events: Iterable[tuple[float, str, str]]) -> list[float]:
+    """Times (s) at which injected faults started acting, from ``FlightResult.events``."""
+    return sorted({t for t, source, text in events
+                   if source == "sim" and text.startswith("started:")})
 
 
 def start_mission(autopilot: Autopilot, scenario: Scenario) -> list[str]:
@@ -132,7 +173,7 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     world, autopilot = stack.world, stack.autopilot
     loop_hz = scenario.autopilot.loop_rate_hz
     n_ticks = int(round(scenario.duration_s * loop_hz))
-    rec = _Recorder(n_ticks + 1)
+    rec = TickLog(n_ticks + 1, scenario.world.airframe.pwm_max)
     events: list[tuple[float, str, str]] = []
 
     def record(time_s: float, source: str, text: str) -> None:
@@ -162,9 +203,8 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     finally:
         stop.restore()
     wall_s = time.perf_counter() - wall0
-    log = rec.log()
-    result = FlightResult(scenario, log, events, world.plant.crashed, world.time_s, wall_s,
-                          interrupted=interrupted)
+    result = FlightResult(scenario, rec.series(events), events, world.plant.crashed,
+                          world.time_s, wall_s, interrupted=interrupted)
     result.metrics = flight_metrics(result, autopilot)
     return result
 
@@ -193,33 +233,9 @@ class _StopRequest:
             self._previous = None
 
 
-def _record(stack: SimulatedStack, rec: _Recorder, record: EventCallback) -> None:
+def _record(stack: SimulatedStack, rec: TickLog, record: EventCallback) -> None:
     """Log the tick just taken and pass its events on."""
-    world, autopilot = stack.world, stack.autopilot
-    t = world.time_s
-    pwm = stack.pwm
-    status = autopilot.status
-    assert status is not None
-    x = world.plant.state
-    k = rec.n
-    rec.t[k] = t
-    rec.pos[k] = x[0:3]
-    rec.euler[k] = _euler_of(x)
-    rec.est_pos[k] = status.estimate.pos_ned
-    rec.pwm[k] = pwm
-    rec.loe_est[k] = status.loe_estimate
-    rec.loe_true[k] = world.faults.true_loe(t)
-    rec.wind[k] = world.wind_ned
-    if (status.reference is not None and status.attitude_reference is not None
-            and not world.plant.on_ground):
-        rec.flying[k] = True
-        rec.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
-        rec.ref_pos[k] = status.reference.pos_ned
-        rec.ref_euler[k] = status.attitude_reference.euler_rad
-    else:
-        rec.ref_pos[k] = rec.pos[k]
-        rec.ref_euler[k] = rec.euler[k]
-    rec.n += 1
+    rec.append(stack.world, stack.autopilot)
     autopilot_events, world_events = stack.drain_events()
     for ev in autopilot_events:
         record(ev.time_s, "autopilot", ev.text)
@@ -230,72 +246,82 @@ def _record(stack: SimulatedStack, rec: _Recorder, record: EventCallback) -> Non
             record(wev.time_s, "sim", wev.description)
 
 
-def _euler_of(x: np.ndarray) -> np.ndarray:
-    return np.asarray(quat_to_euler(np.ascontiguousarray(x[6:10])))
-
-
-def loe_convergence_times(log: FlightLog, tolerance: float = 0.05) -> list[dict[str, Any]]:
-    """For each step change of the injected LOE, when the estimate settled within tolerance.
-
-    Judged in free flight only, between take-off and landing (on or near the ground the
-    effectiveness is unobservable; the autopilot's detector is gated the same way). Returns one
-    entry per (motor, change): motor (1..4), time of the change, injected gamma, and the delay
-    (s) after which |estimate - truth| <= tolerance held until the next change or the end of
-    the flight (None if it never settled).
-    """
-    out: list[dict[str, Any]] = []
-    free = np.flatnonzero(log.free_flight)
-    if free.size == 0:
-        return out
-    window = slice(free[0], free[-1] + 1)
-    truth = np.nan_to_num(log.loe_true[window], nan=1.0)
-    estimate = log.loe_estimate[window]
-    time_s = log.time_s[window]
-    for m in range(4):
-        changes = np.flatnonzero(np.abs(np.diff(truth[:, m])) > 1e-9) + 1
-        for j, k in enumerate(changes):
-            end = changes[j + 1] if j + 1 < len(changes) else len(truth)
-            outside = np.flatnonzero(np.abs(estimate[k:end, m] - truth[k:end, m]) > tolerance)
-            if outside.size == 0:
-                delay: float | None = 0.0
-            elif outside[-1] + 1 < end - k:
-                delay = float(time_s[k + outside[-1] + 1] - time_s[k])
-            else:
-                delay = None
-            out.append({"motor": m + 1, "time_s": float(time_s[k]),
-                        "loe": float(truth[k, m]), "settled_after_s": delay})
-    return out
-
-
 def flight_metrics(result: FlightResult, autopilot: Autopilot | None = None) -> dict[str, Any]:
     """The ``--json`` metrics of one run (units: m, deg, PWM, s).
 
     Errors and control effort are taken over the flight: the ticks where a reference was
     tracked and the vehicle was off the ground (the thesis's runs are all flight; the
-    seconds on the ground before take-off and after touchdown would only dilute them).
+    seconds on the ground before take-off and after touchdown would only dilute them); see
+    :func:`flightdata.metrics.series_metrics`.
     """
-    log = result.log
-    flying = log.flying
-    if not np.any(flying):
-        flying = np.ones_like(flying)
-    errs = tracking_errors(log.ref_pos_ned[flying], log.pos_ned[flying],
-                           log.ref_euler_rad[flying], log.euler_rad[flying])
     detections = [{"time_s": t, "text": text} for t, src, text in result.events
                   if src == "autopilot" and "effectiveness" in text]
     return {
         "name": result.scenario.name,
-        "rms": {axis: fig.rms for axis, fig in errs.items()},
-        "max": {axis: fig.max for axis, fig in errs.items()},
-        "control_effort": control_effort(log.pwm[flying]),
-        "flight_s": float(np.count_nonzero(log.flying)) / result.scenario.autopilot.loop_rate_hz,
-        "loe_estimate": {
-            "final": [float(v) for v in log.loe_estimate[-1]],
-            "true_final": [float(v) for v in np.nan_to_num(log.loe_true[-1], nan=-1.0)],
-            "convergence": loe_convergence_times(log),
-        },
+        **series_metrics(result.log, result.scenario.autopilot.loop_rate_hz),
         "detections": detections,
         "crashed": result.crashed,
         "sim_s": result.sim_s,
         "wall_s": result.wall_s,
         "seed": result.scenario.seed,
     }
+
+
+class FlightRecording:
+    """Records a headless flight to rerun while it is flown.
+
+    Use as ``fly(scenario, on_tick=rec.on_tick, on_event=rec.on_event)`` and call
+    :meth:`close` afterwards (also after an interrupt) to send the rest and flush. Each tick
+    is copied into a :class:`TickLog`; every ``config.flush_s`` of simulated time the new
+    rows go out (:class:`flightdata.recording.LiveRecorder`), with the entities of
+    :mod:`flightdata.recording`.
+
+    Parameters
+    ----------
+    stream : rerun.RecordingStream
+        Where to log (:func:`flightdata.recording.open_stream`).
+    scenario : Scenario
+        The scenario flown (airframe geometry, PWM range, loop rate, mission).
+    config : RecordingConfig, optional
+        Rates and drawing sizes (the arm length is the airframe's; nothing is held back).
+    owns_stream : bool
+        When True, :meth:`close` also disconnects the stream (:func:`open_recording` sets it).
+    """
+
+    def __init__(self, stream: rr.RecordingStream, scenario: Scenario,
+                 config: RecordingConfig | None = None, *, owns_stream: bool = False) -> None:
+        airframe = scenario.world.airframe
+        cfg = replace(config if config is not None else RecordingConfig(),
+                      arm_length_m=airframe.arm_length, holdback_s=0.0)
+        n_ticks = int(round(scenario.duration_s * scenario.autopilot.loop_rate_hz))
+        self.log = TickLog(n_ticks + 1, airframe.pwm_max)
+        self.events: list[tuple[float, str, str]] = []
+        waypoints = [(seq, item.pos_ned) for seq, item in enumerate(scenario.mission, 1)
+                     if item.pos_ned is not None]
+        self.live = LiveRecorder(stream, lambda: self.log.series(self.events), cfg,
+                                 owns_stream=owns_stream, min_wall_s=0.0,
+                                 waypoints_ned=waypoints)
+
+    def on_tick(self, world: World, autopilot: Autopilot) -> None:
+        """Store this tick; send the new rows when ``flush_s`` has passed (``fly``'s on_tick)."""
+        self.log.append(world, autopilot)
+        self.live.on_clock(world.time_s)
+
+    def on_event(self, time_s: float, source: str, text: str) -> None:
+        """Note one event; it goes out with the next rows (``fly``'s on_event)."""
+        self.events.append((time_s, source, text))
+
+    def close(self) -> None:
+        """Send the rest and flush the stream (idempotent; safe after Ctrl-C)."""
+        self.live.close()
+
+
+def open_recording(scenario: Scenario, *, rrd_path: str | Path | None = None,
+                   spawn: bool = False, connect_url: str | None = None,
+                   config: RecordingConfig | None = None,
+                   recording_id: str | None = None) -> FlightRecording:
+    """A :class:`FlightRecording` on a new stream (:func:`flightdata.recording.open_stream`
+    for the arguments)."""
+    stream = open_stream(scenario.name, rrd_path=rrd_path, spawn=spawn,
+                         connect_url=connect_url, recording_id=recording_id)
+    return FlightRecording(stream, scenario, config, owns_stream=True)

@@ -9,8 +9,9 @@ Usage::
 
 ``run`` shows a live progress line on stderr when it is a terminal (simulated time, real-time
 factor, flight phase) and a final line otherwise. ``--rrd`` records the flight, with truth, to
-a rerun ``.rrd`` file, ``--rerun`` streams it to a rerun viewer it starts (:mod:`sim.recording`)
-and ``--figures`` writes the thesis-style figures as PNG and PDF (:mod:`sim.figures`).
+a rerun ``.rrd`` file, ``--rerun`` streams it to a rerun viewer it starts
+(:func:`sim.runner.open_recording`, :mod:`flightdata.recording`) and ``--figures`` writes the
+thesis-style figures as PNG and PDF (:mod:`flightdata.figures`).
 
 Bad input (unknown scenario, bad file, bad value) prints one line naming what was wrong and
 exits with status 2; a crash of the simulated vehicle exits with status 1. Ctrl-C ends a run
@@ -55,7 +56,7 @@ def _write_json(path: str, data: Any) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from sim.progress import ProgressLine
-    from sim.runner import fly
+    from sim.runner import fly, open_recording
 
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
@@ -64,9 +65,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                             live=sys.stderr.isatty())
     recorder = None
     if args.rrd or args.rerun:
-        from sim.recording import open_recorder
-
-        recorder = open_recorder(scenario, rrd_path=args.rrd, spawn=args.rerun)
+        recorder = open_recording(scenario, rrd_path=args.rrd, spawn=args.rerun)
     ticks = [progress.on_tick] if recorder is None else [recorder.on_tick, progress.on_tick]
 
     def on_tick(world: Any, autopilot: Any) -> None:
@@ -88,10 +87,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.json:
         _write_json(args.json, result.metrics)
     if args.figures:
-        from sim.figures import save_figures
+        from flightdata.figures import save_figures
 
-        written = save_figures(result.log, args.figures, name=scenario.name,
-                               events=result.events)
+        written = save_figures(result.log, args.figures, name=scenario.name)
         print(f"figures: {len(written)} kinds as PNG and PDF in {args.figures}")
     if args.rrd:
         print(f"recording: {args.rrd} (open it with: rerun {args.rrd})")

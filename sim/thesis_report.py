@@ -4,14 +4,13 @@ The thesis figures come from :func:`flightdata.thesis.thesis_tables`.
 Errors are reference minus truth, RMS and maximum over the flight (m and deg); control effort
 is the time mean of the sum of the four PWM commands.
 
-With an output directory, each run's thesis-style figures (:mod:`sim.figures`, PNG and PDF) are
-drawn in the worker process that flew it, into ``DIR/figures/<run>/``, and the report embeds
-them next to the tables with relative links.
+With an output directory, each run's thesis-style figures (:mod:`flightdata.figures`, PNG and
+PDF) are drawn in the worker process that flew it, into ``DIR/figures/<run>/``, and the report
+embeds them next to the tables with relative links (:mod:`flightdata.report`).
 """
 
 from __future__ import annotations
 
-import math
 import multiprocessing
 import signal
 from collections.abc import Sequence
@@ -19,6 +18,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from flightdata.figures import FIGURES
+from flightdata.metrics import attitude_rms_norm
+from flightdata.report import fmt, image_lines, relative_paths, table_lines
 from flightdata.thesis import AXES, EXTRA_RUNS, THESIS_CASES, THESIS_RUNS, thesis_tables
 
 
@@ -28,10 +30,6 @@ class ThesisReport:
 
     metrics: dict[str, dict[str, Any]]
     markdown: str
-
-
-#: Figures embedded next to each run's table (all kinds are written).
-REPORT_FIGURES = ("trajectory", "xyz", "rpy", "pwm", "loe")
 
 
 def _run_one(args: tuple[str, int | None, str | None]) -> dict[str, Any]:
@@ -50,13 +48,11 @@ def _run_one(args: tuple[str, int | None, str | None]) -> dict[str, Any]:
     result = fly(scenario)
     metrics = dict(result.metrics)
     if out_dir is not None:
-        from sim.figures import save_figures
+        from flightdata.figures import save_figures
 
         root = Path(out_dir)
-        written = save_figures(result.log, root / "figures" / name, name=name,
-                               events=result.events)
-        metrics["figures"] = {kind: [p.relative_to(root).as_posix() for p in paths]
-                              for kind, paths in written.items()}
+        written = save_figures(result.log, root / "figures" / name, name=name)
+        metrics["figures"] = relative_paths(written, root)
     return metrics
 
 
@@ -98,18 +94,8 @@ def _progress(stream: IO[str] | None, name: str, metrics: dict[str, Any], done: 
         stream.flush()
 
 
-def attitude_rms_norm(metrics: dict[str, Any]) -> float:
-    """Combined RMS attitude error sqrt(roll^2 + pitch^2 + yaw^2) of the per-axis RMS, deg."""
-    rms = metrics["rms"]
-    return math.sqrt(rms["roll"] ** 2 + rms["pitch"] ** 2 + rms["yaw"] ** 2)
-
-
 def _thesis_attitude_norm(row: dict[str, Any]) -> float:
-    return math.sqrt(row["e_roll"][0] ** 2 + row["e_pitch"][0] ** 2 + row["e_yaw"][0] ** 2)
-
-
-def _fmt(value: float | None, digits: int = 4) -> str:
-    return "-" if value is None else f"{value:.{digits}f}"
+    return attitude_rms_norm({axis: row[f"e_{axis}"][0] for axis in ("roll", "pitch", "yaw")})
 
 
 def render_markdown(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) -> str:
@@ -124,99 +110,89 @@ def render_markdown(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) 
     lines += [f"Physics fixes the hover effort at m g / K = {hover:.4f} "
               f"({dropped:.4f} after the 300 g drop).", ""]
     for name in THESIS_RUNS:
-        if name not in metrics:
-            continue
-        row = tables["runs"][name]
-        ours = metrics[name]
-        lines += [f"## {name}: {row['attitude'].upper()} + {row['estimator'].upper()}"
-                  f" + DOB {row['dob']}, faults: {row['faults']}"
-                  + ("  (CRASHED)" if ours["crashed"] else ""), "",
-                  "| error | thesis RMS | ours RMS | thesis max | ours max |",
-                  "|---|---:|---:|---:|---:|"]
-        for axis, unit in AXES:
-            t_rms, t_max = row[f"e_{axis}"]
-            lines.append(f"| {axis} ({unit}) | {t_rms:.4f} | {ours['rms'][axis]:.4f} | "
-                         f"{t_max:.4f} | {ours['max'][axis]:.4f} |")
-        lines.append(f"| effort | {_fmt(row.get('effort'), 5)} | "
-                     f"{ours['control_effort']:.5f} | | |")
-        lines.append("")
-        lines += _figure_lines(name, ours, REPORT_FIGURES)
+        if name in metrics:
+            lines += _run_section(name, metrics[name], tables["runs"][name])
     if all(n in metrics for n in ("pd_loe", "pd_vbdob_loe", "pd_abdob_loe")):
-        pd = attitude_rms_norm(metrics["pd_loe"])
-        t_pd = _thesis_attitude_norm(tables["runs"]["pd_loe"])
-        lines += ["## Disturbance observers on PD under the Table 7.3 faults", "",
-                  "Combined RMS attitude error sqrt(roll^2 + pitch^2 + yaw^2), deg, and its "
-                  "ratio to PD alone (the thesis has AbDOB on PD only with TSKF feedback, "
-                  "Table 7.9).", "",
-                  "| configuration | thesis | ratio | ours | ratio |", "|---|---:|---:|---:|---:|",
-                  f"| PD | {t_pd:.3f} | 1.00 | {pd:.3f} | 1.00 |"]
-        for name, thesis_name in (("pd_vbdob_loe", "pd_vbdob_loe"),
-                                  ("pd_abdob_loe", "tskf_pd_abdob_loe")):
-            t = _thesis_attitude_norm(tables["runs"][thesis_name])
-            o = attitude_rms_norm(metrics[name])
-            lines.append(f"| {name} | {t:.3f} | {t / t_pd:.2f} | {o:.3f} | {o / pd:.2f} |")
-        lines.append("")
+        lines += _dob_section(metrics, tables)
     cases = [c for c in THESIS_CASES if c in metrics]
     if cases:
-        lines += ["## Table 7.11 / 7.12: fault types (EKF feedback, AbDOB)", "",
-                  "| case | controller | faults | thesis effort | ours | difference | crashed |",
-                  "|---|---|---|---:|---:|---:|---|"]
-        for case in cases:
-            row = tables["cases"][case.removeprefix("case")]
-            ours = metrics[case]
-            diff = 100.0 * (ours["control_effort"] - row["effort"]) / row["effort"]
-            lines.append(f"| {case} | {row['attitude'].upper()} | {' + '.join(row['faults'])} | "
-                         f"{row['effort']:.5f} | {ours['control_effort']:.5f} | "
-                         f"{diff:+.1f} % | {'yes' if ours['crashed'] else 'no'} |")
-        lines.append("")
-        linked = [c for c in cases if "figures" in metrics[c]]
-        if linked:
-            lines += ["Figures of each case (PNG):", ""]
-            lines += [f"- {case}: " + ", ".join(
-                f"[{kind}]({metrics[case]['figures'][kind][0]})"
-                for kind in REPORT_FIGURES if kind in metrics[case]["figures"])
-                for case in linked]
-            lines.append("")
+        lines += _cases_section({c: metrics[c] for c in cases}, tables)
     if "tskf_step" in metrics:
-        lines += ["## TSKF, Table 6.1 step profile", "",
-                  "| motor | fault at (s) | injected | within 0.05 for good after (s) | "
-                  "final estimate |", "|---|---:|---:|---:|---:|"]
         ours = metrics["tskf_step"]
         final = ours["loe_estimate"]["final"]
-        for conv in ours["loe_estimate"]["convergence"]:
-            lines.append(f"| {conv['motor']} | {conv['time_s']:.2f} | {conv['loe']:.2f} | "
-                         f"{_fmt(conv['settled_after_s'], 2)} | "
-                         f"{final[conv['motor'] - 1]:.3f} |")
+        lines += ["## TSKF, Table 6.1 step profile", ""]
+        lines += table_lines(
+            ("motor", "fault at (s)", "injected", "within 0.05 for good after (s)",
+             "final estimate"),
+            ([str(conv["motor"]), f"{conv['time_s']:.2f}", f"{conv['loe']:.2f}",
+              fmt(conv["settled_after_s"], 2), f"{final[conv['motor'] - 1]:.3f}"]
+             for conv in ours["loe_estimate"]["convergence"]), "lrrrr")
         lines.append("")
-        lines += _figure_lines("tskf_step", ours, ("loe",))
+        lines += image_lines(ours.get("figures") or {}, alt_prefix="tskf_step: ",
+                             kinds=("loe",))
     detections = [(n, d) for n, m in metrics.items() for d in m["detections"]]
     if detections:
-        lines += ["## Fault detections", "", "| run | time (s) | message |", "|---|---:|---|"]
-        lines += [f"| {n} | {d['time_s']:.2f} | {d['text']} |" for n, d in detections]
+        lines += ["## Fault detections", ""]
+        lines += table_lines(("run", "time (s)", "message"),
+                             ([n, f"{d['time_s']:.2f}", d["text"]] for n, d in detections),
+                             "lrl")
         lines.append("")
     return "\n".join(lines)
 
 
-_FIGURE_CAPTIONS = {
-    "trajectory": "trajectory (Fig. 7.3)",
-    "xyz": "X, Y, Z and errors (Fig. 7.4-7.6)",
-    "rpy": "roll, pitch, yaw and errors (Fig. 7.7-7.8)",
-    "pwm": "motor PWM (Fig. 7.9)",
-    "loe": "effectiveness, injected and estimated (Fig. 6.2)",
-}
+def _run_section(name: str, ours: dict[str, Any], row: dict[str, Any]) -> list[str]:
+    """One thesis run: its errors and effort beside the thesis's, then its figures."""
+    lines = [f"## {name}: {row['attitude'].upper()} + {row['estimator'].upper()}"
+             f" + DOB {row['dob']}, faults: {row['faults']}"
+             + ("  (CRASHED)" if ours["crashed"] else ""), ""]
+    cells = [[f"{axis} ({unit})", f"{row[f'e_{axis}'][0]:.4f}", f"{ours['rms'][axis]:.4f}",
+              f"{row[f'e_{axis}'][1]:.4f}", f"{ours['max'][axis]:.4f}"] for axis, unit in AXES]
+    cells.append(["effort", fmt(row.get("effort"), 5), f"{ours['control_effort']:.5f}", "",
+                  ""])
+    lines += table_lines(("error", "thesis RMS", "ours RMS", "thesis max", "ours max"), cells,
+                         "lrrrr")
+    lines.append("")
+    return lines + image_lines(ours.get("figures") or {}, alt_prefix=f"{name}: ")
 
 
-def _figure_lines(name: str, metrics: dict[str, Any], kinds: Sequence[str]) -> list[str]:
-    """Markdown images (PNG) of ``kinds`` with a line of PDF links; [] without figures."""
-    figures = metrics.get("figures")
-    if not figures:
-        return []
-    present = [k for k in kinds if k in figures]
-    lines = [f"![{name}: {_FIGURE_CAPTIONS.get(k, k)}]({figures[k][0]})" for k in present]
-    pdfs = [f"[{k}]({p})" for k in present for p in figures[k][1:] if p.endswith(".pdf")]
-    if pdfs:
-        lines += ["", "PDF: " + ", ".join(pdfs)]
-    return [*lines, ""]
+def _dob_section(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) -> list[str]:
+    """The disturbance observers on PD: combined attitude error against PD alone."""
+    pd = attitude_rms_norm(metrics["pd_loe"]["rms"])
+    t_pd = _thesis_attitude_norm(tables["runs"]["pd_loe"])
+    cells = [["PD", f"{t_pd:.3f}", "1.00", f"{pd:.3f}", "1.00"]]
+    for name, thesis_name in (("pd_vbdob_loe", "pd_vbdob_loe"),
+                              ("pd_abdob_loe", "tskf_pd_abdob_loe")):
+        t = _thesis_attitude_norm(tables["runs"][thesis_name])
+        o = attitude_rms_norm(metrics[name]["rms"])
+        cells.append([name, f"{t:.3f}", f"{t / t_pd:.2f}", f"{o:.3f}", f"{o / pd:.2f}"])
+    return ["## Disturbance observers on PD under the Table 7.3 faults", "",
+            "Combined RMS attitude error sqrt(roll^2 + pitch^2 + yaw^2), deg, and its "
+            "ratio to PD alone (the thesis has AbDOB on PD only with TSKF feedback, "
+            "Table 7.9).", "",
+            *table_lines(("configuration", "thesis", "ratio", "ours", "ratio"), cells, "lrrrr"),
+            ""]
+
+
+def _cases_section(cases: dict[str, dict[str, Any]], tables: dict[str, Any]) -> list[str]:
+    """Table 7.11 / 7.12: the effort of each fault case, then links to its figures."""
+    cells = []
+    for case, ours in cases.items():
+        row = tables["cases"][case.removeprefix("case")]
+        diff = 100.0 * (ours["control_effort"] - row["effort"]) / row["effort"]
+        cells.append([case, row["attitude"].upper(), " + ".join(row["faults"]),
+                      f"{row['effort']:.5f}", f"{ours['control_effort']:.5f}",
+                      f"{diff:+.1f} %", "yes" if ours["crashed"] else "no"])
+    lines = ["## Table 7.11 / 7.12: fault types (EKF feedback, AbDOB)", "",
+             *table_lines(("case", "controller", "faults", "thesis effort", "ours",
+                           "difference", "crashed"), cells, "lllrrrl"), ""]
+    linked = {c: m["figures"] for c, m in cases.items() if "figures" in m}
+    if linked:
+        lines += ["Figures of each case (PNG):", ""]
+        lines += [f"- {case}: " + ", ".join(f"[{kind}]({figures[kind][0]})"
+                                           for kind in FIGURES if kind in figures)
+                  for case, figures in linked.items()]
+        lines.append("")
+    return lines
 
 
 def run_thesis(out_dir: Path | None = None, seed: int | None = None, jobs: int = 2,

@@ -43,6 +43,7 @@ from fcu.mavlink.port import (
 )
 from fcu.navigation.navigator import CommandResult as NavResult
 from fcu.navigation.navigator import Mode, mode_name
+from flightdata.geometry import body_rates_from_euler_rates
 from flightdata.mission import MAV_CMD_BY_COMMAND, SPEED_TYPE_BY_MAV_PARAM
 from flightdata.mission import MissionItem as NavItem
 
@@ -174,7 +175,7 @@ class AutopilotPort:
             model = ap.model
             full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max
             attitude_target = AttitudeTarget(
-                euler_rad=att.euler_rad, rate_frd=_body_rates(att.euler_rad, att.rate),
+                euler_rad=att.euler_rad, rate_frd=body_rates_from_euler_rates(att.euler_rad, att.rate),
                 thrust=min(max(status.thrust_cmd_n / full_thrust_n, 0.0), 1.0))
         progress = nav.mission_progress()
         return VehicleSnapshot(
@@ -369,18 +370,6 @@ class AutopilotPort:
         self.host.pwm = np.array(ap.pwm)
         self._snap = None
         return ""
-
-
-def _body_rates(euler_rad: np.ndarray, euler_rate: np.ndarray) -> np.ndarray:
-    """Body rates p, q, r (rad/s) of ZYX Euler angles and their derivatives."""
-    phi, theta = float(euler_rad[0]), float(euler_rad[1])
-    dphi, dtheta, dpsi = (float(v) for v in euler_rate)
-    sp, cp = math.sin(phi), math.cos(phi)
-    st, ct = math.sin(theta), math.cos(theta)
-    # p = phi' - psi' sin(theta); q = theta' cos(phi) + psi' sin(phi) cos(theta);
-    # r = -theta' sin(phi) + psi' cos(phi) cos(theta)
-    return np.array([dphi - dpsi * st, dtheta * cp + dpsi * sp * ct,
-                     -dtheta * sp + dpsi * cp * ct])
 
 
 def _to_nav_item(item: MissionItem) -> NavItem | CommandResult:

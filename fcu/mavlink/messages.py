@@ -33,6 +33,7 @@ import numpy as np
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.port import CopterMode, LandedState, MavState, Severity, VehicleSnapshot
+from flightdata.geometry import euler_from_quat, quat_from_euler, wrap_pi
 
 __all__ = [
     "AUTOPILOT_CAPABILITIES",
@@ -42,9 +43,7 @@ __all__ = [
     "build_stream",
     "can_build",
     "command_ack",
-    "euler_from_quat",
     "pwm_to_us",
-    "quat_from_euler",
     "statustext_chunks",
 ]
 
@@ -130,35 +129,6 @@ def cdeg_heading(yaw_rad: float) -> int:
     if not math.isfinite(yaw_rad):
         return UINT16_MAX
     return clamp_int(math.degrees(yaw_rad) % 360.0 * 100.0, 0, 35999, UINT16_MAX)
-
-
-def wrap_pi(angle_rad: float) -> float:
-    """Wrap to [-pi, pi)."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def quat_from_euler(euler_rad: np.ndarray) -> np.ndarray:
-    """Quaternion [w, x, y, z] of ZYX Euler angles (roll, pitch, yaw), body FRD to NED."""
-    hr, hp, hy = 0.5 * float(euler_rad[0]), 0.5 * float(euler_rad[1]), 0.5 * float(euler_rad[2])
-    cr, sr = math.cos(hr), math.sin(hr)
-    cp, sp = math.cos(hp), math.sin(hp)
-    cy, sy = math.cos(hy), math.sin(hy)
-    # q = q_z(yaw) * q_y(pitch) * q_x(roll)
-    return np.array([
-        cr * cp * cy + sr * sp * sy,
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-    ])
-
-
-def euler_from_quat(quat_wxyz: np.ndarray) -> np.ndarray:
-    """ZYX Euler angles (roll, pitch, yaw), rad, of a quaternion [w, x, y, z]."""
-    w, x, y, z = (float(v) for v in quat_wxyz)
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
 
 
 def pwm_to_us(u: float, pwm_max: float) -> int:

@@ -7,14 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from gcs.analysis import (
-    FlightAnalyzer,
-    _velocity_aided,
-    euler_from_quat,
-    format_report,
-    metres_per_degree,
-)
+from flightdata.geometry import euler_from_quat
+from gcs.alignment import metres_per_degree, velocity_aided
+from gcs.analysis import FlightAnalyzer
 from gcs.mavlink import decode_packet, mavlink2
+from gcs.table import format_report
 
 M = mavlink2
 HOME_LAT_E7, HOME_LON_E7, HOME_ALT_MM = -353632610, 1491652300, 584000
@@ -125,7 +122,7 @@ def test_velocity_aided_position_beats_the_quantisation() -> None:
     step = 0.011  # m, one degE7 of latitude
     coarse = np.round(truth / step) * step
     t_gap = np.r_[t[:1000], t[1000:] + 5.0]  # a 5 s hole: two stretches, two anchors
-    aided = _velocity_aided(t_gap, coarse, vel)
+    aided = velocity_aided(t_gap, coarse, vel)
     quantised_rms = float(np.sqrt(np.mean((coarse - truth) ** 2)))
     aided_rms = float(np.sqrt(np.mean((aided - truth) ** 2)))
     assert quantised_rms > 2.5e-3  # step / sqrt(12) = 3.2 mm

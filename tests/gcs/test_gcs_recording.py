@@ -1,9 +1,11 @@
 """Aligned series, rerun recordings, figures and reports of synthetic MAVLink streams.
 
 No vehicle, no viewer: a synthetic stream (``test_gcs_analysis.Stream``) with known errors,
-recordings read back with ``rerun.recording.load_recording(...).schema()``, figures through
-matplotlib objects (headless, no pyplot). The same checks on a real flight are in
-tests/integration/test_gcs_views.py.
+its :meth:`FlightAnalyzer.series` recorded (:mod:`flightdata.recording`) and read back with
+``rerun.recording.load_recording(...).schema()``, drawn (:mod:`flightdata.figures`) and
+checked through matplotlib objects (headless, no pyplot). The same checks on a real flight
+are in tests/integration/test_gcs_views.py; the toolkit's own on headless flights in
+tests/flightdata/.
 """
 
 from __future__ import annotations
@@ -17,23 +19,21 @@ import pytest
 import rerun as rr
 from test_gcs_analysis import Stream, north_of, vn_of
 
-from gcs.analysis import FlightSeries, euler_from_quat
-from gcs.cli import build_parser
-from gcs.figures import FIGURE_KINDS, make_figures, position_series, save_figures
-from gcs.mavlink import mavlink2 as M
-from gcs.recording import (
+from flightdata.figures import figure_kinds, make_figures, position_series, save_figures
+from flightdata.recording import (
     SIM_TIMELINE,
     LiveRecorder,
     RecordingConfig,
     open_stream,
-    quat_wxyz_from_euler,
-    rotor_colors,
-    scene_rows,
     write_recording,
 )
+from flightdata.series import FlightSeries
+from gcs.cli import build_parser
+from gcs.mavlink import mavlink2 as M
 from gcs.report import write_report
 
 FAULT_AT_S = 1.0  # s, motor 3 loses 20 % in the synthetic flight
+FIGURE_KINDS = figure_kinds()
 
 
 def synthetic_flight(stream: Stream | None = None, *,
@@ -76,32 +76,12 @@ def test_series_is_what_the_table_is_computed_from() -> None:
     np.testing.assert_allclose(fs.pwm_time_s, fs.time_s, atol=1e-9)
     # the fault is dated by the tick after its STATUSTEXT and held from then on
     before = fs.time_s < FAULT_AT_S - 1e-9
-    assert np.all(fs.injected_loe[before] == 0.0)
-    assert np.all(fs.injected_loe[~before] == [0.0, 0.0, 0.2, 0.0])
+    assert np.all(fs.loe_injected[before] == 0.0)
+    assert np.all(fs.loe_injected[~before] == [0.0, 0.0, 0.2, 0.0])
+    assert fs.fault_times_s == (pytest.approx(FAULT_AT_S),)
+    # telemetry has no estimate, no wind, no take-off/landing phase
+    assert fs.est_pos_ned is None and fs.wind_ned is None and fs.free_flight is None
     assert [e.kind for e in fs.events if e.kind == "INJECT"] == ["INJECT"]
-
-
-def test_quaternion_of_euler_inverts_euler_from_quat() -> None:
-    angles = np.array([[0.1, -0.2, 0.3], [-0.5, 0.4, -3.0], [0.0, 0.0, math.pi - 1e-6]])
-    q = quat_wxyz_from_euler(angles)
-    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-15)
-    for row, a in zip(q, angles, strict=True):
-        assert euler_from_quat(row) == pytest.approx(tuple(a), abs=1e-12)
-
-
-def test_scene_rows_are_one_per_slot_and_do_not_depend_on_later_samples() -> None:
-    t = np.r_[0.0, 0.0, np.arange(1, 301) * 0.01]  # paused at 0, then 100 Hz
-    rows = scene_rows(t, 25.0)
-    np.testing.assert_allclose(t[rows], np.arange(0, 76) * 0.04, atol=1e-12)  # every 40 ms
-    np.testing.assert_array_equal(scene_rows(t[:150], 25.0), rows[rows < 150])
-
-
-def test_rotor_colour_ramps() -> None:
-    low, high = rotor_colors(np.array([0.0, 0.05]), 0.05, np.array([False, False]))
-    assert low[2] > low[0] and low[2] > low[1]  # PWM 0: blue
-    assert high[0] > high[2] and high[1] > high[2]  # full power: yellow
-    f_low, f_high = rotor_colors(np.array([0.0, 0.05]), 0.05, np.array([True, True]))
-    assert f_low[0] > 0 and f_low[1] == f_low[2] == 0 and f_high[0] > f_low[0]
 
 
 EXPECTED = {("/world", "ViewCoordinates:xyz"), ("/world/vehicle", "Transform3D:translation"),
@@ -133,7 +113,7 @@ def test_a_written_recording_has_the_entities_on_sim_time(series: FlightSeries,
 def test_live_recorder_sends_as_the_clock_advances(tmp_path: Path) -> None:
     path = tmp_path / "live.rrd"
     s = Stream()
-    live = LiveRecorder(open_stream("live", rrd_path=path), s.analyzer,
+    live = LiveRecorder(open_stream("live", rrd_path=path), s.analyzer.series,
                         RecordingConfig(flush_s=0.5), owns_stream=True, min_wall_s=0.0)
     sent: list[int] = []
 

@@ -4,148 +4,63 @@ One flight (module fixture): the thesis mission at speed-up 20, TSKF + LQG + AbD
 losing 30 % at mission +10 s, streamed live to rerun's headless gRPC receiver (``rerun
 --save``, no viewer: there is no display) and written afterwards from the .tlog. Recordings
 are read back with rerun's own tools: ``rerun.recording.load_recording(...).schema()`` for
-entities and timelines, ``rerun rrd print -vvv`` for row values (rerun 0.29's dataframe
-queries need the optional ``datafusion``). Figures are checked through matplotlib objects.
-Every expected value comes from :meth:`gcs.analysis.FlightAnalyzer.series` of the .tlog, the
-arrays behind the table.
+entities and timelines, ``rerun rrd print -vvv`` for row values (tests/rrd_reading.py).
+Figures are checked through matplotlib objects. Every expected value comes from
+:meth:`gcs.analysis.FlightAnalyzer.series` of the .tlog, the arrays behind the table.
 """
 
 from __future__ import annotations
 
-import os
 import re
-import signal
-import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 import rerun as rr
+from rrd_reading import COMMON_ENTITIES, numbers, rerun_receiver, rrd_rows, scalar_series
 
-from gcs.analysis import FlightSeries, analyze_tlog, format_report, replay_tlog
+from flightdata.figures import attitude_series, figure_kinds, make_figures, position_series
+from flightdata.geometry import quats_from_euler
+from flightdata.recording import SIM_TIMELINE, rotor_colors, scene_rows
+from flightdata.series import FlightSeries
+from gcs.analysis import analyze_tlog, replay_tlog
 from gcs.cli import main
-from gcs.figures import FIGURE_KINDS, attitude_series, make_figures, position_series
-from gcs.recording import SIM_TIMELINE, quat_wxyz_from_euler, rotor_colors, scene_rows
+from gcs.table import format_report
 
 ROOT = Path(__file__).resolve().parents[2]
 FAULT_AT_S = 10.0  # s after the mission start: motor 3 loses 30 % in the first leg
+FIGURE_KINDS = figure_kinds()
 FLIGHT_WALL_S = 300.0  # s: ~10 s at speed-up 20; generous for a loaded machine
 
 pytestmark = pytest.mark.slow
-
-
-# ---------------------------------------------------------------------- reading back
-_DURATION = re.compile(r"^P(?:(\d+)D)?(?:T(?:(\d+)H)?(?:(\d+)M)?(?:([\d.]+)S)?)?$")
-_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*(?:[eE][-+]?\d+)?|NaN|inf)")
-
-
-def _duration_s(text: str) -> float:
-    """ISO 8601 duration as ``rerun rrd print`` shows a duration timeline (P0D, PT12.34S)."""
-    m = _DURATION.match(text)
-    assert m is not None, text
-    days, hours, minutes, seconds = (float(g) if g else 0.0 for g in m.groups())
-    return ((days * 24 + hours) * 60 + minutes) * 60 + seconds
-
-
-def rrd_rows(path: Path, entity: str) -> list[tuple[float, dict[str, str]]]:
-    """(sim_time in s, {column: printed cell}) of the temporal rows of ``entity``, by time."""
-    out = subprocess.run(
-        [sys.executable, "-m", "rerun_cli", "rrd", "print", "-vvv", "--entity", entity,
-         str(path)],
-        capture_output=True, text=True, check=True, env={**os.environ, "CI": "1"},
-    ).stdout
-    header: list[str] = []
-    rows: list[tuple[float, dict[str, str]]] = []
-    for line in out.splitlines():
-        if "┆" not in line:
-            continue
-        cells = [c.strip() for c in line.replace("│", "").split("┆")]
-        if cells[0] == "RowId":
-            header = cells
-        elif cells[0].startswith("row_"):
-            row = dict(zip(header, cells, strict=True))
-            if SIM_TIMELINE in row:  # static rows (styles, geometry) have no time
-                rows.append((_duration_s(row[SIM_TIMELINE]), row))
-    rows.sort(key=lambda r: r[0])
-    return rows
-
-
-def numbers(cell: str) -> list[float]:
-    return [float(x) for x in _NUMBER.findall(cell)]
-
-
-def scalar_series(path: Path, entity: str) -> tuple[np.ndarray, np.ndarray]:
-    rows = rrd_rows(path, entity)
-    values = [numbers(r["Scalars:scalars"]) for _, r in rows]
-    assert all(len(v) == 1 for v in values)
-    return np.array([t for t, _ in rows]), np.array([v[0] for v in values])
-
-
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
 
 
 # ---------------------------------------------------------------------- the flight
 @pytest.fixture(scope="module")
 def flight(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     out = tmp_path_factory.mktemp("gcs_recording")
-    port = _free_port()
     live = out / "live.rrd"
-    receiver = subprocess.Popen(
-        [sys.executable, "-m", "rerun_cli", "--bind", "127.0.0.1", "--port", str(port),
-         "--save", str(live)],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "CI": "1"}, start_new_session=True)
-    try:
-        assert receiver.stderr is not None
-        for line in receiver.stderr:  # wait until it listens
-            if "Listening for gRPC connections" in line:
-                break
+    with rerun_receiver(live, settle_s=0.5) as url:
         proc = subprocess.run(
             [sys.executable, "-m", "gcs", "fly", "--spawn-vehicle", "--speedup", "20",
              "--seed", "1", "--scenario", "tskf_lqg_abdob_loe", "--estimator", "tskf",
              "--fault", f"3:0.30@{FAULT_AT_S:g}", "--tlog", str(out / "f.tlog"),
              "--rrd", str(out / "f.rrd"), "--figures", str(out / "figs"),
-             "--report", str(out / "report"),
-             "--rerun", f"rerun+http://127.0.0.1:{port}/proxy", "--quiet"],
+             "--report", str(out / "report"), "--rerun", url, "--quiet"],
             cwd=ROOT, capture_output=True, text=True, timeout=FLIGHT_WALL_S,
             stdin=subprocess.DEVNULL)
-    finally:
-        time.sleep(0.5)
-        os.killpg(receiver.pid, signal.SIGINT)  # the receiver saves and quits on Ctrl-C
-        try:
-            receiver.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(receiver.pid, signal.SIGKILL)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     tlog = out / "f.tlog"
+    analyzer = replay_tlog(tlog)
     return {"dir": out, "stdout": proc.stdout, "tlog": tlog, "rrd": out / "f.rrd",
-            "live": live, "series": replay_tlog(tlog).series(), "report": analyze_tlog(tlog)}
+            "live": live, "analyzer": analyzer, "series": analyzer.series(),
+            "report": analyze_tlog(tlog)}
 
 
-EXPECTED_ENTITIES = {
-    "/world": "ViewCoordinates:xyz",
-    "/world/vehicle": "Transform3D:translation",
-    "/world/vehicle/arms": "LineStrips3D:strips",
-    "/world/vehicle/rotors": "Cylinders3D:colors",
-    "/world/reference": "Points3D:positions",
-    "/world/reference_path": "LineStrips3D:strips",
-    "/world/flown_path": "LineStrips3D:strips",
-    "/events": "TextLog:text",
-    **{f"/plots/position/{a}/{s}": "Scalars:scalars" for a in "xyz" for s in ("ref", "truth")},
-    **{f"/plots/error/{a}": "Scalars:scalars" for a in ("x", "y", "z", "roll", "pitch", "yaw")},
-    **{f"/plots/attitude/{a}/{s}": "Scalars:scalars" for a in ("roll", "pitch", "yaw")
-       for s in ("ref", "truth")},
-    **{f"/plots/pwm/{m}": "Scalars:scalars" for m in (1, 2, 3, 4)},
-    **{f"/plots/loe/{m}/{s}": "Scalars:scalars" for m in (1, 2, 3, 4)
-       for s in ("true", "estimate")},
-}
+EXPECTED_ENTITIES = COMMON_ENTITIES  # no wind, no estimate, no mission in telemetry
 
 
 @pytest.mark.parametrize("which", ["rrd", "live"])
@@ -198,7 +113,7 @@ def test_pwm_and_effectiveness_series_are_the_telemetry(flight: dict[str, Any]) 
     np.testing.assert_array_equal(est, s.loe_estimate[2])
     assert est[-1] == pytest.approx(0.30, abs=0.03)  # the TSKF found the 30 % (its noise)
     t, injected = scalar_series(rrd, "/plots/loe/3/true")
-    start = s.mission_start_s
+    start = flight["analyzer"].mission_start_s
     assert start is not None
     onset = start + FAULT_AT_S
     # the injection lands on the tick the command is handled (within one 10 ms tick)
@@ -218,7 +133,7 @@ def test_vehicle_pose_and_rotor_colours_follow_the_telemetry(flight: dict[str, A
     # float32 on the wire: 1e-6 m is ten float32 steps at the metre scale of this flight
     np.testing.assert_allclose(translation, s.pos_ned[scene], rtol=0.0, atol=1e-6)
     quat_xyzw = np.array([numbers(r["Transform3D:quaternion"]) for _, r in rows])
-    expected_q = quat_wxyz_from_euler(s.euler_rad[scene])[:, [1, 2, 3, 0]]
+    expected_q = quats_from_euler(s.euler_rad[scene])[:, [1, 2, 3, 0]]
     np.testing.assert_allclose(quat_xyzw, expected_q, rtol=0.0, atol=1e-6)  # float32
     rotor = [(tr, r) for tr, r in rrd_rows(flight["rrd"], "/world/vehicle/rotors")
              if "Cylinders3D:colors" in r]  # not the label updates
@@ -226,7 +141,7 @@ def test_vehicle_pose_and_rotor_colours_follow_the_telemetry(flight: dict[str, A
     rgb = np.stack([(packed >> 24) & 255, (packed >> 16) & 255, (packed >> 8) & 255], axis=-1)
     i_pwm = np.searchsorted(s.pwm_time_s, s.time_s[scene] + 1e-9, side="right") - 1
     pwm = np.where((i_pwm >= 0)[:, None], s.pwm[np.maximum(i_pwm, 0)], 0.0)
-    faulted = s.injected_loe[scene] > 0.0
+    faulted = s.loe_injected[scene] > 0.0
     expected = rotor_colors(pwm.reshape(-1), 0.05, faulted.reshape(-1)).reshape(-1, 4, 3)
     np.testing.assert_array_equal(rgb, expected)
     red = rgb[faulted[:, 2], 2]  # motor 3 while its fault is in force: red
@@ -244,7 +159,8 @@ def test_events_are_in_the_text_log(flight: dict[str, Any]) -> None:
     texts = [r["TextLog:text"][1:-1] for _, r in rows]  # printed as [text]
     inject = [(t, r) for (t, r), text in zip(rows, texts, strict=True)
               if text.startswith("[INJECT] motor 3")]
-    assert len(inject) == 1 and inject[0][0] == pytest.approx(s.injections[0].time_s, abs=1e-9)
+    injected_at_s = flight["analyzer"].injections[0].time_s
+    assert len(inject) == 1 and inject[0][0] == pytest.approx(injected_at_s, abs=1e-9)
     assert inject[0][1]["TextLog:level"] == "[WARN]"
     detect = [t for (t, _), text in zip(rows, texts, strict=True)
               if text.startswith("[DETECT] motor 3")]
@@ -261,7 +177,7 @@ def test_the_live_stream_carries_the_same_flight(flight: dict[str, Any]) -> None
     t, x = scalar_series(live, "/plots/position/x/truth")
     np.testing.assert_allclose(t, s.time_s, rtol=0.0, atol=0.5e-9)
     # live north/east are anchored to the geodetic mean of the samples so far (docstring of
-    # gcs.recording): within a few mm of the final ones
+    # gcs.cli._live_recorder): within a few mm of the final ones
     np.testing.assert_allclose(x, s.pos_ned[:, 0], rtol=0.0, atol=5e-3)
     t_ref, _ = scalar_series(live, "/plots/position/z/ref")
     np.testing.assert_allclose(t_ref, s.time_s[s.flying], rtol=0.0, atol=0.5e-9)
@@ -310,7 +226,7 @@ def test_figure_lines_are_the_analysis_arrays(flight: dict[str, Any]) -> None:
     # fault onset marked on every tracking panel
     marks = [np.asarray(line.get_xdata())[0] for line in axes[0].get_lines()
              if line.get_label() == "_fault"]
-    assert marks == [s.injections[0].time_s]
+    assert marks == [flight["analyzer"].injections[0].time_s]
     rpy = figs["rpy"].axes
     for col, (ref, truth, err) in enumerate(attitude_series(s).values()):
         np.testing.assert_array_equal(lines(rpy[col])["flown"].get_ydata(), truth)
@@ -327,7 +243,7 @@ def test_figure_lines_are_the_analysis_arrays(flight: dict[str, Any]) -> None:
     for j, ax in enumerate(figs["loe"].axes):
         assert ax.get_title() == f"motor {j + 1}"
         np.testing.assert_array_equal(lines(ax)["estimated"].get_ydata(), s.loe_estimate[j])
-        np.testing.assert_array_equal(lines(ax)["injected"].get_ydata(), s.injected_loe[:, j])
+        np.testing.assert_array_equal(lines(ax)["injected"].get_ydata(), s.loe_injected[:, j])
     ax3, above = figs["trajectory"].axes
     assert ax3.name == "3d" and ax3.get_zlabel() == "altitude Z = -z (m)"  # type: ignore[attr-defined]
     flown = lines(above)["flown"]

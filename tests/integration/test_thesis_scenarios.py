@@ -12,9 +12,10 @@ from typing import Any
 
 import pytest
 
+from flightdata.metrics import attitude_rms_norm
+from flightdata.thesis import thesis_tables
 from sim.runner import fly
 from sim.scenario import load_scenario
-from sim.thesis_report import attitude_rms_norm, thesis_tables
 
 pytestmark = pytest.mark.slow
 
@@ -57,14 +58,15 @@ def test_lqg_survives_table_7_3_faults(name: str) -> None:
 
 @pytest.mark.parametrize("dob", ["pd_vbdob_loe", "pd_abdob_loe"])
 def test_each_dob_cuts_pd_attitude_error_by_30_percent(dob: str) -> None:
-    pd_alone = attitude_rms_norm(metrics("pd_loe"))
-    with_dob = attitude_rms_norm(metrics(dob))
+    pd_alone = attitude_rms_norm(metrics("pd_loe")["rms"])
+    with_dob = attitude_rms_norm(metrics(dob)["rms"])
     assert with_dob <= 0.7 * pd_alone, (with_dob, pd_alone)
 
 
 def test_lqg_beats_pd_with_ekf_feedback() -> None:
     # thesis section 7.2: LQG tracks better than PD under the same faults
-    assert attitude_rms_norm(metrics("lqg_loe")) < attitude_rms_norm(metrics("pd_loe"))
+    lqg, pd = (attitude_rms_norm(metrics(name)["rms"]) for name in ("lqg_loe", "pd_loe"))
+    assert lqg < pd
 
 
 def test_tskf_estimates_the_table_6_1_step_profile() -> None:

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from flightdata.config import ConfigError
+from flightdata.thesis import EXTRA_RUNS, THESIS_CASES, THESIS_RUNS, thesis_tables
 from sim.runner import fly
 from sim.scenario import load_scenario, shipped_names
 from sim.scenario_cli import main
-from sim.thesis_report import EXTRA_RUNS, THESIS_CASES, THESIS_RUNS, thesis_tables
 
 
 def test_shipped_scenarios_carry_the_thesis_names() -> None:

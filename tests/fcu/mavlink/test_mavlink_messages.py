@@ -8,8 +8,6 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 from mavlink_testkit import ORIGIN, FakeVehicle
 from numpy.testing import assert_allclose
 
@@ -24,6 +22,7 @@ from fcu.mavlink.port import (
     VehicleSnapshot,
 )
 from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from flightdata.geometry import euler_from_quat
 
 M = mavlink2
 
@@ -115,27 +114,8 @@ def test_local_position_and_attitude_quaternion() -> None:
     lp = one(M.MAVLINK_MSG_ID_LOCAL_POSITION_NED, s)
     assert_allclose([lp.x, lp.y, lp.z], [3.0, -4.0, -2.0], atol=1e-6)  # float32 on the wire
     aq = one(M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, s)
-    euler = build.euler_from_quat(np.array([aq.q1, aq.q2, aq.q3, aq.q4]))
+    euler = euler_from_quat(np.array([aq.q1, aq.q2, aq.q3, aq.q4]))
     assert_allclose(euler, [0.1, -0.2, 3.0], atol=1e-6)  # float32 quaternion
-
-
-@settings(max_examples=200, deadline=None)
-@given(roll=st.floats(-3.1, 3.1), pitch=st.floats(-1.5, 1.5), yaw=st.floats(-3.1, 3.1))
-def test_quaternion_and_euler_are_inverse(roll: float, pitch: float, yaw: float) -> None:
-    q = build.quat_from_euler(np.array([roll, pitch, yaw]))
-    assert np.linalg.norm(q) == pytest.approx(1.0)
-    # 1e-7 rad: asin near pitch = +-1.5 loses a few digits of float64.
-    assert_allclose(build.euler_from_quat(q), [roll, pitch, yaw], atol=1e-7)
-
-
-def test_quaternion_convention_yaw_nose_right() -> None:
-    # ZYX, body FRD to NED: a yaw of +90 deg turns the nose from north to east.
-    q = build.quat_from_euler(np.array([0.0, 0.0, math.pi / 2]))
-    w, x, y, z = q
-    rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-    assert_allclose(rotation @ [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], atol=1e-12)
 
 
 def test_servo_output_raw_maps_motors_in_thesis_order() -> None:

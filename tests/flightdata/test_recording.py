@@ -1,4 +1,6 @@
-"""Rerun recordings of headless flights, read back with rerun's own tools.
+"""Rerun recordings (:mod:`flightdata.recording`) of headless flights, read back with rerun's
+own tools. Recordings of ground-station flights: tests/gcs/test_gcs_recording.py and
+tests/integration/test_gcs_views.py.
 
 Entities, components and timelines come from ``rerun.recording.load_recording(...).schema()``;
 row values from the ``rerun rrd print -vvv`` command of the wheel (``python -m rerun_cli``),
@@ -8,7 +10,6 @@ starts a viewer (there is no display here).
 
 from __future__ import annotations
 
-import os
 import re
 import signal
 import subprocess
@@ -20,15 +21,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import rerun as rr
+from rrd_reading import COMMON_ENTITIES, numbers, rerun_receiver, rrd_rows, scalar_series
 
-from sim.recording import (
-    MOTORS,
-    SIM_TIMELINE,
-    RecordingConfig,
-    open_recorder,
-    rotor_colors,
-)
-from sim.runner import FlightResult, fly
+from flightdata.recording import SIM_TIMELINE, RecordingConfig, rotor_colors, scene_rows
+from flightdata.vocabulary import MOTORS
+from sim.runner import FlightResult, fly, open_recording
 from sim.scenario import Scenario, load_scenario
 from sim.scenario_cli import main
 from sim.world.faults import ActuatorFault
@@ -53,80 +50,18 @@ class Recorded:
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Recorded:
     scenario = short_scenario()
     rrd = tmp_path_factory.mktemp("rec") / "short.rrd"
-    recorder = open_recorder(scenario, rrd_path=rrd, recording_id="test-short")
+    recorder = open_recording(scenario, rrd_path=rrd, recording_id="test-short")
     result = fly(scenario, on_tick=recorder.on_tick, on_event=recorder.on_event)
     recorder.close()
     return Recorded(result, rrd)
 
 
-# ---------------------------------------------------------------------- reading back
-_DURATION = re.compile(r"^P(?:(\d+)D)?(?:T(?:(\d+)H)?(?:(\d+)M)?(?:([\d.]+)S)?)?$")
-_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*(?:[eE][-+]?\d+)?|NaN|inf)")
-
-
-def _duration_s(text: str) -> float:
-    """ISO 8601 duration as ``rerun rrd print`` shows a duration timeline (P0D, PT12.34S)."""
-    m = _DURATION.match(text)
-    assert m is not None, text
-    days, hours, minutes, seconds = (float(g) if g else 0.0 for g in m.groups())
-    return ((days * 24 + hours) * 60 + minutes) * 60 + seconds
-
-
-def rrd_rows(path: Path, entity: str) -> list[tuple[float, dict[str, str]]]:
-    """(sim_time in s, {column: printed cell}) of the temporal rows of ``entity``, by time."""
-    out = subprocess.run(
-        [sys.executable, "-m", "rerun_cli", "rrd", "print", "-vvv", "--entity", entity,
-         str(path)],
-        capture_output=True, text=True, check=True,
-        env={**os.environ, "CI": "1"},  # rerun's CLI turns its usage analytics off on CI
-    ).stdout
-    header: list[str] = []
-    rows: list[tuple[float, dict[str, str]]] = []
-    for line in out.splitlines():
-        if "┆" not in line:
-            continue
-        cells = [c.strip() for c in line.replace("│", "").split("┆")]
-        if cells[0] == "RowId":
-            header = cells
-        elif cells[0].startswith("row_"):
-            row = dict(zip(header, cells, strict=True))
-            if SIM_TIMELINE in row:  # static rows (styles, geometry) have no time
-                rows.append((_duration_s(row[SIM_TIMELINE]), row))
-    rows.sort(key=lambda r: r[0])
-    return rows
-
-
-def numbers(cell: str) -> list[float]:
-    """Every number in a printed cell, in order (``[[0.1, 2.0]]`` -> [0.1, 2.0])."""
-    return [float(x) for x in _NUMBER.findall(cell)]
-
-
-def scalar_series(path: Path, entity: str) -> tuple[np.ndarray, np.ndarray]:
-    rows = rrd_rows(path, entity)
-    values = [numbers(r["Scalars:scalars"]) for _, r in rows]
-    assert all(len(v) == 1 for v in values)
-    return np.array([t for t, _ in rows]), np.array([v[0] for v in values])
-
-
 # ---------------------------------------------------------------------- the tests
 EXPECTED_ENTITIES = {
-    "/world": "ViewCoordinates:xyz",
+    **COMMON_ENTITIES,
     "/world/mission": "Points3D:positions",
-    "/world/vehicle": "Transform3D:translation",
-    "/world/vehicle/arms": "LineStrips3D:strips",
-    "/world/vehicle/rotors": "Cylinders3D:colors",
-    "/world/reference": "Points3D:positions",
-    "/world/reference_path": "LineStrips3D:strips",
-    "/world/flown_path": "LineStrips3D:strips",
     "/world/wind": "Arrows3D:vectors",
-    "/events": "TextLog:text",
-    **{f"/plots/position/{a}/{s}": "Scalars:scalars" for a in "xyz"
-       for s in ("ref", "truth", "estimate")},
-    **{f"/plots/error/{a}": "Scalars:scalars" for a in ("x", "y", "z", "roll", "pitch", "yaw")},
-    **{f"/plots/attitude/{a}/{s}": "Scalars:scalars" for a in ("roll", "pitch", "yaw")
-       for s in ("ref", "truth")},
-    **{f"/plots/pwm/{m}": "Scalars:scalars" for m in MOTORS},
-    **{f"/plots/loe/{m}/{s}": "Scalars:scalars" for m in MOTORS for s in ("true", "estimate")},
+    **{f"/plots/position/{a}/estimate": "Scalars:scalars" for a in "xyz"},
 }
 
 
@@ -173,9 +108,9 @@ def test_pwm_and_effectiveness_series_equal_the_flight_log(recorded: Recorded) -
         _, pwm = scalar_series(recorded.rrd, f"/plots/pwm/{m}")
         np.testing.assert_array_equal(pwm, log.pwm[:, j])
         _, est = scalar_series(recorded.rrd, f"/plots/loe/{m}/estimate")
-        np.testing.assert_array_equal(est, log.loe_estimate[:, j])
+        np.testing.assert_array_equal(est, log.loe_estimate[j])
     t, injected = scalar_series(recorded.rrd, "/plots/loe/3/true")
-    np.testing.assert_array_equal(injected, log.loe_true[:, 2])
+    np.testing.assert_array_equal(injected, log.loe_injected[:, 2])
     assert np.all(injected[t < FAULT_AT_S] == 0.0) and np.all(injected[t >= FAULT_AT_S] == 0.3)
 
 
@@ -203,7 +138,7 @@ def test_rotor_colours_follow_the_pwm_and_turn_red_on_the_faulty_motor(
     rgb = np.stack([(packed >> 24) & 255, (packed >> 16) & 255, (packed >> 8) & 255], axis=-1)
     t = np.array([r[0] for r in rows])
     np.testing.assert_allclose(t, log.time_s[::4], rtol=0.0, atol=0.5e-9)
-    faulted = log.loe_true[::4] > 0.0
+    faulted = log.loe_injected[::4] > 0.0
     expected = rotor_colors(log.pwm[::4].reshape(-1), 0.05, faulted.reshape(-1)).reshape(-1, 4, 3)
     np.testing.assert_array_equal(rgb, expected)
     after = t >= FAULT_AT_S
@@ -220,6 +155,16 @@ def test_rotor_colour_ramps() -> None:
     f_low, f_high = rotor_colors(np.array([0.0, 0.05]), 0.05, np.array([True, True]))
     assert f_low[0] > 0 and f_low[1] == f_low[2] == 0  # faulted: red, darker at low PWM
     assert f_high[0] > f_low[0]
+
+
+def test_scene_rows_are_one_per_slot_and_do_not_depend_on_later_samples() -> None:
+    t = np.r_[0.0, 0.0, np.arange(1, 301) * 0.01]  # paused at 0, then 100 Hz
+    rows = scene_rows(t, 25.0)
+    np.testing.assert_allclose(t[rows], np.arange(0, 76) * 0.04, atol=1e-12)  # every 40 ms
+    np.testing.assert_array_equal(scene_rows(t[:150], 25.0), rows[rows < 150])
+    # slots count from the first sample: a 100 Hz tick from 0.01 s draws every fourth
+    ticks = np.arange(1, 301) * 0.01
+    np.testing.assert_array_equal(scene_rows(ticks, 25.0), np.arange(0, 300, 4))
 
 
 def test_every_event_is_in_the_text_log(recorded: Recorded) -> None:
@@ -324,7 +269,7 @@ def test_nan_injected_effectiveness_is_recorded_as_nan(tmp_path: Path) -> None:
     scenario = replace(short_scenario(), duration_s=2.0,
                        faults=(ActuatorFault(motor=2, kind="lock", start_s=1.0),))
     rrd = tmp_path / "lock.rrd"
-    recorder = open_recorder(scenario, rrd_path=rrd)
+    recorder = open_recording(scenario, rrd_path=rrd)
     fly(scenario, on_tick=recorder.on_tick, on_event=recorder.on_event)
     recorder.close()
     t, injected = scalar_series(rrd, "/plots/loe/2/true")
@@ -334,31 +279,12 @@ def test_nan_injected_effectiveness_is_recorded_as_nan(tmp_path: Path) -> None:
     assert not np.any(np.isnan(healthy))
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
 def test_live_stream_reaches_a_rerun_grpc_receiver(tmp_path: Path) -> None:
     """The --rerun path without a viewer: rerun's own headless receiver saves what arrives."""
-    port = _free_port()
     saved = tmp_path / "live.rrd"
-    receiver = subprocess.Popen(
-        [sys.executable, "-m", "rerun_cli", "--bind", "127.0.0.1", "--port", str(port),
-         "--save", str(saved)],
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "CI": "1"},
-        start_new_session=True)  # its own process group: the wrapper and the rerun binary
-    try:
-        assert receiver.stderr is not None
-        for line in receiver.stderr:  # wait until it listens
-            if "Listening for gRPC connections" in line:
-                break
+    with rerun_receiver(saved) as url:
         scenario = replace(short_scenario(), duration_s=2.0)
-        recorder = open_recorder(scenario, connect_url=f"rerun+http://127.0.0.1:{port}/proxy")
+        recorder = open_recording(scenario, connect_url=url)
         result = fly(scenario, on_tick=recorder.on_tick, on_event=recorder.on_event)
         recorder.close()
         deadline = time.monotonic() + 30.0
@@ -366,11 +292,5 @@ def test_live_stream_reaches_a_rerun_grpc_receiver(tmp_path: Path) -> None:
             if saved.exists() and len(rrd_rows(saved, "/plots/pwm/1")) == 200:
                 break
             time.sleep(0.5)
-    finally:
-        os.killpg(receiver.pid, signal.SIGINT)  # the receiver saves and quits on Ctrl-C
-        try:
-            receiver.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(receiver.pid, signal.SIGKILL)
     _, pwm = scalar_series(saved, "/plots/pwm/1")
     np.testing.assert_array_equal(pwm, result.log.pwm[:, 0])

@@ -1,5 +1,7 @@
-"""Thesis-style figures: checked through matplotlib's objects (axes, labels, line data), not
-pixels, and written headless as PNG and PDF."""
+"""Thesis-style figures of a headless flight: checked through matplotlib's objects (axes,
+labels, line data), not pixels, and written headless as PNG and PDF. The same figures of a
+ground-station flight are checked in tests/gcs/test_gcs_recording.py and
+tests/integration/test_gcs_views.py."""
 
 from __future__ import annotations
 
@@ -17,9 +19,10 @@ from matplotlib.lines import Line2D
 from mpl_toolkits.mplot3d.art3d import Line3D
 from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-from sim.figures import (
-    FIGURE_KINDS,
-    fault_onsets_s,
+from flightdata.figures import (
+    FIGURES,
+    figure,
+    figure_kinds,
     loe_figure,
     make_figures,
     pwm_figure,
@@ -28,13 +31,17 @@ from sim.figures import (
     trajectory_figure,
     xyz_figure,
 )
-from sim.metrics import wrap_angle_rad
-from sim.runner import FlightResult, fly
+from flightdata.geometry import wrap_pi_array
+from flightdata.report import section_lines
+from flightdata.series import FlightSeries
+from flightdata.thesis import thesis_tables
+from sim.runner import FlightResult, fault_onsets_s, fly
 from sim.scenario import load_scenario
-from sim.thesis_report import render_markdown, thesis_tables
+from sim.thesis_report import render_markdown
 from sim.world.faults import ActuatorFault
 
 REPO = Path(__file__).resolve().parents[2]
+FIGURE_KINDS = figure_kinds()
 FAULT_AT_S = 6.0  # s, in the hover after the 5 s take-off
 
 
@@ -70,11 +77,12 @@ def assert_line(line: Line2D, x: np.ndarray, y: np.ndarray) -> None:
 
 def test_fault_onsets_come_from_the_started_events(flight: FlightResult) -> None:
     assert fault_onsets_s(flight.events) == [FAULT_AT_S]
+    assert flight.log.fault_onsets_s() == [FAULT_AT_S]  # what the figures mark
 
 
 def test_xyz_figure_has_each_axis_over_its_error(flight: FlightResult) -> None:
     log = flight.log
-    fig = xyz_figure(log, "short", fault_onsets_s(flight.events))
+    fig = xyz_figure(log, "short")  # fault markers from the events
     axes = fig.axes
     assert len(axes) == 6
     top, bottom = axes[:3], axes[3:]
@@ -102,7 +110,7 @@ def test_xyz_figure_has_each_axis_over_its_error(flight: FlightResult) -> None:
 
 def test_rpy_figure_is_in_degrees_with_wrapped_errors(flight: FlightResult) -> None:
     log = flight.log
-    fig = rpy_figure(log)
+    fig = rpy_figure(replace(log, fault_times_s=None))  # as if no fault events were known
     assert len(fig.axes) == 6
     assert [ax.get_title() for ax in fig.axes[:3]] == ["roll", "pitch", "yaw"]
     assert [ax.get_ylabel() for ax in fig.axes[3:]] == ["e_roll (deg)", "e_pitch (deg)",
@@ -112,7 +120,7 @@ def test_rpy_figure_is_in_degrees_with_wrapped_errors(flight: FlightResult) -> N
         lines = data_lines(fig.axes[i])
         assert_line(lines["flown"], log.time_s, np.degrees(log.euler_rad[:, i]))
         assert_line(lines["reference"], log.time_s, np.degrees(ref_rad[:, i]))
-        err = np.degrees(wrap_angle_rad(ref_rad[:, i] - log.euler_rad[:, i]))
+        err = np.degrees(wrap_pi_array(ref_rad[:, i] - log.euler_rad[:, i]))
         assert_line(data_lines(fig.axes[3 + i])["error"], log.time_s, err)
     # without events the fault markers come from the change of the injected LOE
     assert fault_markers(fig.axes[0]) == [pytest.approx(FAULT_AT_S, abs=0.011)]
@@ -138,8 +146,8 @@ def test_loe_figure_shows_injected_against_estimated(flight: FlightResult) -> No
     for j, ax in enumerate(fig.axes):
         lines = data_lines(ax)
         assert set(lines) == {"injected", "estimated"}
-        assert_line(lines["injected"], log.time_s, log.loe_true[:, j])
-        assert_line(lines["estimated"], log.time_s, log.loe_estimate[:, j])
+        assert_line(lines["injected"], log.time_s, log.loe_injected[:, j])
+        assert_line(lines["estimated"], log.time_s, log.loe_estimate[j])
     injected = ydata(data_lines(fig.axes[2])["injected"])
     assert injected.max() == 0.3 and ydata(data_lines(fig.axes[0])["injected"]).max() == 0
 
@@ -164,7 +172,7 @@ def test_trajectory_figure_has_a_3d_and_a_top_view(flight: FlightResult) -> None
 
 
 def test_save_figures_writes_non_empty_png_and_pdf(flight: FlightResult, tmp_path: Path) -> None:
-    written = save_figures(flight.log, tmp_path / "figs", name="short", events=flight.events)
+    written = save_figures(flight.log, tmp_path / "figs", name="short")
     assert list(written) == list(FIGURE_KINDS)
     for kind, paths in written.items():
         assert [p.name for p in paths] == [f"{kind}.png", f"{kind}.pdf"]
@@ -178,7 +186,7 @@ def test_figures_are_drawn_without_a_display_or_pyplot(tmp_path: Path) -> None:
     code = (
         "import sys\n"
         "from dataclasses import replace\n"
-        "from sim.figures import save_figures\n"
+        "from flightdata.figures import save_figures\n"
         "from sim.runner import fly\n"
         "from sim.scenario import load_scenario\n"
         "r = fly(replace(load_scenario('baseline'), duration_s=1.0))\n"
@@ -211,3 +219,47 @@ def test_report_embeds_the_figures_next_to_the_table(flight: FlightResult) -> No
     assert "[xyz](figures/lqg_abdob_loe/xyz.pdf)" in markdown
     without = render_markdown({"lqg_abdob_loe": flight.metrics}, thesis_tables())
     assert "![" not in without
+
+
+def test_a_registered_figure_is_drawn_saved_and_embedded(flight: FlightResult,
+                                                         tmp_path: Path) -> None:
+    from matplotlib.figure import Figure
+
+    @figure("altitude", "altitude above home")
+    def altitude_figure(series: FlightSeries, name: str | None = None) -> Figure:
+        fig = Figure()
+        fig.subplots().plot(series.time_s, -series.pos_ned[:, 2], label="flown")
+        return fig
+
+    try:
+        assert figure_kinds() == (*FIGURE_KINDS, "altitude")
+        assert list(make_figures(flight.log)) == [*FIGURE_KINDS, "altitude"]
+        written = save_figures(flight.log, tmp_path, formats=("png",))
+        assert written["altitude"] == [tmp_path / "altitude.png"]
+        assert written["altitude"][0].read_bytes().startswith(b"\x89PNG")
+        figures = {kind: [f"figures/{kind}.png", f"figures/{kind}.pdf"] for kind in written}
+        # both reports draw every registered kind, with its caption
+        thesis = render_markdown({"lqg_abdob_loe": dict(flight.metrics, figures=figures)},
+                                 thesis_tables())
+        assert "![lqg_abdob_loe: altitude above home](figures/altitude.png)" in thesis
+        assert "[altitude](figures/altitude.pdf)" in thesis
+        assert section_lines(figures)[-6:] == [
+            "## altitude above home", "", "![altitude above home](figures/altitude.png)", "",
+            "PDF: [altitude](figures/altitude.pdf)", ""]
+    finally:
+        del FIGURES["altitude"]
+    assert figure_kinds() == FIGURE_KINDS
+    with pytest.raises(ValueError, match="'xyz' is registered twice"):
+        figure("xyz", "again")(xyz_figure)
+
+
+def test_importing_the_toolkit_loads_neither_matplotlib_nor_rerun() -> None:
+    code = ("import sys\n"
+            "import flightdata.figures, flightdata.recording, flightdata.report\n"
+            "import flightdata.metrics, flightdata.series, flightdata.geometry\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('matplotlib', 'rerun')))\n")
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

@@ -1,0 +1,169 @@
+"""Thesis-style figures of merit of a flight (chapter 7), from a :class:`FlightSeries` or arrays.
+
+Errors are reference minus true state; RMS and maximum absolute value over the samples flown
+(m for x, y, z; deg for roll, pitch, yaw, wrapped to +-180). Control effort is the mean of the
+sum of the four PWM commands over those samples (thesis Table 7.2 note: 4 x hover PWM =
+m g / K = 0.0796 for the Qball-X4). The headless runner (``sim.runner.flight_metrics``), the
+chapter-7 report (``sim.thesis_report``) and the ground station's table
+(``gcs.analysis.FlightAnalyzer.report``) all compute them here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from flightdata.geometry import wrap_pi_array
+from flightdata.series import FlightSeries
+from flightdata.thesis import AXES
+
+__all__ = [
+    "ATTITUDE_AXES",
+    "AXES",
+    "POSITION_AXES",
+    "ErrorFigure",
+    "attitude_rms_norm",
+    "control_effort",
+    "detection_latency_s",
+    "error_figure",
+    "flying_mask",
+    "loe_convergence_times",
+    "series_metrics",
+    "tracking_errors",
+]
+
+POSITION_AXES = ("x", "y", "z")  # m
+ATTITUDE_AXES = ("roll", "pitch", "yaw")  # deg
+
+
+@dataclass(frozen=True)
+class ErrorFigure:
+    """RMS and maximum absolute value of one error channel."""
+
+    rms: float
+    max: float
+
+
+def error_figure(error: np.ndarray) -> ErrorFigure:
+    """RMS and max |e| of a sampled error signal (uniform sampling assumed)."""
+    e = np.asarray(error, dtype=float)
+    return ErrorFigure(rms=float(np.sqrt(np.mean(e * e))), max=float(np.max(np.abs(e))))
+
+
+def tracking_errors(ref_pos_ned: np.ndarray, pos_ned: np.ndarray, ref_euler_rad: np.ndarray,
+                    euler_rad: np.ndarray) -> dict[str, ErrorFigure]:
+    """Per-axis error figures: x, y, z in metres, roll, pitch, yaw in degrees.
+
+    Parameters
+    ----------
+    ref_pos_ned, pos_ned : (n, 3) arrays, m
+    ref_euler_rad, euler_rad : (n, 3) arrays, rad
+    """
+    out: dict[str, ErrorFigure] = {}
+    pos_err = np.asarray(ref_pos_ned) - np.asarray(pos_ned)
+    att_err = np.degrees(wrap_pi_array(np.asarray(ref_euler_rad) - np.asarray(euler_rad)))
+    for i, axis in enumerate(POSITION_AXES):
+        out[axis] = error_figure(pos_err[:, i])
+    for i, axis in enumerate(ATTITUDE_AXES):
+        out[axis] = error_figure(att_err[:, i])
+    return out
+
+
+def control_effort(pwm: np.ndarray) -> float:
+    """Time mean of the sum of the four PWM commands, shape (n, 4) uniformly sampled."""
+    return float(np.mean(np.sum(np.asarray(pwm, dtype=float), axis=1)))
+
+
+def flying_mask(flying: np.ndarray) -> np.ndarray:
+    """The samples the figures of merit are taken over: the flying ones, or all when none
+    flew (a run that never left the ground is judged over all of it)."""
+    flying = np.asarray(flying, dtype=bool)
+    return flying if np.any(flying) else np.ones_like(flying)
+
+
+def attitude_rms_norm(rms: Mapping[str, float]) -> float:
+    """Combined RMS attitude error sqrt(roll^2 + pitch^2 + yaw^2) of the per-axis RMS, deg."""
+    return math.sqrt(rms["roll"] ** 2 + rms["pitch"] ** 2 + rms["yaw"] ** 2)
+
+
+def loe_convergence_times(series: FlightSeries,
+                          tolerance: float = 0.05) -> list[dict[str, Any]]:
+    """For each step change of the injected LOE, when the estimate settled within tolerance.
+
+    Judged in free flight only (:attr:`FlightSeries.free_flight`, else the flying samples),
+    between take-off and landing: on or near the ground the effectiveness is unobservable
+    (the autopilot's detector is gated the same way). Returns one entry per (motor, change):
+    motor (1..4), time of the change, injected gamma, and the delay (s) after which
+    |estimate - truth| <= tolerance held until the next change or the end of the flight
+    (None if it never settled).
+    """
+    out: list[dict[str, Any]] = []
+    window_mask = series.free_flight if series.free_flight is not None else series.flying
+    free = np.flatnonzero(window_mask)
+    if free.size == 0:
+        return out
+    window = slice(free[0], free[-1] + 1)
+    truth = np.nan_to_num(series.loe_injected[window], nan=1.0)
+    estimate = series.loe_estimate_held()[window]
+    time_s = series.time_s[window]
+    for m in range(4):
+        changes = np.flatnonzero(np.abs(np.diff(truth[:, m])) > 1e-9) + 1
+        for j, k in enumerate(changes):
+            end = changes[j + 1] if j + 1 < len(changes) else len(truth)
+            outside = np.flatnonzero(np.abs(estimate[k:end, m] - truth[k:end, m]) > tolerance)
+            if outside.size == 0:
+                delay: float | None = 0.0
+            elif outside[-1] + 1 < end - k:
+                delay = float(time_s[k + outside[-1] + 1] - time_s[k])
+            else:
+                delay = None
+            out.append({"motor": m + 1, "time_s": float(time_s[k]),
+                        "loe": float(truth[k, m]), "settled_after_s": delay})
+    return out
+
+
+def detection_latency_s(time_s: float, motor: int,
+                        injections: Iterable[tuple[int, float, float]]) -> float | None:
+    """Time from the latest injection on ``motor`` to a detection of it at ``time_s``, s.
+
+    Parameters
+    ----------
+    time_s : float
+        When the fault was reported, s.
+    motor : int
+        1..4.
+    injections : iterable of (motor, loe, time_s)
+        The changes of injected loss of effectiveness in time order; clearings (loe 0) and
+        later ones do not count. None when no injection on that motor preceded the report.
+    """
+    before = [t for m, loe, t in injections if m == motor and t <= time_s and loe != 0.0]
+    return time_s - before[-1] if before else None
+
+
+def series_metrics(series: FlightSeries, loop_rate_hz: float) -> dict[str, Any]:
+    """The errors, control effort, time flown and LOE figures of one run (m, deg, PWM, s).
+
+    Over the flying samples (:func:`flying_mask`), the motor commands held on them. The
+    headless runner's ``--json`` metrics (``sim.runner.flight_metrics``) are these plus the
+    run's identity, events and outcome.
+    """
+    flying = flying_mask(series.flying)
+    errs = tracking_errors(series.ref_pos_ned[flying], series.pos_ned[flying],
+                           series.ref_euler_rad[flying], series.euler_rad[flying])
+    loe_final = [float(est[-1]) if len(est) else math.nan for est in series.loe_estimate]
+    return {
+        "rms": {axis: fig.rms for axis, fig in errs.items()},
+        "max": {axis: fig.max for axis, fig in errs.items()},
+        "control_effort": control_effort(series.pwm_held(series.time_s[flying])),
+        "flight_s": float(np.count_nonzero(series.flying)) / loop_rate_hz,
+        "loe_estimate": {
+            "final": loe_final,
+            "true_final": [float(v) for v in np.nan_to_num(series.loe_injected[-1],
+                                                           nan=-1.0)],
+            "convergence": loe_convergence_times(series),
+        },
+    }

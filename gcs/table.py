@@ -1,0 +1,125 @@
+"""The thesis table of one flight from telemetry: :class:`FlightReport` and its text form.
+
+:class:`gcs.analysis.FlightAnalyzer` fills it (its module docstring says from which messages
+and over which samples); ``ftc-gcs fly`` and ``ftc-gcs report`` print it with
+:func:`format_report`, ``--json`` writes :meth:`FlightReport.to_json`, ``--report`` embeds it
+in Markdown (:mod:`gcs.report`). Errors are reference minus truth: RMS and maximum of |error|
+in x, y, z (m) and roll, pitch, yaw (deg, wrapped to +-180); control effort is the mean over
+those samples of the sum of the four motor commands (thesis Table 7.2: 0.0796 at hover).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from flightdata.report import fmt
+from flightdata.thesis import AXES
+
+__all__ = ["Detection", "FlightReport", "Injection", "format_report"]
+
+
+@dataclass(frozen=True)
+class Injection:
+    """A loss of effectiveness the vehicle accepted.
+
+    Attributes
+    ----------
+    motor : int
+        1..4.
+    loe : float
+        Loss of effectiveness now in force (0 clears).
+    time_s : float
+        Vehicle time at which it took effect, s.
+    text : str
+        The simulator's STATUSTEXT.
+    """
+
+    motor: int
+    loe: float
+    time_s: float
+    text: str
+
+
+@dataclass(frozen=True)
+class Detection:
+    """A fault detection the vehicle reported (STATUSTEXT), with its latency.
+
+    Attributes
+    ----------
+    motor : int
+    percent : float
+        The loss the vehicle estimated, %.
+    time_s : float
+        Vehicle time of the report, s.
+    latency_s : float or None
+        Time since the latest injection on that motor took effect; None when there was none.
+    text : str
+    """
+
+    motor: int
+    percent: float
+    time_s: float
+    latency_s: float | None
+    text: str
+
+
+@dataclass
+class FlightReport:
+    """The thesis-style result of one flight (units: m, deg, PWM, s)."""
+
+    rms: dict[str, float | None]
+    max: dict[str, float | None]
+    control_effort: float | None
+    flight_s: float
+    samples: int
+    mission_start_s: float | None
+    loe: list[dict[str, Any]]
+    injections: list[Injection]
+    detections: list[Detection]
+    crashed: bool
+    vehicle_time_s: float | None
+    params: dict[str, float] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        """A JSON-ready dict (keys as ``ftc-scenario run --json`` where they overlap)."""
+        out = asdict(self)
+        out["injections"] = [asdict(i) for i in self.injections]
+        out["detections"] = [asdict(d) for d in self.detections]
+        return out
+
+
+def format_report(report: FlightReport, title: str = "flight") -> str:
+    """The table as text: errors, control effort, LOE per motor, detections."""
+    lines = []
+    start = report.mission_start_s
+    head = f"{title}: {report.samples} in-flight samples, {report.flight_s:.2f} s in the air"
+    if start is not None:
+        head += f", mission started at vehicle t = {start:.2f} s"
+    if report.crashed:
+        head += "  CRASHED"
+    lines.append(head)
+    config = [f"{k} {report.params[k]:g}" for k in ("ATT_CTRL", "EST_TYPE", "DOB_TYPE")
+              if k in report.params]
+    if config:
+        lines.append("configuration: " + ", ".join(config))
+    lines.append(f"{'error':<10}{'RMS':>10}{'max':>10}")
+    for axis, unit in AXES:
+        lines.append(f"{axis + ' ' + unit:<10}{fmt(report.rms[axis]):>10}"
+                     f"{fmt(report.max[axis]):>10}")
+    lines.append(f"control effort {fmt(report.control_effort, 5)} (mean sum of the 4 PWM)")
+    lines.append(f"{'motor':<7}{'injected':>9}{'at s':>9}{'estimated':>11}{'detected s':>12}"
+                 f"{'latency s':>11}")
+
+    def rel(t: float | None) -> str:
+        if t is None:
+            return "-"
+        return f"{t - start:.2f}" if start is not None else f"{t:.2f}"
+
+    for row in report.loe:
+        lines.append(f"{row['motor']:<7}{row['injected']:>9.3f}{rel(row['injected_at_s']):>9}"
+                     f"{fmt(row['estimated'], 3):>11}{rel(row['detected_at_s']):>12}"
+                     f"{fmt(row['latency_s'], 2):>11}")
+    if start is not None:
+        lines.append("(times in s after the mission start)")
+    return "\n".join(lines)
