@@ -175,7 +175,8 @@ class AutopilotPort:
             model = ap.model
             full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max
             attitude_target = AttitudeTarget(
-                euler_rad=att.euler_rad, rate_frd=body_rates_from_euler_rates(att.euler_rad, att.rate),
+                euler_rad=att.euler_rad,
+                rate_frd=body_rates_from_euler_rates(att.euler_rad, att.rate),
                 thrust=min(max(status.thrust_cmd_n / full_thrust_n, 0.0), 1.0))
         progress = nav.mission_progress()
         return VehicleSnapshot(
