@@ -26,15 +26,10 @@ from typing import Literal
 import numpy as np
 
 from fcu.control.allocation import Allocator
-from fcu.control.attitude import (
-    AttitudeController,
-    AttitudeLQR,
-    AttitudePD,
-    AttitudePdGains,
-    AttitudeReference,
-    AttitudeReferenceFilter,
-    LqrWeights,
-)
+from fcu.control.attitude import AttitudeController
+from fcu.control.attitude_lqr import AttitudeLQR, LqrWeights
+from fcu.control.attitude_pd import AttitudePD, AttitudePdGains
+from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
 from fcu.control.dob import make_dob
 from fcu.control.position import PositionCommand, PositionController, PositionGains
 from fcu.estimation.ekf import ExtendedKalmanEstimator

@@ -6,7 +6,8 @@ import control
 import numpy as np
 import pytest
 
-from fcu.control.attitude import AttitudeLQR, AttitudePD, AttitudePdGains, LqrWeights
+from fcu.control.attitude_lqr import AttitudeLQR, LqrWeights
+from fcu.control.attitude_pd import AttitudePD, AttitudePdGains
 from fcu.control.dob import (
     AccelerationDob,
     NoDob,

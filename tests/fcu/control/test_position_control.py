@@ -10,7 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fcu.control.allocation import Allocator
-from fcu.control.attitude import AttitudeLQR, AttitudePD, AttitudeReferenceFilter
+from fcu.control.attitude_lqr import AttitudeLQR
+from fcu.control.attitude_pd import AttitudePD
+from fcu.control.attitude_reference import AttitudeReferenceFilter
 from fcu.control.dob import make_dob
 from fcu.control.position import (
     PositionController,
