@@ -20,97 +20,38 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass
 
 import numpy as np
 
+from fcu.config import AutopilotConfig, DetectorConfig
 from fcu.control.allocation import Allocator
 from fcu.control.attitude import AttitudeController
-from fcu.control.attitude_lqr import AttitudeLQR, LqrWeights
-from fcu.control.attitude_pd import AttitudePD, AttitudePdGains
+from fcu.control.attitude_lqr import AttitudeLQR
+from fcu.control.attitude_pd import AttitudePD
 from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
 from fcu.control.dob import make_dob
-from fcu.control.position import PositionCommand, PositionController, PositionGains
+from fcu.control.position import PositionCommand, PositionController
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.state import StateEstimate, group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.hal import SensorSampleLike
-from fcu.model import VehicleModel
 from fcu.monitoring.loe_detector import LoeFaultDetector
 from fcu.navigation.guidance import Reference
 from fcu.navigation.navigator import (
     CommandResult,
     LandedState,
     Navigator,
-    NavigatorConfig,
     NavOutput,
 )
-from flightdata.config import finite, require
 
-AttitudeKind = Literal["pd", "lqg"]
-EstimatorKind = Literal["ekf", "tskf"]
-DobKind = Literal["none", "vbdob", "abdob"]
-HeightSource = Literal["mocap", "baro"]
+# AutopilotConfig and DetectorConfig are defined in fcu.config; named here too because they
+# are the configuration of this module's Autopilot
+__all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus",
+           "DetectorConfig"]
 
 _NO_EVIDENCE = np.full(4, np.nan)  # what the fault detector gets outside free flight
 _NO_EVIDENCE.setflags(write=False)
-
-
-@dataclass(frozen=True, kw_only=True)
-class DetectorConfig:
-    """Settings of the LOE fault detector (:mod:`fcu.monitoring.loe_detector`)."""
-
-    threshold: float = 0.1  # LOE fraction above which a motor is suspected
-    persistence_s: float = 0.5  # s above the threshold before a fault is declared
-    recovery_threshold: float = 0.05  # LOE fraction below which a faulty motor may recover
-    recovery_persistence_s: float = 1.0  # s below it before recovery is declared
-
-    def __post_init__(self) -> None:
-        require(finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
-                self.threshold, "must lie in (0, 1)")
-        require(finite(self.recovery_threshold)
-                and 0.0 <= self.recovery_threshold < self.threshold, "recovery_threshold",
-                self.recovery_threshold, f"must lie in [0, threshold = {self.threshold})")
-        for name in ("persistence_s", "recovery_persistence_s"):
-            value = getattr(self, name)
-            require(finite(value) and value >= 0.0, name, value, "must be >= 0 s")
-
-
-@dataclass(frozen=True, kw_only=True)
-class AutopilotConfig:
-    """The autopilot's whole configuration (frozen; TOML table ``[autopilot]``)."""
-
-    attitude: AttitudeKind = "lqg"  # attitude law: PD (eq. 5.6) or LQR + integral (LQG)
-    estimator: EstimatorKind = "ekf"  # which estimate feeds the controllers
-    dob: DobKind = "none"  # disturbance observer on roll, pitch and yaw
-    height_source: HeightSource = "mocap"  # height from motion capture or the barometer
-    loop_rate_hz: float = 100.0  # Hz, control and estimation tick
-    dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
-    attitude_ref_bandwidth_rad_s: float = 15.0  # rad/s, attitude reference filter
-    model: VehicleModel = field(default_factory=VehicleModel)
-    position: PositionGains = field(default_factory=PositionGains)
-    pd: AttitudePdGains = field(default_factory=AttitudePdGains)
-    lqr: LqrWeights = field(default_factory=LqrWeights)
-    navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
-    detector: DetectorConfig = field(default_factory=DetectorConfig)
-
-    def __post_init__(self) -> None:
-        require(self.attitude in ("pd", "lqg"), "attitude", self.attitude,
-                "must be 'pd' or 'lqg'")
-        require(self.estimator in ("ekf", "tskf"), "estimator", self.estimator,
-                "must be 'ekf' or 'tskf'")
-        require(self.dob in ("none", "vbdob", "abdob"), "dob", self.dob,
-                "must be 'none', 'vbdob' or 'abdob'")
-        require(self.height_source in ("mocap", "baro"), "height_source", self.height_source,
-                "must be 'mocap' or 'baro'")
-        require(finite(self.loop_rate_hz) and 20.0 <= self.loop_rate_hz <= 1000.0,
-                "loop_rate_hz", self.loop_rate_hz, "must be within [20, 1000] Hz")
-        require(finite(self.dob_cutoff_rad_s) and self.dob_cutoff_rad_s > 0,
-                "dob_cutoff_rad_s", self.dob_cutoff_rad_s, "must be > 0 rad/s")
-        require(finite(self.attitude_ref_bandwidth_rad_s)
-                and self.attitude_ref_bandwidth_rad_s > 0, "attitude_ref_bandwidth_rad_s",
-                self.attitude_ref_bandwidth_rad_s, "must be > 0 rad/s")
 
 
 @dataclass(frozen=True)
