@@ -1,7 +1,8 @@
 """The autopilot's configuration: which parts it runs and their settings (TOML ``[autopilot]``).
 
 The parts are chosen by name; the names, and the MAVLink parameter values that select them,
-are those of :data:`flightdata.vocabulary.CONFIG_CHOICES`.
+are those of :data:`flightdata.vocabulary.CONFIG_CHOICES`, and each name has a factory in
+its kind's registry (:mod:`fcu.estimation.registry`, :mod:`fcu.control.registry`).
 """
 
 from __future__ import annotations

@@ -686,8 +686,7 @@ class SimVehicle:
             ap = Autopilot(config)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
             return f"cannot build the autopilot: {err}"
-        ap.ekf.reset(t)
-        ap.tskf.reset(t)
+        ap.reset_estimators(t)
         ap.step(t, [])
         nav = ap.navigator
         if old_nav.mission_items:

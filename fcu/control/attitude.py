@@ -3,7 +3,7 @@ per-tick frame around each law's torque.
 
 Every attitude law (PD, eq. 5.6, :mod:`fcu.control.attitude_pd`; LQR with integral action,
 eq. 5.7-5.10, :mod:`fcu.control.attitude_lqr`) has the interface of
-:class:`AttitudeController`::
+:class:`fcu.control.registry.AttitudeLaw`::
 
     step(euler_rad, rate_frd, ref_euler_rad, ref_rate, ref_acc) -> torque_nm (3,)
 
@@ -37,12 +37,14 @@ Euler-rate kinematics are second order at the small rates of the mission and are
 feedback (and to the DOB). Yaw errors are wrapped to [-pi, pi] (roll and pitch too,
 harmlessly).
 
+A new attitude law is its own module (a :class:`LeadFilteredLaw` subclass, or any class with
+the interface above) plus one line in :mod:`fcu.control.registry`, under a name appended to
+``flightdata.vocabulary.ATTITUDE_LAWS``.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Protocol
 
 import numpy as np
 
@@ -76,19 +78,6 @@ def _euler_rates(phi: float, theta: float, p: float, q: float, r: float
     # numpy's tan (math.tan may differ in the last bit); sin and cos agree
     sp, cp, ct, tt = math.sin(phi), math.cos(phi), math.cos(theta), float(np.tan(theta))
     return p + sp * tt * q + cp * tt * r, cp * q - sp * r, (sp * q + cp * r) / ct
-
-
-class AttitudeController(Protocol):
-    """What the autopilot needs from an attitude controller."""
-
-    def reset(self) -> None:
-        """Forget internal state (integrators)."""
-        ...
-
-    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, ref_euler_rad: np.ndarray,
-             ref_rate: np.ndarray, ref_acc: np.ndarray) -> np.ndarray:
-        """Torques [U2, U3, U4] (N*m), shape (3,), for one control tick."""
-        ...
 
 
 def check_axes(name: str, value: tuple[float, float, float], *, positive: bool) -> None:

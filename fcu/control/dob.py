@@ -28,12 +28,13 @@ discretised separately with ``control.c2d`` at the loop rate and summed:
   acceleration (a bias of about 5 mN*m per rad/s through the AbDOB's ``s^2``) and add
   a half-sample lag; Tustin would also keep ``s = 0`` zeros but warps frequencies.
 
-Timing contract of :meth:`DisturbanceObserver.step`: call it once per tick with the newest
-measurement and the torque that was *applied over the interval just ended*, i.e. the torque
-allocated on the previous tick (best: what the saturated PWM really produces,
-``Allocator.mix(pwm_prev)``, after the DOB compensation was subtracted). The autopilot then
-commands ``tau = tau_controller - d_hat``. The step first completes the state update of the
-last interval with that torque, then outputs the estimate for the current measurement.
+Timing contract of ``step`` (:class:`fcu.control.registry.DisturbanceObserver`): call it
+once per tick with the newest measurement and the torque that was *applied over the interval
+just ended*, i.e. the torque allocated on the previous tick (best: what the saturated PWM
+really produces, ``Allocator.mix(pwm_prev)``, after the DOB compensation was subtracted).
+The autopilot then commands ``tau = tau_controller - d_hat``. The step first completes the
+state update of the last interval with that torque, then outputs the estimate for the
+current measurement.
 
 Motor lag. The thesis's nominal plants leave out the 15 rad/s motor lag (w_m), so the
 observer reads ``tau_commanded - tau_actual`` (about ``tau_dot / w_m``) as disturbance and
@@ -41,8 +42,8 @@ feeds it back. The loop stays stable, but the margins shrink. Input sensitivity 
 the VbDOB loop (per axis, position loop closed): 2.9 for a plain eq. 5.6 PD (kp = 16,
 kd = 7); with the attitude controllers' :class:`~fcu.control.motor_lead.MotorLead`, which
 overdrives the motors on purpose, 2.2 nominally but 24 when the motors are 33 % slower
-and the measurement 10 ms late. By default (:func:`make_dob` passes the model's
-``motor_bandwidth``) the nominal plant therefore includes the known motor model,
+and the measurement 10 ms late. In the autopilot (:mod:`fcu.control.registry` passes the
+model's ``motor_bandwidth``) the nominal plant therefore includes the known motor model,
 ``G_n = w_m/(s + w_m) * 1/(I s^2)`` (resp. ``1/(I s)``), realised by filtering the torque
 channel: ``d_hat = Q [I s^2 y - w_m/(s + w_m) tau]`` (resp. ``I s y``). The estimate of a
 constant disturbance and the filter Q are unchanged, ZOH stays exact for the held command
@@ -53,8 +54,6 @@ with the real lag is checked in tests/fcu/control/test_disturbance_observer.py f
 
 from __future__ import annotations
 
-from typing import Literal, Protocol
-
 import control
 import numpy as np
 from numba import njit
@@ -62,34 +61,6 @@ from scipy.linalg import block_diag
 
 from fcu.floats import floats, wrap_pi
 from fcu.model import VehicleModel
-
-DobKind = Literal["none", "vbdob", "abdob"]
-DOB_KINDS: tuple[str, ...] = ("none", "vbdob", "abdob")
-
-
-class DisturbanceObserver(Protocol):
-    """What the autopilot needs from a disturbance observer."""
-
-    kind: str
-
-    def reset(self) -> None:
-        """Forget the filter state; the next step re-initialises on its measurement."""
-        ...
-
-    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray,
-             torque_applied_nm: np.ndarray) -> np.ndarray:
-        """Estimated disturbance torque d_hat (N*m), shape (3,), for this tick.
-
-        Parameters
-        ----------
-        euler_rad : numpy.ndarray
-            Measured [roll, pitch, yaw] (rad), shape (3,); used by the AbDOB.
-        rate_frd : numpy.ndarray
-            Measured body rates [p, q, r] (rad/s), shape (3,); used by the VbDOB.
-        torque_applied_nm : numpy.ndarray
-            Torque [U2, U3, U4] (N*m) applied over the interval that just ended.
-        """
-        ...
 
 
 class NoDob:
@@ -311,36 +282,3 @@ class VelocityDob(_DiscreteDob):
 
     def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
         return np.asarray(rate_frd, dtype=float).reshape(3).copy()
-
-
-def make_dob(kind: str, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
-             motor_model: bool = True) -> DisturbanceObserver:
-    """Build the observer named ``kind`` ("none", "vbdob" or "abdob").
-
-    Parameters
-    ----------
-    kind : str
-        One of :data:`DOB_KINDS`.
-    model : VehicleModel
-        Inertia (kg*m^2) and motor bandwidth (rad/s).
-    dt_s : float
-        Loop period, s.
-    cutoff_rad_s : float
-        Q-filter bandwidth w, rad/s (5 in the thesis, section 6.2).
-    motor_model : bool
-        Include the model's motor lag in the nominal plant (module docstring); False gives
-        the thesis's eq. 6.27/6.29 exactly.
-
-    Raises
-    ------
-    ValueError
-        When ``kind`` is not one of :data:`DOB_KINDS`.
-    """
-    motor = model.motor_bandwidth if motor_model else None
-    if kind == "none":
-        return NoDob()
-    if kind == "vbdob":
-        return VelocityDob(model, dt_s, cutoff_rad_s, motor)
-    if kind == "abdob":
-        return AccelerationDob(model, dt_s, cutoff_rad_s, motor)
-    raise ValueError(f"dob = {kind!r}: must be one of {', '.join(map(repr, DOB_KINDS))}")
