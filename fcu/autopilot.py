@@ -2,120 +2,52 @@
 
 Per tick (``loop_rate_hz``, 100 Hz by default)::
 
-    samples --> EKF (eq. 3.18, filterpy) --+--> estimate (the one ``estimator`` selects)
-            --> TSKF (eq. 6.10-6.26) ------+--> gamma_hat --> LoeFaultDetector --> events
+    samples --> estimator ("ekf": eq. 3.18 | "tskf") --> estimate
+            --> TSKF (eq. 6.10-6.26) --> gamma_hat --> LoeFaultDetector --> events
     navigator (modes, mission, guidance) --> reference pos/vel/acc, yaw
     PositionController (eq. 5.3, 5.4)    --> U1, roll_d, pitch_d
     AttitudeReferenceFilter               --> smooth attitude reference and derivatives
-    AttitudePD (eq. 5.6) | AttitudeLQR (eq. 5.7-5.10) --> torque
-    disturbance observer (eq. 6.27-6.30)  --> torque - d_hat
-    Allocator (inverse eq. 3.2, attitude-first saturation) --> PWM u1..u4
+    attitude law ("pd": eq. 5.6 | "lqg": eq. 5.7-5.10) --> torque
+    disturbance observer ("none" | "vbdob" | "abdob": eq. 6.27-6.30) --> torque - d_hat
+    allocator ("attitude_first": inverse eq. 3.2) --> PWM u1..u4
 
-The TSKF always runs: it supplies the per-motor effectiveness estimates that fault detection
-and telemetry use, whichever estimator feeds the controllers. The autopilot knows the world
-only through the samples (:mod:`fcu.hal`); it never sees injected faults.
+The configuration (:mod:`fcu.config`) names the estimator, attitude law, disturbance
+observer and allocator; the autopilot builds each through its kind's registry
+(:mod:`fcu.estimation.registry`, :mod:`fcu.control.registry`). The TSKF always runs: it
+supplies the per-motor effectiveness estimates that fault detection and telemetry use,
+whichever estimator feeds the controllers (it is that estimator when ``estimator = "tskf"``).
+The autopilot knows the world only through the samples (:mod:`fcu.hal`); it never sees
+injected faults.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.control.allocation import Allocator
-from fcu.control.attitude import (
-    AttitudeController,
-    AttitudeLQR,
-    AttitudePD,
-    AttitudePdGains,
-    AttitudeReference,
-    AttitudeReferenceFilter,
-    LqrWeights,
-)
-from fcu.control.dob import make_dob
-from fcu.control.position import PositionCommand, PositionController, PositionGains
+from fcu.config import AutopilotConfig, DetectorConfig
+from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
+from fcu.control.position import PositionCommand, PositionController
+from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
 from fcu.estimation.ekf import ExtendedKalmanEstimator
+from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
 from fcu.estimation.state import StateEstimate, group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.hal import SensorSampleLike
-from fcu.model import VehicleModel
 from fcu.monitoring.loe_detector import LoeFaultDetector
 from fcu.navigation.guidance import Reference
-from fcu.navigation.navigator import (
-    CommandResult,
-    LandedState,
-    Navigator,
-    NavigatorConfig,
-    NavOutput,
-)
-from flightdata.config import finite, require
+from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
 
-AttitudeKind = Literal["pd", "lqg"]
-EstimatorKind = Literal["ekf", "tskf"]
-DobKind = Literal["none", "vbdob", "abdob"]
-HeightSource = Literal["mocap", "baro"]
+# AutopilotConfig and DetectorConfig are defined in fcu.config; named here too because they
+# are the configuration of this module's Autopilot
+__all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus",
+           "DetectorConfig"]
 
 _NO_EVIDENCE = np.full(4, np.nan)  # what the fault detector gets outside free flight
 _NO_EVIDENCE.setflags(write=False)
-
-
-@dataclass(frozen=True, kw_only=True)
-class DetectorConfig:
-    """Settings of the LOE fault detector (:mod:`fcu.monitoring.loe_detector`)."""
-
-    threshold: float = 0.1  # LOE fraction above which a motor is suspected
-    persistence_s: float = 0.5  # s above the threshold before a fault is declared
-    recovery_threshold: float = 0.05  # LOE fraction below which a faulty motor may recover
-    recovery_persistence_s: float = 1.0  # s below it before recovery is declared
-
-    def __post_init__(self) -> None:
-        require(finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
-                self.threshold, "must lie in (0, 1)")
-        require(finite(self.recovery_threshold)
-                and 0.0 <= self.recovery_threshold < self.threshold, "recovery_threshold",
-                self.recovery_threshold, f"must lie in [0, threshold = {self.threshold})")
-        for name in ("persistence_s", "recovery_persistence_s"):
-            value = getattr(self, name)
-            require(finite(value) and value >= 0.0, name, value, "must be >= 0 s")
-
-
-@dataclass(frozen=True, kw_only=True)
-class AutopilotConfig:
-    """The autopilot's whole configuration (frozen; TOML table ``[autopilot]``)."""
-
-    attitude: AttitudeKind = "lqg"  # attitude law: PD (eq. 5.6) or LQR + integral (LQG)
-    estimator: EstimatorKind = "ekf"  # which estimate feeds the controllers
-    dob: DobKind = "none"  # disturbance observer on roll, pitch and yaw
-    height_source: HeightSource = "mocap"  # height from motion capture or the barometer
-    loop_rate_hz: float = 100.0  # Hz, control and estimation tick
-    dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
-    attitude_ref_bandwidth_rad_s: float = 15.0  # rad/s, attitude reference filter
-    model: VehicleModel = field(default_factory=VehicleModel)
-    position: PositionGains = field(default_factory=PositionGains)
-    pd: AttitudePdGains = field(default_factory=AttitudePdGains)
-    lqr: LqrWeights = field(default_factory=LqrWeights)
-    navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
-    detector: DetectorConfig = field(default_factory=DetectorConfig)
-
-    def __post_init__(self) -> None:
-        require(self.attitude in ("pd", "lqg"), "attitude", self.attitude,
-                "must be 'pd' or 'lqg'")
-        require(self.estimator in ("ekf", "tskf"), "estimator", self.estimator,
-                "must be 'ekf' or 'tskf'")
-        require(self.dob in ("none", "vbdob", "abdob"), "dob", self.dob,
-                "must be 'none', 'vbdob' or 'abdob'")
-        require(self.height_source in ("mocap", "baro"), "height_source", self.height_source,
-                "must be 'mocap' or 'baro'")
-        require(finite(self.loop_rate_hz) and 20.0 <= self.loop_rate_hz <= 1000.0,
-                "loop_rate_hz", self.loop_rate_hz, "must be within [20, 1000] Hz")
-        require(finite(self.dob_cutoff_rad_s) and self.dob_cutoff_rad_s > 0,
-                "dob_cutoff_rad_s", self.dob_cutoff_rad_s, "must be > 0 rad/s")
-        require(finite(self.attitude_ref_bandwidth_rad_s)
-                and self.attitude_ref_bandwidth_rad_s > 0, "attitude_ref_bandwidth_rad_s",
-                self.attitude_ref_bandwidth_rad_s, "must be > 0 rad/s")
 
 
 @dataclass(frozen=True)
@@ -162,18 +94,24 @@ class Autopilot:
         self.dt_s = 1.0 / cfg.loop_rate_hz
         model = cfg.model
         self.model = model
-        self.ekf = ExtendedKalmanEstimator(model, self.dt_s, cfg.height_source)
-        self.tskf = TwoStageKalmanFilter(model, self.dt_s, height_source=cfg.height_source)
+        # the parts the configuration names, each built by its kind's registry
+        self.estimator: StateEstimator = ESTIMATOR_REGISTRY.factory(cfg.estimator)(
+            cfg, self.dt_s)
+        self.attitude = ATTITUDE_LAW_REGISTRY.factory(cfg.attitude)(cfg, self.dt_s)
+        self.dob = DOB_REGISTRY.factory(cfg.dob)(cfg, self.dt_s)
+        self.allocator = ALLOCATOR_REGISTRY.factory(cfg.allocator)(cfg, self.dt_s)
+        # the per-motor effectiveness always comes from a TSKF: the selected estimator when
+        # it is one, else a TSKF of its own
+        self.tskf = (self.estimator if isinstance(self.estimator, TwoStageKalmanFilter)
+                     else TwoStageKalmanFilter(model, self.dt_s,
+                                               height_source=cfg.height_source))
+        self._estimators: tuple[StateEstimator, ...] = (
+            (self.tskf,) if self.estimator is self.tskf else (self.tskf, self.estimator))
         self.navigator = Navigator(cfg.navigator)
         self.position = PositionController(model, cfg.position, self.dt_s)
         self.attitude_filter = AttitudeReferenceFilter(self.dt_s,
                                                        cfg.attitude_ref_bandwidth_rad_s)
-        self.attitude: AttitudeController = (
-            AttitudeLQR(model, cfg.lqr, self.dt_s) if cfg.attitude == "lqg"
-            else AttitudePD(model, cfg.pd, self.dt_s))
-        self.dob = make_dob(cfg.dob, model, self.dt_s, cfg.dob_cutoff_rad_s)
-        self.allocator = Allocator(model)
-        self._sensor_kinds = self.ekf.sensor_kinds | self.tskf.sensor_kinds
+        self._sensor_kinds = frozenset().union(*(e.sensor_kinds for e in self._estimators))
         det = cfg.detector
         self.detector = LoeFaultDetector(det.threshold, det.persistence_s,
                                          recovery_threshold=det.recovery_threshold,
@@ -182,8 +120,7 @@ class Autopilot:
 
     def reset(self) -> None:
         """Back to the boot state: estimators, controllers and navigator reset, motors off."""
-        self.ekf.reset()
-        self.tskf.reset()
+        self.reset_estimators()
         self.navigator.reset()
         self._reset_controllers()
         self.detector.reset()
@@ -192,6 +129,11 @@ class Autopilot:
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None
         self._flying = False
+
+    def reset_estimators(self, time_s: float = 0.0) -> None:
+        """Restart the estimators at ``time_s`` (s), at rest at the origin."""
+        for estimator in self._estimators:
+            estimator.reset(time_s)
 
     def _reset_controllers(self) -> None:
         self.position.reset()
@@ -204,11 +146,9 @@ class Autopilot:
         """One control tick at ``time_s``; returns PWM u1..u4 to hold until the next tick."""
         # one averaging of the tick's samples, shared by both estimators
         batches = group_samples(samples, self._sensor_kinds)
-        tskf_estimate = self.tskf.step_grouped(time_s, self._pwm, batches)
-        if self.config.estimator == "ekf":
-            estimate = self.ekf.step_grouped(time_s, self._pwm, batches)
-        else:
-            estimate = tskf_estimate
+        estimate = self.tskf.step_grouped(time_s, self._pwm, batches)
+        if self.estimator is not self.tskf:
+            estimate = self.estimator.step_grouped(time_s, self._pwm, batches)
         loe = self.tskf.loe_estimate  # a fresh array, clipped to [0, 1]
         healthy = all(map(math.isfinite, estimate.pos_ned.tolist()))
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
@@ -267,6 +207,11 @@ class Autopilot:
     def status(self) -> AutopilotStatus | None:
         """What the last tick computed (None before the first tick)."""
         return self._status
+
+    @property
+    def ekf(self) -> ExtendedKalmanEstimator | None:
+        """The EKF when it is the estimator feeding the controllers, else None."""
+        return self.estimator if isinstance(self.estimator, ExtendedKalmanEstimator) else None
 
     @property
     def pwm(self) -> np.ndarray:

@@ -4,7 +4,7 @@ The autopilot sees the world only through sensor samples. Any object with the th
 attributes of :class:`SensorSample` is accepted (the simulator's own sample type is one), so
 the autopilot never imports the simulator.
 
-Sensor names and value layouts (docs/design.md):
+Sensor names (:data:`flightdata.vocabulary.SENSORS`) and value layouts (docs/design.md):
 
 =============  ====================================  =======
 sensor         value                                 unit
@@ -23,8 +23,6 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
-
-SENSOR_NAMES = ("gyro", "accel", "mocap_pos", "mocap_att", "baro")
 
 
 class SensorSampleLike(Protocol):

@@ -36,12 +36,16 @@ DISTURBANCE_OBSERVERS: tuple[str, ...] = ("none", "vbdob", "abdob")
 """Disturbance observers on the attitude loop (eq. 6.27-6.30)."""
 HEIGHT_SOURCES: tuple[str, ...] = ("mocap", "baro")
 """Where the estimators take height from."""
+ALLOCATORS: tuple[str, ...] = ("attitude_first",)
+"""Control allocators: the inverse of eq. 3.2 with attitude-first saturation (no parameter
+selects one yet)."""
 
 CONFIG_CHOICES: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "attitude": ATTITUDE_LAWS,
     "estimator": ESTIMATORS,
     "dob": DISTURBANCE_OBSERVERS,
     "height_source": HEIGHT_SOURCES,
+    "allocator": ALLOCATORS,
 })
 """Configuration key (``[autopilot]`` table) -> its ordered choices."""
 
@@ -51,7 +55,8 @@ CONFIG_PARAMS: Mapping[str, str] = MappingProxyType({
     "dob": "DOB_TYPE",
     "height_source": "HGT_SOURCE",
 })
-"""Configuration key -> the MAVLink parameter that selects it (value = index of the choice)."""
+"""Configuration key -> the MAVLink parameter that selects it (value = index of the choice);
+keys of :data:`CONFIG_CHOICES` without a parameter are set in the configuration only."""
 
 
 def choice_value(key: str, choice: str) -> int:

@@ -1,2 +1,5 @@
-"""Control laws: position (eq. 5.3/5.4), attitude (eq. 5.6, 5.10), disturbance observers
-(eq. 6.27-6.30) and control allocation (inverse of eq. 3.2)."""
+"""Control laws: position (eq. 5.3/5.4, :mod:`.position`), attitude (:mod:`.attitude`: PD
+eq. 5.6 in :mod:`.attitude_pd`, LQR eq. 5.7-5.10 in :mod:`.attitude_lqr`, the reference filter
+in :mod:`.attitude_reference`, the motor-lag lead in :mod:`.motor_lead`), disturbance
+observers (eq. 6.27-6.30, :mod:`.dob`) and control allocation (inverse of eq. 3.2,
+:mod:`.allocation`); the pluggable kinds are built by name through :mod:`.registry`."""

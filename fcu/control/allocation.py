@@ -1,5 +1,7 @@
 """Control allocation: thrust and torques to four PWM commands through the inverse of eq. 3.2.
 
+:class:`Allocator` is the ``"attitude_first"`` allocator of :mod:`fcu.control.registry`.
+
 Eq. 3.2 (motors 1 front, 2 back, 3 left, 4 right; docs/design.md)::
 
     U1 = K (u1 + u2 + u3 + u4)                      thrust, N

@@ -28,32 +28,31 @@ discretised separately with ``control.c2d`` at the loop rate and summed:
   acceleration (a bias of about 5 mN*m per rad/s through the AbDOB's ``s^2``) and add
   a half-sample lag; Tustin would also keep ``s = 0`` zeros but warps frequencies.
 
-Timing contract of :meth:`DisturbanceObserver.step`: call it once per tick with the newest
-measurement and the torque that was *applied over the interval just ended*, i.e. the torque
-allocated on the previous tick (best: what the saturated PWM really produces,
-``Allocator.mix(pwm_prev)``, after the DOB compensation was subtracted). The autopilot then
-commands ``tau = tau_controller - d_hat``. The step first completes the state update of the
-last interval with that torque, then outputs the estimate for the current measurement.
+Timing contract of ``step`` (:class:`fcu.control.registry.DisturbanceObserver`): call it
+once per tick with the newest measurement and the torque that was *applied over the interval
+just ended*, i.e. the torque allocated on the previous tick (best: what the saturated PWM
+really produces, ``Allocator.mix(pwm_prev)``, after the DOB compensation was subtracted).
+The autopilot then commands ``tau = tau_controller - d_hat``. The step first completes the
+state update of the last interval with that torque, then outputs the estimate for the
+current measurement.
 
 Motor lag. The thesis's nominal plants leave out the 15 rad/s motor lag (w_m), so the
 observer reads ``tau_commanded - tau_actual`` (about ``tau_dot / w_m``) as disturbance and
 feeds it back. The loop stays stable, but the margins shrink. Input sensitivity peaks of
 the VbDOB loop (per axis, position loop closed): 2.9 for a plain eq. 5.6 PD (kp = 16,
-kd = 7); with the attitude controllers' :class:`~fcu.control.attitude.MotorLead`, which
+kd = 7); with the attitude controllers' :class:`~fcu.control.motor_lead.MotorLead`, which
 overdrives the motors on purpose, 2.2 nominally but 24 when the motors are 33 % slower
-and the measurement 10 ms late. By default (:func:`make_dob` passes the model's
-``motor_bandwidth``) the nominal plant therefore includes the known motor model,
+and the measurement 10 ms late. In the autopilot (:mod:`fcu.control.registry` passes the
+model's ``motor_bandwidth``) the nominal plant therefore includes the known motor model,
 ``G_n = w_m/(s + w_m) * 1/(I s^2)`` (resp. ``1/(I s)``), realised by filtering the torque
 channel: ``d_hat = Q [I s^2 y - w_m/(s + w_m) tau]`` (resp. ``I s y``). The estimate of a
 constant disturbance and the filter Q are unchanged, ZOH stays exact for the held command
-through the motor model, and the peaks become 1.9, 1.6 and 6.4. ``motor_bandwidth_rad_s=None``
-gives the thesis's form. Loop stability with the real lag is checked in
-tests/fcu/test_disturbance_observer.py for both.
+through the motor model, and the peaks become 1.9, 1.6 and 6.4.
+``motor_bandwidth_rad_s=None`` (the classes' default) gives the thesis's form. Loop stability
+with the real lag is checked in tests/fcu/control/test_disturbance_observer.py for both.
 """
 
 from __future__ import annotations
-
-from typing import Literal, Protocol
 
 import control
 import numpy as np
@@ -63,37 +62,9 @@ from scipy.linalg import block_diag
 from fcu.floats import floats, wrap_pi
 from fcu.model import VehicleModel
 
-DobKind = Literal["none", "vbdob", "abdob"]
-DOB_KINDS: tuple[str, ...] = ("none", "vbdob", "abdob")
-
-
-class DisturbanceObserver(Protocol):
-    """What the autopilot needs from a disturbance observer."""
-
-    kind: str
-
-    def reset(self) -> None:
-        """Forget the filter state; the next step re-initialises on its measurement."""
-        ...
-
-    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray,
-             torque_applied_nm: np.ndarray) -> np.ndarray:
-        """Estimated disturbance torque d_hat (N*m), shape (3,), for this tick.
-
-        Parameters
-        ----------
-        euler_rad : numpy.ndarray
-            Measured [roll, pitch, yaw] (rad), shape (3,); used by the AbDOB.
-        rate_frd : numpy.ndarray
-            Measured body rates [p, q, r] (rad/s), shape (3,); used by the VbDOB.
-        torque_applied_nm : numpy.ndarray
-            Torque [U2, U3, U4] (N*m) applied over the interval that just ended.
-        """
-        ...
-
 
 class NoDob:
-    """The absent observer: d_hat = 0."""
+    """The absent observer (``"none"``): d_hat = 0."""
 
     kind = "none"
 
@@ -154,13 +125,28 @@ def _discretise(channels: list[tuple[control.TransferFunction, control.TransferF
 
 
 class _DiscreteDob:
-    """Shared machinery: d_hat = F_meas(z) y + F_torque(z) tau, three axes."""
+    """Shared machinery: d_hat = F_meas(z) y + F_torque(z) tau, three axes.
+
+    A concrete observer names its ``kind``, gives its per-axis channels
+    (:meth:`_channel`: the measurement filter ``Q G_n^-1`` and the torque filter ``-Q``,
+    continuous) and picks its measurement (:meth:`_measurement`).
+
+    Parameters
+    ----------
+    model : VehicleModel
+        Supplies the inertia diagonal I (kg*m^2).
+    dt_s : float
+        Loop period, s.
+    cutoff_rad_s : float
+        Q-filter bandwidth w, rad/s (5 in the thesis).
+    motor_bandwidth_rad_s : float or None
+        Motor lag included in the nominal plant, rad/s; None = the thesis's plant.
+    """
 
     kind = "abstract"
 
-    def __init__(self, model: VehicleModel, dt_s: float, cutoff_rad_s: float,
-                 channels: list[tuple[control.TransferFunction, control.TransferFunction]],
-                 motor_bandwidth_rad_s: float | None) -> None:
+    def __init__(self, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
+                 motor_bandwidth_rad_s: float | None = None) -> None:
         if not (np.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s = {dt_s!r}: must be > 0")
         if not (np.isfinite(cutoff_rad_s) and 0 < cutoff_rad_s < np.pi / dt_s):
@@ -181,6 +167,7 @@ class _DiscreteDob:
                self.cutoff_rad_s, motor_bandwidth_rad_s)
         design = _DESIGNS.get(key)
         if design is None:
+            channels = [self._channel(inertia, self.cutoff_rad_s) for inertia in model.inertia]
             design = _discretise(channels, self.dt_s, motor_bandwidth_rad_s)
             if len(_DESIGNS) >= _MAX_DESIGNS:
                 _DESIGNS.clear()
@@ -210,7 +197,15 @@ class _DiscreteDob:
         self._xt = np.zeros(self._at.shape[0])
         self._prev_meas = None
 
+    @staticmethod
+    def _channel(inertia_kgm2: float, w: float
+                 ) -> tuple[control.TransferFunction, control.TransferFunction]:
+        """One axis's (measurement filter, torque filter) for inertia I (kg*m^2) and the
+        Q-filter bandwidth w (rad/s), continuous, before the motor model."""
+        raise NotImplementedError
+
     def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
+        """The measured y of this observer's nominal plant, shape (3,)."""
         raise NotImplementedError
 
     def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray,
@@ -237,31 +232,22 @@ class AccelerationDob(_DiscreteDob):
 
     Per axis ``d_hat = Q(s) [I s^2 angle - M(s) tau]``, ``Q = w^2/(s + w)^2``, ``M`` the
     motor model (or 1). The yaw angle is unwrapped internally so a pass through +/-pi is not
-    read as a 2 pi jump.
-
-    Parameters
-    ----------
-    model : VehicleModel
-        Supplies the inertia diagonal I (kg*m^2).
-    dt_s : float
-        Loop period, s.
-    cutoff_rad_s : float
-        Q-filter bandwidth w, rad/s (5 in the thesis).
-    motor_bandwidth_rad_s : float or None
-        Motor lag included in the nominal plant, rad/s; None = the thesis's plant.
+    read as a 2 pi jump. Parameters as :class:`_DiscreteDob`'s.
     """
 
     kind = "abdob"
 
     def __init__(self, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
                  motor_bandwidth_rad_s: float | None = None) -> None:
-        w = float(cutoff_rad_s)
-        den = [1.0, 2.0 * w, w * w]  # (s + w)^2, eq. 6.28 with the missing s restored
-        channels = [(control.tf([inertia * w * w, 0.0, 0.0], den),  # Q I s^2
-                     control.tf([-w * w], den))  # -Q
-                    for inertia in model.inertia]
-        super().__init__(model, dt_s, w, channels, motor_bandwidth_rad_s)
+        super().__init__(model, dt_s, cutoff_rad_s, motor_bandwidth_rad_s)
         self._unwrapped: list[float] | None = None  # rad, per axis
+
+    @staticmethod
+    def _channel(inertia_kgm2: float, w: float
+                 ) -> tuple[control.TransferFunction, control.TransferFunction]:
+        den = [1.0, 2.0 * w, w * w]  # (s + w)^2, eq. 6.28 with the missing s restored
+        return (control.tf([inertia_kgm2 * w * w, 0.0, 0.0], den),  # Q I s^2
+                control.tf([-w * w], den))  # -Q
 
     def reset(self) -> None:
         """Forget the filter state and the angle unwrapping."""
@@ -282,63 +268,17 @@ class VelocityDob(_DiscreteDob):
     """VbDOB (eq. 6.29, 6.30) on the body rates.
 
     Per axis ``d_hat = Q(s) [I s rate - M(s) tau]``, ``Q = w/(s + w)``, ``M`` the motor
-    model (or 1).
-
-    Parameters
-    ----------
-    model : VehicleModel
-        Supplies the inertia diagonal I (kg*m^2).
-    dt_s : float
-        Loop period, s.
-    cutoff_rad_s : float
-        Q-filter bandwidth w, rad/s (5 in the thesis).
-    motor_bandwidth_rad_s : float or None
-        Motor lag included in the nominal plant, rad/s; None = the thesis's plant.
+    model (or 1). Parameters as :class:`_DiscreteDob`'s.
     """
 
     kind = "vbdob"
 
-    def __init__(self, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
-                 motor_bandwidth_rad_s: float | None = None) -> None:
-        w = float(cutoff_rad_s)
+    @staticmethod
+    def _channel(inertia_kgm2: float, w: float
+                 ) -> tuple[control.TransferFunction, control.TransferFunction]:
         den = [1.0, w]  # s + w, eq. 6.30
-        channels = [(control.tf([inertia * w, 0.0], den),  # Q I s
-                     control.tf([-w], den))  # -Q
-                    for inertia in model.inertia]
-        super().__init__(model, dt_s, w, channels, motor_bandwidth_rad_s)
+        return (control.tf([inertia_kgm2 * w, 0.0], den),  # Q I s
+                control.tf([-w], den))  # -Q
 
     def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
         return np.asarray(rate_frd, dtype=float).reshape(3).copy()
-
-
-def make_dob(kind: str, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
-             motor_model: bool = True) -> DisturbanceObserver:
-    """Build the observer named ``kind`` ("none", "vbdob" or "abdob").
-
-    Parameters
-    ----------
-    kind : str
-        One of :data:`DOB_KINDS`.
-    model : VehicleModel
-        Inertia (kg*m^2) and motor bandwidth (rad/s).
-    dt_s : float
-        Loop period, s.
-    cutoff_rad_s : float
-        Q-filter bandwidth w, rad/s (5 in the thesis, section 6.2).
-    motor_model : bool
-        Include the model's motor lag in the nominal plant (module docstring); False gives
-        the thesis's eq. 6.27/6.29 exactly.
-
-    Raises
-    ------
-    ValueError
-        When ``kind`` is not one of :data:`DOB_KINDS`.
-    """
-    motor = model.motor_bandwidth if motor_model else None
-    if kind == "none":
-        return NoDob()
-    if kind == "vbdob":
-        return VelocityDob(model, dt_s, cutoff_rad_s, motor)
-    if kind == "abdob":
-        return AccelerationDob(model, dt_s, cutoff_rad_s, motor)
-    raise ValueError(f"dob = {kind!r}: must be one of {', '.join(map(repr, DOB_KINDS))}")

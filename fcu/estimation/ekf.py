@@ -1,54 +1,8 @@
 """Extended Kalman filter on the full nonlinear quadrotor model (thesis section 6.1.2).
 
-Model: eq. 3.18 rewritten in NED/FRD
-------------------------------------
-State ``x`` (16): pos_ned p, vel_ned v, Euler angles eta = (phi, theta, psi), body rates
-omega = (p, q, r), motor thrusts T1..T4 (layout in :mod:`fcu.estimation.state`). Input: the four PWM
-commands ``u`` held over the tick (zero-order hold). Derivation, with R = Rz(psi) Ry(theta)
-Rx(phi) (body FRD to NED) and thrust along -z_body:
-
-    dp/dt     = v
-    dv/dt     = g e3 - (U1 / m) R e3,    U1 = T1 + T2 + T3 + T4                 (eq. 3.5)
-                R e3 = (c_psi s_theta c_phi + s_psi s_phi,
-                        s_psi s_theta c_phi - c_psi s_phi,
-                        c_theta c_phi)
-    deta/dt   = W(phi, theta) omega,     W = [[1, s_phi t_theta, c_phi t_theta],
-                                              [0, c_phi,         -s_phi       ],
-                                              [0, s_phi/c_theta, c_phi/c_theta]]  (eq. 3.10)
-    domega/dt = I^-1 (tau - omega x I omega),
-                tau = (L (T3 - T4), L (T1 - T2), K_psi (T1 + T2 - T3 - T4))   (eq. 3.6, 3.17)
-    dT_i/dt   = w (K u_i - T_i)                                                (eq. 3.1)
-
-Against eq. 3.18 (z up): thesis Z = -z, so its ``Z'' = c_phi c_theta U1/m - g`` becomes
-``z'' = g - c_phi c_theta U1/m``; its x and y rows use the corrupted R of eq. 3.9, replaced here
-by the third column of the standard ZYX R (at hover ``x'' = -g theta``, ``y'' = g phi``); its
-``q'`` and ``r'`` rows read ``I_x``/``I_y`` for ``I_xx``/``I_yy``. Gyroscopic rotor moments
-are neglected as in the thesis. The wind force is not modelled: it is what the velocity
-process noise stands for. Loss of effectiveness is not a state either (thesis section 6.1.2):
-a motor that delivers less than ``K u`` (or a wind torque) is taken up by the thrust states,
-which is what their large process noise allows for (:class:`EkfProcessNoise`).
-
-Ground contact mirrors the simulator's ground plane: when the estimated vehicle is within
-``ground_margin_m`` of ``ground_z_ned`` and its estimated thrust is below its weight at the
-start of a tick, the ground holds it, so dv/dt = 0 and domega/dt = 0 over that tick (and
-their Jacobian rows are zero). Without this, a vehicle idling on the ground would look like a
-free fall and drag the thrust states up to the weight.
-
-Discretisation and Jacobians
-----------------------------
-The mean is propagated over the tick by one RK4 step of the model (``w dt = 0.15`` for the
-motor lag at 100 Hz, so the RK4 local error is ~(w dt)^5/120 = 6e-7 of the state). The
-analytic Jacobian ``A = df/dx`` is recomputed every tick at ``x_{k|k}`` and the transition
-matrix is its fourth-order exponential series ``F = sum_{n<=4} (A dt)^n / n!``. For a linear
-model that is exactly the matrix RK4 applies, so mean and covariance use one discretisation;
-the truncation error against ``expm(A dt)`` is below ``(0.15)^5/120``. ``I + A dt`` would be
-off by 1.2 % on the motor lag alone (``e^-0.15`` versus 0.85). The discrete process noise is
-Van Loan's integral ``Q = int_0^dt Phi(s) Qc Phi(s)' ds``, evaluated by three-point
-Gauss-Legendre quadrature with ``Phi(s)`` the fourth-order series of ``expm(A s)``: positive
-semi-definite by construction (a sum of ``Phi Qc Phi'``) and, on the correlation scale
-``sqrt(Q_ii Q_jj)``, within 1e-4 of Van Loan's exact matrix exponential at 100 Hz
-(tests/fcu/test_ekf.py; two points would be 2 % off, as the thrust-to-angle chains make the
-integrand a degree-4 polynomial). Kernels are numba-compiled.
+The model (eq. 3.18 in NED/FRD), its Jacobian and its discretisation are in
+:mod:`fcu.estimation.ekf_model`; this module holds the filter: the compiled prediction and
+updates, the process noise, and the estimator the autopilot runs.
 
 Measurements
 ------------
@@ -68,7 +22,7 @@ of ``n`` samples. The accelerometer's x and y axes (drag only) are not used.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,252 +30,25 @@ from filterpy.kalman import ExtendedKalmanFilter
 from numba import njit
 from numpy.typing import ArrayLike
 
+from fcu.estimation.ekf_model import (
+    discrete_transition,
+    model_derivative,
+    model_jacobian,
+    pack_params,
+)
+from fcu.estimation.estimator import Channel, ProcessNoiseDensities, TickEstimator, common_channels
 from fcu.estimation.state import (
     STATE_DIM,
     THRUST,
     YAW_INDEX,
-    Z_INDEX,
     FloatArray,
-    HeightSource,
     InitialUncertainty,
     Innovation,
     SampleBatch,
     SensorNoise,
     StateEstimate,
-    check_height_source,
-    group_samples,
 )
-from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
-
-# ---- packed parameter vector of the numba kernels ------------------------------------------
-_P_K, _P_W, _P_L, _P_KPSI, _P_M, _P_G, _P_IXX, _P_IYY, _P_IZZ = range(9)
-
-
-def pack_params(model: VehicleModel) -> FloatArray:
-    """Pack the nominal model for the numba kernels.
-
-    Returns
-    -------
-    ndarray, shape (9,)
-        [K (N), w (rad/s), L (m), K_psi (m), m (kg), g (m/s^2), Ixx, Iyy, Izz (kg m^2)].
-    """
-    ixx, iyy, izz = model.inertia
-    return np.array([model.thrust_gain, model.motor_bandwidth, model.arm_length,
-                     model.yaw_gain, model.mass, model.gravity, ixx, iyy, izz])
-
-
-@njit(cache=True, error_model="numpy")
-def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
-                     on_ground: bool) -> FloatArray:
-    """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring).
-
-    Parameters
-    ----------
-    x : ndarray, shape (16,)
-        State (layout of :mod:`fcu.estimation.state`).
-    u : ndarray, shape (4,)
-        PWM commands held over the step.
-    p : ndarray, shape (9,)
-        Packed parameters (:func:`pack_params`).
-    on_ground : bool
-        The ground holds the vehicle: no translational or angular acceleration.
-
-    Returns
-    -------
-    ndarray, shape (16,)
-        State derivative, SI units per second.
-    """
-    k, w, arm, kpsi, m, g = p[0], p[1], p[2], p[3], p[4], p[5]
-    ixx, iyy, izz = p[6], p[7], p[8]
-    phi, th, psi = x[6], x[7], x[8]
-    pr, qr, rr = x[9], x[10], x[11]
-    t1, t2, t3, t4 = x[12], x[13], x[14], x[15]
-    sphi, cphi = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(th), math.cos(th)
-    spsi, cpsi = math.sin(psi), math.cos(psi)
-    xd = np.zeros(16)
-    # dp/dt = v
-    xd[0] = x[3]
-    xd[1] = x[4]
-    xd[2] = x[5]
-    if not on_ground:
-        # dv/dt = g e3 - (U1/m) R e3
-        a = -(t1 + t2 + t3 + t4) / m
-        xd[3] = a * (cpsi * sth * cphi + spsi * sphi)
-        xd[4] = a * (spsi * sth * cphi - cpsi * sphi)
-        xd[5] = g + a * cth * cphi
-    # deta/dt = W(phi, theta) omega
-    xd[6] = pr + (qr * sphi + rr * cphi) * sth / cth
-    xd[7] = qr * cphi - rr * sphi
-    xd[8] = (qr * sphi + rr * cphi) / cth
-    if not on_ground:
-        # domega/dt = I^-1 (tau - omega x I omega)
-        xd[9] = ((iyy - izz) * qr * rr + arm * (t3 - t4)) / ixx
-        xd[10] = ((izz - ixx) * pr * rr + arm * (t1 - t2)) / iyy
-        xd[11] = ((ixx - iyy) * pr * qr + kpsi * (t1 + t2 - t3 - t4)) / izz
-    # dT/dt = w (K u - T)
-    for i in range(4):
-        xd[12 + i] = w * (k * u[i] - x[12 + i])
-    return xd
-
-
-@njit(cache=True, error_model="numpy")
-def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
-    """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, shape (16, 16).
-
-    (``df/du`` is not needed: the input is known.)
-    """
-    w, arm, kpsi, m = p[1], p[2], p[3], p[4]
-    ixx, iyy, izz = p[6], p[7], p[8]
-    phi, th, psi = x[6], x[7], x[8]
-    pr, qr, rr = x[9], x[10], x[11]
-    u1 = x[12] + x[13] + x[14] + x[15]
-    sphi, cphi = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(th), math.cos(th)
-    spsi, cpsi = math.sin(psi), math.cos(psi)
-    a = np.zeros((16, 16))
-    # d(dp/dt)/dv = I
-    a[0, 3] = 1.0
-    a[1, 4] = 1.0
-    a[2, 5] = 1.0
-    if not on_ground:
-        s = -u1 / m
-        # d(dv/dt)/d(phi, theta, psi) = -(U1/m) d(R e3)/d(eta)
-        a[3, 6] = s * (-cpsi * sth * sphi + spsi * cphi)
-        a[3, 7] = s * (cpsi * cth * cphi)
-        a[3, 8] = s * (-spsi * sth * cphi + cpsi * sphi)
-        a[4, 6] = s * (-spsi * sth * sphi - cpsi * cphi)
-        a[4, 7] = s * (spsi * cth * cphi)
-        a[4, 8] = s * (cpsi * sth * cphi + spsi * sphi)
-        a[5, 6] = s * (-cth * sphi)
-        a[5, 7] = s * (-sth * cphi)
-        # d(dv/dt)/dT_i = -(R e3)/m
-        for i in range(4):
-            a[3, 12 + i] = -(cpsi * sth * cphi + spsi * sphi) / m
-            a[4, 12 + i] = -(spsi * sth * cphi - cpsi * sphi) / m
-            a[5, 12 + i] = -(cth * cphi) / m
-    # d(deta/dt)/d(phi, theta)
-    tth = sth / cth
-    qs_rc = qr * sphi + rr * cphi
-    qc_rs = qr * cphi - rr * sphi
-    a[6, 6] = qc_rs * tth
-    a[6, 7] = qs_rc / (cth * cth)
-    a[7, 6] = -qs_rc
-    a[8, 6] = qc_rs / cth
-    a[8, 7] = qs_rc * sth / (cth * cth)
-    # d(deta/dt)/d(omega) = W
-    a[6, 9] = 1.0
-    a[6, 10] = sphi * tth
-    a[6, 11] = cphi * tth
-    a[7, 10] = cphi
-    a[7, 11] = -sphi
-    a[8, 10] = sphi / cth
-    a[8, 11] = cphi / cth
-    if not on_ground:
-        # d(domega/dt)/d(omega): gyroscopic coupling
-        a[9, 10] = (iyy - izz) * rr / ixx
-        a[9, 11] = (iyy - izz) * qr / ixx
-        a[10, 9] = (izz - ixx) * rr / iyy
-        a[10, 11] = (izz - ixx) * pr / iyy
-        a[11, 9] = (ixx - iyy) * qr / izz
-        a[11, 10] = (ixx - iyy) * pr / izz
-        # d(domega/dt)/dT = I^-1 (rows 2-4 of eq. 3.17)
-        a[9, 14] = arm / ixx
-        a[9, 15] = -arm / ixx
-        a[10, 12] = arm / iyy
-        a[10, 13] = -arm / iyy
-        a[11, 12] = kpsi / izz
-        a[11, 13] = kpsi / izz
-        a[11, 14] = -kpsi / izz
-        a[11, 15] = -kpsi / izz
-    # d(dT/dt)/dT = -w I
-    for i in range(4):
-        a[12 + i, 12 + i] = -w
-    return a
-
-
-@njit(cache=True, error_model="numpy")
-def rk4_step(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
-             on_ground: bool) -> FloatArray:
-    """One RK4 step of :func:`model_derivative` over ``dt`` s with ``u`` held; shape (16,)."""
-    k1 = model_derivative(x, u, p, on_ground)
-    k2 = model_derivative(x + 0.5 * dt * k1, u, p, on_ground)
-    k3 = model_derivative(x + 0.5 * dt * k2, u, p, on_ground)
-    k4 = model_derivative(x + dt * k3, u, p, on_ground)
-    return x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-
-
-@njit(cache=True, error_model="numpy")
-def discrete_transition(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
-                        on_ground: bool,
-                        qc_diag: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Propagate the mean and build ``F`` and ``Q`` for one step (module docstring).
-
-    Parameters
-    ----------
-    x : ndarray, shape (16,)
-        Posterior state ``x_{k|k}``.
-    u : ndarray, shape (4,)
-        PWM held over the step.
-    dt : float
-        Step, s.
-    p : ndarray, shape (9,)
-        Packed parameters.
-    on_ground : bool
-        Ground holds the vehicle over this step.
-    qc_diag : ndarray, shape (16,)
-        Continuous process-noise spectral densities (state units squared per second).
-
-    Returns
-    -------
-    x_next : ndarray, shape (16,)
-        ``x_{k+1|k}`` by RK4.
-    f_mat : ndarray, shape (16, 16)
-        ``F = sum_{n<=4} (A dt)^n / n!`` with ``A`` at ``x_{k|k}``.
-    q_mat : ndarray, shape (16, 16)
-        ``Q = dt sum_j w_j Phi(c_j dt) Qc Phi(c_j dt)'`` (3-point Gauss-Legendre on [0, 1]),
-        ``Phi(s) = sum_{n<=4} (A s)^n / n!``.
-    """
-    n = 16
-    x_next = rk4_step(x, u, dt, p, on_ground)
-    ad = model_jacobian(x, p, on_ground)
-    ad *= dt  # A dt
-    ad2 = ad @ ad
-    ad3 = ad2 @ ad
-    ad4 = ad3 @ ad
-    # (the element-wise sums below are written as loops: the same operations in the same
-    # order as the matrix expressions in the comments, without their temporaries)
-    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24
-    f_mat = np.empty((n, n))
-    for i in range(n):
-        for j in range(n):
-            eye_ij = 1.0 if i == j else 0.0
-            f_mat[i, j] = (eye_ij + ad[i, j] + ad2[i, j] / 2.0 + ad3[i, j] / 6.0
-                           + ad4[i, j] / 24.0)
-    # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
-    #     Phi(s) = sum_{n<=4} (A s)^n / n!
-    q_mat = np.zeros((n, n))
-    phi = np.empty((n, n))
-    phi_qc = np.empty((n, n))
-    r = math.sqrt(0.6) / 2.0
-    for c, weight in ((0.5 - r, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + r, 5.0 / 18.0)):
-        c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
-        for i in range(n):
-            for j in range(n):
-                eye_ij = 1.0 if i == j else 0.0
-                # Phi = I + A dt c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24
-                phi_ij = (eye_ij + ad[i, j] * c + ad2[i, j] * c2 + ad3[i, j] * c3
-                          + ad4[i, j] * c4)
-                phi[i, j] = phi_ij
-                phi_qc[i, j] = phi_ij * qc_diag[j]  # Phi Qc (Qc diagonal)
-        # Q += w Phi Qc Phi'
-        term = phi_qc @ phi.T
-        for i in range(n):
-            for j in range(n):
-                q_mat[i, j] += weight * term[i, j]
-    q_mat *= dt
-    return x_next, f_mat, q_mat
 
 
 @njit(cache=True, error_model="numpy")
@@ -486,7 +213,7 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
 
 
 @dataclass(frozen=True, kw_only=True)
-class EkfProcessNoise:
+class EkfProcessNoise(ProcessNoiseDensities):
     """Continuous-time process-noise spectral densities of the EKF (white noise on each row).
 
     The thrust states double as the estimator of everything that pushes or twists the
@@ -513,41 +240,18 @@ class EkfProcessNoise:
     ang_accel: float = 0.01  # (rad/s^2)^2/Hz, each body axis
     thrust: float = 60.0  # N^2/s, each motor
 
-    def __post_init__(self) -> None:
-        for name in ("pos", "accel", "euler", "ang_accel", "thrust"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name} = {value!r}: spectral density must be finite, >= 0")
 
-    def diagonal(self) -> FloatArray:
-        """``Qc`` diagonal in the state order, shape (16,)."""
-        return np.array([self.pos] * 3 + [self.accel] * 3 + [self.euler] * 3
-                        + [self.ang_accel] * 3 + [self.thrust] * 4)
-
-
-class _Channel:
+class _Channel(Channel):
     """A measurement channel: ``h(x) = S x`` at the sample time, and its noise."""
 
     def __init__(self, sensor: str, selection: FloatArray, sigma: float,
                  value_index: tuple[int, ...], model_sigma: float = 0.0) -> None:
-        self.sensor = sensor
-        self.selection = np.ascontiguousarray(selection, dtype=float)  # S, shape (m, 16)
-        self.value_index = np.array(value_index)  # entries of the sample value used
-        if list(value_index) != list(range(value_index[0], value_index[-1] + 1)):
-            raise ValueError(f"value_index = {value_index!r}: must be consecutive")
-        self.value_slice = slice(value_index[0], value_index[-1] + 1)  # the same, as a slice
-        m = self.selection.shape[0]
+        super().__init__(sensor, selection, value_index)
+        m = self.rows
         self.sample_r = np.eye(m) * sigma ** 2  # R of one sample; divided by n for a mean
         self.model_r = np.eye(m) * model_sigma ** 2  # model error, not reduced by averaging
         self.wrap_yaw = sensor == "mocap_att"  # innovation's third entry is a yaw difference
         self.no_value = [0.0] * m  # placeholder measurement of a tick without an update
-
-
-def _select(columns: tuple[int, ...], signs: tuple[float, ...] | None = None) -> FloatArray:
-    """Selection matrix picking ``columns`` of the state (with ``signs``), shape (m, 16)."""
-    sel = np.zeros((len(columns), STATE_DIM))
-    sel[np.arange(len(columns)), list(columns)] = 1.0 if signs is None else signs
-    return sel
 
 
 class _QuadrotorEKF(ExtendedKalmanFilter):
@@ -632,7 +336,7 @@ class _QuadrotorEKF(ExtendedKalmanFilter):
         self.P_post = self.P.copy()
 
 
-class ExtendedKalmanEstimator:
+class ExtendedKalmanEstimator(TickEstimator):
     """EKF state estimator of the autopilot (thesis section 6.1.2), built on filterpy.
 
     Parameters
@@ -642,8 +346,8 @@ class ExtendedKalmanEstimator:
     dt_s : float
         Nominal control-tick period, s (100 Hz: 0.01). A longer gap between two ticks is
         covered by several RK4 steps of at most ``dt_s``.
-    height_source : {"mocap", "baro"}
-        Where height comes from (module :mod:`fcu.estimation.state`).
+    height_source : str
+        Where height comes from, "mocap" or "baro" (module :mod:`fcu.estimation.state`).
     noise : SensorNoise
         Assumed measurement noise.
     process_noise : EkfProcessNoise
@@ -668,33 +372,22 @@ class ExtendedKalmanEstimator:
     """
 
     def __init__(self, model: VehicleModel, dt_s: float = 0.01,
-                 height_source: HeightSource = "mocap", *,
+                 height_source: str = "mocap", *,
                  noise: SensorNoise | None = None,
                  process_noise: EkfProcessNoise | None = None,
                  initial_uncertainty: InitialUncertainty | None = None,
                  ground_z_ned: float | None = 0.0,
                  ground_margin_m: float = 0.02,
                  accel_z_model_sigma: float | None = 0.1) -> None:
-        if not (math.isfinite(dt_s) and dt_s > 0):
-            raise ValueError(f"dt_s = {dt_s!r}: must be a finite number > 0 s")
-        if not (math.isfinite(ground_margin_m) and ground_margin_m >= 0):
-            raise ValueError(f"ground_margin_m = {ground_margin_m!r}: must be >= 0 m")
-        self.model = model
-        self.dt_s = float(dt_s)
-        self.height_source = check_height_source(height_source)
-        self.noise = noise if noise is not None else SensorNoise()
+        super().__init__(model, dt_s, height_source, noise, initial_uncertainty, ground_z_ned,
+                         ground_margin_m)
         self.process_noise = process_noise if process_noise is not None else EkfProcessNoise()
-        self.initial_uncertainty = (initial_uncertainty if initial_uncertainty is not None
-                                    else InitialUncertainty())
-        self.ground_z_ned = ground_z_ned
-        self.ground_margin_m = float(ground_margin_m)
         if accel_z_model_sigma is not None and not (math.isfinite(accel_z_model_sigma)
                                                     and accel_z_model_sigma >= 0):
             raise ValueError(f"accel_z_model_sigma = {accel_z_model_sigma!r}: must be >= 0 "
                              "m/s^2, or None to leave the accelerometer out")
         self.accel_z_model_sigma = accel_z_model_sigma
         self._params = pack_params(model)
-        self._weight_n = model.mass * model.gravity
         self._channels = self._make_channels()
         self._kinds = frozenset(c.sensor for c in self._channels)
         # the channels stacked for the compiled update of a whole tick (sequential_updates)
@@ -710,21 +403,12 @@ class ExtendedKalmanEstimator:
         self._innovations: dict[str, Innovation] = {}
         # (sensor, y, S, NIS) of this tick's updates, turned into _innovations on request
         self._innovation_parts: list[tuple[str, FloatArray, FloatArray, float]] = []
-        self._time_s = 0.0
-        self._estimate: StateEstimate | None = None
         self.reset()
 
     def _make_channels(self) -> tuple[_Channel, ...]:
         n = self.noise
-        channels = []
-        if self.height_source == "baro":
-            channels.append(_Channel("mocap_pos", _select((0, 1)), n.mocap_pos, (0, 1)))
-            # alt = -z
-            channels.append(_Channel("baro", _select((Z_INDEX,), (-1.0,)), n.baro, (0,)))
-        else:
-            channels.append(_Channel("mocap_pos", _select((0, 1, 2)), n.mocap_pos, (0, 1, 2)))
-        channels.append(_Channel("mocap_att", _select((6, 7, 8)), n.mocap_att, (0, 1, 2)))
-        channels.append(_Channel("gyro", _select((9, 10, 11)), n.gyro, (0, 1, 2)))
+        channels = [_Channel(sensor, sel, getattr(n, sensor), value_index)
+                    for sensor, sel, value_index in common_channels(self.height_source)]
         if self.accel_z_model_sigma is not None:
             # body-z specific force f_z = -(T1 + T2 + T3 + T4)/m (thrust along -z_body)
             sel = np.zeros((1, STATE_DIM))
@@ -745,15 +429,7 @@ class ExtendedKalmanEstimator:
             off, with the covariance of ``initial_uncertainty`` (the first mocap updates pin
             position and attitude).
         """
-        if initial is None:
-            x0 = np.zeros(STATE_DIM)
-            p0 = self.initial_uncertainty.diagonal()
-        else:
-            x0 = initial.to_vector()
-            p0 = np.array(initial.covariance_diag, dtype=float)
-            if p0.shape != (STATE_DIM,) or not np.all(p0 > 0):
-                raise ValueError(f"initial.covariance_diag = {p0.tolist()}: must be 16 "
-                                 "numbers > 0")
+        x0, p0 = self._initial_state(initial)
         f = self.filter
         f.x = x0.astype(float)
         f.P = np.diag(p0)
@@ -766,31 +442,10 @@ class ExtendedKalmanEstimator:
         self._innovation_parts = []
         self._estimate = self._make_estimate()
 
-    def step(self, time_s: float, pwm_applied: ArrayLike,
-             samples: Iterable[SensorSampleLike]) -> StateEstimate:
-        """Predict to ``time_s`` and update with the tick's samples.
-
-        Parameters
-        ----------
-        time_s : float
-            Tick time, s (>= the previous tick's).
-        pwm_applied : array_like, shape (4,)
-            PWM held over (previous tick, time_s], motors 1..4.
-        samples : iterable of SensorSampleLike
-            Samples produced since the previous tick.
-
-        Returns
-        -------
-        StateEstimate
-            Posterior at ``time_s``.
-        """
-        return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds))
-
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
                      batches: Mapping[str, SampleBatch]) -> StateEstimate:
-        """:meth:`step` with the tick's samples already averaged by
-        :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use are
-        ignored), so that several estimators can share one grouping."""
+        """Predict to ``time_s`` (s) with ``pwm_applied`` held and update with the tick's
+        averaged samples (:meth:`TickEstimator.step_grouped`); returns the posterior."""
         time_s = float(time_s)
         u = np.asarray(pwm_applied, dtype=float).reshape(4)
         dt = time_s - self._time_s
@@ -833,11 +488,7 @@ class ExtendedKalmanEstimator:
 
     # ---- internals -------------------------------------------------------------------------
     def _on_ground(self) -> bool:
-        if self.ground_z_ned is None:
-            return False
-        x = self.filter.x
-        near = x[Z_INDEX] >= self.ground_z_ned - self.ground_margin_m
-        return bool(near and float(np.sum(x[THRUST])) < self._weight_n)
+        return self._on_ground_at(self.filter.x)
 
     def _update_all(self, counts: list[int], deltas: FloatArray, z_stack: FloatArray,
                     u: FloatArray) -> None:
@@ -870,22 +521,6 @@ class ExtendedKalmanEstimator:
         return StateEstimate._from_owned(self._time_s, f.x.copy(), f.P.diagonal().copy())
 
     # ---- inspection ------------------------------------------------------------------------
-    @property
-    def estimate(self) -> StateEstimate:
-        """The latest posterior estimate."""
-        assert self._estimate is not None
-        return self._estimate
-
-    @property
-    def time_s(self) -> float:
-        """Time of the latest estimate, s."""
-        return self._time_s
-
-    @property
-    def sensor_kinds(self) -> frozenset[str]:
-        """The sensor kinds this estimator uses (samples of other kinds are ignored)."""
-        return self._kinds
-
     @property
     def x(self) -> FloatArray:
         """Posterior state ``x_{k|k}``, shape (16,) (a copy)."""
@@ -925,10 +560,5 @@ class ExtendedKalmanEstimator:
 __all__ = [
     "EkfProcessNoise",
     "ExtendedKalmanEstimator",
-    "discrete_transition",
     "kalman_update",
-    "model_derivative",
-    "model_jacobian",
-    "pack_params",
-    "rk4_step",
 ]

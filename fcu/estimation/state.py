@@ -33,19 +33,18 @@ from __future__ import annotations
 import math
 from collections.abc import Collection, Iterable
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from fcu.hal import SENSOR_NAMES, SensorSampleLike
+from fcu.floats import wrap_pi
+from fcu.hal import SensorSampleLike
+from flightdata.vocabulary import HEIGHT_SOURCES, SENSORS
 
 FloatArray = NDArray[np.float64]
 ArrayLikeFloat = FloatArray | list[float] | tuple[float, ...]
 
-HeightSource = Literal["mocap", "baro"]
 _FLOAT64 = np.dtype(np.float64)
-HEIGHT_SOURCES: tuple[str, ...] = ("mocap", "baro")
 
 # ---- state layout shared by the EKF and the TSKF --------------------------------------------
 STATE_DIM = 16  # entries of the estimator state
@@ -62,17 +61,13 @@ STATE_NAMES: tuple[str, ...] = (
 )
 
 
-def check_height_source(height_source: str) -> HeightSource:
-    """Return ``height_source`` if it is ``"mocap"`` or ``"baro"``, else raise ValueError."""
+def check_height_source(height_source: str) -> str:
+    """Return ``height_source`` if it is one of :data:`flightdata.vocabulary.HEIGHT_SOURCES`
+    (``"mocap"``, ``"baro"``), else raise ValueError."""
     if height_source not in HEIGHT_SOURCES:
         raise ValueError(f"height_source = {height_source!r}: must be one of "
                          f"{', '.join(map(repr, HEIGHT_SOURCES))}")
-    return height_source  # type: ignore[return-value]
-
-
-def wrap_angle(angle_rad: float) -> float:
-    """Wrap an angle to [-pi, pi), rad."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+    return height_source
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,7 +84,7 @@ class SensorNoise:
     baro: float = 0.02  # m
 
     def __post_init__(self) -> None:
-        for name in SENSOR_NAMES:
+        for name in SENSORS:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} = {value!r}: noise sigma must be a finite number > 0")
@@ -167,7 +162,7 @@ class StateEstimate:
         """:meth:`from_vector` for float64 arrays of shape (16,) that the caller hands over
         (fresh, held by no one else): the fields are slices of ``x``, no copies."""
         euler = x[EULER]
-        euler[2] = wrap_angle(float(euler[2]))
+        euler[2] = wrap_pi(float(euler[2]))
         return cls(float(time_s), x[POS], x[VEL], euler, x[RATE], x[THRUST], covariance_diag)
 
     @classmethod
@@ -178,7 +173,7 @@ class StateEstimate:
         xv = np.array(x, dtype=float).reshape(STATE_DIM)
         pv = np.array(covariance_diag, dtype=float).reshape(STATE_DIM)
         euler = xv[EULER]
-        euler[2] = wrap_angle(float(euler[2]))
+        euler[2] = wrap_pi(float(euler[2]))
         return cls(time_s=float(time_s), pos_ned=xv[POS], vel_ned=xv[VEL], euler_rad=euler,
                    rate_frd=xv[RATE], thrust_n=xv[THRUST], covariance_diag=pv)
 
@@ -229,7 +224,7 @@ class SampleBatch:
 
 
 def group_samples(samples: Iterable[SensorSampleLike],
-                  kinds: Collection[str] = SENSOR_NAMES) -> dict[str, SampleBatch]:
+                  kinds: Collection[str] = SENSORS) -> dict[str, SampleBatch]:
     """Average one tick's samples per sensor kind.
 
     Parameters
@@ -285,14 +280,14 @@ def group_samples(samples: Iterable[SensorSampleLike],
                     mean[0] += v[0]
                     mean[1] += v[1]
                     # yaw offset from the first reading, wrapped to [-pi, pi)
-                    mean[2] += yaw0 + wrap_angle(v[2] - yaw0)
+                    mean[2] += yaw0 + wrap_pi(v[2] - yaw0)
             else:
                 for v in rows[1:]:
                     for i in range(n):
                         mean[i] += v[i]
             mean = [m / count for m in mean]
         if name == "mocap_att":
-            mean[2] = wrap_angle(mean[2])
+            mean[2] = wrap_pi(mean[2])
         batches[name] = SampleBatch(value=np.array(mean), time_s=sum(times[name]) / count,
                                     count=count)
     return batches

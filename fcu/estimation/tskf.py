@@ -1,42 +1,8 @@
 """Two-Stage Kalman Filter: state estimate and per-motor loss of effectiveness (eq. 6.1-6.26).
 
-Model
------
-Eq. 6.1 is the hover linearisation; written in NED/FRD it reads (the thesis's first line,
-``x' = theta g``, is a typo for ``x'' = theta g`` in its z-up frame; in NED a nose-up pitch
-tilts the thrust backwards)::
-
-    x'' = -g theta        y'' = g phi        z'' = g - U1/m
-    phi'' = U2/Ixx        theta'' = U3/Iyy   psi'' = U4/Izz
-
-with U = eq. 3.17 applied to the motor thrusts. The state is augmented with the four thrusts,
-whose lag is eq. 6.4 (``T_i' = w (K u_i - T_i)``), giving eq. 6.3 with the layout of
-:mod:`fcu.estimation.state` (the thesis orders it [x, x', y, y', ...]; same content)::
-
-    x_a = [p (3), v (3), (phi, theta, psi), (p, q, r), T1..T4]                  (16)
-    x_a' = A_a x_a + B_a (I - Gamma) u + g_a                                     (eq. 6.5)
-
-``B_a`` is non-zero only in the thrust rows (``K w I``): a PWM command acts on the motion only
-through its thrust. Loss of effectiveness in additive form (eq. 6.6):
-``B_a (I - Gamma) u = B_a u + E_a gamma`` with ``E_a = -B_a diag(u)``.
-
-Gravity. Linearised about hover, the vertical row keeps the affine term ``g``
-(``z'' = g - sum(T)/m``, eq. 6.1) because the thrusts are absolute states, not deviations.
-It is handled as a known constant input: the continuous model is discretised with the input
-vector ``[u1, u2, u3, u4, 1]`` and input matrix ``[B_a, g e_vz]`` by zero-order hold
-(``scipy.signal.cont2discrete``; gravity is constant over a tick, so ZOH is exact for it). The
-discrete model is therefore (eq. 6.8, with ``g_k`` the gravity column)::
-
-    x_{k+1} = A_k x_k + B_k u_k + g_k + E_k gamma_k + w_k,    E_k = -B_k diag(u_k)
-    gamma_{k+1} = gamma_k + w^gamma_k                                           (eq. 6.9)
-    y_k = C_k x_k + v_k
-
-The linear model assumes small roll and pitch and a yaw near zero (the horizontal rows are
-those of psi = 0). Its rate states are read as body rates (what the gyro measures) and the
-attitude kinematics are linearised to ``eta' = omega``; the second-order kinematic error
-(``psi' - r ~ q phi`` while pitching at 2 rad/s with a few hundredths of roll: 0.04 rad/s)
-is left to the attitude rows' process noise rather than to the rate rows, where it would read
-as a yaw torque and so as a gamma (see :class:`TskfProcessNoise`).
+The augmented linear hover model it runs on (eq. 6.1-6.9) is built and discretised in
+:mod:`fcu.estimation.tskf_model`; the measurement channels, reset and inspection it shares
+with the EKF are in :mod:`fcu.estimation.estimator`.
 
 Measurements ``y = C x``: mocap position (x, y only when ``height_source="baro"``), barometric
 altitude ``-z`` (baro source only), mocap attitude (yaw innovation wrapped to [-pi, pi)) and
@@ -55,208 +21,50 @@ Filter
 Bias filter eq. 6.10-6.14, bias-free filter eq. 6.15-6.19, residual covariance eq. 6.20,
 coupling eq. 6.21-6.24 (eq. 6.16's last term is ``V P^gamma V'``), outputs eq. 6.25-6.26. It is
 algebraically the Kalman filter on the 20-state model [x; gamma] (Hsieh and Chen, 1999), which
-``tests/fcu/test_tskf.py`` verifies. Tuning (defaults of :class:`TskfProcessNoise` and
+``tests/fcu/estimation/test_tskf.py`` verifies. Tuning (defaults of :class:`TskfProcessNoise` and
 ``q_gamma``) is documented there and in the class docstrings.
 """
 
 from __future__ import annotations
 
-import functools
 import math
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
-from scipy.linalg import expm
-from scipy.signal import cont2discrete
 
+from fcu.estimation.estimator import Channel, TickEstimator, common_channels
 from fcu.estimation.state import (
-    EULER,
-    POS,
-    RATE,
     STATE_DIM,
-    THRUST,
-    VEL,
     YAW_INDEX,
-    Z_INDEX,
     FloatArray,
-    HeightSource,
     InitialUncertainty,
     Innovation,
     SampleBatch,
     SensorNoise,
     StateEstimate,
-    check_height_source,
-    group_samples,
+)
+from fcu.estimation.tskf_model import (
+    N_MOTORS,
+    LinearHoverModel,
+    TskfProcessNoise,
+    shared_hover_model,
 )
 from fcu.floats import clip
-from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
 
-N_MOTORS = 4
 
-
-@dataclass(frozen=True, kw_only=True)
-class TskfProcessNoise:
-    """Continuous process-noise spectral densities ``Q^x`` of the TSKF's linear model.
-
-    Tuned on the closed-loop harness of tests/fcu/test_tskf.py (nonlinear quaternion plant,
-    motor lag, drag and gusts, noisy sensors at their own rates, Table 6.1 step profile);
-    seeds 1-6, gusts 0.3-1.0 m/s:
-
-    * ``euler`` 1e-3 rad^2/s: absorbs the kinematic linearisation error (module docstring).
-      At 1e-7 the error went into gamma: motor 4 read 0.11 before its fault and motor 3 left
-      its 0.05 band for 17 s when motor 1 failed (1e-2: no change from 1e-3).
-    * ``ang_accel`` 0.3 (rad/s^2)^2/Hz: 0.1 let unmodelled torques into gamma (band left on
-      one seed), 1.0 slowed the motors' separation (healthy estimates up to 0.1).
-    * ``accel`` 0.05 (m/s^2)^2/Hz: drag and the thrust-tilt term of the z row.
-    * ``thrust`` 0.01 N^2/s: small, so that a persistent thrust deficit is explained by
-      gamma rather than by thrust-state noise (0.001-0.1 made no measurable difference).
-    * ``pos`` 1e-8 m^2/s: the position rows are exact.
-    """
-
-    pos: float = 1e-8  # m^2/s
-    accel: float = 0.05  # (m/s^2)^2/Hz, each NED axis
-    euler: float = 1e-3  # rad^2/s
-    ang_accel: float = 0.3  # (rad/s^2)^2/Hz, each axis
-    thrust: float = 0.01  # N^2/s, each motor
-
-    def __post_init__(self) -> None:
-        for name in ("pos", "accel", "euler", "ang_accel", "thrust"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name} = {value!r}: spectral density must be finite, >= 0")
-
-    def diagonal(self) -> FloatArray:
-        """``Qc`` diagonal in the state order, shape (16,)."""
-        return np.array([self.pos] * 3 + [self.accel] * 3 + [self.euler] * 3
-                        + [self.ang_accel] * 3 + [self.thrust] * 4)
-
-
-@dataclass(frozen=True)
-class LinearHoverModel:
-    """Continuous and ZOH-discrete matrices of the augmented hover model (module docstring).
-
-    Attributes
-    ----------
-    a_c : ndarray, shape (16, 16)
-        Continuous ``A_a``.
-    b_c : ndarray, shape (16, 4)
-        Continuous ``B_a`` (PWM to thrust-rate, ``K w`` in the thrust rows).
-    g_c : ndarray, shape (16,)
-        Continuous gravity input (``g`` in the vz row; zero for the ground model).
-    a_d, b_d, g_d : ndarrays, shapes (16, 16), (16, 4), (16,)
-        ZOH discretisation over ``dt_s``.
-    q_d : ndarray, shape (16, 16)
-        Discrete ``Q^x = int_0^dt e^{A s} Qc e^{A' s} ds`` (Van Loan, exact).
-    """
-
-    a_c: FloatArray
-    b_c: FloatArray
-    g_c: FloatArray
-    a_d: FloatArray
-    b_d: FloatArray
-    g_d: FloatArray
-    q_d: FloatArray
-
-
-def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
-                on_ground: bool = False) -> LinearHoverModel:
-    """Build the augmented linear hover model (eq. 6.1, 6.3, 6.4) and discretise it (ZOH).
-
-    Parameters
-    ----------
-    model : VehicleModel
-        Nominal airframe.
-    dt_s : float
-        Sample period, s.
-    qc_diag : ndarray, shape (16,)
-        Continuous process-noise spectral densities.
-    on_ground : bool
-        Build the ground model (no accelerations, no gravity input).
-
-    Returns
-    -------
-    LinearHoverModel
-    """
-    g, m, k, w = model.gravity, model.mass, model.thrust_gain, model.motor_bandwidth
-    inertia = model.inertia_diag
-    torque = model.thrust_mixer()[1:, :]  # (3, 4): thrusts -> roll, pitch, yaw torques
-    a = np.zeros((STATE_DIM, STATE_DIM))
-    b = np.zeros((STATE_DIM, N_MOTORS))
-    gc = np.zeros(STATE_DIM)
-    # p' = v
-    a[POS, VEL] = np.eye(3)
-    # (phi, theta, psi)' = (p, q, r)   (attitude kinematics linearised at hover)
-    a[EULER, RATE] = np.eye(3)
-    if not on_ground:
-        # x'' = -g theta;  y'' = g phi;  z'' = g - sum(T)/m
-        a[3, 7] = -g
-        a[4, 6] = g
-        a[5, THRUST] = -1.0 / m
-        gc[5] = g
-        # (p, q, r)' = I^-1 (L (T3 - T4), L (T1 - T2), K_psi (T1 + T2 - T3 - T4))
-        a[RATE, THRUST] = torque / inertia[:, None]
-    # T' = -w T + K w u
-    a[THRUST, THRUST] = -w * np.eye(N_MOTORS)
-    b[THRUST, :] = k * w * np.eye(N_MOTORS)
-    b_ext = np.hstack((b, gc[:, None]))
-    a_d, b_ext_d, _, _, _ = cont2discrete((a, b_ext, np.eye(STATE_DIM),
-                                           np.zeros((STATE_DIM, N_MOTORS + 1))),
-                                          dt_s, method="zoh")
-    # Van Loan: expm([[-A, Qc], [0, A']] dt) = [[., Phi^-1 Qd], [0, Phi']]
-    n = STATE_DIM
-    vl = np.zeros((2 * n, 2 * n))
-    vl[:n, :n] = -a
-    vl[:n, n:] = np.diag(qc_diag)
-    vl[n:, n:] = a.T
-    e = expm(vl * dt_s)
-    phi = e[n:, n:].T
-    q_d = phi @ e[:n, n:]
-    q_d = 0.5 * (q_d + q_d.T)
-
-    def contiguous(arr: ArrayLike) -> FloatArray:
-        return np.ascontiguousarray(arr, dtype=float)
-
-    return LinearHoverModel(a_c=contiguous(a), b_c=contiguous(b), g_c=contiguous(gc),
-                            a_d=contiguous(a_d), b_d=contiguous(b_ext_d[:, :N_MOTORS]),
-                            g_d=contiguous(b_ext_d[:, N_MOTORS]), q_d=contiguous(q_d))
-
-
-@functools.lru_cache(maxsize=16)
-def _shared_hover_model(model: VehicleModel, dt_s: float, qc_diag: tuple[float, ...],
-                        on_ground: bool) -> LinearHoverModel:
-    """:func:`hover_model`, built once per process and configuration (read-only arrays).
-
-    Its discretisation calls scipy's ``expm`` and ``solve``, which wake OpenBLAS's worker
-    threads; those then spin for about 0.1 s of CPU time. A process that builds many
-    filters (a batch of flights, a benchmark, the tests) pays that once.
-    """
-    lm = hover_model(model, dt_s, np.array(qc_diag), on_ground)
-    for arr in (lm.a_c, lm.b_c, lm.g_c, lm.a_d, lm.b_d, lm.g_d, lm.q_d):
-        arr.setflags(write=False)
-    return lm
-
-
-class _Channel:
+class _Channel(Channel):
     """One measurement kind: ``y = S x`` at its sample time, its noise, and ``S A_c``."""
 
     def __init__(self, sensor: str, selection: FloatArray, sigma: float,
                  value_index: tuple[int, ...], flight: LinearHoverModel,
                  ground: LinearHoverModel) -> None:
-        self.sensor = sensor
-        self.selection = selection  # S, shape (k, 16)
-        self.value_index = np.array(value_index)
+        super().__init__(sensor, selection, value_index)
         self.sample_var = sigma * sigma  # per sample, divided by n for a mean of n
         # S A_c of the flight and ground models, for C = S (I - delta A_c)
-        self.sel_a = {False: selection @ flight.a_c, True: selection @ ground.a_c}
-        self.ones = np.ones(selection.shape[0])
-        self.rows = selection.shape[0]
-        if list(value_index) != list(range(value_index[0], value_index[-1] + 1)):
-            raise ValueError(f"value_index = {value_index!r}: must be consecutive")
-        self.value_slice = slice(value_index[0], value_index[-1] + 1)  # value_index, a slice
+        self.sel_a = {False: self.selection @ flight.a_c, True: self.selection @ ground.a_c}
 
 
 @njit(cache=True, error_model="numpy")
@@ -429,7 +237,7 @@ def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: 
 DEFAULT_Q_GAMMA = 1e-4
 
 
-class TwoStageKalmanFilter:
+class TwoStageKalmanFilter(TickEstimator):
     """Two-Stage Kalman Filter (eq. 6.10-6.26) at a fixed rate, with per-motor LOE estimates.
 
     Parameters
@@ -446,8 +254,8 @@ class TwoStageKalmanFilter:
         when another motor fails lasts longer (2e-5: a healthy motor reaches 0.10; 5e-6: 0.12,
         and a faulty one leaves its band for 17 s). Larger trades the other way (3e-4: healthy
         peak 0.038, but a faulty motor's steady error grows; 2e-4 reached 0.049 on one seed).
-    height_source : {"mocap", "baro"}
-        Where height comes from.
+    height_source : str
+        Where height comes from, "mocap" or "baro".
     noise : SensorNoise
         Assumed measurement noise (``R``).
     process_noise : TskfProcessNoise
@@ -489,38 +297,27 @@ class TwoStageKalmanFilter:
 
     def __init__(self, model: VehicleModel, dt_s: float = 0.01,
                  q_gamma: float = DEFAULT_Q_GAMMA, *,
-                 height_source: HeightSource = "mocap",
+                 height_source: str = "mocap",
                  noise: SensorNoise | None = None,
                  process_noise: TskfProcessNoise | None = None,
                  gamma_std0: float = 0.1,
                  initial_uncertainty: InitialUncertainty | None = None,
                  ground_z_ned: float | None = 0.0,
                  ground_margin_m: float = 0.02) -> None:
-        if not (math.isfinite(dt_s) and dt_s > 0):
-            raise ValueError(f"dt_s = {dt_s!r}: must be a finite number > 0 s")
         if not (math.isfinite(q_gamma) and q_gamma >= 0):
             raise ValueError(f"q_gamma = {q_gamma!r}: must be a finite number >= 0")
         if not (math.isfinite(gamma_std0) and gamma_std0 > 0):
             raise ValueError(f"gamma_std0 = {gamma_std0!r}: must be a finite number > 0 "
                              "(P^gamma must stay invertible, eq. 6.22)")
-        if not (math.isfinite(ground_margin_m) and ground_margin_m >= 0):
-            raise ValueError(f"ground_margin_m = {ground_margin_m!r}: must be >= 0 m")
-        self.model = model
-        self.dt_s = float(dt_s)
+        super().__init__(model, dt_s, height_source, noise, initial_uncertainty, ground_z_ned,
+                         ground_margin_m)
         self.q_gamma = float(q_gamma)
-        self.height_source = check_height_source(height_source)
-        self.noise = noise if noise is not None else SensorNoise()
         self.process_noise = process_noise if process_noise is not None else TskfProcessNoise()
         self.gamma_std0 = float(gamma_std0)
-        self.initial_uncertainty = (initial_uncertainty if initial_uncertainty is not None
-                                    else InitialUncertainty())
-        self.ground_z_ned = ground_z_ned
-        self.ground_margin_m = float(ground_margin_m)
         qc = tuple(self.process_noise.diagonal().tolist())
-        # designed once per configuration and shared (read-only): _shared_hover_model
-        self.flight_model = _shared_hover_model(model, self.dt_s, qc, False)
-        self.ground_model = _shared_hover_model(model, self.dt_s, qc, True)
-        self._weight_n = model.mass * model.gravity
+        # designed once per configuration and shared (read-only): shared_hover_model
+        self.flight_model = shared_hover_model(model, self.dt_s, qc, False)
+        self.ground_model = shared_hover_model(model, self.dt_s, qc, True)
         self._channels = self._make_channels()
         self._kinds = frozenset(ch.sensor for ch in self._channels)
         # every channel stacked, for the usual tick on which all of them deliver
@@ -531,24 +328,9 @@ class TwoStageKalmanFilter:
         self.reset()
 
     def _make_channels(self) -> tuple[_Channel, ...]:
-        n = self.noise
-        fm, gm = self.flight_model, self.ground_model
-
-        def sel(cols: list[int], sign: float = 1.0) -> FloatArray:
-            out = np.zeros((len(cols), STATE_DIM))
-            out[np.arange(len(cols)), cols] = sign
-            return out
-
-        ch: list[_Channel] = []
-        if self.height_source == "baro":
-            ch.append(_Channel("mocap_pos", sel([0, 1]), n.mocap_pos, (0, 1), fm, gm))
-            # alt = -z
-            ch.append(_Channel("baro", sel([Z_INDEX], -1.0), n.baro, (0,), fm, gm))
-        else:
-            ch.append(_Channel("mocap_pos", sel([0, 1, 2]), n.mocap_pos, (0, 1, 2), fm, gm))
-        ch.append(_Channel("mocap_att", sel([6, 7, 8]), n.mocap_att, (0, 1, 2), fm, gm))
-        ch.append(_Channel("gyro", sel([9, 10, 11]), n.gyro, (0, 1, 2), fm, gm))
-        return tuple(ch)
+        n, fm, gm = self.noise, self.flight_model, self.ground_model
+        return tuple(_Channel(sensor, sel, getattr(n, sensor), value_index, fm, gm)
+                     for sensor, sel, value_index in common_channels(self.height_source))
 
     # ---- life cycle ------------------------------------------------------------------------
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None,
@@ -565,15 +347,7 @@ class TwoStageKalmanFilter:
         gamma0 : array_like, shape (4,), or None
             Initial gamma estimate (default zeros: healthy motors).
         """
-        if initial is None:
-            x0 = np.zeros(STATE_DIM)
-            p0 = self.initial_uncertainty.diagonal()
-        else:
-            x0 = initial.to_vector()
-            p0 = np.array(initial.covariance_diag, dtype=float)
-            if p0.shape != (STATE_DIM,) or not np.all(p0 > 0):
-                raise ValueError(f"initial.covariance_diag = {p0.tolist()}: must be 16 "
-                                 "numbers > 0")
+        x0, p0 = self._initial_state(initial)
         self._time_s = float(time_s)
         # bias-free filter: x_bar, P^x (eq. 6.15-6.19)
         self.x_bar = x0.astype(float)
@@ -597,32 +371,15 @@ class TwoStageKalmanFilter:
         self.on_ground = False
         self._estimate = self._make_estimate()
 
-    def step(self, time_s: float, pwm_applied: ArrayLike,
-             samples: Iterable[SensorSampleLike]) -> StateEstimate:
-        """Advance to ``time_s`` and update with the tick's samples.
-
-        Parameters
-        ----------
-        time_s : float
-            Tick time, s; the previous tick's plus a whole number of ``dt_s`` (within 25 %
-            of ``dt_s``). Zero steps (same time) updates only.
-        pwm_applied : array_like, shape (4,)
-            PWM held since the previous tick, motors 1..4.
-        samples : iterable of SensorSampleLike
-            Samples produced since the previous tick.
-
-        Returns
-        -------
-        StateEstimate
-            ``x_hat_{k|k}`` (eq. 6.25) with the diagonal of eq. 6.26.
-        """
-        return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds))
-
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
                      batches: Mapping[str, SampleBatch]) -> StateEstimate:
-        """:meth:`step` with the tick's samples already averaged by
-        :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use are
-        ignored), so that several estimators can share one grouping."""
+        """Advance to ``time_s`` with ``pwm_applied`` held and update with the tick's averaged
+        samples (:meth:`TickEstimator.step_grouped`).
+
+        ``time_s`` is the previous tick's plus a whole number of ``dt_s`` (within 25 % of
+        ``dt_s``); zero steps (same time) update only. Returns ``x_hat_{k|k}`` (eq. 6.25)
+        with the diagonal of eq. 6.26.
+        """
         time_s = float(time_s)
         u = np.asarray(pwm_applied, dtype=float).reshape(N_MOTORS)
         n_steps_f = (time_s - self._time_s) / self.dt_s
@@ -646,11 +403,8 @@ class TwoStageKalmanFilter:
         if not (x_bar is self.x_bar and v is self.V and gamma is self.gamma_raw):
             # x_hat = x_bar + V gamma_hat   (eq. 6.25)
             x_hat = self.x_bar + self.V @ self.gamma_raw
-        on_ground = (self.ground_z_ned is not None
-                     and x_hat[Z_INDEX] >= self.ground_z_ned - self.ground_margin_m
-                     and float(np.sum(x_hat[THRUST])) < self._weight_n)
-        self.on_ground = bool(on_ground)
-        return self.ground_model if on_ground else self.flight_model
+        self.on_ground = self._on_ground_at(x_hat)
+        return self.ground_model if self.on_ground else self.flight_model
 
     def _predict(self, u: FloatArray) -> None:
         lm = self._current_model()
@@ -718,21 +472,6 @@ class TwoStageKalmanFilter:
 
     # ---- inspection ------------------------------------------------------------------------
     @property
-    def estimate(self) -> StateEstimate:
-        """The latest estimate (eq. 6.25, 6.26)."""
-        return self._estimate
-
-    @property
-    def time_s(self) -> float:
-        """Time of the latest estimate, s."""
-        return self._time_s
-
-    @property
-    def sensor_kinds(self) -> frozenset[str]:
-        """The sensor kinds this estimator uses (samples of other kinds are ignored)."""
-        return self._kinds
-
-    @property
     def loe_estimate(self) -> FloatArray:
         """Per-motor loss of effectiveness gamma_hat clipped to [0, 1], shape (4,)."""
         return np.array([clip(g, 0.0, 1.0) for g in self.gamma_raw.tolist()])
@@ -786,10 +525,7 @@ class TwoStageKalmanFilter:
 
 __all__ = [
     "DEFAULT_Q_GAMMA",
-    "LinearHoverModel",
-    "TskfProcessNoise",
     "TwoStageKalmanFilter",
-    "hover_model",
     "tskf_predict",
     "tskf_update",
 ]

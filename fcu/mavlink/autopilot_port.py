@@ -187,23 +187,9 @@ class AutopilotPort:
             position_target=position_target, attitude_target=attitude_target,
             pwm=np.array(status.pwm), truth=self._truth(), loe=np.array(status.loe_estimate),
             health=SensorHealth(gps=healthy, ahrs=healthy, motors=not detected,
-                                prearm=self._prearm_ok(healthy)),
+                                prearm=nav.prearm_check().ok),
             mission_seq=progress.current_seq, mission_state=int(progress.state),
             failsafe_active=failsafe)
-
-    def _prearm_ok(self, healthy: bool) -> bool:
-        """The navigator's arming checks, as far as they can be judged without arming."""
-        nav = self.host.autopilot.navigator
-        if nav.armed:
-            return True
-        status = self.host.autopilot.status
-        if status is None or not healthy or nav.failsafe_sources:
-            return False
-        cfg = nav.config
-        est = status.estimate
-        on_ground = (-float(est.pos_ned[2]) < cfg.land_detect_alt_m
-                     and abs(float(est.vel_ned[2])) < cfg.land_detect_speed_m_s)
-        return on_ground and int(nav.mode) in cfg.armable_modes
 
     # ------------------------------------------------------------------ VehiclePort: commands
     def _nav(self, what: str, result: NavResult) -> CommandResult:
@@ -353,8 +339,7 @@ class AutopilotPort:
             ap = Autopilot(config)
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as err:
             return f"cannot build the autopilot: {err}"
-        ap.ekf.reset(t)
-        ap.tskf.reset(t)
+        ap.reset_estimators(t)
         ap.step(t, [])
         nav = ap.navigator
         if old_nav.mission_items:

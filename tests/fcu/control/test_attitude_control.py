@@ -11,17 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from fcu.control.attitude import (
-    AttitudeLQR,
-    AttitudePD,
-    AttitudePdGains,
-    AttitudeReferenceFilter,
-    LqrWeights,
-    MotorLead,
-    design_axis_lqr,
-    euler_rates,
-    wrap_angle,
-)
+from fcu.control.attitude import euler_rates, wrap_angle
+from fcu.control.attitude_lqr import AttitudeLQR, LqrWeights, design_axis_lqr
+from fcu.control.attitude_pd import AttitudePD, AttitudePdGains
+from fcu.control.attitude_reference import AttitudeReferenceFilter
+from fcu.control.motor_lead import MotorLead
 from fcu.model import VehicleModel
 
 MODEL = VehicleModel()

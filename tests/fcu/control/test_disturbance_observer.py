@@ -6,13 +6,11 @@ import control
 import numpy as np
 import pytest
 
-from fcu.control.attitude import AttitudeLQR, AttitudePD, AttitudePdGains, LqrWeights
-from fcu.control.dob import (
-    AccelerationDob,
-    NoDob,
-    VelocityDob,
-    make_dob,
-)
+from fcu.config import AutopilotConfig
+from fcu.control.attitude_lqr import AttitudeLQR, LqrWeights
+from fcu.control.attitude_pd import AttitudePD, AttitudePdGains
+from fcu.control.dob import AccelerationDob, NoDob, VelocityDob
+from fcu.control.registry import DOB_REGISTRY, DisturbanceObserver
 from fcu.model import VehicleModel
 
 MODEL = VehicleModel()
@@ -20,6 +18,17 @@ DT = 0.01  # s, the 100 Hz autopilot loop
 W_Q = 5.0  # rad/s, the thesis's Q-filter bandwidth (section 6.2)
 D_STEP = np.array([0.14, -0.21, 0.02])  # N*m: what a 20 % / 30 % motor LOE produces at hover
 T_STEP = 0.5  # s, when the disturbance starts
+THESIS_FORM = {"vbdob": VelocityDob, "abdob": AccelerationDob}  # no motor model in G_n
+
+
+def make_dob(kind: str, cutoff_rad_s: float = 5.0, *, motor_model: bool = True
+             ) -> DisturbanceObserver:
+    """Observer ``kind`` as the autopilot builds it (fcu.control.registry: the motor lag in
+    its nominal plant), or in the thesis's form of eq. 6.27/6.29 (``motor_model=False``)."""
+    if motor_model:
+        config = AutopilotConfig(model=MODEL, dob_cutoff_rad_s=cutoff_rad_s)
+        return DOB_REGISTRY.factory(kind)(config, DT)
+    return THESIS_FORM[kind](MODEL, DT, cutoff_rad_s)
 
 
 def closed_loop(controller, dob, *, seconds: float, motor_rad_s: float = MODEL.motor_bandwidth,
@@ -66,7 +75,7 @@ def _at(time: np.ndarray, t: float) -> int:
 def test_dob_recovers_a_torque_step_within_2_percent(kind: str, settle_wq: float,
                                                      make_ctrl) -> None:
     """With the motor model in G_n, d_hat = Q d: 2 % after 3.9/w (VbDOB), 5.8/w (AbDOB)."""
-    time, _, d_hat = closed_loop(make_ctrl(), make_dob(kind, MODEL, DT, W_Q), seconds=4.0)
+    time, _, d_hat = closed_loop(make_ctrl(), make_dob(kind, W_Q), seconds=4.0)
     settled = _at(time, T_STEP + (settle_wq + 0.3) / W_Q)  # + 0.3/w: two ticks of sampling
     early = _at(time, T_STEP + 0.5 / W_Q)
     err = np.abs(d_hat - D_STEP) / np.abs(D_STEP)
@@ -78,7 +87,7 @@ def test_dob_recovers_a_torque_step_within_2_percent(kind: str, settle_wq: float
 def test_dob_rescues_pd_from_its_standing_error(kind: str) -> None:
     gains = AttitudePdGains()
     _, pd_alone, _ = closed_loop(AttitudePD(MODEL), NoDob(), seconds=5.0)
-    _, pd_dob, _ = closed_loop(AttitudePD(MODEL), make_dob(kind, MODEL, DT), seconds=5.0)
+    _, pd_dob, _ = closed_loop(AttitudePD(MODEL), make_dob(kind), seconds=5.0)
     standing = D_STEP / (MODEL.inertia_diag * np.array(gains.kp))  # I kp e = d
     np.testing.assert_allclose(pd_alone[-1], standing, rtol=1e-4)  # settled closed form
     # rad: the DOB's slowest mode (w = 5 rad/s) leaves < 1e-6 of the 0.03 rad standing error
@@ -101,7 +110,7 @@ def test_dob_rescues_pd_from_its_standing_error(kind: str) -> None:
 def test_loop_with_unmodelled_or_modelled_motor_lag_is_stable(make_ctrl, kind: str,
                                                               motor_model: bool) -> None:
     """The real 15 rad/s lag is in the plant; the DOB may or may not model it."""
-    dob = make_dob(kind, MODEL, DT, W_Q, motor_model=motor_model)
+    dob = make_dob(kind, W_Q, motor_model=motor_model)
     time, angles, d_hat = closed_loop(make_ctrl(), dob, seconds=25.0)
     # N*m: every mode decays (slowest, LQR integral with a DOB, ~0.7 rad/s), so d_hat
     # settles on the true torque
@@ -112,7 +121,7 @@ def test_loop_with_unmodelled_or_modelled_motor_lag_is_stable(make_ctrl, kind: s
 
 @pytest.mark.parametrize("kind", ["vbdob", "abdob"])
 def test_motor_model_dob_survives_a_slower_motor_and_a_delay(kind: str) -> None:
-    time, angles, d_hat = closed_loop(AttitudeLQR(MODEL), make_dob(kind, MODEL, DT),
+    time, angles, d_hat = closed_loop(AttitudeLQR(MODEL), make_dob(kind),
                                       seconds=15.0, motor_rad_s=10.0, delay_ticks=1)
     np.testing.assert_allclose(d_hat[-1], D_STEP, atol=1e-4)  # N*m, settled (stable)
     assert np.max(np.abs(angles)) < np.radians(10.0)
@@ -151,9 +160,12 @@ def test_abdob_unwraps_yaw_through_pi() -> None:
     assert worst < 1e-6
 
 
-def test_make_dob_rejects_unknown_kinds_naming_the_key() -> None:
-    assert isinstance(make_dob("none", MODEL), NoDob)
-    assert make_dob("vbdob", MODEL).kind == "vbdob"
-    assert make_dob("abdob", MODEL, motor_model=False).motor_bandwidth_rad_s is None
+def test_dob_registry_builds_each_kind_and_rejects_unknown_names_naming_the_key() -> None:
+    assert isinstance(make_dob("none"), NoDob)
+    assert make_dob("vbdob").kind == "vbdob"
+    abdob = make_dob("abdob")
+    assert isinstance(abdob, AccelerationDob)
+    assert abdob.motor_bandwidth_rad_s == MODEL.motor_bandwidth  # the autopilot's wiring
+    assert make_dob("abdob", motor_model=False).motor_bandwidth_rad_s is None
     with pytest.raises(ValueError, match="dob = 'kalman'"):
-        make_dob("kalman", MODEL)
+        DOB_REGISTRY.factory("kalman")

@@ -22,10 +22,8 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 from scipy.stats import chi2
 
-from fcu.estimation.ekf import (
-    EkfProcessNoise,
-    ExtendedKalmanEstimator,
-    _QuadrotorEKF,
+from fcu.estimation.ekf import EkfProcessNoise, ExtendedKalmanEstimator, _QuadrotorEKF
+from fcu.estimation.ekf_model import (
     discrete_transition,
     model_derivative,
     model_jacobian,

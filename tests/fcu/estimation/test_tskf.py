@@ -26,9 +26,10 @@ from filterpy.kalman import KalmanFilter
 from scipy.linalg import block_diag, expm
 from scipy.stats import chi2
 
-from fcu.estimation.ekf import model_jacobian, pack_params
+from fcu.estimation.ekf_model import model_jacobian, pack_params
 from fcu.estimation.state import STATE_DIM, StateEstimate
-from fcu.estimation.tskf import TskfProcessNoise, TwoStageKalmanFilter, hover_model
+from fcu.estimation.tskf import TwoStageKalmanFilter
+from fcu.estimation.tskf_model import TskfProcessNoise, hover_model
 from fcu.hal import SensorSample
 from fcu.model import VehicleModel
 from fcu.monitoring.loe_detector import FaultDetection, LoeFaultDetector

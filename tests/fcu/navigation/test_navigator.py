@@ -13,17 +13,13 @@ import numpy as np
 import pytest
 from pymavlink import mavutil
 
+from fcu.navigation.events import NavEvent
 from fcu.navigation.guidance import Reference
-from fcu.navigation.navigator import (
-    ARDUCOPTER_MODE_NAMES,
-    LandedState,
-    MissionState,
-    Mode,
-    NavEvent,
-    Navigator,
-    NavigatorConfig,
-    NavOutput,
-)
+from fcu.navigation.landing import LandedState
+from fcu.navigation.mission import MissionState
+from fcu.navigation.modes import ARDUCOPTER_MODE_NAMES, Mode
+from fcu.navigation.navigator import Navigator, NavOutput
+from fcu.navigation.settings import NavigatorConfig
 from flightdata.mission import MissionItem, thesis_mission
 
 DT_S = 0.01  # s, the autopilot's 100 Hz tick

@@ -1,0 +1,212 @@
+"""The frame both state estimators share: checked construction, the measurement channels,
+reset to an initial estimate, one call per tick, the ground test and inspection.
+
+:class:`TickEstimator` is the base of :class:`~fcu.estimation.ekf.ExtendedKalmanEstimator`
+and :class:`~fcu.estimation.tskf.TwoStageKalmanFilter`; each filter adds its own
+maths in :meth:`TickEstimator.step_grouped` and its own per-channel data.
+
+Measurements common to both (state layout of :mod:`fcu.estimation.state`), linear in the
+state at their sample time, ``y = S x``: mocap position (x, y only when
+``height_source="baro"``), barometric altitude ``-z`` (baro source only), mocap attitude
+(its yaw innovation wrapped to [-pi, pi)) and the gyro; the EKF adds the accelerometer's
+body-z axis.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from fcu.estimation.state import (
+    STATE_DIM,
+    THRUST,
+    Z_INDEX,
+    FloatArray,
+    InitialUncertainty,
+    SampleBatch,
+    SensorNoise,
+    StateEstimate,
+    check_height_source,
+    group_samples,
+)
+from fcu.hal import SensorSampleLike
+from fcu.model import VehicleModel
+
+_DENSITY_NAMES = ("pos", "accel", "euler", "ang_accel", "thrust")
+
+
+class ProcessNoiseDensities:
+    """Validation and state-order diagonal of a frozen dataclass of continuous process-noise
+    spectral densities with the fields ``pos``, ``accel``, ``euler``, ``ang_accel`` and
+    ``thrust`` (:class:`~fcu.estimation.ekf.EkfProcessNoise`,
+    :class:`~fcu.estimation.tskf.TskfProcessNoise`)."""
+
+    pos: float  # m^2/s
+    accel: float  # (m/s^2)^2/Hz, each NED axis
+    euler: float  # rad^2/s
+    ang_accel: float  # (rad/s^2)^2/Hz, each axis
+    thrust: float  # N^2/s, each motor
+
+    def __post_init__(self) -> None:
+        for name in _DENSITY_NAMES:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} = {value!r}: spectral density must be finite, >= 0")
+
+    def diagonal(self) -> FloatArray:
+        """``Qc`` diagonal in the state order, shape (16,)."""
+        return np.array([self.pos] * 3 + [self.accel] * 3 + [self.euler] * 3
+                        + [self.ang_accel] * 3 + [self.thrust] * 4)
+
+
+def selection(columns: tuple[int, ...], sign: float = 1.0) -> FloatArray:
+    """Selection matrix ``S`` picking ``columns`` of the state (times ``sign``), (m, 16)."""
+    sel = np.zeros((len(columns), STATE_DIM))
+    sel[np.arange(len(columns)), list(columns)] = sign
+    return sel
+
+
+class Channel:
+    """One measurement kind: ``y = S x`` at its sample time, from entries of a sample value.
+
+    Parameters
+    ----------
+    sensor : str
+        Sensor name (:data:`flightdata.vocabulary.SENSORS`).
+    selection : ndarray, shape (m, 16)
+        ``S``.
+    value_index : tuple of int
+        The (consecutive) entries of the sample value measured.
+    """
+
+    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...]
+                 ) -> None:
+        self.sensor = sensor
+        self.selection = np.ascontiguousarray(selection, dtype=float)  # S, shape (m, 16)
+        self.value_index = np.array(value_index)  # entries of the sample value used
+        if list(value_index) != list(range(value_index[0], value_index[-1] + 1)):
+            raise ValueError(f"value_index = {value_index!r}: must be consecutive")
+        self.value_slice = slice(value_index[0], value_index[-1] + 1)  # the same, as a slice
+        self.rows = self.selection.shape[0]  # m
+
+
+def common_channels(height_source: str
+                    ) -> list[tuple[str, FloatArray, tuple[int, ...]]]:
+    """(sensor, ``S``, value entries) of the measurements both estimators use, in update
+    order (module docstring)."""
+    channels: list[tuple[str, FloatArray, tuple[int, ...]]] = []
+    if height_source == "baro":
+        channels.append(("mocap_pos", selection((0, 1)), (0, 1)))
+        channels.append(("baro", selection((Z_INDEX,), -1.0), (0,)))  # alt = -z
+    else:
+        channels.append(("mocap_pos", selection((0, 1, 2)), (0, 1, 2)))
+    channels.append(("mocap_att", selection((6, 7, 8)), (0, 1, 2)))
+    channels.append(("gyro", selection((9, 10, 11)), (0, 1, 2)))
+    return channels
+
+
+class TickEstimator:
+    """What an estimator of the autopilot is, apart from its filter maths.
+
+    Parameters
+    ----------
+    model : VehicleModel
+        Nominal airframe (Table 7.1).
+    dt_s : float
+        Nominal control-tick period, s.
+    height_source : str
+        Where height comes from (:data:`flightdata.vocabulary.HEIGHT_SOURCES`).
+    noise : SensorNoise or None
+        Assumed measurement noise (default :class:`SensorNoise`).
+    initial_uncertainty : InitialUncertainty or None
+        Covariance used by ``reset`` when the initial estimate carries none.
+    ground_z_ned : float or None
+        z (NED, m) of the ground plane, or None for no ground contact.
+    ground_margin_m : float
+        Distance above the ground plane within which the vehicle counts as on the ground, m.
+    """
+
+    def __init__(self, model: VehicleModel, dt_s: float, height_source: str,
+                 noise: SensorNoise | None, initial_uncertainty: InitialUncertainty | None,
+                 ground_z_ned: float | None, ground_margin_m: float) -> None:
+        if not (math.isfinite(dt_s) and dt_s > 0):
+            raise ValueError(f"dt_s = {dt_s!r}: must be a finite number > 0 s")
+        if not (math.isfinite(ground_margin_m) and ground_margin_m >= 0):
+            raise ValueError(f"ground_margin_m = {ground_margin_m!r}: must be >= 0 m")
+        self.model = model
+        self.dt_s = float(dt_s)
+        self.height_source = check_height_source(height_source)
+        self.noise = noise if noise is not None else SensorNoise()
+        self.initial_uncertainty = (initial_uncertainty if initial_uncertainty is not None
+                                    else InitialUncertainty())
+        self.ground_z_ned = ground_z_ned
+        self.ground_margin_m = float(ground_margin_m)
+        self._weight_n = model.mass * model.gravity
+        self._time_s = 0.0
+        self._kinds: frozenset[str] = frozenset()
+        self._estimate: StateEstimate | None = None
+
+    def _initial_state(self, initial: StateEstimate | None) -> tuple[FloatArray, FloatArray]:
+        """State and covariance diagonal to restart from, shapes (16,), (16,): ``initial``'s,
+        or at rest at the origin, level, motors off, with ``initial_uncertainty``."""
+        if initial is None:
+            return np.zeros(STATE_DIM), self.initial_uncertainty.diagonal()
+        x0 = initial.to_vector()
+        p0 = np.array(initial.covariance_diag, dtype=float)
+        if p0.shape != (STATE_DIM,) or not np.all(p0 > 0):
+            raise ValueError(f"initial.covariance_diag = {p0.tolist()}: must be 16 "
+                             "numbers > 0")
+        return x0, p0
+
+    def _on_ground_at(self, x: FloatArray) -> bool:
+        """The ground holds a vehicle in state ``x``: within ``ground_margin_m`` of the
+        ground plane with its thrust below its weight."""
+        return bool(self.ground_z_ned is not None
+                    and x[Z_INDEX] >= self.ground_z_ned - self.ground_margin_m
+                    and float(np.sum(x[THRUST])) < self._weight_n)
+
+    def step(self, time_s: float, pwm_applied: ArrayLike,
+             samples: Iterable[SensorSampleLike]) -> StateEstimate:
+        """Advance to ``time_s`` and update with the tick's samples.
+
+        Parameters
+        ----------
+        time_s : float
+            Tick time, s (>= the previous tick's).
+        pwm_applied : array_like, shape (4,)
+            PWM held over (previous tick, time_s], motors 1..4.
+        samples : iterable of SensorSampleLike
+            Samples produced since the previous tick.
+
+        Returns
+        -------
+        StateEstimate
+            Posterior at ``time_s``.
+        """
+        return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds))
+
+    def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
+                     batches: Mapping[str, SampleBatch]) -> StateEstimate:
+        """:meth:`step` with the tick's samples already averaged by
+        :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use
+        are ignored), so that several estimators can share one grouping."""
+        raise NotImplementedError
+
+    @property
+    def estimate(self) -> StateEstimate:
+        """The latest estimate."""
+        assert self._estimate is not None
+        return self._estimate
+
+    @property
+    def time_s(self) -> float:
+        """Time of the latest estimate, s."""
+        return self._time_s
+
+    @property
+    def sensor_kinds(self) -> frozenset[str]:
+        """The sensor kinds this estimator uses (samples of other kinds are ignored)."""
+        return self._kinds

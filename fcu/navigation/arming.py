@@ -1,0 +1,96 @@
+"""Arming: the one pre-arm check, and when an armed vehicle on the ground disarms by itself.
+
+Pre-arm checks, in order (:func:`prearm_check`): a state estimate exists, no failsafe is
+active, the estimator is healthy, the vehicle looks on the ground
+(:func:`fcu.navigation.landing.looks_on_ground`), the mode allows arming
+(``armable_modes``). :meth:`fcu.navigation.navigator.Navigator.arm` refuses with the first
+failing check's reason unless forced; telemetry reports the same verdict (SYS_STATUS
+pre-arm bit) through :meth:`~fcu.navigation.navigator.Navigator.prearm_check`.
+
+Auto-disarm (:func:`auto_disarm_reason`) follows ``landed_disarm_delay_s`` after landing (or
+after arming on the ground in a mode that lands: LAND, RTL), and ``idle_disarm_delay_s``
+after arming without a take-off (0 disables it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from dataclasses import dataclass
+
+import numpy as np
+
+from fcu.navigation.modes import Mode, mode_name
+from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
+
+
+@dataclass(frozen=True)
+class PrearmCheck:
+    """The pre-arm verdict: ``ok``, or the reason arming would be refused."""
+
+    ok: bool
+    reason: str = ""  # why arming would be refused (empty when ok)
+
+    def __bool__(self) -> bool:
+        return self.ok
+
+
+def prearm_check(*, has_estimate: bool, failsafe_sources: Collection[str],
+                 estimator_healthy: bool, on_ground: bool, est_pos_ned: np.ndarray,
+                 est_vel_ned: np.ndarray, mode: Mode, config: NavigatorConfig) -> PrearmCheck:
+    """The pre-arm checks of the module docstring, first failure first.
+
+    Parameters
+    ----------
+    has_estimate : bool
+        A finite state estimate has been received.
+    failsafe_sources : collection of str
+        Active failsafe sources, in the order they were triggered.
+    estimator_healthy : bool
+        The estimator's health at the latest step.
+    on_ground : bool
+        The vehicle looks on the ground (:func:`~fcu.navigation.landing.looks_on_ground`).
+    est_pos_ned, est_vel_ned : numpy.ndarray, shape (3,)
+        Latest estimate, m and m/s, NED (for the message).
+    mode : Mode
+        Current flight mode.
+    config : NavigatorConfig
+        Supplies ``armable_modes``.
+    """
+    if not has_estimate:
+        return PrearmCheck(False, "no state estimate yet")
+    if failsafe_sources:
+        return PrearmCheck(False, "failsafe active: " + ", ".join(failsafe_sources))
+    if not estimator_healthy:
+        return PrearmCheck(False, "estimator not healthy")
+    if not on_ground:
+        return PrearmCheck(False, f"not on the ground (altitude {-est_pos_ned[2]:.2f} m, "
+                           f"vertical speed {est_vel_ned[2]:.2f} m/s)")
+    if int(mode) not in config.armable_modes:
+        allowed = ", ".join(mode_name(m) for m in config.armable_modes)
+        return PrearmCheck(False, f"mode {mode.name} does not allow arming (use {allowed})")
+    return PrearmCheck(True)
+
+
+def auto_disarm_reason(time_s: float, ground_since_s: float, landed_like: bool,
+                       config: NavigatorConfig) -> str | None:
+    """The auto-disarm message when an armed vehicle on the ground is due to disarm, else None.
+
+    Parameters
+    ----------
+    time_s : float
+        Step time, s.
+    ground_since_s : float
+        When the vehicle was last armed or landed, s.
+    landed_like : bool
+        It landed after a flight, or its mode lands: ``landed_disarm_delay_s`` applies, else
+        ``idle_disarm_delay_s`` (0 = never).
+    config : NavigatorConfig
+        Supplies the delays.
+    """
+    delay = config.landed_disarm_delay_s if landed_like else config.idle_disarm_delay_s
+    if not landed_like and delay == 0.0:
+        return None
+    if time_s - ground_since_s >= delay - TIME_TOL_S:
+        why = "after landing" if landed_like else "no take-off"
+        return f"auto-disarm {why} ({delay:g} s on the ground)"
+    return None

@@ -1,0 +1,97 @@
+"""Flight modes of an ArduCopter-style vehicle: numbers, names and what each one does.
+
+Modes (ArduCopter numbers, :class:`Mode`; the table is :data:`MODE_TABLE`)
+--------------------------------------------------------------------------
+=========  ==  ==========================================================================
+STABILIZE   0  no pilot sticks exist here: hold the altitude captured on entry, leave the
+               horizontal position free (reference = estimate), i.e. level attitude
+ALT_HOLD    2  same as STABILIZE (there is no throttle stick either)
+AUTO        3  fly the mission (:mod:`fcu.navigation.mission`); holds the last point once
+               complete
+GUIDED      4  take-off command, go-to (SET_POSITION_TARGET_LOCAL_NED, DO_REPOSITION)
+LOITER      5  hold the stopping point (estimate + v|v| / 2a)
+RTL         6  climb to ``rtl_alt_m`` if lower, fly home, hold ``rtl_hold_s``, land
+LAND        9  descend along a cubic to the ground, then creep down until landed
+BRAKE      17  as LOITER
+=========  ==  ==========================================================================
+
+Other ArduCopter modes are refused with a reason. Position modes (all but STABILIZE,
+ALT_HOLD, LAND) are refused while the caller reports the estimator unhealthy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import IntEnum
+from types import MappingProxyType
+from typing import Literal
+
+
+class Mode(IntEnum):
+    """Supported flight modes, numbered as ArduCopter's custom_mode."""
+
+    STABILIZE = 0
+    ALT_HOLD = 2
+    AUTO = 3
+    GUIDED = 4
+    LOITER = 5
+    RTL = 6
+    LAND = 9
+    BRAKE = 17
+
+
+#: All ArduCopter mode numbers and names (pymavlink ``mode_mapping_acm``), for messages.
+ARDUCOPTER_MODE_NAMES: dict[int, str] = {
+    0: "STABILIZE", 1: "ACRO", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 5: "LOITER", 6: "RTL",
+    7: "CIRCLE", 8: "POSITION", 9: "LAND", 10: "OF_LOITER", 11: "DRIFT", 13: "SPORT",
+    14: "FLIP", 15: "AUTOTUNE", 16: "POSHOLD", 17: "BRAKE", 18: "THROW", 19: "AVOID_ADSB",
+    20: "GUIDED_NOGPS", 21: "SMART_RTL", 22: "FLOWHOLD", 23: "FOLLOW", 24: "ZIGZAG",
+    25: "SYSTEMID", 26: "AUTOROTATE", 27: "AUTO_RTL", 28: "TURTLE", 29: "RATE_ACRO",
+}
+
+SUPPORTED_MODE_NUMBERS: frozenset[int] = frozenset(int(m) for m in Mode)
+"""The ArduCopter mode numbers this navigator flies."""
+
+
+def mode_name(number: int) -> str:
+    """ArduCopter name of mode ``number`` (``"MODE_<n>"`` when unknown)."""
+    return ARDUCOPTER_MODE_NAMES.get(int(number), f"MODE_{int(number)}")
+
+
+Behaviour = Literal["manual", "mission", "hold", "rtl", "land"]
+"""What a mode does in flight: hold the altitude with the horizontal position free
+(``manual``), fly the mission, hold the stopping point, return to launch, land."""
+
+
+@dataclass(frozen=True)
+class ModeSpec:
+    """One row of the mode table.
+
+    Attributes
+    ----------
+    behaviour : Behaviour
+        What the mode starts when entered in flight (or on a forced arm in the air).
+    needs_position : bool
+        Needs a healthy position estimate: refused while the estimator is unhealthy.
+    lands : bool
+        Ends on the ground: armed on the ground in it, the vehicle counts as landed
+        (auto-disarm after ``landed_disarm_delay_s``).
+    """
+
+    behaviour: Behaviour
+    needs_position: bool
+    lands: bool
+
+
+MODE_TABLE: Mapping[Mode, ModeSpec] = MappingProxyType({
+    Mode.STABILIZE: ModeSpec("manual", needs_position=False, lands=False),
+    Mode.ALT_HOLD: ModeSpec("manual", needs_position=False, lands=False),
+    Mode.AUTO: ModeSpec("mission", needs_position=True, lands=False),
+    Mode.GUIDED: ModeSpec("hold", needs_position=True, lands=False),
+    Mode.LOITER: ModeSpec("hold", needs_position=True, lands=False),
+    Mode.RTL: ModeSpec("rtl", needs_position=True, lands=True),
+    Mode.LAND: ModeSpec("land", needs_position=False, lands=True),
+    Mode.BRAKE: ModeSpec("hold", needs_position=True, lands=False),
+})
+"""What each supported mode does (module docstring)."""

@@ -1,0 +1,66 @@
+"""The navigator's settings (TOML ``[autopilot.navigator]``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from fcu.navigation.guidance import SpeedLimits
+from fcu.navigation.modes import SUPPORTED_MODE_NUMBERS
+from flightdata.config import finite, require
+
+TIME_TOL_S = 1e-6  # s, slack when comparing step times with planned times (float sums)
+
+@dataclass(frozen=True, kw_only=True)
+class NavigatorConfig:
+    """Navigator settings (ArduPilot parameter in brackets where one exists)."""
+
+    initial_mode: int = 0  # ArduCopter mode number at boot (supported, see Mode)
+    speed_horizontal_m_s: float = 0.5  # m/s, peak horizontal leg speed [WPNAV_SPEED]
+    speed_up_m_s: float = 0.3  # m/s, peak climb speed [WPNAV_SPEED_UP]
+    speed_down_m_s: float = 0.2  # m/s, peak descent speed, also landing [WPNAV_SPEED_DN]
+    accel_m_s2: float = 0.5  # m/s^2, peak leg acceleration 6 d / T^2 [WPNAV_ACCEL]
+    yaw_rate_rad_s: float = 0.5  # rad/s, peak yaw rate along a leg
+    min_leg_s: float = 0.5  # s, shortest leg that moves
+    max_speed_m_s: float = 5.0  # m/s, largest speed DO_CHANGE_SPEED accepts
+    wp_radius_m: float = 0.1  # m, distance at which a target counts as reached [WPNAV_RADIUS]
+    max_alt_m: float = 10.0  # m, highest take-off / target altitude accepted
+    rtl_alt_m: float = 1.0  # m, RTL return altitude [RTL_ALT]
+    rtl_hold_s: float = 1.0  # s, hold above home before landing [RTL_LOIT_TIME]
+    land_creep_speed_m_s: float = 0.1  # m/s, descent after the cubic reached the ground
+    land_detect_alt_m: float = 0.1  # m, below this altitude the vehicle may be landed
+    land_detect_speed_m_s: float = 0.05  # m/s, |vertical speed| below this when landed
+    land_detect_time_s: float = 1.0  # s, both conditions held this long = landed
+    landed_disarm_delay_s: float = 2.0  # s, auto-disarm after landing
+    idle_disarm_delay_s: float = 10.0  # s, auto-disarm armed without take-off; 0 = never
+    home_pos_ned: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m, NED
+    armable_modes: tuple[int, ...] = (0, 2, 4, 5)  # STABILIZE, ALT_HOLD, GUIDED, LOITER
+
+    def __post_init__(self) -> None:
+        supported = SUPPORTED_MODE_NUMBERS
+        require(isinstance(self.initial_mode, int) and self.initial_mode in supported,
+                "initial_mode", self.initial_mode, f"must be one of {sorted(supported)}")
+        positive = ("speed_horizontal_m_s", "speed_up_m_s", "speed_down_m_s", "accel_m_s2",
+                    "yaw_rate_rad_s", "max_speed_m_s", "wp_radius_m", "max_alt_m",
+                    "rtl_alt_m", "land_creep_speed_m_s", "land_detect_alt_m",
+                    "land_detect_speed_m_s")
+        for name in positive:
+            value = getattr(self, name)
+            require(finite(value) and value > 0, name, value, "must be a finite number > 0")
+        for name in ("min_leg_s", "rtl_hold_s", "land_detect_time_s", "landed_disarm_delay_s",
+                     "idle_disarm_delay_s"):
+            value = getattr(self, name)
+            require(finite(value) and value >= 0, name, value,
+                    "must be a finite number >= 0")
+        require(len(self.home_pos_ned) == 3 and all(finite(v) for v in self.home_pos_ned),
+                "home_pos_ned", self.home_pos_ned, "must be three finite numbers (m, NED)")
+        require(all(m in supported for m in self.armable_modes), "armable_modes",
+                self.armable_modes, f"must be mode numbers among {sorted(supported)}")
+        require(self.rtl_alt_m <= self.max_alt_m, "rtl_alt_m", self.rtl_alt_m,
+                f"must be <= max_alt_m ({self.max_alt_m})")
+
+    def speed_limits(self) -> SpeedLimits:
+        """The guidance limits these settings describe."""
+        return SpeedLimits(horizontal_m_s=self.speed_horizontal_m_s, up_m_s=self.speed_up_m_s,
+                           down_m_s=self.speed_down_m_s, accel_m_s2=self.accel_m_s2,
+                           yaw_rate_rad_s=self.yaw_rate_rad_s, min_duration_s=self.min_leg_s)
+
