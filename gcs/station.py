@@ -738,8 +738,9 @@ class GroundStation:
                 achieved = event.time_s
                 timing = InjectionTiming(fault, target, sent, achieved)
                 self.injection_timing.append(timing)
-                if achieved is not None and not scheduled:
-                    self._lag_samples_s.append(max(0.0, achieved - sent))
+                if achieved is not None:
+                    if not scheduled:  # the link's delay, to send the next one ahead of time
+                        self._lag_samples_s.append(max(0.0, achieved - sent))
                     self.log("INJECT", f"motor {fault.motor} took effect at t = "
                              f"{achieved:.3f} s, timing error {timing.error_s:+.3f} s")
                 return
