@@ -2,14 +2,22 @@
 
 Per tick (``loop_rate_hz``, 100 Hz by default)::
 
-    samples --> estimator ("ekf": eq. 3.18 | "tskf") --> estimate
-            --> TSKF (eq. 6.10-6.26) --> gamma_hat --> LoeFaultDetector --> events
+    samples --> estimator ("ekf": eq. 3.18 | "tskf"), screened, without excluded sensors
+            --> TSKF (eq. 6.10-6.26) --> gamma_hat
+    SensorHealth (innovation, frozen, cross-check) --> exclusions, height source, position fix
+    MotorFaultDetector (gamma_hat, PWM)  --> per-motor LOE, mass change, declared motors
     navigator (modes, mission, guidance) --> reference pos/vel/acc, yaw
     PositionController (eq. 5.3, 5.4)    --> U1, roll_d, pitch_d
     AttitudeReferenceFilter               --> smooth attitude reference and derivatives
     attitude law ("pd": eq. 5.6 | "lqg": eq. 5.7-5.10) --> torque
     disturbance observer ("none" | "vbdob" | "abdob": eq. 6.27-6.30) --> torque - d_hat
     allocator ("attitude_first": inverse eq. 3.2) --> PWM u1..u4
+    CrashCheck (attitude, impact, ground contact in flight; thrust loss) --> disarm
+
+Detections (:mod:`fcu.monitoring`) are :class:`flightdata.records.DetectionRecord` data, each
+carried by an :class:`AutopilotEvent` whose text is derived from the record. A motor declared
+faulty blocks arming until it is cleared (in flight) or the autopilot is restarted; a lost
+position fix makes the navigator hold attitude and height, then land; a crash disarms.
 
 The configuration (:mod:`fcu.config`) names the estimator, attitude law, disturbance
 observer and allocator; the autopilot builds each through its kind's registry
@@ -28,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.config import AutopilotConfig, DetectorConfig
+from fcu.config import AutopilotConfig
 from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
 from fcu.control.position import PositionCommand, PositionController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
@@ -37,29 +45,39 @@ from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
 from fcu.estimation.state import StateEstimate, group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.hal import SensorSampleLike
-from fcu.monitoring.loe_detector import LoeFaultDetector
+from fcu.monitoring.crash_check import CrashCheck
+from fcu.monitoring.motor_faults import MotorFaultDetector
+from fcu.monitoring.sensor_health import SensorHealth
 from fcu.navigation.guidance import Reference
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
+from flightdata.records import DetectionRecord
 
-# AutopilotConfig and DetectorConfig are defined in fcu.config; named here too because they
-# are the configuration of this module's Autopilot
-__all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus",
-           "DetectorConfig"]
-
-_NO_EVIDENCE = np.full(4, np.nan)  # what the fault detector gets outside free flight
-_NO_EVIDENCE.setflags(write=False)
+# AutopilotConfig is defined in fcu.config; named here too because it is the configuration
+# of this module's Autopilot
+__all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus"]
 
 
 @dataclass(frozen=True)
 class AutopilotEvent:
-    """Something worth a STATUSTEXT: a mode change, a refusal, a fault detection..."""
+    """Something worth a STATUSTEXT: a mode change, a refusal, a detection..."""
 
     time_s: float  # s, simulated
-    kind: str  # navigator event kind, or "fault_detected" / "fault_cleared"
+    kind: str  # navigator event kind, or "detection" (then ``record`` says what)
     text: str
     severity: str = "info"  # "info" | "notice" | "warning" | "critical"
-    motor: int | None = None  # for fault events, thesis numbering 1..4
     seq: int | None = None  # for mission events
+    record: DetectionRecord | None = None  # for detections: the data behind the text
+
+    @classmethod
+    def of(cls, record: DetectionRecord) -> AutopilotEvent:
+        """The event carrying a detection record (severity from its kind and action)."""
+        if record.action == "cleared":
+            severity = "notice"
+        elif record.kind in ("loe", "motor_lost", "crash"):
+            severity = "critical"
+        else:
+            severity = "warning"
+        return cls(record.time_s, "detection", record.text(), severity, record=record)
 
 
 @dataclass(frozen=True)
@@ -75,8 +93,11 @@ class AutopilotStatus:
     torque_cmd_nm: np.ndarray  # N*m, after the DOB compensation
     disturbance_nm: np.ndarray  # N*m, DOB estimate (zeros without a DOB)
     pwm: np.ndarray  # PWM commanded for the next interval, (4,)
-    loe_estimate: np.ndarray  # TSKF gamma_hat per motor, clipped to [0, 1]
-    fault_detected: tuple[bool, bool, bool, bool]
+    loe_estimate: np.ndarray  # per-motor loss of effectiveness (TSKF, mass change removed)
+    fault_detected: tuple[bool, bool, bool, bool]  # motors 1..4 declared faulty
+    mass_change_kg: float = 0.0  # kg, estimated change of mass (+ heavier)
+    excluded_sensors: frozenset[str] = frozenset()  # sensors the estimators do not trust
+    motors_lost: tuple[int, ...] = ()  # motors 1..4 declared lost
 
 
 class Autopilot:
@@ -112,10 +133,9 @@ class Autopilot:
         self.attitude_filter = AttitudeReferenceFilter(self.dt_s,
                                                        cfg.attitude_ref_bandwidth_rad_s)
         self._sensor_kinds = frozenset().union(*(e.sensor_kinds for e in self._estimators))
-        det = cfg.detector
-        self.detector = LoeFaultDetector(det.threshold, det.persistence_s,
-                                         recovery_threshold=det.recovery_threshold,
-                                         recovery_persistence_s=det.recovery_persistence_s)
+        self.sensor_health = SensorHealth(cfg.sensors, cfg.height_source)
+        self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
+        self.crash_check = CrashCheck(cfg.crash)
         self.reset()
 
     def reset(self) -> None:
@@ -123,7 +143,9 @@ class Autopilot:
         self.reset_estimators()
         self.navigator.reset()
         self._reset_controllers()
+        self.sensor_health.reset()
         self.detector.reset()
+        self.crash_check.reset()
         self._pwm = np.zeros(4)
         self._torque_applied = np.zeros(3)
         self._events: list[AutopilotEvent] = []
@@ -146,36 +168,37 @@ class Autopilot:
         """One control tick at ``time_s``; returns PWM u1..u4 to hold until the next tick."""
         # one averaging of the tick's samples, shared by both estimators
         batches = group_samples(samples, self._sensor_kinds)
-        estimate = self.tskf.step_grouped(time_s, self._pwm, batches)
+        health = self.sensor_health
+        excluded = health.excluded
+        for estimator in self._estimators:
+            estimator.height_source = health.height_source
+        estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded)
         if self.estimator is not self.tskf:
-            estimate = self.estimator.step_grouped(time_s, self._pwm, batches)
-        loe = self.tskf.loe_estimate  # a fresh array, clipped to [0, 1]
+            estimate = self.estimator.step_grouped(time_s, self._pwm, batches,
+                                                   excluded=excluded)
+        airborne = self.navigator.landed_state != LandedState.ON_GROUND
+        records = health.step(time_s, batches, self.estimator.screening, airborne)
         healthy = all(map(math.isfinite, estimate.pos_ned.tolist()))
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
-                                  float(estimate.euler_rad[2]), estimator_healthy=healthy)
+                                  float(estimate.euler_rad[2]), estimator_healthy=healthy,
+                                  position_fix=health.position_fix)
         for ev in nav.events:
             self._events.append(AutopilotEvent(ev.time_s, ev.kind, ev.text, ev.severity,
                                                seq=ev.seq))
         flying = nav.reference is not None
-        # Effectiveness is only observable in free flight: on the ground, and while taking
-        # off or landing (ground contact, the landing creep), commanded thrust without the
-        # motion it should cause is not evidence of a fault. Outside free flight the
-        # detector gets no evidence either way.
-        in_free_flight = flying and nav.landed_state == LandedState.IN_AIR
-        for det in self.detector.step(time_s, loe if in_free_flight else _NO_EVIDENCE):
-            self._events.append(AutopilotEvent(
-                det.time_s, "fault_detected" if det.kind == "fault" else "fault_cleared",
-                det.message, "critical" if det.kind == "fault" else "notice",
-                motor=det.motor))
+        records += self._motor_evidence(time_s, estimate, nav, flying)
         if not flying:
             if self._flying:
                 self._reset_controllers()
             self._flying = False
             self._pwm = np.zeros(4)
             self._torque_applied = np.zeros(3)
-            self._status = AutopilotStatus(time_s, estimate, nav, None, None, 0.0, np.zeros(3),
-                                           np.zeros(3), self._pwm, loe,
-                                           self._detected())
+            self.crash_check.step(time_s, flying=False, leg="", alt_m=0.0, vel_down_m_s=0.0,
+                                  speed_m_s=0.0, lean_rad=0.0, attitude_error_rad=0.0,
+                                  collective=0.0)
+            self._publish(records)
+            self._status = self._make_status(time_s, estimate, nav, None, None, 0.0,
+                                             np.zeros(3), np.zeros(3))
             return self._pwm
         if not self._flying:  # take-off: start from the current attitude, forget ground contact
             self.attitude_filter.reset(estimate.euler_rad)
@@ -193,10 +216,72 @@ class Autopilot:
         torque_cmd = torque - d_hat
         pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
         _, self._torque_applied = self.allocator.mix(pwm)
+        records += self._crash_check(time_s, estimate, att_ref, cmd.thrust_n)
+        if not self.navigator.armed:  # the crash check disarmed
+            pwm = np.zeros(4)
         self._pwm = pwm
-        self._status = AutopilotStatus(time_s, estimate, nav, ref, att_ref, cmd.thrust_n,
-                                       torque_cmd, d_hat, pwm, loe, self._detected())
+        self._publish(records)
+        self._status = self._make_status(time_s, estimate, nav, ref, att_ref, cmd.thrust_n,
+                                         torque_cmd, d_hat)
         return pwm
+
+    # ------------------------------------------------------------------ monitoring
+    def _motor_evidence(self, time_s: float, estimate: StateEstimate, nav: NavOutput,
+                        flying: bool) -> list[DetectionRecord]:
+        """Motor fault detection on the TSKF's gamma (:mod:`fcu.monitoring.motor_faults`):
+        evidence only in free flight, in the hover model's validity, with trusted sensors
+        and the TSKF off the ground; blocks arming while a motor is declared."""
+        det_cfg = self.config.detector
+        rate_r = abs(float(estimate.rate_frd[2]))
+        roll, pitch = abs(float(estimate.euler_rad[0])), abs(float(estimate.euler_rad[1]))
+        valid = (rate_r < det_cfg.valid_yaw_rate_rad_s and roll < det_cfg.valid_tilt_rad
+                 and pitch < det_cfg.valid_tilt_rad and not self.tskf.on_ground
+                 and not self.sensor_health.suspect(time_s))
+        airborne = flying and nav.landed_state != LandedState.ON_GROUND
+        records = self.detector.step(time_s, self.tskf.gamma_raw, self._pwm,
+                                     evidence=airborne and valid
+                                     and nav.landed_state == LandedState.IN_AIR,
+                                     learn=airborne and valid)
+        active = self.detector.active
+        loe = self.detector.evidence.loe
+        self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
+            f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
+            "restart the autopilot to clear" for m in active))
+        return records
+
+    def _crash_check(self, time_s: float, estimate: StateEstimate,
+                     att_ref: AttitudeReference, thrust_n: float) -> list[DetectionRecord]:
+        """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`); a
+        crash disarms (``FS_CRASH_CHECK`` = 1)."""
+        nav = self.navigator
+        roll, pitch = float(estimate.euler_rad[0]), float(estimate.euler_rad[1])
+        error = max(abs(float(att_ref.euler_rad[0]) - roll),
+                    abs(float(att_ref.euler_rad[1]) - pitch))
+        lean = math.acos(max(-1.0, min(1.0, math.cos(roll) * math.cos(pitch))))
+        model = self.model
+        records = self.crash_check.step(
+            time_s, flying=nav.armed and not nav.landed, leg=nav.leg_kind,
+            alt_m=estimate.alt_m, vel_down_m_s=float(estimate.vel_ned[2]),
+            speed_m_s=float(np.linalg.norm(estimate.vel_ned)), lean_rad=lean,
+            attitude_error_rad=error,
+            collective=thrust_n / (4.0 * model.thrust_gain * model.pwm_max))
+        if any(r.kind == "crash" for r in records) and self.config.crash.action == 1:
+            nav.crash("crash: disarming")
+        return records
+
+    def _publish(self, records: list[DetectionRecord]) -> None:
+        for record in records:
+            self._events.append(AutopilotEvent.of(record))
+
+    def _make_status(self, time_s: float, estimate: StateEstimate, nav: NavOutput,
+                     ref: Reference | None, att_ref: AttitudeReference | None,
+                     thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray
+                     ) -> AutopilotStatus:
+        evidence = self.detector.evidence
+        return AutopilotStatus(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
+                               d_hat, self._pwm, evidence.loe, self._detected(),
+                               evidence.mass_change_kg, self.sensor_health.excluded,
+                               evidence.lost)
 
     def _detected(self) -> tuple[bool, bool, bool, bool]:
         active = self.detector.active

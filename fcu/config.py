@@ -13,29 +13,12 @@ from fcu.control.attitude_lqr import LqrWeights
 from fcu.control.attitude_pd import AttitudePdGains
 from fcu.control.position import PositionGains
 from fcu.model import VehicleModel
+from fcu.monitoring.crash_check import CrashCheckConfig
+from fcu.monitoring.motor_faults import DetectorConfig
+from fcu.monitoring.sensor_health import SensorHealthConfig
 from fcu.navigation.settings import NavigatorConfig
 from flightdata.config import finite, require
 from flightdata.vocabulary import CONFIG_CHOICES
-
-
-@dataclass(frozen=True, kw_only=True)
-class DetectorConfig:
-    """Settings of the LOE fault detector (:mod:`fcu.monitoring.loe_detector`)."""
-
-    threshold: float = 0.1  # LOE fraction above which a motor is suspected
-    persistence_s: float = 0.5  # s above the threshold before a fault is declared
-    recovery_threshold: float = 0.05  # LOE fraction below which a faulty motor may recover
-    recovery_persistence_s: float = 1.0  # s below it before recovery is declared
-
-    def __post_init__(self) -> None:
-        require(finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
-                self.threshold, "must lie in (0, 1)")
-        require(finite(self.recovery_threshold)
-                and 0.0 <= self.recovery_threshold < self.threshold, "recovery_threshold",
-                self.recovery_threshold, f"must lie in [0, threshold = {self.threshold})")
-        for name in ("persistence_s", "recovery_persistence_s"):
-            value = getattr(self, name)
-            require(finite(value) and value >= 0.0, name, value, "must be >= 0 s")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -60,6 +43,8 @@ class AutopilotConfig:
     lqr: LqrWeights = field(default_factory=LqrWeights)
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     detector: DetectorConfig = field(default_factory=DetectorConfig)
+    sensors: SensorHealthConfig = field(default_factory=SensorHealthConfig)
+    crash: CrashCheckConfig = field(default_factory=CrashCheckConfig)
 
     def __post_init__(self) -> None:
         for key, choices in CONFIG_CHOICES.items():

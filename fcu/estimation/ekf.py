@@ -22,7 +22,7 @@ of ``n`` samples. The accelerometer's x and y axes (drag only) are not used.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,7 +39,6 @@ from fcu.estimation.ekf_model import (
 from fcu.estimation.estimator import Channel, ProcessNoiseDensities, TickEstimator, common_channels
 from fcu.estimation.state import (
     STATE_DIM,
-    THRUST,
     YAW_INDEX,
     FloatArray,
     InitialUncertainty,
@@ -49,6 +48,7 @@ from fcu.estimation.state import (
     StateEstimate,
 )
 from fcu.model import VehicleModel
+from flightdata.vocabulary import HEIGHT_SOURCES
 
 
 @njit(cache=True, error_model="numpy")
@@ -244,14 +244,25 @@ class EkfProcessNoise(ProcessNoiseDensities):
 class _Channel(Channel):
     """A measurement channel: ``h(x) = S x`` at the sample time, and its noise."""
 
-    def __init__(self, sensor: str, selection: FloatArray, sigma: float,
-                 value_index: tuple[int, ...], model_sigma: float = 0.0) -> None:
-        super().__init__(sensor, selection, value_index)
-        m = self.rows
-        self.sample_r = np.eye(m) * sigma ** 2  # R of one sample; divided by n for a mean
-        self.model_r = np.eye(m) * model_sigma ** 2  # model error, not reduced by averaging
-        self.wrap_yaw = sensor == "mocap_att"  # innovation's third entry is a yaw difference
-        self.no_value = [0.0] * m  # placeholder measurement of a tick without an update
+    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...],
+                 sigma: float, model_sigma: float = 0.0) -> None:
+        super().__init__(sensor, selection, value_index, sigma, model_sigma)
+        self.no_value = [0.0] * self.rows  # placeholder measurement of a tick without one
+
+
+class _ChannelSet:
+    """One height source's channels, stacked for the compiled update of a whole tick."""
+
+    def __init__(self, channels: tuple[_Channel, ...]) -> None:
+        self.channels = channels
+        self.sel_stack = np.ascontiguousarray(np.vstack([c.selection for c in channels]))
+        sizes = np.array([c.rows for c in channels])
+        ends = np.cumsum(sizes)
+        self.rows = np.ascontiguousarray(np.column_stack((ends - sizes, ends)), dtype=np.int64)
+        self.rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self.rows]
+        self.sample_var = np.array([c.sample_var for c in channels])
+        self.model_var = np.array([c.model_var for c in channels])
+        self.wrap_yaw = np.array([c.wrap_yaw for c in channels])
 
 
 class _QuadrotorEKF(ExtendedKalmanFilter):
@@ -388,33 +399,31 @@ class ExtendedKalmanEstimator(TickEstimator):
                              "m/s^2, or None to leave the accelerometer out")
         self.accel_z_model_sigma = accel_z_model_sigma
         self._params = pack_params(model)
-        self._channels = self._make_channels()
-        self._kinds = frozenset(c.sensor for c in self._channels)
-        # the channels stacked for the compiled update of a whole tick (sequential_updates)
-        self._sel_stack = np.ascontiguousarray(np.vstack([c.selection for c in self._channels]))
-        sizes = np.array([c.selection.shape[0] for c in self._channels])
-        ends = np.cumsum(sizes)
-        self._rows = np.ascontiguousarray(np.column_stack((ends - sizes, ends)), dtype=np.int64)
-        self._rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self._rows]
-        self._sample_var = np.array([float(c.sample_r[0, 0]) for c in self._channels])
-        self._model_var = np.array([float(c.model_r[0, 0]) for c in self._channels])
-        self._wrap_yaw = np.array([c.wrap_yaw for c in self._channels])
+        # every height source's channels, stacked for sequential_updates
+        self._sets = {source: _ChannelSet(self._make_channels(source))
+                      for source in HEIGHT_SOURCES}
+        self._kinds = frozenset(c.sensor for cs in self._sets.values() for c in cs.channels)
+        self._select_channels(self.height_source)
         self.filter = _QuadrotorEKF(self._params, self.process_noise.diagonal())
         self._innovations: dict[str, Innovation] = {}
         # (sensor, y, S, NIS) of this tick's updates, turned into _innovations on request
         self._innovation_parts: list[tuple[str, FloatArray, FloatArray, float]] = []
         self.reset()
 
-    def _make_channels(self) -> tuple[_Channel, ...]:
-        n = self.noise
-        channels = [_Channel(sensor, sel, getattr(n, sensor), value_index)
-                    for sensor, sel, value_index in common_channels(self.height_source)]
-        if self.accel_z_model_sigma is not None:
-            # body-z specific force f_z = -(T1 + T2 + T3 + T4)/m (thrust along -z_body)
-            sel = np.zeros((1, STATE_DIM))
-            sel[0, THRUST] = -1.0 / self.model.mass
-            channels.append(_Channel("accel", sel, n.accel, (2,), self.accel_z_model_sigma))
-        return tuple(channels)
+    def _make_channels(self, height_source: str) -> tuple[_Channel, ...]:
+        n, accel_sigma = self.noise, self.accel_z_model_sigma
+        return tuple(
+            _Channel(sensor, sel, value_index, getattr(n, sensor),
+                     accel_sigma if sensor == "accel" and accel_sigma is not None
+                     else model_sigma)
+            for sensor, sel, value_index, model_sigma in common_channels(height_source,
+                                                                         self.model)
+            if sensor != "accel" or accel_sigma is not None)
+
+    def _select_channels(self, height_source: str) -> None:
+        cs = self._sets[height_source]
+        self._set = cs
+        self._channels = cs.channels
 
     # ---- life cycle ------------------------------------------------------------------------
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None) -> None:
@@ -443,9 +452,11 @@ class ExtendedKalmanEstimator(TickEstimator):
         self._estimate = self._make_estimate()
 
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
-                     batches: Mapping[str, SampleBatch]) -> StateEstimate:
-        """Predict to ``time_s`` (s) with ``pwm_applied`` held and update with the tick's
-        averaged samples (:meth:`TickEstimator.step_grouped`); returns the posterior."""
+                     batches: Mapping[str, SampleBatch], *,
+                     excluded: Collection[str] = ()) -> StateEstimate:
+        """Predict to ``time_s`` (s) with ``pwm_applied`` held, screen the tick's averaged
+        samples and update with those that pass (:meth:`TickEstimator.step_grouped`);
+        returns the posterior."""
         time_s = float(time_s)
         u = np.asarray(pwm_applied, dtype=float).reshape(4)
         dt = time_s - self._time_s
@@ -466,13 +477,16 @@ class ExtendedKalmanEstimator(TickEstimator):
         self._time_s = time_s
         self._innovations = {}
         self._innovation_parts = []
+        # on the ground the accelerometer feels the ground reaction, not the thrust
+        on_ground = f.on_ground
+        batches = self._screen(self._channels, batches, f.x, f.P, excluded,
+                               lambda ch: not (ch.sensor == "accel" and on_ground))
         counts: list[int] = []
         deltas: list[float] = []
         z_l: list[float] = []
         for channel in self._channels:
             batch = batches.get(channel.sensor)
-            # on the ground the accelerometer feels the ground reaction, not the thrust
-            if batch is not None and not (channel.sensor == "accel" and f.on_ground):
+            if batch is not None:
                 counts.append(batch.count)
                 # s, how long before the tick the batch was taken
                 deltas.append(time_s - batch.time_s)
@@ -497,12 +511,13 @@ class ExtendedKalmanEstimator(TickEstimator):
         # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
         # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
         # (filterpy's update contract, as _QuadrotorEKF.update)
+        cs = self._set
         x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last = sequential_updates(
-            f.x, f.P, u, self._params, f.on_ground, self._sel_stack, self._rows,
-            self._sample_var, self._model_var, self._wrap_yaw, np.array(counts), deltas,
+            f.x, f.P, u, self._params, f.on_ground, cs.sel_stack, cs.rows,
+            cs.sample_var, cs.model_var, cs.wrap_yaw, np.array(counts), deltas,
             z_stack)
         f.x, f.P = x, p_mat
-        rows = self._rows_list
+        rows = cs.rows_list
         i0, i1 = rows[last]
         f.y, f.S, f.SI, f.K = y_stack[i0:i1], s_stack[last, :i1 - i0, :i1 - i0], s_inv, k_gain
         f.z = z_stack[i0:i1].copy()

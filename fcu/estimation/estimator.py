@@ -8,17 +8,34 @@ maths in :meth:`TickEstimator.step_grouped` and its own per-channel data.
 Measurements common to both (state layout of :mod:`fcu.estimation.state`), linear in the
 state at their sample time, ``y = S x``: mocap position (x, y only when
 ``height_source="baro"``), barometric altitude ``-z`` (baro source only), mocap attitude
-(its yaw innovation wrapped to [-pi, pi)) and the gyro; the EKF adds the accelerometer's
-body-z axis.
+(its yaw innovation wrapped to [-pi, pi)), the gyro, and the accelerometer's body-z axis
+(``f_z = -(T1 + T2 + T3 + T4)/m``, thrust along -z_body; skipped on the ground, where the
+accelerometer feels the ground reaction).
+
+Screening (beyond the thesis, which assumes healthy sensors)
+-----------------------------------------------------------
+Before its update, each tick, an estimator screens every sensor that delivered a batch
+against its prior (:meth:`TickEstimator._screen`): the innovation ``nu = z - S x_prior``, its
+variance ``diag(S P_prior S' + R)`` and ``NIS = nu' (S P S' + R)^-1 nu`` (chi-square with m
+degrees of freedom for a consistent filter). A measurement is *rejected* for this tick when its
+NIS exceeds the gate (the chi-square quantile at probability :data:`GATE_PROBABILITY`, about
+6 sigma) **and it is the only one to do so**: one sensor far from what the others and the
+model agree on is that sensor's fault, while several at once (a motor failing, a gust the
+model does not know) is the model's, and then every measurement is needed. Sensors the
+autopilot's health monitor has *excluded* are screened too (so it can see them recover) but
+never applied. :attr:`TickEstimator.screening` keeps the tick's :class:`ChannelCheck` per
+sensor. The height source can be switched at run time (:attr:`TickEstimator.height_source`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.stats import chi2
 
 from fcu.estimation.state import (
     STATE_DIM,
@@ -34,6 +51,45 @@ from fcu.estimation.state import (
 )
 from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
+
+GATE_PROBABILITY = 1e-9
+"""Probability that a consistent measurement exceeds its NIS gate (about 6 sigma)."""
+
+ChannelStatus = str  # "applied" | "rejected" | "excluded" | "skipped"
+
+
+@dataclass(frozen=True, slots=True)
+class ChannelCheck:
+    """One sensor's measurement at one tick, screened against the prior (module docstring).
+
+    Attributes
+    ----------
+    sensor : str
+    residual : ndarray, shape (m,)
+        ``nu = z - S x_prior`` (yaw wrapped), sensor units.
+    variance : ndarray, shape (m,)
+        ``diag(S P_prior S' + R)``, sensor units squared.
+    nis : float
+        ``nu' (S P_prior S' + R)^-1 nu``.
+    gate : float
+        The NIS above which it is an outlier.
+    status : {"applied", "rejected", "excluded", "skipped"}
+        Used in the update; a lone outlier this tick; excluded by the health monitor; not
+        usable now (the accelerometer on the ground).
+    """
+
+    sensor: str
+    residual: FloatArray
+    variance: FloatArray
+    nis: float
+    gate: float
+    status: ChannelStatus
+
+    @property
+    def outlier(self) -> bool:
+        """NIS above the gate."""
+        return self.nis > self.gate
+
 
 _DENSITY_NAMES = ("pos", "accel", "euler", "ang_accel", "thrust")
 
@@ -80,31 +136,54 @@ class Channel:
         ``S``.
     value_index : tuple of int
         The (consecutive) entries of the sample value measured.
+    sigma : float
+        Noise of one sample, sensor units (``R = sigma^2 / n`` for a mean of n).
+    model_sigma : float
+        Model error of the measurement, sensor units (added to ``R``, not reduced by
+        averaging).
     """
 
-    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...]
-                 ) -> None:
+    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...],
+                 sigma: float, model_sigma: float = 0.0) -> None:
         self.sensor = sensor
+        self.sample_var = float(sigma) ** 2  # per sample, divided by n for a mean of n
+        self.model_var = float(model_sigma) ** 2  # not reduced by averaging
         self.selection = np.ascontiguousarray(selection, dtype=float)  # S, shape (m, 16)
         self.value_index = np.array(value_index)  # entries of the sample value used
         if list(value_index) != list(range(value_index[0], value_index[-1] + 1)):
             raise ValueError(f"value_index = {value_index!r}: must be consecutive")
         self.value_slice = slice(value_index[0], value_index[-1] + 1)  # the same, as a slice
         self.rows = self.selection.shape[0]  # m
+        self.wrap_yaw = sensor == "mocap_att"  # innovation's third entry is a yaw difference
+        # NIS gate: chi-square quantile of m degrees of freedom at GATE_PROBABILITY
+        self.gate = float(chi2.isf(GATE_PROBABILITY, self.rows))
+
+    def noise_var(self, count: int) -> float:
+        """``R`` (per axis) of a mean of ``count`` samples."""
+        return self.sample_var / count + self.model_var
 
 
-def common_channels(height_source: str
-                    ) -> list[tuple[str, FloatArray, tuple[int, ...]]]:
-    """(sensor, ``S``, value entries) of the measurements both estimators use, in update
-    order (module docstring)."""
-    channels: list[tuple[str, FloatArray, tuple[int, ...]]] = []
+ACCEL_Z_MODEL_SIGMA = 0.1
+"""m/s^2, model error of the accelerometer's thrust measurement: vertical drag, 0.35 N/(m/s)
+on 0.3 m/s of vertical gust, is 0.07 m/s^2 on 1.42 kg."""
+
+
+def common_channels(height_source: str, model: VehicleModel
+                    ) -> list[tuple[str, FloatArray, tuple[int, ...], float]]:
+    """(sensor, ``S``, value entries, model error) of the measurements both estimators use,
+    in update order (module docstring)."""
+    channels: list[tuple[str, FloatArray, tuple[int, ...], float]] = []
     if height_source == "baro":
-        channels.append(("mocap_pos", selection((0, 1)), (0, 1)))
-        channels.append(("baro", selection((Z_INDEX,), -1.0), (0,)))  # alt = -z
+        channels.append(("mocap_pos", selection((0, 1)), (0, 1), 0.0))
+        channels.append(("baro", selection((Z_INDEX,), -1.0), (0,), 0.0))  # alt = -z
     else:
-        channels.append(("mocap_pos", selection((0, 1, 2)), (0, 1, 2)))
-    channels.append(("mocap_att", selection((6, 7, 8)), (0, 1, 2)))
-    channels.append(("gyro", selection((9, 10, 11)), (0, 1, 2)))
+        channels.append(("mocap_pos", selection((0, 1, 2)), (0, 1, 2), 0.0))
+    channels.append(("mocap_att", selection((6, 7, 8)), (0, 1, 2), 0.0))
+    channels.append(("gyro", selection((9, 10, 11)), (0, 1, 2), 0.0))
+    # body-z specific force f_z = -(T1 + T2 + T3 + T4)/m (thrust along -z_body)
+    accel = np.zeros((1, STATE_DIM))
+    accel[0, THRUST] = -1.0 / model.mass
+    channels.append(("accel", accel, (2,), ACCEL_Z_MODEL_SIGMA))
     return channels
 
 
@@ -138,7 +217,7 @@ class TickEstimator:
             raise ValueError(f"ground_margin_m = {ground_margin_m!r}: must be >= 0 m")
         self.model = model
         self.dt_s = float(dt_s)
-        self.height_source = check_height_source(height_source)
+        self._height_source = check_height_source(height_source)
         self.noise = noise if noise is not None else SensorNoise()
         self.initial_uncertainty = (initial_uncertainty if initial_uncertainty is not None
                                     else InitialUncertainty())
@@ -148,6 +227,67 @@ class TickEstimator:
         self._time_s = 0.0
         self._kinds: frozenset[str] = frozenset()
         self._estimate: StateEstimate | None = None
+        self.screening: dict[str, ChannelCheck] = {}
+        """Each sensor's :class:`ChannelCheck` at the latest tick (module docstring)."""
+
+    # ---- the measurement channels ------------------------------------------------------------
+    @property
+    def height_source(self) -> str:
+        """Where height comes from now ("mocap" or "baro"); settable between ticks (the
+        autopilot's health monitor falls back to the other source when one fails)."""
+        return self._height_source
+
+    @height_source.setter
+    def height_source(self, source: str) -> None:
+        source = check_height_source(source)
+        if source != self._height_source:
+            self._height_source = source
+            self._select_channels(source)
+
+    def _select_channels(self, height_source: str) -> None:
+        """Make the channel set of ``height_source`` the one updated (built at construction
+        for every source, :data:`flightdata.vocabulary.HEIGHT_SOURCES`)."""
+        raise NotImplementedError
+
+    def _screen(self, channels: Iterable[Channel], batches: Mapping[str, SampleBatch],
+                x: FloatArray, p_mat: FloatArray, excluded: Collection[str],
+                usable: Callable[[Channel], bool]) -> dict[str, SampleBatch]:
+        """Screen the tick's measurements against the prior ``x``, ``p_mat`` (module
+        docstring); returns the batches to update with and sets :attr:`screening`.
+
+        ``usable(channel)`` says whether a delivered channel can be used at all now (the
+        accelerometer not on the ground).
+        """
+        checks: dict[str, ChannelCheck] = {}
+        outliers: list[str] = []
+        for ch in channels:
+            batch = batches.get(ch.sensor)
+            if batch is None:
+                continue
+            sel = ch.selection
+            z = np.asarray(batch.value, dtype=float)[ch.value_slice]
+            # nu = z - S x (yaw wrapped);  S P S' + R
+            nu = z - sel @ x
+            if ch.wrap_yaw:
+                nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
+            s_mat = sel @ p_mat @ sel.T + np.eye(ch.rows) * ch.noise_var(batch.count)
+            nis = float(nu @ np.linalg.solve(s_mat, nu))
+            if ch.sensor in excluded:
+                status = "excluded"
+            elif not usable(ch):
+                status = "skipped"
+            else:
+                status = "applied"
+                if nis > ch.gate:
+                    outliers.append(ch.sensor)
+            checks[ch.sensor] = ChannelCheck(ch.sensor, nu, np.diag(s_mat).copy(), nis,
+                                             ch.gate, status)
+        if len(outliers) == 1:  # a lone outlier is that sensor's fault (module docstring)
+            c = checks[outliers[0]]
+            checks[c.sensor] = ChannelCheck(c.sensor, c.residual, c.variance, c.nis, c.gate,
+                                            "rejected")
+        self.screening = checks
+        return {name: batches[name] for name, c in checks.items() if c.status == "applied"}
 
     def _initial_state(self, initial: StateEstimate | None) -> tuple[FloatArray, FloatArray]:
         """State and covariance diagonal to restart from, shapes (16,), (16,): ``initial``'s,
@@ -169,7 +309,8 @@ class TickEstimator:
                     and float(np.sum(x[THRUST])) < self._weight_n)
 
     def step(self, time_s: float, pwm_applied: ArrayLike,
-             samples: Iterable[SensorSampleLike]) -> StateEstimate:
+             samples: Iterable[SensorSampleLike], *,
+             excluded: Collection[str] = ()) -> StateEstimate:
         """Advance to ``time_s`` and update with the tick's samples.
 
         Parameters
@@ -180,16 +321,20 @@ class TickEstimator:
             PWM held over (previous tick, time_s], motors 1..4.
         samples : iterable of SensorSampleLike
             Samples produced since the previous tick.
+        excluded : collection of str
+            Sensors screened but not used (the health monitor's exclusions).
 
         Returns
         -------
         StateEstimate
             Posterior at ``time_s``.
         """
-        return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds))
+        return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds),
+                                 excluded=excluded)
 
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
-                     batches: Mapping[str, SampleBatch]) -> StateEstimate:
+                     batches: Mapping[str, SampleBatch], *,
+                     excluded: Collection[str] = ()) -> StateEstimate:
         """:meth:`step` with the tick's samples already averaged by
         :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use
         are ignored), so that several estimators can share one grouping."""

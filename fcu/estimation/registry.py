@@ -15,13 +15,14 @@ shared frame), add one line to ``ESTIMATOR_REGISTRY`` below (plus its import), a
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from typing import Protocol
 
 from numpy.typing import ArrayLike
 
 from fcu.config import AutopilotConfig
 from fcu.estimation.ekf import ExtendedKalmanEstimator
+from fcu.estimation.estimator import ChannelCheck
 from fcu.estimation.state import Innovation, SampleBatch, StateEstimate
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.registry import Registry
@@ -46,14 +47,24 @@ class StateEstimator(Protocol):
         """Innovation, its covariance and NIS of each sensor updated at the latest tick."""
         ...
 
+    @property
+    def screening(self) -> Mapping[str, ChannelCheck]:
+        """Each sensor's screening against the prior at the latest tick (what the health
+        monitor reads, :mod:`fcu.monitoring.sensor_health`)."""
+        ...
+
+    height_source: str  # where height comes from now; settable between ticks
+
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None) -> None:
         """Restart at ``time_s`` (s) from ``initial`` (None: at rest at the origin)."""
         ...
 
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
-                     batches: Mapping[str, SampleBatch]) -> StateEstimate:
+                     batches: Mapping[str, SampleBatch], *,
+                     excluded: Collection[str] = ()) -> StateEstimate:
         """Advance to the tick ``time_s`` (s) with ``pwm_applied`` (4,) held since the
-        previous tick and update with the tick's averaged samples; returns the estimate."""
+        previous tick and update with the tick's averaged samples, screened, without the
+        ``excluded`` sensors; returns the estimate."""
         ...
 
 

@@ -5,14 +5,19 @@ The augmented linear hover model it runs on (eq. 6.1-6.9) is built and discretis
 with the EKF are in :mod:`fcu.estimation.estimator`.
 
 Measurements ``y = C x``: mocap position (x, y only when ``height_source="baro"``), barometric
-altitude ``-z`` (baro source only), mocap attitude (yaw innovation wrapped to [-pi, pi)) and
-the gyro, stacked into one update per tick. Samples of one kind within a tick are averaged;
-their mean time lies ``delta`` before the tick, and the row is mapped back to that time to
-first order, ``C (I - delta A_c)`` (``A_c`` continuous). ``R = sigma^2 / n`` for a mean of n.
+altitude ``-z`` (baro source only), mocap attitude (yaw innovation wrapped to [-pi, pi)), the
+gyro and the accelerometer's body z (``f_z = -sum(T)/m``: the thesis's TSKF uses no
+accelerometer; here it makes the collective thrust, hence a mass change, observable at once
+rather than through the second derivative of the height), stacked into one update per tick
+after screening (:mod:`fcu.estimation.estimator`). Samples of one kind within a tick are
+averaged; their mean time lies ``delta`` before the tick, and the row is mapped back to that
+time to first order, ``y = S x(t - delta) = S (x - delta (A_c x + B_c u + g_c))``, i.e.
+``C = S (I - delta A_c)`` with the known input part ``delta S (B_c u + g_c)`` moved to the
+measurement side (non-zero only for the accelerometer: the thrusts it reads respond to the
+PWM within the tick). ``R = sigma^2 / n + sigma_model^2`` for a mean of n.
 
-Ground contact as in :mod:`fcu.estimation.ekf`: while the estimate sits on the ground plane with
-thrust
-below the weight, a ground model is used (no translational or angular acceleration, no
+Ground contact as in :mod:`fcu.estimation.ekf`: while the estimate sits on the ground plane
+with thrust below the weight, a ground model is used (no translational or angular acceleration, no
 gravity input) and ``Q^gamma`` is set to zero for that tick: the motion then says nothing
 about the motors, and gamma should not wander before take-off.
 
@@ -28,7 +33,7 @@ algebraically the Kalman filter on the 20-state model [x; gamma] (Hsieh and Chen
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 
 import numpy as np
 from numba import njit
@@ -53,18 +58,23 @@ from fcu.estimation.tskf_model import (
 )
 from fcu.floats import clip
 from fcu.model import VehicleModel
+from flightdata.vocabulary import HEIGHT_SOURCES
 
 
 class _Channel(Channel):
     """One measurement kind: ``y = S x`` at its sample time, its noise, and ``S A_c``."""
 
-    def __init__(self, sensor: str, selection: FloatArray, sigma: float,
-                 value_index: tuple[int, ...], flight: LinearHoverModel,
+    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...],
+                 sigma: float, model_sigma: float, flight: LinearHoverModel,
                  ground: LinearHoverModel) -> None:
-        super().__init__(sensor, selection, value_index)
-        self.sample_var = sigma * sigma  # per sample, divided by n for a mean of n
+        super().__init__(sensor, selection, value_index, sigma, model_sigma)
         # S A_c of the flight and ground models, for C = S (I - delta A_c)
         self.sel_a = {False: self.selection @ flight.a_c, True: self.selection @ ground.a_c}
+        # S B_c and S g_c: the input's share of the back-mapping, x(t - delta) = x - delta
+        # (A_c x + B_c u + g_c); non-zero only for the accelerometer, which reads the thrusts
+        self.sel_b = {False: self.selection @ flight.b_c, True: self.selection @ ground.b_c}
+        self.sel_g = {False: self.selection @ flight.g_c, True: self.selection @ ground.g_c}
+        self.input_mapped = bool(np.any(self.sel_b[False]) or np.any(self.sel_g[False]))
 
 
 @njit(cache=True, error_model="numpy")
@@ -318,19 +328,24 @@ class TwoStageKalmanFilter(TickEstimator):
         # designed once per configuration and shared (read-only): shared_hover_model
         self.flight_model = shared_hover_model(model, self.dt_s, qc, False)
         self.ground_model = shared_hover_model(model, self.dt_s, qc, True)
-        self._channels = self._make_channels()
-        self._kinds = frozenset(ch.sensor for ch in self._channels)
+        self._channel_sets = {source: self._make_channels(source) for source in HEIGHT_SOURCES}
+        self._kinds = frozenset(ch.sensor for chs in self._channel_sets.values() for ch in chs)
+        self._select_channels(self.height_source)
+        self.reset()
+
+    def _make_channels(self, height_source: str) -> tuple[_Channel, ...]:
+        n, fm, gm = self.noise, self.flight_model, self.ground_model
+        return tuple(_Channel(sensor, sel, value_index, getattr(n, sensor), model_sigma, fm, gm)
+                     for sensor, sel, value_index, model_sigma
+                     in common_channels(height_source, self.model))
+
+    def _select_channels(self, height_source: str) -> None:
+        self._channels = self._channel_sets[height_source]
         # every channel stacked, for the usual tick on which all of them deliver
         self._sel_all = np.ascontiguousarray(np.vstack([ch.selection for ch in self._channels]))
         self._sel_a_all = {g: np.ascontiguousarray(np.vstack([ch.sel_a[g]
                                                               for ch in self._channels]))
                            for g in (False, True)}
-        self.reset()
-
-    def _make_channels(self) -> tuple[_Channel, ...]:
-        n, fm, gm = self.noise, self.flight_model, self.ground_model
-        return tuple(_Channel(sensor, sel, getattr(n, sensor), value_index, fm, gm)
-                     for sensor, sel, value_index in common_channels(self.height_source))
 
     # ---- life cycle ------------------------------------------------------------------------
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None,
@@ -349,6 +364,7 @@ class TwoStageKalmanFilter(TickEstimator):
         """
         x0, p0 = self._initial_state(initial)
         self._time_s = float(time_s)
+        self._u = np.zeros(N_MOTORS)  # PWM held over the latest interval
         # bias-free filter: x_bar, P^x (eq. 6.15-6.19)
         self.x_bar = x0.astype(float)
         self.P_x = np.diag(p0)
@@ -372,7 +388,8 @@ class TwoStageKalmanFilter(TickEstimator):
         self._estimate = self._make_estimate()
 
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
-                     batches: Mapping[str, SampleBatch]) -> StateEstimate:
+                     batches: Mapping[str, SampleBatch], *,
+                     excluded: Collection[str] = ()) -> StateEstimate:
         """Advance to ``time_s`` with ``pwm_applied`` held and update with the tick's averaged
         samples (:meth:`TickEstimator.step_grouped`).
 
@@ -388,11 +405,19 @@ class TwoStageKalmanFilter(TickEstimator):
             raise ValueError(f"time_s = {time_s!r}: the TSKF is discretised at dt_s = "
                              f"{self.dt_s} s and was last stepped at {self._time_s!r} s; "
                              "call it at whole multiples of dt_s")
+        self._u = u  # held over the interval: the input part of the back-mapping
         for _ in range(n_steps):
             self._predict(u)
         if n_steps == 0:
             self._keep_prior()
         self._time_s = time_s
+        # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
+        # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
+        on_ground = self.on_ground
+        batches = self._screen(self._channels, batches,
+                               self.x_bar + self.V @ self.gamma_raw,
+                               self.V @ self.P_gamma @ self.V.T + self.P_x, excluded,
+                               lambda ch: not (ch.sensor == "accel" and on_ground))
         self._update(batches)
         self._estimate = self._make_estimate()
         return self._estimate
@@ -436,10 +461,17 @@ class TwoStageKalmanFilter(TickEstimator):
             present.append(ch)
             k = ch.rows
             # C = S (I - delta A_c): the rows mapped back to the batch's mean sample time
-            row_delta += [self._time_s - batch.time_s] * k
-            y_l += batch.value.tolist()[ch.value_slice]
-            # R = sigma^2 / n for the mean of n samples
-            r_l += [ch.sample_var / batch.count] * k
+            delta = self._time_s - batch.time_s
+            row_delta += [delta] * k
+            value = batch.value.tolist()[ch.value_slice]
+            if ch.input_mapped:
+                # y = S x(t - delta) = C x - delta S (B_c u + g_c): move the known part over
+                og = self.on_ground
+                shift = delta * (ch.sel_b[og] @ self._u + ch.sel_g[og])
+                value = [v + d for v, d in zip(value, shift.tolist(), strict=True)]
+            y_l += value
+            # R = sigma^2 / n for the mean of n samples (+ model error)
+            r_l += [ch.noise_var(batch.count)] * k
             if ch.sensor == "mocap_att":
                 yaw_row = m + 2
             blocks.append((ch.sensor, m, m + k))

@@ -1,7 +1,8 @@
 """Arming: the one pre-arm check, and when an armed vehicle on the ground disarms by itself.
 
 Pre-arm checks, in order (:func:`prearm_check`): a state estimate exists, no failsafe is
-active, the estimator is healthy, the vehicle looks on the ground
+active, the estimator is healthy, there is a position fix, nothing the autopilot's health
+monitor reported blocks it (a motor detected failed), the vehicle looks on the ground
 (:func:`fcu.navigation.landing.looks_on_ground`), the mode allows arming
 (``armable_modes``). :meth:`fcu.navigation.navigator.Navigator.arm` refuses with the first
 failing check's reason unless forced; telemetry reports the same verdict (SYS_STATUS
@@ -36,7 +37,8 @@ class PrearmCheck:
 
 def prearm_check(*, has_estimate: bool, failsafe_sources: Collection[str],
                  estimator_healthy: bool, on_ground: bool, est_pos_ned: np.ndarray,
-                 est_vel_ned: np.ndarray, mode: Mode, config: NavigatorConfig) -> PrearmCheck:
+                 est_vel_ned: np.ndarray, mode: Mode, config: NavigatorConfig,
+                 position_fix: bool = True, blockers: Collection[str] = ()) -> PrearmCheck:
     """The pre-arm checks of the module docstring, first failure first.
 
     Parameters
@@ -55,6 +57,10 @@ def prearm_check(*, has_estimate: bool, failsafe_sources: Collection[str],
         Current flight mode.
     config : NavigatorConfig
         Supplies ``armable_modes``.
+    position_fix : bool
+        Position measurements are trusted.
+    blockers : collection of str
+        Reasons from the autopilot's health monitor that forbid arming.
     """
     if not has_estimate:
         return PrearmCheck(False, "no state estimate yet")
@@ -62,6 +68,10 @@ def prearm_check(*, has_estimate: bool, failsafe_sources: Collection[str],
         return PrearmCheck(False, "failsafe active: " + ", ".join(failsafe_sources))
     if not estimator_healthy:
         return PrearmCheck(False, "estimator not healthy")
+    if not position_fix:
+        return PrearmCheck(False, "no position fix")
+    if blockers:
+        return PrearmCheck(False, "; ".join(blockers))
     if not on_ground:
         return PrearmCheck(False, f"not on the ground (altitude {-est_pos_ned[2]:.2f} m, "
                            f"vertical speed {est_vel_ned[2]:.2f} m/s)")

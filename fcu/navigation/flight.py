@@ -89,6 +89,12 @@ class FlightLegs:
         return LandedState.IN_AIR
 
     @property
+    def leg_kind(self) -> str:
+        """What is being flown: "takeoff", "move", "hold", "manual", "approach",
+        "rtl_return", "land", or "" when not flying."""
+        return self._leg.kind if self._flying and self._leg is not None else ""
+
+    @property
     def home_pos_ned(self) -> np.ndarray:
         """Home position, NED, m (a copy)."""
         return self._home_pos_ned.copy()

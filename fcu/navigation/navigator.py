@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fcu.navigation.arming import PrearmCheck, auto_disarm_reason, prearm_check
-from fcu.navigation.events import CommandResult, NavEvent
+from fcu.navigation.events import CommandResult, NavEvent, Severity
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
 from fcu.navigation.mission import (
@@ -48,7 +48,7 @@ from fcu.navigation.modes import (
     Mode,
     mode_name,
 )
-from fcu.navigation.settings import NavigatorConfig
+from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 from flightdata.mission import MissionItem
 
@@ -128,6 +128,9 @@ class Navigator(MissionExecution):
         self._mode = Mode(self.config.initial_mode)
         self._armed = False
         self._failsafes: dict[str, str] = {}
+        self._blockers: dict[str, str] = {}
+        self._position_fix = True
+        self._fix_lost_s: float | None = None
         self._mission.reset_progress()
 
     @property
@@ -148,7 +151,7 @@ class Navigator(MissionExecution):
     # ------------------------------------------------------------------ step
     def step(self, time_s: float, estimate_pos_ned: np.ndarray, estimate_vel_ned: np.ndarray,
              estimate_yaw_rad: float, *, estimator_healthy: bool = True,
-             on_ground_hint: bool | None = None) -> NavOutput:
+             on_ground_hint: bool | None = None, position_fix: bool = True) -> NavOutput:
         """Advance to ``time_s`` with the latest state estimate.
 
         Parameters
@@ -166,6 +169,10 @@ class Navigator(MissionExecution):
             Optional extra evidence from the caller (e.g. thrust at its minimum, contact
             switch). When given, landing is only detected while it is True and arming only
             allowed while it is True; None leaves the decision to the estimate.
+        position_fix : bool
+            Position measurements are trusted. Without a fix the vehicle holds attitude and
+            height (the horizontal references follow the estimate: no horizontal feedback),
+            lands after ``position_timeout_s``, and refuses position modes and arming.
 
         Returns
         -------
@@ -173,6 +180,7 @@ class Navigator(MissionExecution):
         """
         t = self._take_estimate(time_s, estimate_pos_ned, estimate_vel_ned, estimate_yaw_rad,
                                 estimator_healthy, on_ground_hint)
+        self._watch_position_fix(t, position_fix)
         if self._armed and self._flying:
             self._run_flight(t, len(self._mission.items) + 8)
         elif self._armed:
@@ -187,6 +195,50 @@ class Navigator(MissionExecution):
     def _mission_running(self) -> bool:
         return self._mode == Mode.AUTO
 
+    def _watch_position_fix(self, t: float, fix: bool) -> None:
+        """Position fix lost: hold attitude and height, land after the timeout; regained
+        before it: carry on (the mode's references resume)."""
+        if fix and not self._position_fix:
+            self._position_fix = True
+            self._fix_lost_s = None
+            self._event("failsafe", "position fix recovered", "notice")
+            if "position" in self._failsafes:
+                self.clear_failsafe("position")
+        elif not fix and self._position_fix:
+            self._position_fix = False
+            self._fix_lost_s = t
+            if self._armed and self._flying:
+                self._event("failsafe", "position fix lost: holding attitude and height, "
+                            f"landing in {self.config.position_timeout_s:g} s", "critical")
+        if not fix and self._armed and self._flying and self._fix_lost_s is not None and \
+                "position" not in self._failsafes and \
+                t - self._fix_lost_s >= self.config.position_timeout_s - TIME_TOL_S:
+            self.trigger_failsafe("position", "land")
+
+    def _reference(self, time_s: float) -> Reference:
+        ref = super()._reference(time_s)
+        if self._position_fix:
+            return ref
+        # no position fix: the horizontal references follow the estimate (no horizontal
+        # feedback: the attitude holds the trim the position loop's integrator last found)
+        est_p, est_v = self._est_pos_ned, self._est_vel_ned
+        return Reference(pos_ned=np.array([est_p[0], est_p[1], ref.pos_ned[2]]),
+                         vel_ned=np.array([est_v[0], est_v[1], ref.vel_ned[2]]),
+                         acc_ned=np.array([0.0, 0.0, ref.acc_ned[2]]), yaw_rad=ref.yaw_rad,
+                         yaw_rate_rad_s=ref.yaw_rate_rad_s)
+
+    def set_arming_blocker(self, key: str, reason: str | None) -> None:
+        """Forbid arming for ``reason`` under ``key`` (None lifts it): the health monitor's
+        verdicts (a motor detected failed) enter the pre-arm check this way."""
+        if reason is None:
+            self._blockers.pop(key, None)
+        else:
+            self._blockers[key] = reason
+
+    def crash(self, text: str) -> None:
+        """A crash was detected: disarm now, whatever the state (``text`` says why)."""
+        if self._armed:
+            self._disarm(text, "critical")
     def _run_ground(self, t: float) -> None:
         """Armed on the ground at ``t`` (s): auto-disarm when due (:mod:`.arming`)."""
         if self._ground_since_s is None:
@@ -216,6 +268,8 @@ class Navigator(MissionExecution):
             return self._ok(f"already in {mode.name}")
         if MODE_TABLE[mode].needs_position and not self._estimator_healthy:
             return self._refuse(what, "position estimate not healthy")
+        if MODE_TABLE[mode].needs_position and not self._position_fix:
+            return self._refuse(what, "no position fix")
         if mode == Mode.AUTO and not self._mission.items:
             return self._refuse(what, "no mission loaded")
         self._enter_mode(mode, "")
@@ -269,7 +323,9 @@ class Navigator(MissionExecution):
                             failsafe_sources=tuple(self._failsafes),
                             estimator_healthy=self._estimator_healthy,
                             on_ground=self._looks_on_ground(), est_pos_ned=self._est_pos_ned,
-                            est_vel_ned=self._est_vel_ned, mode=self._mode, config=self.config)
+                            est_vel_ned=self._est_vel_ned, mode=self._mode, config=self.config,
+                            position_fix=self._position_fix,
+                            blockers=tuple(self._blockers.values()))
 
     def arm(self, force: bool = False) -> CommandResult:
         """Arm (COMPONENT_ARM_DISARM p1=1; ``force`` for p2=21196 skips the checks).
@@ -302,14 +358,14 @@ class Navigator(MissionExecution):
         self._disarm("disarmed (forced)" if force else "disarmed")
         return self._ok()
 
-    def _disarm(self, text: str) -> None:
+    def _disarm(self, text: str, severity: Severity = "info") -> None:
         self._armed = False
         self._flying = False
         self._leg = None
         self._landing.reset()
         self._ground_since_s = None
         self._mission.active = False
-        self._event("disarm", text)
+        self._event("disarm", text, severity)
 
     def takeoff(self, alt_m: float) -> CommandResult:
         """NAV_TAKEOFF in GUIDED: climb vertically to ``alt_m`` (m above home), then hold."""

@@ -34,6 +34,8 @@ class NavigatorConfig:
     idle_disarm_delay_s: float = 10.0  # s, auto-disarm armed without take-off; 0 = never
     home_pos_ned: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m, NED
     armable_modes: tuple[int, ...] = (0, 2, 4, 5)  # STABILIZE, ALT_HOLD, GUIDED, LOITER
+    position_timeout_s: float = 3.0  # s holding attitude and height without a position fix
+    # before landing [FS_POS_TIMEOUT]
 
     def __post_init__(self) -> None:
         supported = SUPPORTED_MODE_NUMBERS
@@ -47,7 +49,7 @@ class NavigatorConfig:
             value = getattr(self, name)
             require(finite(value) and value > 0, name, value, "must be a finite number > 0")
         for name in ("min_leg_s", "rtl_hold_s", "land_detect_time_s", "landed_disarm_delay_s",
-                     "idle_disarm_delay_s"):
+                     "idle_disarm_delay_s", "position_timeout_s"):
             value = getattr(self, name)
             require(finite(value) and value >= 0, name, value,
                     "must be a finite number >= 0")

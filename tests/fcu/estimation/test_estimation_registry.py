@@ -28,14 +28,19 @@ def test_each_estimator_builds_and_steps(name: str, height_source: str) -> None:
     estimator = ESTIMATOR_REGISTRY.factory(name)(config, DT)
     assert isinstance(estimator, {"ekf": ExtendedKalmanEstimator,
                                   "tskf": TwoStageKalmanFilter}[name])
-    assert {"mocap_pos", "mocap_att", "gyro"} <= estimator.sensor_kinds
-    assert ("baro" in estimator.sensor_kinds) == (height_source == "baro")
+    # every height source's sensors (the source can be switched in flight)
+    assert {"mocap_pos", "mocap_att", "gyro", "accel", "baro"} <= estimator.sensor_kinds
     for k in range(1, 51):
         t = k * DT
         samples = [SensorSample(s, t, v) for s, v in ON_THE_GROUND.items()]
         estimate = estimator.step_grouped(t, np.zeros(4),
                                           group_samples(samples, estimator.sensor_kinds))
     assert estimate.time_s == pytest.approx(0.5)  # s, the last tick
+    # only the configured height source is screened and used
+    assert ("baro" in estimator.screening) == (height_source == "baro")
+    assert estimator.screening["mocap_pos"].residual.shape == (
+        (3,) if height_source == "mocap" else (2,))
+    assert estimator.screening["accel"].status == "skipped"  # on the ground
     # the ground holds the vehicle and every reading agrees: the estimate stays put
     # (m, m/s, rad; only rounding of the updates)
     np.testing.assert_allclose(estimate.pos_ned, 0.0, atol=1e-12)

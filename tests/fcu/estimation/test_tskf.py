@@ -32,7 +32,8 @@ from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.estimation.tskf_model import TskfProcessNoise, hover_model
 from fcu.hal import SensorSample
 from fcu.model import VehicleModel
-from fcu.monitoring.loe_detector import FaultDetection, LoeFaultDetector
+from fcu.monitoring.motor_faults import DetectorConfig, MotorFaultDetector
+from flightdata.records import DetectionRecord
 
 MODEL = VehicleModel()
 DT = 0.01  # s, the filter and control tick
@@ -211,10 +212,11 @@ class ClosedLoopRun:
     t: np.ndarray  # (n,) s
     gamma_raw: np.ndarray  # (n, 4) the TSKF's unclipped gamma_hat
     loe_estimate: np.ndarray  # (n, 4) clipped to [0, 1]
+    loe_reported: np.ndarray  # (n, 4) the detector's, common mode (mass) removed
     gamma_true: np.ndarray  # (n, 4)
     pos_true: np.ndarray  # (n, 3) m
     state_error: np.ndarray  # (n, 16) truth minus estimate (yaw wrapped)
-    events: list[FaultDetection] = field(default_factory=list)
+    events: list[DetectionRecord] = field(default_factory=list)
     step_cpu_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
@@ -223,7 +225,7 @@ def run_closed_loop(make_filter: Callable[[VehicleModel], TwoStageKalmanFilter],
                     wind_mean_ned: tuple[float, float, float] = (0.5, 0.0, 0.0),
                     gust_sigma: float = 0.3, start_on_ground: bool = False,
                     alt_m: float = 0.6) -> ClosedLoopRun:
-    """Fly the harness with a TSKF and a LoeFaultDetector in the loop.
+    """Fly the harness with a TSKF and a MotorFaultDetector in the loop.
 
     ``faults`` maps motor (1..4) to (onset s, loss fraction). Gusts: Ornstein-Uhlenbeck,
     2 s correlation, ``gust_sigma`` m/s horizontally and half that vertically. From the
@@ -232,7 +234,7 @@ def run_closed_loop(make_filter: Callable[[VehicleModel], TwoStageKalmanFilter],
     """
     rng = np.random.default_rng(seed)
     tskf = make_filter(MODEL)
-    detector = LoeFaultDetector()
+    detector = MotorFaultDetector(MODEL, DetectorConfig(), DT)
     pos0 = np.zeros(3) if start_on_ground else np.array([0.0, 0.0, -alt_m])
     plant = HarnessPlant(MODEL, pos0, 0.0 if start_on_ground else HOVER_T)
     ctrl = HarnessController(MODEL, DT)
@@ -246,10 +248,10 @@ def run_closed_loop(make_filter: Callable[[VehicleModel], TwoStageKalmanFilter],
     gust_sig = np.array([gust_sigma, gust_sigma, gust_sigma / 2])
     wind = wind_mean + gust_sig * rng.standard_normal(3)
     u = np.zeros(4) if start_on_ground else U_HOVER.copy()
-    rec: dict[str, list[np.ndarray]] = {k: [] for k in ("g", "l", "gt", "p", "e")}
+    rec: dict[str, list[np.ndarray]] = {k: [] for k in ("g", "l", "r", "gt", "p", "e")}
     t_rec: list[float] = []
     cpu: list[float] = []
-    events: list[FaultDetection] = []
+    events: list[DetectionRecord] = []
     k_plant = 0
     for tick in range(1, round(duration_s / DT) + 1):
         t_tick = tick * DT
@@ -272,7 +274,7 @@ def run_closed_loop(make_filter: Callable[[VehicleModel], TwoStageKalmanFilter],
         t0 = time.process_time()
         est = tskf.step(t_tick, u, samples)  # u: the PWM held over the tick just ended
         cpu.append(time.process_time() - t0)
-        events += detector.step(t_tick, tskf.loe_estimate)
+        events += detector.step(t_tick, tskf.gamma_raw, u, evidence=True, learn=True)
         if start_on_ground:
             s = min(max((t_tick - 1.0) / 3.0, 0.0), 1.0)
             pos_ref = np.array([0.0, 0.0, -alt_m * (3 * s * s - 2 * s ** 3)])
@@ -289,11 +291,12 @@ def run_closed_loop(make_filter: Callable[[VehicleModel], TwoStageKalmanFilter],
         t_rec.append(t_tick)
         rec["g"].append(tskf.gamma_raw.copy())
         rec["l"].append(tskf.loe_estimate)
+        rec["r"].append(detector.evidence.loe)
         rec["gt"].append(gamma)
         rec["p"].append(plant.x[0:3].copy())
         rec["e"].append(err)
     return ClosedLoopRun(np.array(t_rec), np.array(rec["g"]), np.array(rec["l"]),
-                         np.array(rec["gt"]), np.array(rec["p"]), np.array(rec["e"]), events,
+                         np.array(rec["r"]), np.array(rec["gt"]), np.array(rec["p"]), np.array(rec["e"]), events,
                          np.array(cpu))
 
 
@@ -598,13 +601,14 @@ def test_step_profile_state_estimate(step_profile_run: ClosedLoopRun) -> None:
 @pytest.mark.slow
 def test_detector_reports_each_step_fault_within_3_s(step_profile_run: ClosedLoopRun) -> None:
     events = step_profile_run.events
-    assert [e.kind for e in events] == ["fault", "fault", "fault"]
+    assert [e.kind for e in events] == ["loe", "loe", "loe"]
     assert [e.motor for e in events] == [3, 1, 4]  # in onset order: 22 s, 38 s, 48 s
     for e in events:
+        assert e.motor is not None
         onset, loss = STEP_PROFILE[e.motor]
-        print(f"{e.time_s:.2f} s: {e.message} (true {loss:.0%}, latency {e.time_s - onset:.2f} s)")
+        print(f"{e.time_s:.2f} s: {e.text()} (true {loss:.0%}, latency {e.time_s - onset:.2f} s)")
         assert onset < e.time_s <= onset + 3.0
-        assert 0.1 < e.loe_estimate < loss + 0.05
+        assert 0.1 < e.magnitude < loss + 0.05
 
 
 @pytest.mark.slow

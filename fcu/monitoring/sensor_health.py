@@ -1,0 +1,252 @@
+"""Sensor fault detection and containment: which sensors the estimators may trust.
+
+The thesis assumes healthy sensors. Here every sensor is watched by three checks, and one that
+fails is announced, excluded from the estimators, and re-admitted only once it has been
+consistent again for ``recover_s``:
+
+- **innovation**: the flying estimator screens each measurement against its prior
+  (:mod:`fcu.estimation.estimator`: NIS above a 6-sigma chi-square gate while every other
+  sensor agrees with the model). ``reject_ticks`` consecutive rejections exclude the sensor
+  (``sensor_rejected``, magnitude: the NIS). Garbage is caught this way in a few ticks.
+- **frozen signal**: a reading repeated bit for bit for ``frozen_ticks`` batches while the
+  estimate has moved more than ``frozen_sigma`` standard deviations of the innovation away
+  from it (``sensor_frozen``, magnitude: seconds frozen). Real sensors are noisy; a reading
+  that no longer changes while the vehicle moves is a dead driver. (Without the motion
+  condition a noise-free simulation at rest would trip it.)
+- **cross-check** of the two height sources: the barometer against the motion-capture
+  height, as the mean difference over ``cross_window_s``; beyond ``cross_limit_m`` the
+  barometer is excluded (``sensor_inconsistent``, magnitude: the difference, m). Motion
+  capture is the reference: it is absolute and drift-free, while a barometer drifts with
+  the weather and the rotor wash; a motion-capture fault is caught by its own checks.
+
+While excluded, a sensor is still screened (its NIS is computed against the coasting estimate,
+whose covariance grows), so a sensor that comes back is seen to agree; a frozen one must also
+change again, an inconsistent barometer must come back within half the limit.
+
+Fallback (:attr:`SensorHealth.height_source`): height comes from the configured source while
+it is trusted, else from the other one if trusted. :attr:`SensorHealth.position_fix` is False
+while motion-capture position is excluded: the autopilot then holds attitude and height and
+lands after its position failsafe timeout (:mod:`fcu.autopilot`). :attr:`SensorHealth.suspect`
+is True while any sensor is excluded, or was rejected within ``quiet_s``: motor fault
+evidence is not taken then (a sensor fault would otherwise raise motor alarms).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from fcu.estimation.estimator import ChannelCheck
+from fcu.estimation.state import SampleBatch
+from flightdata.config import finite, require
+from flightdata.records import DetectionRecord
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorHealthConfig:
+    """Settings of the sensor checks (module docstring)."""
+
+    reject_ticks: int = 5  # consecutive screening rejections that exclude a sensor
+    frozen_ticks: int = 5  # identical consecutive batches (with motion) that exclude it
+    frozen_sigma: float = 5.0  # innovation, in its standard deviations, that shows motion
+    recover_s: float = 0.5  # s of consistency before an excluded sensor is re-admitted
+    cross_window_s: float = 1.0  # s, averaging of the barometer / motion-capture height
+    cross_limit_m: float = 0.06  # m, |mean difference| beyond which the barometer is out
+    quiet_s: float = 1.0  # s after a rejection during which sensors count as suspect
+
+    def __post_init__(self) -> None:
+        for name in ("reject_ticks", "frozen_ticks"):
+            value = getattr(self, name)
+            require(isinstance(value, int) and value >= 1, name, value,
+                    "must be an integer >= 1")
+        for name in ("frozen_sigma", "recover_s", "cross_window_s", "cross_limit_m"):
+            value = getattr(self, name)
+            require(finite(value) and value > 0, name, value, "must be a number > 0")
+        require(finite(self.quiet_s) and self.quiet_s >= 0, "quiet_s", self.quiet_s,
+                "must be >= 0 s")
+
+
+@dataclass
+class _Watch:
+    """Bookkeeping of one sensor."""
+
+    excluded_as: str | None = None  # detection kind while excluded
+    excluded_s: float = 0.0
+    rejections: int = 0
+    last_rejected_s: float = -math.inf
+    last_value: np.ndarray | None = None
+    same: int = 0
+    frozen_since_s: float = 0.0
+    good_since_s: float | None = None
+
+
+class SensorHealth:
+    """The three sensor checks and the fallbacks (module docstring).
+
+    Parameters
+    ----------
+    config : SensorHealthConfig
+    height_source : str
+        The configured height source ("mocap" or "baro").
+    """
+
+    def __init__(self, config: SensorHealthConfig, height_source: str) -> None:
+        self.config = config
+        self.configured_height_source = height_source
+        self.reset()
+
+    def reset(self) -> None:
+        """Every sensor trusted, every check restarted."""
+        self._watch: dict[str, _Watch] = {}
+        self._cross: list[tuple[float, float]] = []  # (time, baro alt - mocap alt)
+
+    def _w(self, sensor: str) -> _Watch:
+        return self._watch.setdefault(sensor, _Watch())
+
+    # ------------------------------------------------------------------ the tick
+    def step(self, time_s: float, batches: Mapping[str, SampleBatch],
+             screening: Mapping[str, ChannelCheck], airborne: bool) -> list[DetectionRecord]:
+        """One tick, after the estimators' update.
+
+        Parameters
+        ----------
+        time_s : float
+            Tick time, s.
+        batches : mapping of str to SampleBatch
+            The tick's averaged samples.
+        screening : mapping of str to ChannelCheck
+            The flying estimator's screening of them.
+        airborne : bool
+            The vehicle is off the ground (the frozen check needs motion).
+        """
+        records: list[DetectionRecord] = []
+        for sensor, check in screening.items():
+            w = self._w(sensor)
+            records += self._frozen(time_s, sensor, w, batches.get(sensor), check, airborne)
+            records += self._innovation(time_s, sensor, w, check)
+            records += self._recovery(time_s, sensor, w, check)
+        records += self._cross_check(time_s, batches)
+        return records
+
+    def _exclude(self, time_s: float, sensor: str, w: _Watch, kind: str,
+                 magnitude: float) -> list[DetectionRecord]:
+        if w.excluded_as is not None:
+            return []
+        w.excluded_as, w.excluded_s, w.good_since_s = kind, time_s, None
+        return [DetectionRecord(time_s=time_s, action="detected", kind=kind, sensor=sensor,
+                                magnitude=magnitude)]
+
+    def _frozen(self, time_s: float, sensor: str, w: _Watch, batch: SampleBatch | None,
+                check: ChannelCheck, airborne: bool) -> list[DetectionRecord]:
+        if batch is None:
+            return []
+        value = np.asarray(batch.value)
+        if w.last_value is not None and np.array_equal(value, w.last_value):
+            if w.same == 0:
+                w.frozen_since_s = time_s
+            w.same += 1
+        else:
+            w.same = 0
+        w.last_value = value.copy()
+        moved = bool(np.any(np.abs(check.residual) > self.config.frozen_sigma
+                            * np.sqrt(check.variance)))
+        if airborne and w.same >= self.config.frozen_ticks and moved:
+            return self._exclude(time_s, sensor, w, "sensor_frozen",
+                                 time_s - w.frozen_since_s)
+        return []
+
+    def _innovation(self, time_s: float, sensor: str, w: _Watch,
+                    check: ChannelCheck) -> list[DetectionRecord]:
+        if check.status != "rejected":
+            w.rejections = 0
+            return []
+        w.rejections += 1
+        w.last_rejected_s = time_s
+        if w.rejections >= self.config.reject_ticks:
+            return self._exclude(time_s, sensor, w, "sensor_rejected", check.nis)
+        return []
+
+    def _recovery(self, time_s: float, sensor: str, w: _Watch,
+                  check: ChannelCheck) -> list[DetectionRecord]:
+        kind = w.excluded_as
+        if kind is None or kind == "sensor_inconsistent":
+            return []  # the cross-check re-admits the barometer
+        consistent = check.nis <= check.gate and (kind != "sensor_frozen" or w.same == 0)
+        if not consistent:
+            w.good_since_s = None
+            return []
+        if w.good_since_s is None:
+            w.good_since_s = time_s
+        if time_s - w.good_since_s < self.config.recover_s - 1e-9:
+            return []
+        w.excluded_as, w.good_since_s, w.rejections = None, None, 0
+        return [DetectionRecord(time_s=time_s, action="cleared", kind=kind, sensor=sensor,
+                                magnitude=time_s - w.excluded_s)]
+
+    def _cross_check(self, time_s: float,
+                     batches: Mapping[str, SampleBatch]) -> list[DetectionRecord]:
+        """Barometer against motion-capture height (module docstring)."""
+        baro, mocap = batches.get("baro"), batches.get("mocap_pos")
+        cfg = self.config
+        if mocap is not None and self.excluded_as("mocap_pos") is not None:
+            mocap = None
+        if baro is None or mocap is None or len(mocap.value) < 3:
+            return []
+        # alt = -z (NED); both averaged over the tick
+        self._cross.append((time_s, float(baro.value[0]) + float(mocap.value[2])))
+        while self._cross and self._cross[0][0] <= time_s - cfg.cross_window_s:
+            self._cross.pop(0)
+        if len(self._cross) < 2 or self._cross[-1][0] - self._cross[0][0] < \
+                0.5 * cfg.cross_window_s:
+            return []
+        mean = sum(v for _, v in self._cross) / len(self._cross)
+        w = self._w("baro")
+        if w.excluded_as is None and abs(mean) > cfg.cross_limit_m:
+            return self._exclude(time_s, "baro", w, "sensor_inconsistent", mean)
+        if w.excluded_as == "sensor_inconsistent" and abs(mean) < 0.5 * cfg.cross_limit_m:
+            if w.good_since_s is None:
+                w.good_since_s = time_s
+            if time_s - w.good_since_s >= cfg.recover_s - 1e-9:
+                w.excluded_as, w.good_since_s = None, None
+                return [DetectionRecord(time_s=time_s, action="cleared",
+                                        kind="sensor_inconsistent", sensor="baro",
+                                        magnitude=mean)]
+        elif w.excluded_as == "sensor_inconsistent":
+            w.good_since_s = None
+        return []
+
+    # ------------------------------------------------------------------ observation
+    def excluded_as(self, sensor: str) -> str | None:
+        """Why ``sensor`` is excluded (its detection kind), or None when trusted."""
+        w = self._watch.get(sensor)
+        return None if w is None else w.excluded_as
+
+    @property
+    def excluded(self) -> frozenset[str]:
+        """Sensors the estimators must not use."""
+        return frozenset(s for s, w in self._watch.items() if w.excluded_as is not None)
+
+    def suspect(self, time_s: float) -> bool:
+        """A sensor is excluded, or was rejected within ``quiet_s`` of ``time_s``."""
+        return any(w.excluded_as is not None
+                   or time_s - w.last_rejected_s < self.config.quiet_s
+                   for w in self._watch.values())
+
+    @property
+    def position_fix(self) -> bool:
+        """Motion-capture position is trusted."""
+        return self.excluded_as("mocap_pos") is None
+
+    @property
+    def height_source(self) -> str:
+        """Where height should come from now (module docstring)."""
+        source = self.configured_height_source
+        other = "baro" if source == "mocap" else "mocap"
+        sensor = {"mocap": "mocap_pos", "baro": "baro"}
+        if self.excluded_as(sensor[source]) is not None and \
+                self.excluded_as(sensor[other]) is None:
+            return other
+        return source
