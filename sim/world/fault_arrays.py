@@ -87,6 +87,7 @@ class FaultArrays:
         self._s = self.state[0]  # a view: writes go to the array
         self._last = self.state["last_reading"][0]  # (5, 3) view
         self._has_last = self.state["has_last"][0]  # (5,) view
+        self._clock = self.state["clock_s"]  # (1,) view
         self.reset()
 
     def reset(self) -> None:
@@ -102,11 +103,11 @@ class FaultArrays:
     @property
     def clock_s(self) -> float:
         """Latest simulated time given to the engine, s."""
-        return float(self._s["clock_s"])
+        return float(self._clock[0])
 
     @clock_s.setter
     def clock_s(self, time_s: float) -> None:
-        self._s["clock_s"] = time_s
+        self._clock[0] = time_s
 
     def set_next_change(self, time_s: float) -> None:
         """Record the next time a fault starts or ends, s (the compiled steps stop before)."""

@@ -248,7 +248,7 @@ class DrydenWind:
 
     __slots__ = ("_config", "_dt_s", "_rng", "_w20_m_s", "_mean_ned", "_cos_chi", "_sin_chi",
                  "_active", "_h_min", "_h_max", "_v_min", "_band", "_coef", "_sigma",
-                 "_length", "kernel_state", "_s", "_x", "_block")
+                 "_length", "kernel_state", "_s", "_x", "_block", "_coef_view", "_band_view")
 
     def __init__(self, config: WindConfig, dt_s: float, rng: np.random.Generator) -> None:
         require(isinstance(config, WindConfig), "config", config, "must be a WindConfig")
@@ -277,6 +277,8 @@ class DrydenWind:
         self._s["mean_ned"] = self._mean_ned
         self._x = self.kernel_state["x"][0]  # (5,) view
         self._block = self.kernel_state["block"][0]  # (BLOCK_STEPS, 5) view
+        self._coef_view = self.kernel_state["coef"][0]
+        self._band_view = self.kernel_state["band"][0]
         self.reset()
 
     # ----------------------------------------------------------------------------------
@@ -334,8 +336,8 @@ class DrydenWind:
         # Python floats only: step()'s arithmetic is several times slower on numpy scalars.
         assert len(coef) == _N_COEF and all(type(value) is float for value in coef)
         self._coef = coef
-        self._s["coef"] = coef
-        self._s["band"] = self._band
+        self._coef_view[:] = coef
+        self._band_view[:] = self._band
 
     def draw_block(self) -> None:
         """Draw the next block of standard normals (BLOCK_STEPS x 5) and start at its first

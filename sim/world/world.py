@@ -159,6 +159,7 @@ class World:
         self._wind_ned = self.kernel_state["wind_ned"][0]  # (3,) views
         self._pwm_effective = self.kernel_state["pwm_effective"][0]
         self._specific_force = self.kernel_state["specific_force"][0]
+        self._steps = self.kernel_state["steps"]  # (1,) view
         self._samples_used = 0  # readings in the sample buffer
         self._new_sample_buffer(0)
         self._build_random_parts()
@@ -173,7 +174,8 @@ class World:
                                    np.random.default_rng(sensor_ss), self.faults)
         self.kernel_state[0] = np.zeros((), dtype=WORLD_STATE)
         self._w["dt_s"] = self.dt_s
-        self._w["accel_every"] = self.sensors.decimation("accel")
+        self._accel_every = self.sensors.decimation("accel")
+        self._w["accel_every"] = self._accel_every
         self._wind_ned[:] = self.wind.mean_ned_m_s
         self._w["was_on_ground"] = self.plant.on_ground
         self._events: list[PlantEvent] = []
@@ -197,7 +199,7 @@ class World:
     @property
     def step_count(self) -> int:
         """Plant steps taken since reset."""
-        return int(self._w["steps"])
+        return int(self._steps[0])
 
     def step(self, pwm_cmd: np.ndarray, n_steps: int = 1) -> SampleBatch:
         """Advance ``n_steps`` plant steps holding ``pwm_cmd``; return the samples produced.
@@ -279,7 +281,8 @@ class World:
         plant, faults, wind, sensors = self.plant, self.faults, self.wind, self.sensors
         x = plant.state
         dt = self.dt_s
-        t = self.step_count * dt
+        k = int(self._steps[0])
+        t = k * dt
         # (4,) float64 from the fault engine, a mass > 0 (checked when faults are
         # scheduled), a (3,) wind: the plant's per-step input checks are not needed
         u_eff = faults.actuator_inputs(t, pwm)
@@ -288,9 +291,9 @@ class World:
         airspeed = math.hypot(x.item(3) - wind_prev.item(0), x.item(4) - wind_prev.item(1))
         wind_ned = wind.step(-x.item(2), airspeed)
         plant.step_unchecked(u_eff, wind_ned, mass)
-        k = self.step_count + 1
-        self._w["steps"] = k
-        if k % self._w["accel_every"] == 0:
+        k += 1
+        self._steps[0] = k
+        if k % self._accel_every == 0:
             self._specific_force[:] = specific_force_frd(x, wind_ned, mass, self._params)
         for sample in sensors.sample(k, k * dt, x, self._specific_force):
             rec = samples[m]
