@@ -17,10 +17,9 @@ step and says why (:data:`STOP_PYTHON`, :data:`STOP_DRAW`), and the world takes 
 
 * a fault starts or ends at or before the step's readings (``t_{k+1} >= next_change_s``):
   only the Python engine starts and ends faults, so the world takes that step in Python;
-* turbulence is on and the altitude or airspeed left the wind's cache band (a
-  rediscretisation, which needs scipy): a Python step. The airspeed is computed here with
-  numba's ``hypot``, which may differ from Python's ``math.hypot`` in the last bit, so a value
-  within 1e-12 (relative) of a band end also goes to Python;
+* turbulence is on and the altitude or airspeed left the wind's cache band
+  (:func:`sim.world.wind.dryden_ready`): a rediscretisation, which needs scipy's matrix
+  exponential, so a Python step;
 * a block of pre-drawn random numbers is used up (wind normals, sensor noise, a fault's
   draws): the world draws more from the same generator (:data:`STOP_DRAW`) and calls again.
 
@@ -44,7 +43,7 @@ from sim.world.fault_kernels import (
 )
 from sim.world.fault_types import SENSOR_AXES, SENSOR_NAMES
 from sim.world.sensors import noise_ready, sensor_due, sensor_reading
-from sim.world.wind import dryden_step
+from sim.world.wind import WIND_READY, WIND_RETUNE, dryden_ready, dryden_step
 
 STOP_DONE = 0  # all the steps asked for were taken
 STOP_CONTACT = 1  # the last step taken changed the ground contact (touchdown, lift-off, crash)
@@ -66,38 +65,20 @@ WORLD_STATE = np.dtype([
 _AXES = np.array([SENSOR_AXES[name] for name in SENSOR_NAMES], dtype=np.int64)
 _N_SENSORS = len(SENSOR_NAMES)
 
-# Python's math.hypot may differ from the compiled one in the last bit: an airspeed this
-# close (relative) to a band end is left to the Python step.
-_HYPOT_MARGIN = 1e-12
-
-
-@njit(cache=True)
-def _inside(value: float, lo: float, hi: float, margin: float) -> bool:
-    """``lo <= value <= hi`` with ``value`` at least ``margin`` (relative) inside finite ends."""
-    if value != value:  # NaN: Python raises on it
-        return False
-    if lo > -math.inf and not value >= lo + abs(lo) * margin:
-        return False
-    return not (hi < math.inf and not value <= hi - abs(hi) * margin)
-
 
 @njit(cache=True, error_model="numpy")
 def _why_not(world: np.ndarray, plant: np.ndarray, wind: np.ndarray, sensors: np.ndarray,
              faults: np.ndarray, table: np.ndarray) -> int:
     """STOP_DONE when the next step can be taken here, else why not (module docstring)."""
-    w, x, wd = world[0], plant[0].x, wind[0]
+    w, x = world[0], plant[0].x
     k = w.steps
     if not (k + 1) * w.dt_s < faults[0].next_change_s:
         return STOP_PYTHON  # a fault starts or ends before the step's readings
-    if wd.active:
-        # the wind's retune test, on the altitude and the airspeed over the previous wind
-        airspeed = math.hypot(x[3] - w.wind_ned[0], x[4] - w.wind_ned[1])
-        band = wd.band
-        if not (_inside(-x[2], band[0], band[1], 0.0)
-                and _inside(airspeed, band[2], band[3], _HYPOT_MARGIN)):
-            return STOP_PYTHON
-        if wd.next_row >= wd.rows:
-            return STOP_DRAW
+    # the altitude and the horizontal airspeed over the previous wind, as World._step_python
+    airspeed = math.hypot(x[3] - w.wind_ned[0], x[4] - w.wind_ned[1])
+    wind_ready = dryden_ready(wind, -x[2], airspeed)
+    if wind_ready != WIND_READY:
+        return STOP_PYTHON if wind_ready == WIND_RETUNE else STOP_DRAW
     if not actuator_draws_ready(faults, table, k * w.dt_s):
         return STOP_DRAW
     for i in range(_N_SENSORS):

@@ -193,6 +193,44 @@ def _dryden_kernel(z: np.ndarray, x: np.ndarray, c: np.ndarray, out: np.ndarray)
         _advance(c, x, z[k], out[k])
 
 
+WIND_READY, WIND_RETUNE, WIND_DRAW = 0, 1, 2  # what dryden_ready found
+
+# Python's math.hypot may differ from numba's in the last bit: an airspeed this close
+# (relative) to a band end counts as outside, so that Python decides.
+_HYPOT_MARGIN = 1e-12
+
+
+@njit(cache=True)
+def _inside(value: float, lo: float, hi: float, margin: float) -> bool:
+    """``lo <= value <= hi`` with ``value`` at least ``margin`` (relative) inside finite ends."""
+    if value != value:  # NaN: Python raises on it
+        return False
+    if lo > -math.inf and not value >= lo + abs(lo) * margin:
+        return False
+    return not (hi < math.inf and not value <= hi - abs(hi) * margin)
+
+
+@njit(cache=True)
+def dryden_ready(wind: np.ndarray, altitude_m: float, airspeed_m_s: float) -> int:
+    """Whether :func:`dryden_step` can stand in for :meth:`DrydenWind.step` at this altitude
+    and airspeed: WIND_READY; WIND_RETUNE when they leave the cache band (or are not finite:
+    Python rediscretises, or raises); WIND_DRAW when the block of normals is used up.
+
+    ``airspeed_m_s`` is computed in numba, whose ``hypot`` may differ from Python's
+    ``math.hypot`` in the last bit: within 1e-12 (relative) of a band end it counts as out.
+    """
+    s = wind[0]
+    if not s.active:
+        return WIND_READY  # the mean wind: no band, no draws
+    band = s.band
+    if not (_inside(altitude_m, band[0], band[1], 0.0)
+            and _inside(airspeed_m_s, band[2], band[3], _HYPOT_MARGIN)):
+        return WIND_RETUNE
+    if s.next_row >= s.rows:
+        return WIND_DRAW
+    return WIND_READY
+
+
 @njit(cache=True)
 def dryden_step(wind: np.ndarray, out: np.ndarray) -> None:
     """One step of :meth:`DrydenWind.step` inside its cache band, in numba.
@@ -200,10 +238,9 @@ def dryden_step(wind: np.ndarray, out: np.ndarray) -> None:
     Parameters
     ----------
     wind : numpy.ndarray
-        One :data:`WIND_STATE` record (``DrydenWind.kernel_state``), advanced in place. With
-        turbulence on, its block must hold an unused row (``next_row < rows``) and the
-        altitude and airspeed must be inside its band: a caller that cannot promise both
-        calls :meth:`DrydenWind.step` instead (which retunes and draws).
+        One :data:`WIND_STATE` record (``DrydenWind.kernel_state``), advanced in place;
+        :func:`dryden_ready` must have found it ready for this step's altitude and airspeed
+        (else :meth:`DrydenWind.step` retunes or draws).
     out : numpy.ndarray
         Receives the wind velocity (north, east, down), m/s, shape (3,).
     """
@@ -483,6 +520,7 @@ class DrydenWind:
 
 
 __all__ = ["BLOCK_STEPS", "CACHE_BAND", "FT_TO_M", "GRID_RATIO", "KT_TO_M_S",
-           "LOW_ALTITUDE_CEILING_M", "W20_KT", "WIND_STATE", "DrydenWind", "WindConfig",
-           "dryden_length_scales_m", "dryden_sigmas_m_s", "dryden_step",
+           "LOW_ALTITUDE_CEILING_M", "W20_KT", "WIND_DRAW", "WIND_READY", "WIND_RETUNE",
+           "WIND_STATE", "DrydenWind", "WindConfig",
+           "dryden_length_scales_m", "dryden_ready", "dryden_sigmas_m_s", "dryden_step",
            "second_order_coefficients", "second_order_model", "van_loan"]

@@ -56,13 +56,7 @@ from sim.world.fault_types import SENSOR_NAMES
 from sim.world.faults import FaultEngine, FaultEvent
 from sim.world.samples import SAMPLE_RECORD, SampleBatch
 from sim.world.sensors import SensorConfig, SensorSuite
-from sim.world.stepping import (
-    STOP_CONTACT,
-    STOP_DONE,
-    STOP_DRAW,
-    WORLD_STATE,
-    world_steps,
-)
+from sim.world.stepping import STOP_CONTACT, STOP_DONE, STOP_DRAW, WORLD_STATE, world_steps
 from sim.world.wind import DrydenWind, WindConfig
 
 
@@ -228,43 +222,36 @@ class World:
             for _ in range(n_steps):
                 m = self._step_python(pwm, m)
         else:
-            faults = self.faults
-            steps, m, why = world_steps(
-                n_steps, pwm, self.kernel_state, self.plant.kernel_state,
-                self.wind.kernel_state, self.sensors.kernel_state, faults.arrays.state,
-                faults.arrays.table, faults.arrays.pool, self._samples, m)
-            if why != STOP_DONE:
-                m = self._step_on(pwm, n_steps, steps, m, why)
+            m = self._steps_compiled(pwm, n_steps, m)
         self._samples_used = m
         return SampleBatch.wrap(self._samples_read_only[first:m])
 
-    def _step_on(self, pwm: np.ndarray, n_steps: int, done: int, m: int, why: int) -> int:
-        """Finish a :meth:`step` whose compiled call stopped after ``done`` steps because of
-        ``why`` (:mod:`sim.world.stepping`); returns the new sample count."""
-        drew = False  # numbers were drawn for the step the kernel stopped before
-        while True:
-            if why == STOP_CONTACT:
-                self._contact_changed()
-            elif why == STOP_DRAW and not drew:
-                self.wind.refill()
-                self.sensors.refill()
-                self.faults.refill_draws()
-            elif done < n_steps:  # STOP_PYTHON, or a draw that did not help: take it here
-                m = self._step_python(pwm, m)
-                done += 1
-            drew = why == STOP_DRAW and not drew
-            if done == n_steps:
-                return m
-            faults = self.faults
+    def _steps_compiled(self, pwm: np.ndarray, n_steps: int, m: int) -> int:
+        """``n_steps`` steps, in :func:`sim.world.stepping.world_steps` wherever it can take
+        them (module docstring); readings go to the sample buffer from index ``m``; returns
+        the new count."""
+        done = 0
+        drew = False  # numbers were just drawn for the step the kernel stopped before
+        while done < n_steps:
+            faults = self.faults.arrays
             steps, m, why = world_steps(
                 n_steps - done, pwm, self.kernel_state, self.plant.kernel_state,
-                self.wind.kernel_state, self.sensors.kernel_state, faults.arrays.state,
-                faults.arrays.table, faults.arrays.pool, self._samples, m)
+                self.wind.kernel_state, self.sensors.kernel_state, faults.state, faults.table,
+                faults.pool, self._samples, m)
             done += steps
-            if why == STOP_DONE:
-                return m
-            if steps:
-                drew = False
+            if why == STOP_CONTACT:  # the last step touched down, lifted off or crashed
+                self._contact_changed()
+            elif why == STOP_DRAW and not (drew and steps == 0):
+                self.wind.refill()  # each draws only what is used up or asked for
+                self.sensors.refill()
+                self.faults.refill_draws()
+                drew = True
+                continue
+            elif why != STOP_DONE:  # STOP_PYTHON (or draws that did not help): in Python
+                m = self._step_python(pwm, m)
+                done += 1
+            drew = False
+        return m
 
     def _new_sample_buffer(self, n_steps: int) -> None:
         """Start a new buffer of readings; batches already returned keep theirs (views)."""
