@@ -49,8 +49,10 @@ in :mod:`sim.world.airframe`, evaluated on the air-relative velocity in body axe
 ``tau_w = (0, 0, z_cp) x F_drag_b``.
 
 The numerical kernels are numba ``@njit`` functions taking a packed parameter vector
-(:func:`pack_params`); :class:`RigidBodyPlant` wraps them with PWM saturation and ground
-contact.
+(:func:`pack_params`). :func:`plant_step` adds PWM saturation and ground contact and advances
+one :data:`PLANT_STATE` record (state vector, contact flags, step count, scratch), the whole
+changing state of a :class:`RigidBodyPlant` (its ``kernel_state``), so that the plant's own
+:meth:`RigidBodyPlant.step` and the world's compiled steps advance the same state.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """The fault engine's arrays and its rules compiled: actuator effects and sensor corruption.
 
 :class:`sim.world.faults.FaultEngine` keeps the state of its active faults in the three arrays
-below and applies the rules of :mod:`sim.world.fault_types` in Python (the reference); the
+below (:class:`sim.world.fault_arrays.FaultArrays`) and applies the rules of
+:mod:`sim.world.fault_types` in Python (:mod:`sim.world.fault_rules`, the reference); the
 numba functions here apply the same rules to the same arrays, with the same floating-point
 operations in the same order, for the world's compiled stepping (:mod:`sim.world.stepping`).
 Because both read and write the same arrays, the world can take one step in Python and the
