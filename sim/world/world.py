@@ -106,6 +106,7 @@ class PlantEvent:
 WorldEvent = FaultEvent | PlantEvent
 
 _N_SENSORS = len(SENSOR_NAMES)  # at most one reading per sensor and step
+_SENSOR_INDEX = {name: i for i, name in enumerate(SENSOR_NAMES)}
 _SAMPLE_BUFFER = 4096  # readings per sample buffer (about 800 calls of 5 steps)
 
 
@@ -153,7 +154,9 @@ class World:
         self._wind_ned = self.kernel_state["wind_ned"][0]  # (3,) views
         self._pwm_effective = self.kernel_state["pwm_effective"][0]
         self._specific_force = self.kernel_state["specific_force"][0]
-        self._steps = self.kernel_state["steps"]  # (1,) view
+        self._steps = self.kernel_state["steps"]  # (1,) views
+        self._was_on_ground = self.kernel_state["was_on_ground"]
+        self._was_crashed = self.kernel_state["was_crashed"]
         self._samples_used = 0  # readings in the sample buffer
         self._new_sample_buffer(0)
         self._build_random_parts()
@@ -258,13 +261,14 @@ class World:
         self._samples = np.empty(max(_SAMPLE_BUFFER, _N_SENSORS * n_steps), dtype=SAMPLE_RECORD)
         self._samples_read_only = self._samples.view()
         self._samples_read_only.flags.writeable = False
+        self._sample_columns = (self._samples["sensor"], self._samples["time_s"],
+                                self._samples["value"])
         self._samples_used = 0
 
     def _step_python(self, pwm: np.ndarray, m: int) -> int:
         """One step of the loop in the module docstring with the parts' Python methods (the
         reference); its readings go to the sample buffer from index ``m``; returns the new
         count."""
-        samples = self._samples
         plant, faults, wind, sensors = self.plant, self.faults, self.wind, self.sensors
         x = plant.state
         dt = self.dt_s
@@ -282,17 +286,17 @@ class World:
         self._steps[0] = k
         if k % self._accel_every == 0:
             self._specific_force[:] = specific_force_frd(x, wind_ned, mass, self._params)
+        sensor_index, time_s, values = self._sample_columns
         for sample in sensors.sample(k, k * dt, x, self._specific_force):
-            rec = samples[m]
-            rec["sensor"] = SENSOR_NAMES.index(sample.sensor)
-            rec["time_s"] = sample.time_s
-            rec["value"] = 0.0
-            rec["value"][:sample.value.shape[0]] = sample.value
+            sensor_index[m] = _SENSOR_INDEX[sample.sensor]
+            time_s[m] = sample.time_s
+            n = sample.value.shape[0]
+            values[m, :n] = sample.value
+            values[m, n:] = 0.0
             m += 1
         self._wind_ned[:] = wind_ned
         self._pwm_effective[:] = u_eff
-        if plant.on_ground != self._w["was_on_ground"] or \
-                plant.crashed != self._w["was_crashed"]:
+        if plant.on_ground != self._was_on_ground[0] or plant.crashed != self._was_crashed[0]:
             self._contact_changed()
         return m
 
