@@ -1,7 +1,11 @@
 """``ftc-bench``: speed figures, printed (never asserted in tests).
 
     ftc-bench plant [--repeat N]   real-time factor of 60 s of plant + Dryden wind + sensors
-                                   under a hover command at the default plant rate (500 Hz)
+                                   under a hover command at the default plant rate (500 Hz),
+                                   called in 5-step chunks as the autopilot does; beside it,
+                                   in the same runs, a plain-numpy RK4 of the same plant
+                                   equations alone (no numba, no wind, no sensors) and the
+                                   ratio of the two medians
     ftc-bench stack [--repeat N]   real-time factor of the full stack over a 60 s thesis
                                    flight: plant + wind + sensors + EKF + TSKF + LQG + AbDOB
     ftc-bench vehicle-speedup [--repeat N] [--speedup X] [--realtime]
@@ -42,6 +46,7 @@ import numpy as np
 
 from sim.scenario import DEFAULT_WIND, load_scenario
 from sim.world import World, WorldConfig
+from sim.world.airframe import Airframe
 
 SIM_SECONDS = 60.0
 
@@ -60,6 +65,66 @@ def _plant_once() -> tuple[float, float]:
     return time.perf_counter() - wall0, time.process_time() - cpu0
 
 
+def _numpy_rk4_once() -> tuple[float, float]:
+    """60 s of the plant alone at 500 Hz in plain numpy: hover thrust, no wind (a reference).
+
+    The equations of sim/world/dynamics.py (eq. 3.1, 3.5, 3.6, 3.17, the drag model of
+    sim/world/airframe.py), written with numpy arrays, one RK4 step of four derivative
+    evaluations per plant step, PWM saturation and the quaternion renormalised.
+    """
+    af = Airframe()
+    dt = 1.0 / WorldConfig().plant_rate_hz
+    inertia = np.array(af.inertia)
+    drag = np.array([af.drag_coeff_xy, af.drag_coeff_xy, af.drag_coeff_z])
+    r_cp = np.array([0.0, 0.0, af.cp_offset_z])
+    e3 = np.array([0.0, 0.0, 1.0])
+    wind = np.zeros(3)
+
+    def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:  # np.cross costs ~10x more
+        return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                         a[0] * b[1] - a[1] * b[0]])
+
+    def derivative(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        q, vel, omega, thrust = x[6:10], x[3:6], x[10:13], x[13:17]
+        w, qx, qy, qz = q / np.sqrt(q @ q)
+        rot = np.array([  # R(q), body FRD -> NED (eq. 3.9)
+            [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - w * qz), 2 * (qx * qz + w * qy)],
+            [2 * (qx * qy + w * qz), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - w * qx)],
+            [2 * (qx * qz - w * qy), 2 * (qy * qz + w * qx), 1 - 2 * (qx * qx + qy * qy)]])
+        v_b = rot.T @ (vel - wind)  # air-relative velocity, body
+        f_drag = -(drag + af.drag_quad_coeff * np.sqrt(v_b @ v_b)) * v_b
+        f_b = f_drag + np.array([0.0, 0.0, -thrust.sum()])  # thrust along -z_body
+        t1, t2, t3, t4 = thrust
+        tau = np.array([af.arm_length * (t3 - t4), af.arm_length * (t1 - t2),
+                        af.yaw_gain * (t1 + t2 - t3 - t4)]) + cross(r_cp, f_drag)  # eq. 3.17
+        dq = 0.5 * np.array([-qx * omega[0] - qy * omega[1] - qz * omega[2],
+                             w * omega[0] + qy * omega[2] - qz * omega[1],
+                             w * omega[1] + qz * omega[0] - qx * omega[2],
+                             w * omega[2] + qx * omega[1] - qy * omega[0]])
+        return np.concatenate((
+            vel,  # dp/dt = v
+            af.gravity * e3 + rot @ f_b / af.mass,  # eq. 3.5
+            dq,  # dq/dt = q (x) (0, omega) / 2
+            (tau - cross(omega, inertia * omega)) / inertia,  # eq. 3.6
+            af.motor_bandwidth * (af.thrust_gain * u - thrust)))  # eq. 3.1
+
+    x = np.zeros(17)
+    x[2], x[6] = -0.6, 1.0
+    x[13:17] = af.hover_pwm * af.thrust_gain
+    pwm = np.full(4, af.hover_pwm)
+    n_steps = int(SIM_SECONDS / dt)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    for _ in range(n_steps):
+        u = np.clip(pwm, af.pwm_min, af.pwm_max)
+        k1 = derivative(x, u)
+        k2 = derivative(x + 0.5 * dt * k1, u)
+        k3 = derivative(x + 0.5 * dt * k2, u)
+        k4 = derivative(x + dt * k3, u)
+        x = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        x[6:10] /= np.sqrt(x[6:10] @ x[6:10])
+    return time.perf_counter() - wall0, time.process_time() - cpu0
+
+
 def _stack_once() -> tuple[float, float]:
     from sim.runner import fly
 
@@ -69,19 +134,33 @@ def _stack_once() -> tuple[float, float]:
     return time.perf_counter() - wall0, time.process_time() - cpu0
 
 
-def _report(label: str, once: Callable[[], tuple[float, float]], repeat: int) -> None:
+def _report(label: str, once: Callable[[], tuple[float, float]], repeat: int,
+            reference: tuple[str, Callable[[], tuple[float, float]]] | None = None) -> None:
+    """Median real-time factors of ``once``; with a ``reference``, of that too, each of its
+    runs right after one of ``once`` (so both see the same machine load), and the ratio."""
     once()  # warm-up: numba compile or cache load, imports, LQR design
-    walls, cpus = [], []
+    runs: list[tuple[float, float]] = []
+    ref_runs: list[tuple[float, float]] = []
     for _ in range(repeat):
-        wall, cpu = once()
-        walls.append(wall)
-        cpus.append(cpu)
-    rtf = [SIM_SECONDS / w for w in walls]
-    rtf_cpu = [SIM_SECONDS / c for c in cpus]
+        runs.append(once())
+        if reference is not None:
+            ref_runs.append(reference[1]())
     print(f"{label}: {SIM_SECONDS:.0f} s simulated, {repeat} runs")
+    wall, cpu = _print_factors(runs)
+    if reference is not None:
+        print(f"  reference, {reference[0]}, in the same runs:")
+        ref_wall, ref_cpu = _print_factors(ref_runs)
+        print(f"  ratio of the medians: {wall / ref_wall:.1f}x (wall)  {cpu / ref_cpu:.1f}x (CPU)")
+
+
+def _print_factors(runs: list[tuple[float, float]]) -> tuple[float, float]:
+    """Print the real-time factors of ``(wall_s, cpu_s)`` runs; return the medians."""
+    rtf = [SIM_SECONDS / wall for wall, _ in runs]
+    rtf_cpu = [SIM_SECONDS / cpu for _, cpu in runs]
     print(f"  real-time factor (wall): median {statistics.median(rtf):.1f}x  "
           f"min {min(rtf):.1f}x  max {max(rtf):.1f}x")
     print(f"  real-time factor (CPU):  median {statistics.median(rtf_cpu):.1f}x")
+    return statistics.median(rtf), statistics.median(rtf_cpu)
 
 
 @dataclass
@@ -236,7 +315,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     args.repeat = args.repeat or 5
     if args.what in ("plant", "all"):
-        _report("plant + wind + sensors, hover command, 500 Hz", _plant_once, args.repeat)
+        _report("plant + wind + sensors, hover command, 500 Hz, 5-step calls", _plant_once,
+                args.repeat, ("plain-numpy RK4 of the plant alone (no numba, no wind, no "
+                              "sensors), 500 Hz hover", _numpy_rk4_once))
     if args.what in ("stack", "all"):
         _report("full stack (plant 500 Hz, EKF + TSKF + LQG + AbDOB at 100 Hz, wind, sensors,"
                 " Table 7.3 faults)", _stack_once, args.repeat)

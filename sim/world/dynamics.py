@@ -49,8 +49,10 @@ in :mod:`sim.world.airframe`, evaluated on the air-relative velocity in body axe
 ``tau_w = (0, 0, z_cp) x F_drag_b``.
 
 The numerical kernels are numba ``@njit`` functions taking a packed parameter vector
-(:func:`pack_params`); :class:`RigidBodyPlant` wraps them with PWM saturation and ground
-contact.
+(:func:`pack_params`). :func:`plant_step` adds PWM saturation and ground contact and advances
+one :data:`PLANT_STATE` record (state vector, contact flags, step count, scratch), the whole
+changing state of a :class:`RigidBodyPlant` (its ``kernel_state``), so that the plant's own
+:meth:`RigidBodyPlant.step` and the world's compiled steps advance the same state.
 """
 
 from __future__ import annotations
@@ -63,6 +65,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from flightdata.config import finite
 from sim.world.airframe import Airframe
+from sim.world.rotations import (
+    euler_to_quat,
+    quat_to_euler,
+    quat_to_rotation,
+    rotation_entries,
+    yaw_of,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -92,10 +101,18 @@ P_PWM_MAX = 13  # PWM duty
 P_CRASH_SPEED = 14  # m/s
 PARAM_SIZE = 15
 
-# ---- ground-contact flags of RigidBodyPlant (float64[3]) ---------------------------------
-_F_ON_GROUND = 0  # 1.0 while resting on the ground
-_F_CRASHED = 1  # 1.0 after a touchdown faster than crash_speed_m_s (sticky until reset)
-_F_TOUCHDOWN_SPEED = 2  # m/s of the last touchdown, -1.0 when none since reset
+# ---- the stepping state of RigidBodyPlant (one record) -----------------------------------
+PLANT_STATE = np.dtype([
+    ("x", np.float64, (STATE_SIZE,)),  # the state vector (layout above)
+    ("on_ground", np.bool_),  # resting on the ground
+    ("crashed", np.bool_),  # a touchdown was faster than crash_speed_m_s (sticky until reset)
+    ("touchdown_speed_m_s", np.float64),  # m/s, of the last touchdown; -1 when none since reset
+    ("steps", np.int64),  # steps since reset
+    ("dt_s", np.float64),  # s, integration step
+    ("params", np.float64, (PARAM_SIZE,)),  # pack_params(airframe)
+    ("work", np.float64, (7, STATE_SIZE)),  # scratch of plant_step
+], align=True)
+"""What :func:`plant_step` advances: the state, the ground contact and its scratch."""
 
 
 def pack_params(airframe: Airframe) -> FloatArray:
@@ -127,113 +144,6 @@ def pack_params(airframe: Airframe) -> FloatArray:
     p[P_PWM_MAX] = airframe.pwm_max
     p[P_CRASH_SPEED] = airframe.crash_speed_m_s
     return p
-
-
-# ---- rotations ---------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy")
-def _rotation_entries(
-    qw: float, qx: float, qy: float, qz: float
-) -> tuple[float, float, float, float, float, float, float, float, float]:
-    """Entries r00..r22 of R(q), body FRD -> NED; q need not be exactly unit (it is scaled)."""
-    s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
-    r00 = 1.0 - s * (qy * qy + qz * qz)
-    r01 = s * (qx * qy - qw * qz)
-    r02 = s * (qx * qz + qw * qy)
-    r10 = s * (qx * qy + qw * qz)
-    r11 = 1.0 - s * (qx * qx + qz * qz)
-    r12 = s * (qy * qz - qw * qx)
-    r20 = s * (qx * qz - qw * qy)
-    r21 = s * (qy * qz + qw * qx)
-    r22 = 1.0 - s * (qx * qx + qy * qy)
-    return r00, r01, r02, r10, r11, r12, r20, r21, r22
-
-
-@njit(cache=True, error_model="numpy")
-def quat_to_rotation(q: FloatArray) -> FloatArray:
-    """Rotation matrix of a quaternion, R = Rz(yaw) Ry(pitch) Rx(roll) (corrected eq. 3.9).
-
-    Parameters
-    ----------
-    q : numpy.ndarray
-        Quaternion [w, x, y, z], float64, shape (4,); a non-unit q is normalised.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape (3, 3), maps body FRD vectors to NED (v = R v_b, eq. 3.7).
-    """
-    r = _rotation_entries(q[0], q[1], q[2], q[3])
-    out = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = r[3 * i + j]
-    return out
-
-
-@njit(cache=True, error_model="numpy")
-def euler_to_quat(roll_rad: float, pitch_rad: float, yaw_rad: float) -> FloatArray:
-    """Unit quaternion [w, x, y, z] of ZYX Euler angles, q = q_z(yaw) q_y(pitch) q_x(roll).
-
-    Parameters
-    ----------
-    roll_rad, pitch_rad, yaw_rad : float
-        phi (right side down positive), theta (nose up positive), psi (nose right positive),
-        rad.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape (4,), with the same rotation as R = Rz(psi) Ry(theta) Rx(phi) (eq. 3.9).
-    """
-    cr, sr = math.cos(0.5 * roll_rad), math.sin(0.5 * roll_rad)
-    cp, sp = math.cos(0.5 * pitch_rad), math.sin(0.5 * pitch_rad)
-    cy, sy = math.cos(0.5 * yaw_rad), math.sin(0.5 * yaw_rad)
-    q = np.empty(4)
-    q[0] = cr * cp * cy + sr * sp * sy
-    q[1] = sr * cp * cy - cr * sp * sy
-    q[2] = cr * sp * cy + sr * cp * sy
-    q[3] = cr * cp * sy - sr * sp * cy
-    return q
-
-
-@njit(cache=True, error_model="numpy")
-def _yaw_of(qw: float, qx: float, qy: float, qz: float) -> float:
-    """ZYX yaw psi of a quaternion, rad in (-pi, pi]."""
-    return math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
-
-
-@njit(cache=True, error_model="numpy")
-def quat_to_euler(q: FloatArray) -> FloatArray:
-    """ZYX Euler angles (roll, pitch, yaw) of a unit quaternion [w, x, y, z].
-
-    Parameters
-    ----------
-    q : numpy.ndarray
-        Unit quaternion, float64, shape (4,).
-
-    Returns
-    -------
-    numpy.ndarray
-        [phi, theta, psi] in rad, shape (3,): roll and yaw in (-pi, pi], pitch in
-        [-pi/2, pi/2], such that R(q) = Rz(psi) Ry(theta) Rx(phi) (eq. 3.9). At gimbal lock
-        (|theta| = pi/2, where only psi -/+ phi is defined) phi is returned as 0.
-    """
-    qw, qx, qy, qz = q[0], q[1], q[2], q[3]
-    out = np.empty(3)
-    # sin(theta) = -R[2, 0]; clipped against round-off beyond +-1 at the poles
-    s = 2.0 * (qw * qy - qz * qx)
-    out[1] = math.asin(min(1.0, max(-1.0, s)))
-    if abs(s) > 1.0 - 1e-15:
-        # gimbal lock (|theta| = 90 deg): both atan2 below read 0/0. Only psi -/+ phi is
-        # defined; with phi = 0, q = (c cos(psi/2), .., .., c sin(psi/2)) for either pole.
-        out[0] = 0.0
-        yaw = 2.0 * math.atan2(qz, qw)
-        out[2] = yaw - 2.0 * math.pi if yaw > math.pi else (
-            yaw + 2.0 * math.pi if yaw <= -math.pi else yaw)
-        return out
-    out[0] = math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
-    out[2] = _yaw_of(qw, qx, qy, qz)
-    return out
 
 
 # ---- forces ------------------------------------------------------------------------------
@@ -269,7 +179,7 @@ def _derivative_into(
 ) -> None:
     """Write dx/dt into ``out`` (see :func:`derivative`); ``out`` must not alias ``x``."""
     qw, qx, qy, qz = x[6], x[7], x[8], x[9]
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _rotation_entries(qw, qx, qy, qz)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation_entries(qw, qx, qy, qz)
     fbx, fby, fbz, fdx, fdy = _body_force(
         x, wind_ned, p, r00, r01, r02, r10, r11, r12, r20, r21, r22)
 
@@ -395,6 +305,30 @@ def rk4_step(
 
 
 @njit(cache=True, error_model="numpy")
+def specific_force_into(
+    x: FloatArray, wind_ned: FloatArray, mass_kg: float, params: FloatArray, out: FloatArray
+) -> None:
+    """:func:`specific_force_frd` written into ``out`` (shape (3,))."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation_entries(x[6], x[7], x[8], x[9])
+    fbx, fby, fbz, _, _ = _body_force(
+        x, wind_ned, params, r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    g = params[P_GRAVITY]
+    if x[2] >= 0.0 and x[5] >= 0.0:
+        # NED down-acceleration the free body would have (eq. 3.5)
+        a_down = g + (r20 * fbx + r21 * fby + r22 * fbz) / mass_kg
+        if a_down >= 0.0:
+            # the ground reaction cancels it: f = R^T (0, 0, -g), the third row of R times -g
+            out[0] = -g * r20
+            out[1] = -g * r21
+            out[2] = -g * r22
+            return
+    # f = (F_thrust_b + F_drag_b) / m
+    out[0] = fbx / mass_kg
+    out[1] = fby / mass_kg
+    out[2] = fbz / mass_kg
+
+
+@njit(cache=True, error_model="numpy")
 def specific_force_frd(
     x: FloatArray, wind_ned: FloatArray, mass_kg: float, params: FloatArray
 ) -> FloatArray:
@@ -422,37 +356,32 @@ def specific_force_frd(
     numpy.ndarray
         Specific force (f_x, f_y, f_z) in FRD, m/s^2, shape (3,).
     """
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _rotation_entries(x[6], x[7], x[8], x[9])
-    fbx, fby, fbz, _, _ = _body_force(
-        x, wind_ned, params, r00, r01, r02, r10, r11, r12, r20, r21, r22)
     out = np.empty(3)
-    g = params[P_GRAVITY]
-    if x[2] >= 0.0 and x[5] >= 0.0:
-        # NED down-acceleration the free body would have (eq. 3.5)
-        a_down = g + (r20 * fbx + r21 * fby + r22 * fbz) / mass_kg
-        if a_down >= 0.0:
-            # the ground reaction cancels it: f = R^T (0, 0, -g), the third row of R times -g
-            out[0] = -g * r20
-            out[1] = -g * r21
-            out[2] = -g * r22
-            return out
-    out[0] = fbx / mass_kg
-    out[1] = fby / mass_kg
-    out[2] = fbz / mass_kg
+    specific_force_into(x, wind_ned, mass_kg, params, out)
     return out
 
 
 # ---- stepping with saturation and ground contact -----------------------------------------
 @njit(cache=True, error_model="numpy")
-def _plant_step(
-    x: FloatArray, u_cmd: FloatArray, wind_ned: FloatArray, mass_kg: float, p: FloatArray,
-    dt: float, flags: FloatArray, work: FloatArray,
-) -> None:
-    """Saturate PWM, RK4, then ground contact; updates ``x`` and ``flags`` in place.
+def plant_step(plant: np.ndarray, u_cmd: FloatArray, wind_ned: FloatArray,
+               mass_kg: float) -> None:
+    """One step of :class:`RigidBodyPlant`: saturate PWM, RK4, then ground contact.
 
-    ``work`` is float64[7, 17]: rows 0-4 RK4 scratch, row 5 the candidate state, row 6 the
-    saturated PWM. A NaN command counts as pwm_min (no power).
+    Parameters
+    ----------
+    plant : numpy.ndarray
+        One :data:`PLANT_STATE` record (``RigidBodyPlant.kernel_state``), advanced in place.
+    u_cmd : numpy.ndarray
+        PWM per motor 1..4, shape (4,), held over the step; clipped to [pwm_min, pwm_max], a
+        NaN counts as pwm_min (no power).
+    wind_ned : numpy.ndarray
+        Wind velocity in NED, m/s, shape (3,), held over the step.
+    mass_kg : float
+        Current mass, kg (> 0).
     """
+    s = plant[0]
+    x, p, work = s.x, s.params, s.work
+    # work rows 0-4: RK4 scratch, row 5: the candidate state, row 6: the saturated PWM
     u = work[6, 0:4]
     lo = p[P_PWM_MIN]
     hi = p[P_PWM_MAX]
@@ -464,17 +393,18 @@ def _plant_step(
             ui = hi
         u[i] = ui
     xn = work[5]
-    _rk4_into(x, u, wind_ned, mass_kg, p, dt, work, xn)
+    _rk4_into(x, u, wind_ned, mass_kg, p, s.dt_s, work, xn)
+    s.steps += 1
 
     if xn[2] < 0.0:  # airborne at the end of the step
-        flags[_F_ON_GROUND] = 0.0
+        s.on_ground = False
         for i in range(STATE_SIZE):
             x[i] = xn[i]
         return
 
-    if flags[_F_ON_GROUND] > 0.5:
+    if s.on_ground:
         # resting and not lifted off (thrust < weight): the ground holds position and yaw
-        yaw = _yaw_of(x[6], x[7], x[8], x[9])
+        yaw = yaw_of(x[6], x[7], x[8], x[9])
     else:
         # touchdown inside this step: speed at the contact instant, linear in z over the step
         z0 = x[2]
@@ -484,11 +414,11 @@ def _plant_step(
         vy = x[4] + a * (xn[4] - x[4])
         vz = x[5] + a * (xn[5] - x[5])
         speed = math.sqrt(vx * vx + vy * vy + vz * vz)
-        flags[_F_TOUCHDOWN_SPEED] = speed
+        s.touchdown_speed_m_s = speed
         if speed > p[P_CRASH_SPEED]:
-            flags[_F_CRASHED] = 1.0
-        flags[_F_ON_GROUND] = 1.0
-        yaw = _yaw_of(xn[6], xn[7], xn[8], xn[9])
+            s.crashed = True
+        s.on_ground = True
+        yaw = yaw_of(xn[6], xn[7], xn[8], xn[9])
         x[0] = xn[0]
         x[1] = xn[1]
     # on the ground: z = 0, at rest, level with the yaw kept, motors keep their lag states
@@ -503,67 +433,6 @@ def _plant_step(
         x[i] = 0.0
     for i in range(13, 17):
         x[i] = xn[i]
-
-
-@njit(cache=True)
-def _inside_band(value: float, lo: float, hi: float, margin: float) -> bool:
-    """``lo <= value <= hi`` with ``value`` at least ``margin`` (relative) inside finite ends."""
-    if value != value:
-        return False
-    if lo > -math.inf and not value >= lo + abs(lo) * margin:
-        return False
-    return not (hi < math.inf and not value <= hi - abs(hi) * margin)
-
-
-# Python's math.hypot may differ from the compiled one in the last bit: an airspeed this
-# close (relative) to a band end is left to the caller.
-_HYPOT_MARGIN = 1e-12
-
-_STEPS_DONE, _STEPS_STOPPED, _STEPS_CONTACT = 0, 1, 2  # why _plant_steps returned
-
-
-@njit(cache=True, error_model="numpy")
-def _plant_steps(
-    n_max: int, step0: int, dt: float, t_limit: float, x: FloatArray, u_eff: FloatArray,
-    mass_kg: float, p: FloatArray, flags: FloatArray, work: FloatArray,
-    was_on_ground: bool, was_crashed: bool, check_band: bool, band: FloatArray,
-    winds: FloatArray, wind_prev: FloatArray, accel_every: int, specific_force: FloatArray,
-    states: FloatArray, forces: FloatArray,
-) -> tuple[int, int]:
-    """Up to ``n_max`` :func:`_plant_step` calls with the PWM, mass and per-step wind held,
-    for :class:`sim.world.World`'s compiled stepping (see ``World._steps_compiled``).
-
-    Step ``j`` (the plant's step count ``step0 + j`` before it) uses ``winds[j]``; it is not
-    taken when it starts at or after ``t_limit`` or, with ``check_band``, when the altitude
-    ``-z`` or the airspeed relative to the previous wind (``wind_prev``, then ``winds[j - 1]``)
-    leaves ``band`` = (h_lo, h_hi, v_lo, v_hi). After step count ``k`` a multiple of
-    ``accel_every`` the specific force is recomputed. ``states[j]`` and ``forces[j]``
-    receive the state and the latest specific force after step ``j`` (``specific_force``
-    is updated in place too). Returns ``(steps, why)``: why is _STEPS_DONE, _STEPS_STOPPED
-    (the next step was not taken) or _STEPS_CONTACT (the last step changed on_ground or
-    crashed from ``was_on_ground`` / ``was_crashed``).
-    """
-    h_lo, h_hi, v_lo, v_hi = band[0], band[1], band[2], band[3]
-    for j in range(n_max):
-        k0 = step0 + j
-        if not k0 * dt < t_limit:
-            return j, _STEPS_STOPPED
-        w = winds[j]
-        if check_band:
-            prev = wind_prev if j == 0 else winds[j - 1]
-            airspeed = math.hypot(x[3] - prev[0], x[4] - prev[1])
-            if not (_inside_band(-x[2], h_lo, h_hi, 0.0)
-                    and _inside_band(airspeed, v_lo, v_hi, _HYPOT_MARGIN)):
-                return j, _STEPS_STOPPED
-        _plant_step(x, u_eff, w, mass_kg, p, dt, flags, work)
-        if (k0 + 1) % accel_every == 0:
-            specific_force[:] = specific_force_frd(x, w, mass_kg, p)
-        states[j] = x
-        forces[j] = specific_force
-        if (flags[_F_ON_GROUND] > 0.5) != was_on_ground or \
-                (flags[_F_CRASHED] > 0.5) != was_crashed:
-            return j + 1, _STEPS_CONTACT
-    return n_max, _STEPS_DONE
 
 
 class RigidBodyPlant:
@@ -590,6 +459,10 @@ class RigidBodyPlant:
         As given.
     dt_s : float
         As given, s.
+    kernel_state : numpy.ndarray
+        One :data:`PLANT_STATE` record holding everything the plant changes (state vector,
+        ground contact, step count): what :func:`plant_step` advances. The world's compiled
+        stepping passes it to that function; nothing else should write it.
     """
 
     def __init__(self, airframe: Airframe, dt_s: float) -> None:
@@ -597,14 +470,14 @@ class RigidBodyPlant:
             raise ValueError(f"dt_s = {dt_s!r}: must be a finite number of seconds > 0")
         self.airframe = airframe
         self.dt_s = float(dt_s)
-        self._params = pack_params(airframe)
-        self._x = np.zeros(STATE_SIZE)
-        self._flags = np.zeros(3)
-        self._work = np.zeros((7, STATE_SIZE))
+        self.kernel_state = np.zeros(1, dtype=PLANT_STATE)
+        self._s = self.kernel_state[0]  # a view: writes go to the array
+        self._s["dt_s"] = self.dt_s
+        self._s["params"] = pack_params(airframe)
+        self._x = self.kernel_state["x"][0]
         # read-only view sharing memory with _x: callers see each step, cannot corrupt it
         self._state_view = self._x.view()
         self._state_view.flags.writeable = False
-        self._steps = 0
         self.reset()
 
     def reset(
@@ -651,10 +524,10 @@ class RigidBodyPlant:
         self._x[QUAT_WXYZ] = (math.cos(0.5 * yaw_rad), 0.0, 0.0, math.sin(0.5 * yaw_rad))
         self._x[RATE_FRD] = 0.0
         self._x[THRUST_N] = thrust
-        self._flags[_F_ON_GROUND] = 1.0 if pos[2] == 0.0 else 0.0
-        self._flags[_F_CRASHED] = 0.0
-        self._flags[_F_TOUCHDOWN_SPEED] = -1.0
-        self._steps = 0
+        self._s["on_ground"] = pos[2] == 0.0
+        self._s["crashed"] = False
+        self._s["touchdown_speed_m_s"] = -1.0
+        self._s["steps"] = 0
 
     def step(self, u_pwm: ArrayLike, wind_ned: ArrayLike, mass_kg: float) -> FloatArray:
         """Advance one ``dt_s``: saturate PWM to [pwm_min, pwm_max], RK4, ground contact.
@@ -679,26 +552,14 @@ class RigidBodyPlant:
         if u.shape != (4,) or w.shape != (3,) or not mass_kg > 0.0:
             raise ValueError(f"u_pwm shape {u.shape} (want (4,)), wind_ned shape {w.shape} "
                              f"(want (3,)), mass_kg = {mass_kg!r} (want > 0)")
-        return self._step_checked(u, w, float(mass_kg))
+        return self.step_unchecked(u, w, float(mass_kg))
 
-    def _stepping_state(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """``(x, params, flags, work)`` for :class:`sim.world.World`'s compiled stepping, which
-        advances them with :func:`_plant_step` and reports the steps with
-        :meth:`_count_steps`."""
-        return self._x, self._params, self._flags, self._work
-
-    def _count_steps(self, n_steps: int) -> None:
-        """Account for ``n_steps`` steps taken by the world's compiled stepping."""
-        self._steps += n_steps
-
-    def _step_checked(self, u_pwm: FloatArray, wind_ned: FloatArray,
-                      mass_kg: float) -> FloatArray:
+    def step_unchecked(self, u_pwm: FloatArray, wind_ned: FloatArray,
+                       mass_kg: float) -> FloatArray:
         """:meth:`step` for a caller whose inputs are known good: float64 arrays of shapes
-        (4,) and (3,) and a float mass > 0 (the world's stepping loop, which checks its
+        (4,) and (3,) and a float mass > 0 (the world's Python stepping, which checks its
         command once per call instead of once per plant step)."""
-        _plant_step(self._x, u_pwm, wind_ned, mass_kg, self._params, self.dt_s, self._flags,
-                    self._work)
-        self._steps += 1
+        plant_step(self.kernel_state, u_pwm, wind_ned, mass_kg)
         return self._state_view
 
     @property
@@ -712,20 +573,26 @@ class RigidBodyPlant:
     @property
     def time_s(self) -> float:
         """Simulated time since :meth:`reset`, s (steps times dt_s, no accumulated round-off)."""
-        return self._steps * self.dt_s
+        return int(self._s["steps"]) * self.dt_s
 
     @property
     def on_ground(self) -> bool:
         """True while the vehicle rests on the ground plane z_ned = 0."""
-        return bool(self._flags[_F_ON_GROUND] > 0.5)
+        return bool(self._s["on_ground"])
 
     @property
     def crashed(self) -> bool:
         """True once a touchdown exceeded ``crash_speed_m_s`` since the last reset."""
-        return bool(self._flags[_F_CRASHED] > 0.5)
+        return bool(self._s["crashed"])
 
     @property
     def touchdown_speed_m_s(self) -> float | None:
         """Speed of the last touchdown at the contact instant, m/s; None if none since reset."""
-        speed = float(self._flags[_F_TOUCHDOWN_SPEED])
+        speed = float(self._s["touchdown_speed_m_s"])
         return speed if speed >= 0.0 else None
+
+
+__all__ = ["PARAM_SIZE", "PLANT_STATE", "POS_NED", "QUAT_WXYZ", "RATE_FRD", "STATE_SIZE",
+           "THRUST_N", "VEL_NED", "RigidBodyPlant", "derivative", "euler_to_quat",
+           "pack_params", "plant_step", "quat_to_euler", "quat_to_rotation", "rk4_step",
+           "specific_force_frd", "specific_force_into"]

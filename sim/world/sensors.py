@@ -19,6 +19,10 @@ position and attitude come from a motion-capture system; each default is justifi
 field in :class:`SensorConfig`. Noise is pre-drawn in blocks from one generator per sensor
 (seeded from the injected generator at construction), so each sensor's noise sequence depends
 only on the seed, and :meth:`SensorSuite.reset` replays it from the start.
+
+Two implementations, one state: :meth:`SensorSuite.sample` makes the readings in Python (the
+reference) and :func:`sensor_reading` in numba for the world's compiled stepping, with the same
+operations in the same order; both take noise rows from :attr:`SensorSuite.kernel_state`.
 """
 
 from __future__ import annotations
@@ -32,18 +36,26 @@ import numpy as np
 from numba import njit
 
 from flightdata.config import finite, require
+from sim.world.fault_types import SENSOR_AXES, SENSOR_NAMES
 from sim.world.faults import FaultEngine
+from sim.world.samples import SensorSample
 
-SENSOR_NAMES = ("gyro", "accel", "mocap_pos", "mocap_att", "baro")
-"""Sensor names, in the order in which samples due at the same step are returned."""
-
-_AXES = (3, 3, 3, 3, 1)  # value length of each sensor, SENSOR_NAMES order
+_AXES = tuple(SENSOR_AXES[name] for name in SENSOR_NAMES)  # value length of each sensor
 _SIGMA_FIELDS = ("gyro_sigma_rad_s", "accel_sigma_m_s2", "mocap_pos_sigma_m",
                  "mocap_att_sigma_rad", "baro_sigma_m")
 _GYRO, _ACCEL, _POS, _ATT, _BARO = range(5)
-_NOISE_BLOCK = 512  # noise rows pre-drawn per sensor at a time
+NOISE_BLOCK = 512  # noise rows pre-drawn per sensor at a time
 _MAX_CYCLE = 100_000  # longest due-table (steps); longer cycles test each sensor per step
 _NO_SAMPLES: tuple[SensorSample, ...] = ()
+
+SENSOR_STATE = np.dtype([
+    ("decimation", np.int64, (5,)),  # -, plant steps between two samples of each sensor
+    ("sigma", np.float64, (5,)),  # sensor unit, noise sigma after noise_scale
+    ("rows", np.int64, (5,)),  # -, noise rows drawn per sensor (0 before the first draw)
+    ("next_row", np.int64, (5,)),  # -, next unused noise row per sensor
+    ("noise", np.float64, (5, NOISE_BLOCK, 3)),  # sensor unit, pre-drawn noise, sigma included
+], align=True)
+"""Decimations, sigmas and pre-drawn noise of the sensor suite (one record)."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -101,15 +113,6 @@ class SensorConfig:
         return float(getattr(self, _SIGMA_FIELDS[SENSOR_NAMES.index(sensor)]))
 
 
-@dataclass(frozen=True, slots=True)
-class SensorSample:
-    """One timestamped sensor reading (matches fcu.hal.SensorSampleLike)."""
-
-    sensor: str  # -, one of SENSOR_NAMES
-    time_s: float  # s, simulated time of the reading
-    value: np.ndarray  # sensor unit, layout in the module docstring; treat as read-only
-
-
 def quat_to_euler_zyx(q_wxyz: np.ndarray) -> tuple[float, float, float]:
     """ZYX Euler angles of a quaternion (docs/design.md: R = Rz(yaw) Ry(pitch) Rx(roll)).
 
@@ -165,6 +168,13 @@ class SensorSuite:
     faults : sim.world.faults.FaultEngine
         Applies the active sensor faults to each noisy reading.
 
+    Attributes
+    ----------
+    kernel_state : numpy.ndarray
+        One :data:`SENSOR_STATE` record: decimations, sigmas and the pre-drawn noise with the
+        next row of each sensor. :meth:`sample` (Python) and :func:`sensor_reading` (numba,
+        the world's compiled stepping) take noise rows from it in the same order.
+
     Raises
     ------
     ConfigError
@@ -189,14 +199,10 @@ class SensorSuite:
             decimations.append(steps)
         self._decimation = tuple(decimations)
         cycle = reduce(math.lcm, decimations)
-        self._due_mask: np.ndarray | None = None  # (cycle, 5) int8: sensor i due at step k
         if cycle <= _MAX_CYCLE:
             self._cycle = cycle
             self._due: tuple[tuple[int, ...], ...] = tuple(
                 tuple(i for i, d in enumerate(decimations) if k % d == 0) for k in range(cycle))
-            self._due_mask = np.zeros((cycle, len(SENSOR_NAMES)), dtype=np.int8)
-            for k, due in enumerate(self._due):
-                self._due_mask[k, list(due)] = 1
         else:  # pathological rates: no table, test every sensor each step
             self._cycle = 1
             self._due = ((-1,),)
@@ -204,6 +210,13 @@ class SensorSuite:
         self._sigma = tuple(config.sigma(name) * scale for name in SENSOR_NAMES)
         self._sigma_vec = tuple(np.full(n, s) for n, s in zip(_AXES, self._sigma, strict=True))
         self._seeds = tuple(int(s) for s in rng.integers(0, 2**63 - 1, size=len(SENSOR_NAMES)))
+        self.kernel_state = np.zeros(1, dtype=SENSOR_STATE)
+        self._s = self.kernel_state[0]  # a view: writes go to the array
+        self._s["decimation"] = decimations
+        self._s["sigma"] = self._sigma
+        self._noise = self.kernel_state["noise"][0]  # (5, NOISE_BLOCK, 3) view
+        self._rows = self.kernel_state["rows"][0]  # (5,) view
+        self._next_row = self.kernel_state["next_row"][0]  # (5,) view
         self.reset()
 
     @property
@@ -218,57 +231,26 @@ class SensorSuite:
     def reset(self) -> None:
         """Rewind every noise generator to its state at construction."""
         self._rngs = [np.random.default_rng(s) for s in self._seeds]
-        self._rows: list[list[list[float]]] = [[] for _ in SENSOR_NAMES]
-        self._pos = [0] * len(SENSOR_NAMES)
-        # the same noise rows as an array, for the world's compiled stepping
-        self._noise = np.zeros((len(SENSOR_NAMES), _NOISE_BLOCK, 3))
+        self._rows[:] = 0
+        self._next_row[:] = 0
 
-    def _refill(self, i: int) -> list[list[float]]:
-        """Pre-draw the next block of noise rows of sensor ``i`` (zeros when sigma is 0)."""
+    def draw_noise(self, i: int) -> None:
+        """Pre-draw the next block of noise rows of sensor ``i`` (zeros when sigma is 0) and
+        start at its first row; the only draw site of the sensor noise."""
         n = _AXES[i]
         if self._sigma[i] > 0.0:
-            block = self._rngs[i].standard_normal((_NOISE_BLOCK, n)) * self._sigma[i]
-            rows = block.tolist()
-            self._noise[i, :, :n] = block
+            self._noise[i, :, :n] = self._rngs[i].standard_normal((NOISE_BLOCK, n)) * self._sigma[i]
         else:
-            rows = [[0.0] * n] * _NOISE_BLOCK  # adding +0.0 leaves the truth exact
-            self._noise[i] = 0.0
-        self._rows[i] = rows
-        return rows
+            self._noise[i] = 0.0  # adding +0.0 leaves the truth exact
+        self._rows[i] = NOISE_BLOCK
+        self._next_row[i] = 0
 
-    def _compiled_steps_available(self, step_index: int, n_steps: int) -> int:
-        """How many of the plant steps after ``step_index`` :meth:`_compiled_readings` can
-        serve (up to ``n_steps``): those whose due sensors have pre-drawn noise left (a new
-        block is drawn by :meth:`sample`). 0 without a due table (unusual rates)."""
-        if self._due_mask is None:
-            return 0
-        rows, pos = self._rows, self._pos
-        if all(len(rows[i]) - pos[i] >= n_steps for i in range(len(SENSOR_NAMES))):
-            return n_steps  # each sensor fires at most once per step
-        left = [len(rows[i]) - pos[i] for i in range(len(SENSOR_NAMES))]
-        for j in range(n_steps):
-            for i in self._due[(step_index + 1 + j) % self._cycle]:
-                left[i] -= 1
-                if left[i] < 0:
-                    return j
-        return n_steps
-
-    def _compiled_readings(self, step_index: int, states: np.ndarray, forces: np.ndarray,
-                           n_steps: int) -> tuple[np.ndarray, list[int], list[int]]:
-        """The noisy readings :meth:`sample` would produce at the ``n_steps`` plant steps
-        after ``step_index`` (state and specific force after each in ``states``, ``forces``;
-        at most :meth:`_compiled_steps_available` steps), before the fault engine:
-        ``(readings, sensor_indices, step_indices)``, in the order of :meth:`sample`."""
-        size = len(SENSOR_NAMES) * n_steps
-        readings = np.empty((size, 3))
-        sensor = np.empty(size, dtype=np.int64)
-        step = np.empty(size, dtype=np.int64)
-        next_row = np.array(self._pos, dtype=np.int64)
-        assert self._due_mask is not None  # _compiled_steps_available() returned > 0
-        m = _readings_kernel(step_index, n_steps, states, forces, self._due_mask, self._noise,
-                             next_row, readings, sensor, step)
-        self._pos = next_row.tolist()
-        return readings, sensor[:m].tolist(), step[:m].tolist()
+    def refill(self) -> None:
+        """Draw the next block of every sensor whose rows are used up (the world's compiled
+        stepping asks for this before a step that needs a row it does not have)."""
+        for i in range(len(SENSOR_NAMES)):
+            if self._next_row[i] >= self._rows[i]:
+                self.draw_noise(i)
 
     def sample(self, step_index: int, time_s: float, state: np.ndarray,
                specific_force_frd: np.ndarray) -> Sequence[SensorSample]:
@@ -300,13 +282,11 @@ class SensorSuite:
         xs = state.tolist()
         samples = []
         for i in due:
-            rows = self._rows[i]
-            pos = self._pos[i]
-            if pos >= len(rows):
-                rows = self._refill(i)
-                pos = 0
-            r = rows[pos]
-            self._pos[i] = pos + 1
+            if self._next_row[i] >= self._rows[i]:
+                self.draw_noise(i)
+            pos = int(self._next_row[i])
+            r = self._noise[i, pos].tolist()
+            self._next_row[i] = pos + 1
             if i == _GYRO:
                 reading = np.array((xs[10] + r[0], xs[11] + r[1], xs[12] + r[2]))
             elif i == _ACCEL:
@@ -329,45 +309,58 @@ _euler_zyx_compiled = njit(cache=True)(_euler_zyx)
 _wrap_pi_compiled = njit(cache=True)(_wrap_pi)
 
 
-@njit(cache=True, error_model="numpy")
-def _readings_kernel(step0: int, n_steps: int, states: np.ndarray, forces: np.ndarray,
-                     due_mask: np.ndarray, noise: np.ndarray, next_row: np.ndarray,
-                     readings: np.ndarray, sensor: np.ndarray, step: np.ndarray) -> int:
-    """The noisy readings of :meth:`SensorSuite.sample` for plant steps ``step0 + 1`` to
-    ``step0 + n_steps`` (state ``states[j]`` and specific force ``forces[j]`` after step
-    ``step0 + 1 + j``), in the same order and with the same operations, before the fault
-    engine. Every due sensor must have ``noise`` rows from ``next_row`` on (advanced in
-    place). Writes ``readings[m]``, ``sensor[m]`` (index into SENSOR_NAMES) and ``step[m]``
-    (step index) per reading; returns their number."""
-    m = 0
-    cycle = due_mask.shape[0]
-    for j in range(n_steps):
-        k = step0 + 1 + j
-        xs = states[j]
-        for i in range(due_mask.shape[1]):
-            if not due_mask[k % cycle, i]:
-                continue
-            r = noise[i, next_row[i]]
-            next_row[i] += 1
-            out = readings[m]
-            if i == _GYRO:
-                out[0], out[1], out[2] = xs[10] + r[0], xs[11] + r[1], xs[12] + r[2]
-            elif i == _ACCEL:
-                f = forces[j]
-                out[0], out[1], out[2] = f[0] + r[0], f[1] + r[1], f[2] + r[2]
-            elif i == _POS:
-                out[0], out[1], out[2] = xs[0] + r[0], xs[1] + r[1], xs[2] + r[2]
-            elif i == _ATT:
-                roll, pitch, yaw = _euler_zyx_compiled(xs[6], xs[7], xs[8], xs[9])
-                out[0] = _wrap_pi_compiled(roll + r[0])
-                out[1] = pitch + r[1]
-                out[2] = _wrap_pi_compiled(yaw + r[2])
-            else:
-                out[0] = -xs[2] + r[0]  # altitude = -z_ned
-            sensor[m] = i
-            step[m] = k
-            m += 1
-    return m
+@njit(cache=True)
+def sensor_due(sensors: np.ndarray, i: int, step_index: int) -> bool:
+    """True when sensor ``i`` fires at plant step ``step_index`` (a multiple of its
+    decimation), as :meth:`SensorSuite.sample` decides."""
+    return step_index % sensors[0].decimation[i] == 0
+
+
+@njit(cache=True)
+def noise_ready(sensors: np.ndarray, i: int) -> bool:
+    """True when sensor ``i`` has a pre-drawn noise row left (else call
+    :meth:`SensorSuite.refill`)."""
+    s = sensors[0]
+    return s.next_row[i] < s.rows[i]
+
+
+@njit(cache=True)
+def sensor_reading(sensors: np.ndarray, i: int, x: np.ndarray, specific_force: np.ndarray,
+                   out: np.ndarray) -> None:
+    """The noisy reading of sensor ``i`` (before faults) into ``out``, as
+    :meth:`SensorSuite.sample` makes it: truth (module docstring table) plus the sensor's
+    next noise row, which it consumes (:func:`noise_ready` must hold).
+
+    Parameters
+    ----------
+    sensors : numpy.ndarray
+        One :data:`SENSOR_STATE` record (``SensorSuite.kernel_state``).
+    i : int
+        Sensor index into :data:`SENSOR_NAMES`.
+    x : numpy.ndarray
+        True plant state, shape (17,).
+    specific_force : numpy.ndarray
+        True specific force in FRD, m/s^2, shape (3,).
+    out : numpy.ndarray
+        Receives the reading's elements (3, or 1 for the barometer), sensor unit.
+    """
+    s = sensors[0]
+    r = s.noise[i, s.next_row[i]]
+    s.next_row[i] += 1
+    if i == _GYRO:  # body rates p, q, r + noise
+        out[0], out[1], out[2] = x[10] + r[0], x[11] + r[1], x[12] + r[2]
+    elif i == _ACCEL:  # specific force + noise
+        f = specific_force
+        out[0], out[1], out[2] = f[0] + r[0], f[1] + r[1], f[2] + r[2]
+    elif i == _POS:  # NED position + noise
+        out[0], out[1], out[2] = x[0] + r[0], x[1] + r[1], x[2] + r[2]
+    elif i == _ATT:  # ZYX Euler angles + noise, roll and yaw wrapped into [-pi, pi]
+        roll, pitch, yaw = _euler_zyx_compiled(x[6], x[7], x[8], x[9])
+        out[0] = _wrap_pi_compiled(roll + r[0])
+        out[1] = pitch + r[1]
+        out[2] = _wrap_pi_compiled(yaw + r[2])
+    else:
+        out[0] = -x[2] + r[0]  # altitude = -z_ned
 
 
 def _divisor_rates(plant_rate_hz: float) -> list[str]:
@@ -375,5 +368,6 @@ def _divisor_rates(plant_rate_hz: float) -> list[str]:
     return [f"{plant_rate_hz / d:g}" for d in (1, 2, 4, 5, 10)]
 
 
-__all__ = ["SENSOR_NAMES", "SensorConfig", "SensorSample", "SensorSuite",
-           "quat_to_euler_zyx"]
+__all__ = ["NOISE_BLOCK", "SENSOR_AXES", "SENSOR_NAMES", "SENSOR_STATE", "SensorConfig",
+           "SensorSample", "SensorSuite", "noise_ready", "quat_to_euler_zyx", "sensor_due",
+           "sensor_reading"]

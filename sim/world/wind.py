@@ -4,58 +4,9 @@ The thesis adds a wind force and torque (eq. 3.14/3.15) "with Dryden wind effect
 neither intensity nor implementation. This module produces the wind velocity in NED that
 :mod:`sim.world.dynamics` subtracts from the vehicle velocity to get the air-relative velocity.
 
-Model
------
-Low-altitude turbulence (h < 1000 ft) of MIL-F-8785C [1]_ sec. 3.7.2.3 / MIL-HDBK-1797 [2]_,
-with ``h`` and the scale lengths in **feet** inside these formulas only::
-
-    sigma_w = 0.1 W20                              W20: mean wind speed at 20 ft (6.1 m)
-    sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4
-    L_w = h,   L_u = L_v = h / (0.177 + 0.000823 h)^1.2                     (ft)
-
-W20 is 15, 30 and 45 kt for light, moderate and severe turbulence ([1]_ fig. 11; the same
-values as JSBSim's milspec table [5]_). The spectra are mapped to time by Taylor's frozen
-turbulence hypothesis (Omega = omega / V) and realised by the forming filters ([2]_)::
-
-    H_u(s) = sigma_u sqrt(2 L_u / (pi V)) / (1 + T_u s)                       T = L / V
-    H_v(s) = sigma_v sqrt(L_v / (pi V)) (1 + sqrt(3) T_v s) / (1 + T_v s)^2
-    H_w(s) = sigma_w sqrt(L_w / (pi V)) (1 + sqrt(3) T_w s) / (1 + T_w s)^2
-
-The handbook's gains assume the "one-sided" convention in which the spectrum integrates to
-the variance over 0 <= omega < inf; driven by *unit-intensity* white noise
-(E[n(t) n(t')] = delta(t - t')) the gains carry an extra factor sqrt(pi). This module does not
-use the gains at all: it builds each channel from a unit-variance process with the Dryden
-autocorrelation and multiplies by sigma, so the steady-state variance is sigma^2 exactly and the
-autocorrelations are the Dryden ones::
-
-    R_u(tau) = sigma_u^2 exp(-|tau| / T_u)
-    R_v(tau) = sigma_v^2 (1 - |tau| / (2 T_v)) exp(-|tau| / T_v)      (likewise w)
-
-Exact discretisation
---------------------
-Each channel runs in normalised time ``t / T``, in which it no longer depends on altitude or
-airspeed; one step is ``h = dt / T`` normalised time units.
-
-* u (first order): an Ornstein-Uhlenbeck process, exact for any step [3]_::
-
-      x_{k+1} = exp(-h) x_k + sqrt(1 - exp(-2h)) n_k,         n_k ~ N(0, 1),  u = sigma_u x
-
-* v and w (second order): the cascade of two unit lags driven by unit-intensity white noise,
-  ``dx = A x dt + B dW`` with::
-
-      A = [[-1, 0], [1, -1]],  B = [1, 0]^T,  C = [sqrt(3), 1 - sqrt(3)],  y = sigma C x
-
-  whose transfer function is C (sI - A)^-1 B = (1 + sqrt(3) s) / (1 + s)^2, the Dryden form.
-  Its stationary covariance solves A P + P A^T + B B^T = 0: P = [[1/2, 1/4], [1/4, 1/4]] and
-  C P C^T = 3/2 + (1 - sqrt 3)^2 / 4 + sqrt(3) (1 - sqrt 3) / 2 = 1. The discrete model is
-  x_{k+1} = Ad x_k + chol(Qd) n_k with Ad = expm(A h) and the exact process covariance
-  Qd = int_0^h expm(A s) B B^T expm(A^T s) ds from Van Loan's method [4]_.
-
-Because the discretisation is exact, Ad P Ad^T + Qd = P for every step: the output variance
-does not depend on the step size. Because P is the same for every altitude and airspeed in
-normalised coordinates, a change of altitude or airspeed only changes (Ad, Qd) and sigma; the
-state stays in its stationary distribution. Every channel starts from a draw of P
-(``reset``), so even a short run has the right variance.
+The Dryden model itself (MIL-F-8785C formulas, forming filters, exact discretisation) is in
+:mod:`sim.world.dryden`; this module adds the mean wind, the axes, the floors, the caching
+and the state that the world's compiled stepping advances.
 
 Axes and signs
 --------------
@@ -93,6 +44,14 @@ further memoised on a grid of normalised steps spaced by 1 % (T used within 0.5 
 so a recomputation costs a few microseconds; an accelerating vehicle may leave the band
 every few tens of steps.
 
+State
+-----
+Everything a step changes or reads (the five normalised channel states, the coefficients,
+the cache band, the block of pre-drawn normals and the next row to use) lives in one
+:data:`WIND_STATE` record, :attr:`DrydenWind.kernel_state`. :meth:`DrydenWind.step` (Python,
+the reference) and :func:`dryden_step` (numba, for the world's compiled stepping) advance it
+with the same operations in the same order; only :meth:`DrydenWind.step` retunes and draws.
+
 References
 ----------
 .. [1] MIL-F-8785C, "Military Specification: Flying Qualities of Piloted Airplanes",
@@ -109,28 +68,44 @@ References
 
 from __future__ import annotations
 
-import functools
-import itertools
 import math
-import operator
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.linalg import expm
 
 from flightdata.config import finite, require
+from sim.world.dryden import (
+    FT_TO_M,
+    GRID_RATIO,
+    KT_TO_M_S,
+    LOW_ALTITUDE_CEILING_M,
+    P_CHOL,
+    SQRT3,
+    dryden_length_scales_m,
+    dryden_sigmas_m_s,
+    second_order_coefficients,
+    second_order_model,
+    van_loan,
+)
 
-FT_TO_M = 0.3048  # m per international foot (exact)
-KT_TO_M_S = 1852.0 / 3600.0  # m/s per knot (exact: 1 nmi = 1852 m)
-LOW_ALTITUDE_CEILING_M = 1000.0 * FT_TO_M  # m: top of MIL-F-8785C's low-altitude model
 W20_KT = {"none": 0.0, "light": 15.0, "moderate": 30.0, "severe": 45.0}  # kt, MIL-F-8785C
 CACHE_BAND = 0.02  # relative change of altitude or airspeed that triggers rediscretisation
-GRID_RATIO = 1.01  # v/w normalised steps dt/T are rounded to integer powers of this ratio
 BLOCK_STEPS = 4096  # steps of standard normals drawn at a time (5 normals per step)
 _NORMALS_PER_STEP = 5  # u: 1, v: 2, w: 2
-_SQRT3 = math.sqrt(3.0)
-_N_COEF = 26  # length of the coefficient vector shared by step() and the numba kernel
+_N_COEF = 26  # length of the coefficient vector (_rediscretise)
+
+WIND_STATE = np.dtype([
+    ("active", np.bool_),  # turbulence on (off: the wind is the mean wind)
+    ("mean_ned", np.float64, (3,)),  # m/s, mean wind velocity
+    ("band", np.float64, (4,)),  # (h_lo, h_hi, v_lo, v_hi): m, m/s, the cache band
+    ("coef", np.float64, (_N_COEF,)),  # discretisation coefficients (_rediscretise)
+    ("x", np.float64, (5,)),  # normalised channel states (x_u, v1, v2, w1, w2)
+    ("rows", np.int64),  # rows of block drawn (0 before the first draw)
+    ("next_row", np.int64),  # next unused row of block
+    ("block", np.float64, (BLOCK_STEPS, _NORMALS_PER_STEP)),  # standard normals, 5 per step
+], align=True)
+"""What a wind step reads and changes (module docstring, "State")."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -186,192 +161,96 @@ class WindConfig:
         return W20_KT[self.turbulence] * KT_TO_M_S
 
 
-def dryden_sigmas_m_s(w20_m_s: float, altitude_m: float) -> tuple[float, float, float]:
-    """Low-altitude Dryden intensities (sigma_u, sigma_v, sigma_w), m/s.
-
-    MIL-F-8785C sec. 3.7.2.3 [1]_: sigma_w = 0.1 W20 and
-    sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h)^0.4 with h in feet.
-
-    Parameters
-    ----------
-    w20_m_s : float
-        Wind speed at 20 ft, m/s.
-    altitude_m : float
-        Altitude above ground, m; must lie in (0, 304.8] (the caller clips).
-
-    Returns
-    -------
-    tuple of float
-        (sigma_u, sigma_v, sigma_w), m/s.
+@njit(cache=True)
+def _advance(c: np.ndarray, x: np.ndarray, z: np.ndarray, out: np.ndarray) -> None:
+    """One step of the five normalised states ``x`` (in place) driven by the normals ``z``
+    (5,), with the coefficients ``c`` of :meth:`DrydenWind._rediscretise`; the NED wind,
+    m/s, into ``out`` (3,). The same operations in the same order as :meth:`DrydenWind.step`.
     """
-    h_ft = altitude_m / FT_TO_M
-    sigma_w = 0.1 * w20_m_s
-    sigma_u = sigma_w / (0.177 + 0.000823 * h_ft) ** 0.4
-    return sigma_u, sigma_u, sigma_w
-
-
-def dryden_length_scales_m(altitude_m: float) -> tuple[float, float, float]:
-    """Low-altitude Dryden scale lengths (L_u, L_v, L_w), m.
-
-    MIL-F-8785C sec. 3.7.2.3 [1]_: L_w = h, L_u = L_v = h / (0.177 + 0.000823 h)^1.2 with h and
-    L in feet; the result is converted back to metres.
-
-    Parameters
-    ----------
-    altitude_m : float
-        Altitude above ground, m; must lie in (0, 304.8] (the caller clips).
-
-    Returns
-    -------
-    tuple of float
-        (L_u, L_v, L_w), m.
-    """
-    h_ft = altitude_m / FT_TO_M
-    l_u_ft = h_ft / (0.177 + 0.000823 * h_ft) ** 1.2
-    return l_u_ft * FT_TO_M, l_u_ft * FT_TO_M, h_ft * FT_TO_M
-
-
-def second_order_model() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Normalised state-space Dryden v/w forming filter (A, B, C), time in units of T = L/V.
-
-    Returns
-    -------
-    a : ndarray, shape (2, 2)
-        [[-1, 0], [1, -1]]: two unit lags in cascade.
-    b : ndarray, shape (2, 1)
-        [1, 0]^T, input of unit-intensity white noise.
-    c : ndarray, shape (1, 2)
-        [sqrt(3), 1 - sqrt(3)]: C (sI - A)^-1 B = (1 + sqrt(3) s) / (1 + s)^2 and the
-        stationary output variance is 1 (see the module docstring).
-    """
-    a = np.array([[-1.0, 0.0], [1.0, -1.0]])
-    b = np.array([[1.0], [0.0]])
-    c = np.array([[_SQRT3, 1.0 - _SQRT3]])
-    return a, b, c
-
-
-def van_loan(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact discretisation of ``dx = A x dt + B dW`` (unit-intensity W) over one step.
-
-    Van Loan's method [4]_: with M = [[-A, B B^T], [0, A^T]] dt and expm(M) = [[F11, F12],
-    [0, F22]], Ad = F22^T and Qd = F22^T F12 = int_0^dt expm(A s) B B^T expm(A^T s) ds.
-
-    Parameters
-    ----------
-    a : ndarray, shape (n, n)
-        Drift matrix, 1/time.
-    b : ndarray, shape (n, m)
-        Noise input matrix.
-    dt : float
-        Step, same time unit as ``a``.
-
-    Returns
-    -------
-    ad : ndarray, shape (n, n)
-        State transition expm(A dt).
-    qd : ndarray, shape (n, n)
-        Discrete process-noise covariance (symmetrised).
-    """
-    n = a.shape[0]
-    m = np.zeros((2 * n, 2 * n))
-    m[:n, :n] = -a * dt
-    m[:n, n:] = b @ b.T * dt
-    m[n:, n:] = a.T * dt
-    f = expm(m)
-    ad = f[n:, n:].T
-    qd = ad @ f[:n, n:]
-    return ad, 0.5 * (qd + qd.T)
-
-
-def _chol2(q: np.ndarray) -> tuple[float, float, float]:
-    """Lower Cholesky factor (l11, l21, l22) of a symmetric positive semi-definite 2x2 matrix."""
-    q11, q21, q22 = float(q[0, 0]), float(q[1, 0]), float(q[1, 1])
-    l11 = math.sqrt(q11)
-    l21 = q21 / l11 if l11 > 0.0 else 0.0
-    # max(., 0) only guards a last-bit negative from rounding; Van Loan's Qd is accurate to
-    # machine precision elementwise for normalised steps from 1e-8 to 2 (tests/sim/test_wind.py).
-    l22 = math.sqrt(max(q22 - l21 * l21, 0.0))
-    return l11, l21, l22
-
-
-def _second_order_step(h: float) -> tuple[float, ...]:
-    """(a11, a12, a21, a22, l11, l21, l22) of the v/w channel for a normalised step ``h``."""
-    a, b, _ = second_order_model()
-    ad, qd = van_loan(a, b, h)
-    return (float(ad[0, 0]), float(ad[0, 1]), float(ad[1, 0]), float(ad[1, 1]), *_chol2(qd))
-
-
-@functools.lru_cache(maxsize=4096)
-def _second_order_step_on_grid(index: int) -> tuple[float, ...]:
-    """:func:`_second_order_step` for the normalised step ``GRID_RATIO ** index``, memoised."""
-    return _second_order_step(GRID_RATIO**index)
-
-
-def second_order_coefficients(h: float) -> tuple[tuple[float, ...], float]:
-    """Discrete v/w coefficients for a normalised step near ``h`` and the step actually used.
-
-    ``h`` is rounded to the nearest integer power of ``GRID_RATIO`` (a change of T = L/V of at
-    most 0.5 %) so that the two 4x4 matrix exponentials of Van Loan's method (~0.3 ms) are
-    computed once per grid point and process, not at every rediscretisation. The rounding
-    does not touch the variance: Ad P Ad^T + Qd = P holds exactly for every step.
-
-    Parameters
-    ----------
-    h : float
-        Normalised step dt / T, > 0.
-
-    Returns
-    -------
-    coefficients : tuple of float
-        (a11, a12, a21, a22, l11, l21, l22): Ad = expm(A h_used) row-major and the lower
-        Cholesky factor of Qd.
-    h_used : float
-        The grid step the coefficients belong to.
-    """
-    index = round(math.log(h) / math.log(GRID_RATIO))
-    return _second_order_step_on_grid(index), GRID_RATIO**index
-
-
-# Lower Cholesky factor of the normalised stationary covariance P = [[1/2, 1/4], [1/4, 1/4]].
-_P_CHOL = (math.sqrt(0.5), 0.25 / math.sqrt(0.5), math.sqrt(0.25 - 0.125))
+    xu, v1, v2, w1, w2 = x[0], x[1], x[2], x[3], x[4]
+    # x_u <- exp(-h) x_u + sqrt(1 - exp(-2h)) n      (Ornstein-Uhlenbeck, exact)
+    xu = c[0] * xu + c[1] * z[0]
+    # x <- Ad x + chol(Qd) n                         (Van Loan, exact)
+    t1 = c[2] * v1 + c[3] * v2 + c[6] * z[1]
+    v2 = c[4] * v1 + c[5] * v2 + (c[7] * z[1] + c[8] * z[2])
+    v1 = t1
+    t1 = c[9] * w1 + c[10] * w2 + c[13] * z[3]
+    w2 = c[11] * w1 + c[12] * w2 + (c[14] * z[3] + c[15] * z[4])
+    w1 = t1
+    x[0], x[1], x[2], x[3], x[4] = xu, v1, v2, w1, w2
+    # y = sigma C x, then (u along-wind, v left, w up) -> NED
+    yu = c[16] * xu
+    yv = c[17] * v1 + c[18] * v2
+    out[0] = c[23] + c[21] * yu + c[22] * yv
+    out[1] = c[24] + c[22] * yu - c[21] * yv
+    out[2] = c[25] - (c[19] * w1 + c[20] * w2)
 
 
 @njit(cache=True)
 def _dryden_kernel(z: np.ndarray, x: np.ndarray, c: np.ndarray, out: np.ndarray) -> None:
-    """Advance the five normalised states over ``out.shape[0]`` steps (same maths as ``step``).
-
-    ``z`` holds one row of 5 standard normals per step, ``x`` = (x_u, v1, v2, w1, w2) is
-    updated in place, ``c`` is the coefficient vector built by
-    :meth:`DrydenWind._rediscretise` and ``out`` receives the NED wind, m/s.
-    """
-    pu, qu = c[0], c[1]
-    av11, av12, av21, av22, kv11, kv21, kv22 = c[2], c[3], c[4], c[5], c[6], c[7], c[8]
-    aw11, aw12, aw21, aw22, kw11, kw21, kw22 = c[9], c[10], c[11], c[12], c[13], c[14], c[15]
-    gu, gv1, gv2, gw1, gw2 = c[16], c[17], c[18], c[19], c[20]
-    cc, sc, mn, me, md = c[21], c[22], c[23], c[24], c[25]
-    xu, v1, v2, w1, w2 = x[0], x[1], x[2], x[3], x[4]
+    """:func:`_advance` over ``out.shape[0]`` steps, row ``k`` of ``z`` driving step ``k``."""
     for k in range(out.shape[0]):
-        n0, n1, n2, n3, n4 = z[k, 0], z[k, 1], z[k, 2], z[k, 3], z[k, 4]
-        # x_u <- exp(-h) x_u + sqrt(1 - exp(-2h)) n      (Ornstein-Uhlenbeck, exact)
-        xu = pu * xu + qu * n0
-        # x <- Ad x + chol(Qd) n                         (Van Loan, exact)
-        t1 = av11 * v1 + av12 * v2 + kv11 * n1
-        v2 = av21 * v1 + av22 * v2 + (kv21 * n1 + kv22 * n2)
-        v1 = t1
-        t1 = aw11 * w1 + aw12 * w2 + kw11 * n3
-        w2 = aw21 * w1 + aw22 * w2 + (kw21 * n3 + kw22 * n4)
-        w1 = t1
-        # y = sigma C x, then (u along-wind, v left, w up) -> NED
-        yu = gu * xu
-        yv = gv1 * v1 + gv2 * v2
-        out[k, 0] = mn + cc * yu + sc * yv
-        out[k, 1] = me + sc * yu - cc * yv
-        out[k, 2] = md - (gw1 * w1 + gw2 * w2)
-    x[0] = xu
-    x[1] = v1
-    x[2] = v2
-    x[3] = w1
-    x[4] = w2
+        _advance(c, x, z[k], out[k])
+
+
+WIND_READY, WIND_RETUNE, WIND_DRAW = 0, 1, 2  # what dryden_ready found
+
+# Python's math.hypot may differ from numba's in the last bit: an airspeed this close
+# (relative) to a band end counts as outside, so that Python decides.
+_HYPOT_MARGIN = 1e-12
+
+
+@njit(cache=True)
+def _inside(value: float, lo: float, hi: float, margin: float) -> bool:
+    """``lo <= value <= hi`` with ``value`` at least ``margin`` (relative) inside finite ends."""
+    if value != value:  # NaN: Python raises on it
+        return False
+    if lo > -math.inf and not value >= lo + abs(lo) * margin:
+        return False
+    return not (hi < math.inf and not value <= hi - abs(hi) * margin)
+
+
+@njit(cache=True)
+def dryden_ready(wind: np.ndarray, altitude_m: float, airspeed_m_s: float) -> int:
+    """Whether :func:`dryden_step` can stand in for :meth:`DrydenWind.step` at this altitude
+    and airspeed: WIND_READY; WIND_RETUNE when they leave the cache band (or are not finite:
+    Python rediscretises, or raises); WIND_DRAW when the block of normals is used up.
+
+    ``airspeed_m_s`` is computed in numba, whose ``hypot`` may differ from Python's
+    ``math.hypot`` in the last bit: within 1e-12 (relative) of a band end it counts as out.
+    """
+    s = wind[0]
+    if not s.active:
+        return WIND_READY  # the mean wind: no band, no draws
+    band = s.band
+    if not (_inside(altitude_m, band[0], band[1], 0.0)
+            and _inside(airspeed_m_s, band[2], band[3], _HYPOT_MARGIN)):
+        return WIND_RETUNE
+    if s.next_row >= s.rows:
+        return WIND_DRAW
+    return WIND_READY
+
+
+@njit(cache=True)
+def dryden_step(wind: np.ndarray, out: np.ndarray) -> None:
+    """One step of :meth:`DrydenWind.step` inside its cache band, in numba.
+
+    Parameters
+    ----------
+    wind : numpy.ndarray
+        One :data:`WIND_STATE` record (``DrydenWind.kernel_state``), advanced in place;
+        :func:`dryden_ready` must have found it ready for this step's altitude and airspeed
+        (else :meth:`DrydenWind.step` retunes or draws).
+    out : numpy.ndarray
+        Receives the wind velocity (north, east, down), m/s, shape (3,).
+    """
+    s = wind[0]
+    if not s.active:
+        for i in range(3):
+            out[i] = s.mean_ned[i]
+        return
+    _advance(s.coef, s.x, s.block[s.next_row], out)
+    s.next_row += 1
 
 
 class DrydenWind:
@@ -389,18 +268,24 @@ class DrydenWind:
         generator of its own (e.g. from ``rng.spawn(1)``) keeps other consumers' streams
         independent of how many wind steps have run.
 
+    Attributes
+    ----------
+    kernel_state : numpy.ndarray
+        One :data:`WIND_STATE` record: what a step reads and changes (module docstring). The
+        world's compiled stepping advances it with :func:`dryden_step`; nothing else should
+        write it.
+
     Notes
     -----
     Equations, discretisation, axes and floors are in the module docstring. The object is
-    complete after construction (which calls :meth:`reset`). A step costs about 1 us of
-    Python (two tuple unpacks, ~30 float operations on Python floats, one 3-element array;
-    about 1.7 us while climbing and accelerating, with rediscretisations); the
-    discretisation is recomputed only when altitude or airspeed leaves its 2 % band.
+    complete after construction (which calls :meth:`reset`). A Python step costs a few
+    microseconds; the discretisation is recomputed only when altitude or airspeed leaves its
+    2 % band.
     """
 
     __slots__ = ("_config", "_dt_s", "_rng", "_w20_m_s", "_mean_ned", "_cos_chi", "_sin_chi",
-                 "_active", "_h_min", "_h_max", "_v_min", "_band", "_coef", "_coef_arr",
-                 "_sigma", "_length", "_x", "_block", "_rows", "_next_row")
+                 "_active", "_h_min", "_h_max", "_v_min", "_band", "_coef", "_sigma",
+                 "_length", "kernel_state", "_s", "_x", "_block", "_coef_view", "_band_view")
 
     def __init__(self, config: WindConfig, dt_s: float, rng: np.random.Generator) -> None:
         require(isinstance(config, WindConfig), "config", config, "must be a WindConfig")
@@ -423,6 +308,14 @@ class DrydenWind:
         self._h_min = config.min_altitude_m
         self._h_max = LOW_ALTITUDE_CEILING_M
         self._v_min = config.airspeed_floor_m_s
+        self.kernel_state = np.zeros(1, dtype=WIND_STATE)
+        self._s = self.kernel_state[0]  # a view: writes go to the array
+        self._s["active"] = self._active
+        self._s["mean_ned"] = self._mean_ned
+        self._x = self.kernel_state["x"][0]  # (5,) view
+        self._block = self.kernel_state["block"][0]  # (BLOCK_STEPS, 5) view
+        self._coef_view = self.kernel_state["coef"][0]
+        self._band_view = self.kernel_state["band"][0]
         self.reset()
 
     # ----------------------------------------------------------------------------------
@@ -434,14 +327,15 @@ class DrydenWind:
         floors (``min_altitude_m``, ``airspeed_floor_m_s``) until the first step. Uses the
         injected generator, which is never rewound: with turbulence on, it advances.
         """
-        self._set_block(np.empty((0, _NORMALS_PER_STEP)), 0)
-        self._x = [0.0] * 5
+        self._s["rows"] = 0
+        self._s["next_row"] = 0
+        self._x[:] = 0.0
         if self._active:
             # Python floats, not numpy scalars (see _rediscretise).
             n = self._rng.standard_normal(5).tolist()
-            l11, l21, l22 = _P_CHOL
-            self._x = [n[0], l11 * n[1], l21 * n[1] + l22 * n[2],
-                       l11 * n[3], l21 * n[3] + l22 * n[4]]
+            l11, l21, l22 = P_CHOL
+            self._x[:] = (n[0], l11 * n[1], l21 * n[1] + l22 * n[2],
+                          l11 * n[3], l21 * n[3] + l22 * n[4])
         self._rediscretise(self._h_min, self._v_min)
 
     # ----------------------------------------------------------------------------------
@@ -471,7 +365,7 @@ class DrydenWind:
         h_u, h_v, h_w = self._dt_s * v / l_u, self._dt_s * v / l_v, self._dt_s * v / l_w
         # Ornstein-Uhlenbeck: exp(-h) and sqrt(1 - exp(-2h)), the latter via expm1 for small h.
         ou = (math.exp(-h_u), math.sqrt(-math.expm1(-2.0 * h_u)))
-        c1, c2 = _SQRT3, 1.0 - _SQRT3
+        c1, c2 = SQRT3, 1.0 - SQRT3
         mean = self._mean_ned
         coef = (*ou, *second_order_coefficients(h_v)[0], *second_order_coefficients(h_w)[0],
                 s_u, s_v * c1, s_v * c2, s_w * c1, s_w * c2,
@@ -479,53 +373,32 @@ class DrydenWind:
         # Python floats only: step()'s arithmetic is several times slower on numpy scalars.
         assert len(coef) == _N_COEF and all(type(value) is float for value in coef)
         self._coef = coef
-        self._coef_arr = np.array(coef)
+        self._coef_view[:] = coef
+        self._band_view[:] = self._band
 
-    def _set_block(self, block: np.ndarray, first_row: int) -> None:
-        """Make ``block`` (rows of 5 normals) current, with ``first_row`` the next to use."""
-        self._block = block
-        self._rows = iter(block[first_row:].tolist())
-        self._next_row = self._rows.__next__
+    def draw_block(self) -> None:
+        """Draw the next block of standard normals (BLOCK_STEPS x 5) and start at its first
+        row; the only draw site after :meth:`reset`. A step draws when the block is used up
+        (the world's compiled stepping calls this when it finds it so)."""
+        self._block[:] = self._rng.standard_normal((BLOCK_STEPS, _NORMALS_PER_STEP))
+        self._s["rows"] = BLOCK_STEPS
+        self._s["next_row"] = 0
 
-    def _preview(self, n_steps: int) -> tuple[np.ndarray, np.ndarray, int]:
-        """The winds of the next steps if the discretisation stays (no retune) and no new
-        block of normals is needed, without advancing: ``(winds, x_after, n)`` with
-        ``winds`` (n, 3), n <= ``n_steps`` limited by the normals left in the block and
-        ``x_after`` the states after all n. Take steps with :meth:`_accept`. For
-        :class:`sim.world.World`'s compiled stepping; :meth:`step` checks the cache band."""
-        if not self._active:
-            winds = np.empty((n_steps, 3))
-            winds[:] = self._mean_ned
-            return winds, np.array(self._x), n_steps
-        block = self._block
-        row = block.shape[0] - operator.length_hint(self._rows)  # next unused row
-        n = min(n_steps, block.shape[0] - row)
-        winds = np.empty((n, 3))
-        x = np.array(self._x)
-        _dryden_kernel(block[row:row + n], x, self._coef_arr, winds)
-        return winds, x, n
+    def refill(self) -> None:
+        """Draw the next block if turbulence is on and the current block is used up (the
+        world's compiled stepping asks for this before a step it cannot take without)."""
+        if self._active and self._s["next_row"] >= self._s["rows"]:
+            self.draw_block()
 
-    def _accept(self, n_steps: int, x_after: np.ndarray, n_previewed: int) -> None:
-        """Advance by the first ``n_steps`` steps of the last :meth:`_preview`."""
-        if not self._active or n_steps == 0:
-            return
-        if n_steps != n_previewed:  # recompute the states after the steps taken
-            block = self._block
-            row = block.shape[0] - operator.length_hint(self._rows)
-            x_after = np.array(self._x)
-            _dryden_kernel(block[row:row + n_steps], x_after, self._coef_arr,
-                           np.empty((n_steps, 3)))
-        self._x = x_after.tolist()
-        next(itertools.islice(self._rows, n_steps - 1, None))
-
-    @property
-    def _cache_band(self) -> tuple[bool, np.ndarray]:
-        """(turbulence active, the band (h_lo, h_hi, v_lo, v_hi) of :meth:`step`'s cache)."""
-        return self._active, np.array(self._band)
-
-    def _draw_block(self) -> np.ndarray:
-        """The next block of standard normals, shape (BLOCK_STEPS, 5); the only draw site."""
-        return self._rng.standard_normal((BLOCK_STEPS, _NORMALS_PER_STEP))
+    def _next_normals(self) -> list[float]:
+        """The next row of 5 standard normals (drawing a block when the current one is used)."""
+        row = int(self._s["next_row"])
+        if row >= self._s["rows"]:
+            self.draw_block()
+            row = 0
+        self._s["next_row"] = row + 1
+        normals: list[float] = self._block[row].tolist()
+        return normals
 
     # ----------------------------------------------------------------------------------
     def step(self, altitude_m: float, airspeed_m_s: float) -> np.ndarray:
@@ -554,15 +427,11 @@ class DrydenWind:
         h_lo, h_hi, v_lo, v_hi = self._band
         if not (h_lo <= altitude_m <= h_hi and v_lo <= airspeed_m_s <= v_hi):
             self._retune(altitude_m, airspeed_m_s)
-        try:
-            n0, n1, n2, n3, n4 = self._next_row()
-        except StopIteration:
-            self._set_block(self._draw_block(), 0)
-            n0, n1, n2, n3, n4 = self._next_row()
+        n0, n1, n2, n3, n4 = self._next_normals()
         (pu, qu, av11, av12, av21, av22, kv11, kv21, kv22, aw11, aw12, aw21, aw22, kw11, kw21,
          kw22, gu, gv1, gv2, gw1, gw2, cc, sc, mn, me, md) = self._coef
-        xu, v1, v2, w1, w2 = self._x
-        # The same operations in the same order as _dryden_kernel (bit-identical results).
+        xu, v1, v2, w1, w2 = self._x.tolist()
+        # The same operations in the same order as _advance (bit-identical results).
         xu = pu * xu + qu * n0
         t1 = av11 * v1 + av12 * v2 + kv11 * n1
         v2 = av21 * v1 + av22 * v2 + (kv21 * n1 + kv22 * n2)
@@ -570,7 +439,7 @@ class DrydenWind:
         t1 = aw11 * w1 + aw12 * w2 + kw11 * n3
         w2 = aw21 * w1 + aw22 * w2 + (kw21 * n3 + kw22 * n4)
         w1 = t1
-        self._x = [xu, v1, v2, w1, w2]
+        self._x[:] = (xu, v1, v2, w1, w2)
         yu = gu * xu
         yv = gv1 * v1 + gv2 * v2
         return np.array((mn + cc * yu + sc * yv, me + sc * yu - cc * yv,
@@ -608,22 +477,25 @@ class DrydenWind:
         h_lo, h_hi, v_lo, v_hi = self._band
         if not (h_lo <= altitude_m <= h_hi and v_lo <= airspeed_m_s <= v_hi):
             self._retune(altitude_m, airspeed_m_s)
-        x = np.array(self._x)
-        block = self._block
-        k = block.shape[0] - operator.length_hint(self._rows)  # next unused row of block
+        coef = self.kernel_state["coef"][0]
         done = 0
         while done < n_steps:
-            if k >= block.shape[0]:
-                block, k = self._draw_block(), 0
-            m = min(n_steps - done, block.shape[0] - k)
-            _dryden_kernel(block[k:k + m], x, self._coef_arr, out[done:done + m])
-            k += m
+            k = int(self._s["next_row"])
+            if k >= self._s["rows"]:
+                self.draw_block()
+                k = 0
+            m = min(n_steps - done, BLOCK_STEPS - k)
+            _dryden_kernel(self._block[k:k + m], self._x, coef, out[done:done + m])
+            self._s["next_row"] = k + m
             done += m
-        self._set_block(block, k)
-        self._x = x.tolist()
         return out
 
     # ----------------------------------------------------------------------------------
+    @property
+    def active(self) -> bool:
+        """True when turbulence is on (off: every step returns the mean wind)."""
+        return self._active
+
     @property
     def mean_ned_m_s(self) -> np.ndarray:
         """Mean wind velocity (north, east, down), m/s, shape (3,) (a copy)."""
@@ -645,3 +517,10 @@ class DrydenWind:
     def length_scale_uvw_m(self) -> np.ndarray:
         """Scale lengths (L_u, L_v, L_w), m, shape (3,), for the same altitude as the sigmas."""
         return np.array(self._length)
+
+
+__all__ = ["BLOCK_STEPS", "CACHE_BAND", "FT_TO_M", "GRID_RATIO", "KT_TO_M_S",
+           "LOW_ALTITUDE_CEILING_M", "W20_KT", "WIND_DRAW", "WIND_READY", "WIND_RETUNE",
+           "WIND_STATE", "DrydenWind", "WindConfig",
+           "dryden_length_scales_m", "dryden_ready", "dryden_sigmas_m_s", "dryden_step",
+           "second_order_coefficients", "second_order_model", "van_loan"]

@@ -10,7 +10,21 @@ Per plant step ``k`` (time ``t_k = k dt``)::
     m     = faults.mass_kg(t_k)                         # structural failure
     wind  = dryden.step(altitude, airspeed)             # held over the step
     x     = plant.step(u_eff, wind, m)                  # RK4 + ground contact
-    samples += sensors.sample(k + 1, t_{k+1}, x, f_b)   # those due at t_{k+1}
+    f_b   = specific_force(x, wind, m)                  # every accel_every steps
+    samples += sensors.sample(k + 1, t_{k+1}, x, f_b)   # those due at t_{k+1}, then faults
+
+Two ways to take a step, one state
+----------------------------------
+That loop, written with the parts' Python methods, is the reference (``World._step_python``).
+:func:`sim.world.stepping.world_steps` runs the same loop compiled, on the parts' state
+records (``kernel_state`` of the plant, the wind, the sensors and the fault engine, plus the
+world's own :data:`sim.world.stepping.WORLD_STATE`): the same operations in the same order,
+so the same numbers. It stops before a step it cannot take (a fault starting or ending, a
+wind rediscretisation) and the world takes that one in Python, or before one that needs
+random numbers not drawn yet, which the world draws from the same generators before calling
+it again. ``World(config, seed, stepping="python")`` takes every step in Python;
+``tests/sim/world/test_world_stepping.py`` checks that both give the same samples, truth and
+events bit for bit.
 
 Randomness: one seed makes a :class:`numpy.random.SeedSequence` whose children feed the wind,
 the sensors and the fault engine separately, so that (for example) turning turbulence off
@@ -22,27 +36,27 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
 from flightdata.config import finite, require
 from sim.world.airframe import Airframe
 from sim.world.dynamics import (
-    _STEPS_CONTACT,
     POS_NED,
     QUAT_WXYZ,
     RATE_FRD,
-    STATE_SIZE,
     THRUST_N,
     VEL_NED,
     RigidBodyPlant,
-    _plant_steps,
-    pack_params,
     quat_to_euler,
     specific_force_frd,
 )
+from sim.world.fault_types import SENSOR_NAMES
 from sim.world.faults import FaultEngine, FaultEvent
-from sim.world.sensors import _AXES, SENSOR_NAMES, SensorConfig, SensorSample, SensorSuite
+from sim.world.samples import SAMPLE_RECORD, SampleBatch
+from sim.world.sensors import SensorConfig, SensorSuite
+from sim.world.stepping import STOP_CONTACT, STOP_DONE, STOP_DRAW, WORLD_STATE, world_steps
 from sim.world.wind import DrydenWind, WindConfig
 
 
@@ -91,15 +105,9 @@ class PlantEvent:
 
 WorldEvent = FaultEvent | PlantEvent
 
-
-# ---- compiled stepping ------------------------------------------------------------------
-# The loop of World.step costs ~8 us of Python per plant step. On the usual steps (no fault
-# starts or ends, no time-varying actuator fault, the wind inside its cache band, noise at
-# hand) World._steps_compiled takes several steps in three compiled calls, each in the module
-# that owns the maths (the wind's recursion, the plant steps, the sensor readings), with the
-# same operations in the same order; every other step goes through the Python loop. Sensor
-# readings are corrupted by the fault engine and wrapped into samples afterwards, in their
-# original order (corruption never feeds back into the plant within a call).
+_N_SENSORS = len(SENSOR_NAMES)  # at most one reading per sensor and step
+_SENSOR_INDEX = {name: i for i, name in enumerate(SENSOR_NAMES)}
+_SAMPLE_BUFFER = 4096  # readings per sample buffer (about 800 calls of 5 steps)
 
 
 class World:
@@ -111,16 +119,46 @@ class World:
         Airframe, wind, sensors and plant rate.
     seed : int
         Seed of every random stream of the world (>= 0).
+    stepping : {"compiled", "python"}
+        ``"compiled"`` (default) takes steps in :func:`sim.world.stepping.world_steps`
+        wherever it can; ``"python"`` takes every step with the parts' Python methods (the
+        reference; several times slower). Both give the same numbers.
+
+    Attributes
+    ----------
+    plant : RigidBodyPlant
+    wind : DrydenWind
+        Replaced by :meth:`set_wind`.
+    sensors : SensorSuite
+    faults : FaultEngine
+        Schedule, apply and clear faults here (between steps).
+    kernel_state : numpy.ndarray
+        The world's own :data:`sim.world.stepping.WORLD_STATE` record (step count, the wind
+        and effective PWM of the last step, the specific force, the contact last reported).
     """
 
-    def __init__(self, config: WorldConfig, seed: int) -> None:
+    def __init__(self, config: WorldConfig, seed: int, *,
+                 stepping: Literal["compiled", "python"] = "compiled") -> None:
         require(isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0, "seed",
                 seed, "must be an integer >= 0")
+        require(stepping in ("compiled", "python"), "stepping", stepping,
+                "must be 'compiled' or 'python'")
         self.config = config
         self.seed = seed
+        self.stepping = stepping
         self.dt_s = 1.0 / config.plant_rate_hz
-        self._params = pack_params(config.airframe)
         self.plant = RigidBodyPlant(config.airframe, self.dt_s)
+        self._params = self.plant.kernel_state["params"][0]
+        self.kernel_state = np.zeros(1, dtype=WORLD_STATE)
+        self._w = self.kernel_state[0]  # a view: writes go to the array
+        self._wind_ned = self.kernel_state["wind_ned"][0]  # (3,) views
+        self._pwm_effective = self.kernel_state["pwm_effective"][0]
+        self._specific_force = self.kernel_state["specific_force"][0]
+        self._steps = self.kernel_state["steps"]  # (1,) views
+        self._was_on_ground = self.kernel_state["was_on_ground"]
+        self._was_crashed = self.kernel_state["was_crashed"]
+        self._samples_used = 0  # readings in the sample buffer
+        self._new_sample_buffer(0)
         self._build_random_parts()
 
     def _build_random_parts(self) -> None:
@@ -131,14 +169,13 @@ class World:
         self._wind_seed = wind_ss
         self.sensors = SensorSuite(self.config.sensors, self.config.plant_rate_hz,
                                    np.random.default_rng(sensor_ss), self.faults)
+        self.kernel_state[0] = np.zeros((), dtype=WORLD_STATE)
+        self._w["dt_s"] = self.dt_s
         self._accel_every = self.sensors.decimation("accel")
-        self._steps = 0
-        self._wind_ned = self.wind.mean_ned_m_s.copy()
-        self._pwm_effective = np.zeros(4)
-        self._specific_force = np.zeros(3)
+        self._w["accel_every"] = self._accel_every
+        self._wind_ned[:] = self.wind.mean_ned_m_s
+        self._w["was_on_ground"] = self.plant.on_ground
         self._events: list[PlantEvent] = []
-        self._was_on_ground = self.plant.on_ground
-        self._was_crashed = False
 
     def reset(self, *, pos_ned: Sequence[float] = (0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> None:
         """Start again at time 0 on (or above) ``pos_ned``: same seed, same run."""
@@ -154,14 +191,14 @@ class World:
     @property
     def time_s(self) -> float:
         """Simulated time, s."""
-        return self._steps * self.dt_s
+        return self.step_count * self.dt_s
 
     @property
     def step_count(self) -> int:
         """Plant steps taken since reset."""
-        return self._steps
+        return int(self._steps[0])
 
-    def step(self, pwm_cmd: np.ndarray, n_steps: int = 1) -> list[SensorSample]:
+    def step(self, pwm_cmd: np.ndarray, n_steps: int = 1) -> SampleBatch:
         """Advance ``n_steps`` plant steps holding ``pwm_cmd``; return the samples produced.
 
         Parameters
@@ -170,105 +207,112 @@ class World:
             Commanded PWM of motors 1..4, held over all the steps (zero-order hold).
         n_steps : int
             Plant steps to take.
+
+        Returns
+        -------
+        SampleBatch
+            The readings, in the order taken: a sequence of ``SensorSample`` whose values are
+            read-only views of the batch's arrays (:mod:`sim.world.samples`).
         """
         pwm = np.asarray(pwm_cmd, dtype=np.float64)
         if pwm.shape != (4,):
             raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
-        samples: list[SensorSample] = []
+        first = m = self._samples_used
+        if first + _N_SENSORS * n_steps > self._samples.shape[0]:
+            self._new_sample_buffer(n_steps)
+            first = m = 0
+        if self.stepping == "python":
+            for _ in range(n_steps):
+                m = self._step_python(pwm, m)
+        else:
+            m = self._steps_compiled(pwm, n_steps, m)
+        self._samples_used = m
+        return SampleBatch.wrap(self._samples_read_only[first:m])
+
+    def _steps_compiled(self, pwm: np.ndarray, n_steps: int, m: int) -> int:
+        """``n_steps`` steps, in :func:`sim.world.stepping.world_steps` wherever it can take
+        them (module docstring); readings go to the sample buffer from index ``m``; returns
+        the new count."""
         done = 0
+        drew = False  # numbers were just drawn for the step the kernel stopped before
         while done < n_steps:
-            steps = self._steps_compiled(pwm, n_steps - done, samples)
+            faults = self.faults.arrays
+            steps, m, why = world_steps(
+                n_steps - done, pwm, self.kernel_state, self.plant.kernel_state,
+                self.wind.kernel_state, self.sensors.kernel_state, faults.state, faults.table,
+                faults.pool, self._samples, m)
             done += steps
-            if done < n_steps and steps == 0:  # the next step needs the Python objects
-                self._steps_python(pwm, 1, samples)
+            if why == STOP_CONTACT:  # the last step touched down, lifted off or crashed
+                self._contact_changed()
+            elif why == STOP_DRAW and not (drew and steps == 0):
+                self.wind.refill()  # each draws only what is used up or asked for
+                self.sensors.refill()
+                self.faults.refill_draws()
+                drew = True
+                continue
+            elif why != STOP_DONE:  # STOP_PYTHON (or draws that did not help): in Python
+                m = self._step_python(pwm, m)
                 done += 1
-        return samples
+            drew = False
+        return m
 
-    def _steps_compiled(self, pwm: np.ndarray, n_steps: int,
-                        samples: list[SensorSample]) -> int:
-        """As many of the next ``n_steps`` steps as the compiled path can take (comment at
-        the top of the section); returns how many were taken (0: the next needs Python)."""
-        faults, wind, sensors, plant = self.faults, self.wind, self.sensors, self.plant
-        mode, gains, mass, next_change_s = faults._stepping_state()
-        step0, dt = self._steps, self.dt_s
-        if mode == 2 or not step0 * dt < next_change_s:
-            return 0
-        n = sensors._compiled_steps_available(step0, n_steps)
-        if n == 0:
-            return 0
-        # the winds these steps would see without a retune (the plant steps check the band)
-        winds, wind_x, n = wind._preview(n)
-        if n == 0:
-            return 0
-        check_band, band = wind._cache_band
-        u_eff = pwm if mode == 0 else pwm * gains
-        x, params, flags, work = plant._stepping_state()
-        states = np.empty((n, STATE_SIZE))
-        forces = np.empty((n, 3))
-        steps, why = _plant_steps(
-            n, step0, dt, next_change_s, x, u_eff, mass, params, flags, work,
-            self._was_on_ground, self._was_crashed, check_band, band, winds, self._wind_ned,
-            self._accel_every, self._specific_force, states, forces)
-        if steps == 0:
-            return 0
-        plant._count_steps(steps)
-        wind._accept(steps, wind_x, n)
-        self._steps += steps
-        self._wind_ned = winds[steps - 1].copy()
-        self._pwm_effective = u_eff
-        # the readings (sensors.sample's), then the fault engine, in their original order
-        readings, sensor, step = sensors._compiled_readings(step0, states, forces, steps)
-        sigma = sensors._sigma_vec
-        for j, (i, k) in enumerate(zip(sensor, step, strict=True)):
-            name, time_s = SENSOR_NAMES[i], k * dt
-            value = faults.corrupt(name, time_s, readings[j, :_AXES[i]].copy(), sigma[i])
-            samples.append(SensorSample(name, time_s, value))
-        if not step or step[-1] != self._steps:
-            faults._set_clock((self._steps - 1) * dt)  # as mass_kg() at the last step
-        if why == _STEPS_CONTACT:
-            self._contact_changed()
-        return steps
+    def _new_sample_buffer(self, n_steps: int) -> None:
+        """Start a new buffer of readings; batches already returned keep theirs (views)."""
+        self._samples = np.empty(max(_SAMPLE_BUFFER, _N_SENSORS * n_steps), dtype=SAMPLE_RECORD)
+        self._samples_read_only = self._samples.view()
+        self._samples_read_only.flags.writeable = False
+        self._sample_columns = (self._samples["sensor"], self._samples["time_s"],
+                                self._samples["value"])
+        self._samples_used = 0
 
-    def _steps_python(self, pwm: np.ndarray, n_steps: int, samples: list[SensorSample]) -> None:
-        """``n_steps`` steps of the loop of :meth:`step`, one object call at a time."""
+    def _step_python(self, pwm: np.ndarray, m: int) -> int:
+        """One step of the loop in the module docstring with the parts' Python methods (the
+        reference); its readings go to the sample buffer from index ``m``; returns the new
+        count."""
         plant, faults, wind, sensors = self.plant, self.faults, self.wind, self.sensors
         x = plant.state
         dt = self.dt_s
-        params = self._params
-        for _ in range(n_steps):
-            t = self._steps * dt
-            # (4,) float64 from the fault engine, a mass > 0 (checked when faults are
-            # scheduled), a (3,) wind: the plant's per-step input checks are not needed
-            u_eff = faults.actuator_inputs(t, pwm)
-            mass = faults.mass_kg(t)
-            wind_prev = self._wind_ned
-            airspeed = math.hypot(x.item(3) - wind_prev.item(0), x.item(4) - wind_prev.item(1))
-            wind_ned = wind.step(-x.item(2), airspeed)
-            plant._step_checked(u_eff, wind_ned, mass)
-            self._steps += 1
-            k = self._steps
-            if k % self._accel_every == 0:
-                self._specific_force = specific_force_frd(x, wind_ned, mass, params)
-            due = sensors.sample(k, k * dt, x, self._specific_force)
-            if due:
-                samples.extend(due)
-            self._wind_ned = wind_ned
-            self._pwm_effective = u_eff
-            if plant.on_ground != self._was_on_ground or plant.crashed != self._was_crashed:
-                self._contact_changed()
+        k = int(self._steps[0])
+        t = k * dt
+        # (4,) float64 from the fault engine, a mass > 0 (checked when faults are
+        # scheduled), a (3,) wind: the plant's per-step input checks are not needed
+        u_eff = faults.actuator_inputs(t, pwm)
+        mass = faults.mass_kg(t)
+        wind_prev = self._wind_ned
+        airspeed = math.hypot(x.item(3) - wind_prev.item(0), x.item(4) - wind_prev.item(1))
+        wind_ned = wind.step(-x.item(2), airspeed)
+        plant.step_unchecked(u_eff, wind_ned, mass)
+        k += 1
+        self._steps[0] = k
+        if k % self._accel_every == 0:
+            self._specific_force[:] = specific_force_frd(x, wind_ned, mass, self._params)
+        sensor_index, time_s, values = self._sample_columns
+        for sample in sensors.sample(k, k * dt, x, self._specific_force):
+            sensor_index[m] = _SENSOR_INDEX[sample.sensor]
+            time_s[m] = sample.time_s
+            n = sample.value.shape[0]
+            values[m, :n] = sample.value
+            values[m, n:] = 0.0
+            m += 1
+        self._wind_ned[:] = wind_ned
+        self._pwm_effective[:] = u_eff
+        if plant.on_ground != self._was_on_ground[0] or plant.crashed != self._was_crashed[0]:
+            self._contact_changed()
+        return m
 
     def _contact_changed(self) -> None:
         t = self.time_s
-        if self.plant.crashed and not self._was_crashed:
+        was_on_ground, was_crashed = bool(self._w["was_on_ground"]), bool(self._w["was_crashed"])
+        if self.plant.crashed and not was_crashed:
             speed = self.plant.touchdown_speed_m_s or 0.0
             self._events.append(PlantEvent(t, "crash", f"crash: touchdown at {speed:.2f} m/s"))
-        elif self.plant.on_ground and not self._was_on_ground:
+        elif self.plant.on_ground and not was_on_ground:
             speed = self.plant.touchdown_speed_m_s or 0.0
             self._events.append(PlantEvent(t, "touchdown", f"touchdown at {speed:.2f} m/s"))
-        elif not self.plant.on_ground and self._was_on_ground:
+        elif not self.plant.on_ground and was_on_ground:
             self._events.append(PlantEvent(t, "liftoff", "lift-off"))
-        self._was_on_ground = self.plant.on_ground
-        self._was_crashed = self.plant.crashed
+        self._w["was_on_ground"] = self.plant.on_ground
+        self._w["was_crashed"] = self.plant.crashed
 
     @property
     def wind_ned(self) -> np.ndarray:
