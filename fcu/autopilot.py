@@ -51,6 +51,7 @@ from fcu.monitoring.sensor_health import SensorHealth
 from fcu.navigation.guidance import Reference
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
 from flightdata.records import DetectionRecord
+from flightdata.vocabulary import SENSORS
 
 # AutopilotConfig is defined in fcu.config; named here too because it is the configuration
 # of this module's Autopilot
@@ -134,6 +135,8 @@ class Autopilot:
                                                        cfg.attitude_ref_bandwidth_rad_s)
         self._sensor_kinds = frozenset().union(*(e.sensor_kinds for e in self._estimators))
         self.sensor_health = SensorHealth(cfg.sensors, cfg.height_source)
+        noise = self.estimator.noise
+        self._sensor_noise = {name: float(getattr(noise, name)) for name in SENSORS}
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
         self.crash_check = CrashCheck(cfg.crash)
         self.reset()
@@ -172,12 +175,18 @@ class Autopilot:
         excluded = health.excluded
         for estimator in self._estimators:
             estimator.height_source = health.height_source
-        estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded)
+        # a lone outlier is a sensor's fault only while the model can be trusted: in flight,
+        # in the hover regime, with no motor lost (fcu.estimation.estimator)
+        airborne = self.navigator.landed_state != LandedState.ON_GROUND
+        reject = airborne and self._hover_regime(self.estimator.estimate) and \
+            not self.detector.lost
+        estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded,
+                                          reject=reject)
         if self.estimator is not self.tskf:
             estimate = self.estimator.step_grouped(time_s, self._pwm, batches,
-                                                   excluded=excluded)
-        airborne = self.navigator.landed_state != LandedState.ON_GROUND
-        records = health.step(time_s, batches, self.estimator.screening, airborne)
+                                                   excluded=excluded, reject=reject)
+        records = health.step(time_s, batches, self.estimator.screening, reject,
+                              self._sensor_noise)
         healthy = all(map(math.isfinite, estimate.pos_ned.tolist()))
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
                                   float(estimate.euler_rad[2]), estimator_healthy=healthy,
@@ -231,11 +240,7 @@ class Autopilot:
         """Motor fault detection on the TSKF's gamma (:mod:`fcu.monitoring.motor_faults`):
         evidence only in free flight, in the hover model's validity, with trusted sensors
         and the TSKF off the ground; blocks arming while a motor is declared."""
-        det_cfg = self.config.detector
-        rate_r = abs(float(estimate.rate_frd[2]))
-        roll, pitch = abs(float(estimate.euler_rad[0])), abs(float(estimate.euler_rad[1]))
-        valid = (rate_r < det_cfg.valid_yaw_rate_rad_s and roll < det_cfg.valid_tilt_rad
-                 and pitch < det_cfg.valid_tilt_rad and not self.tskf.on_ground
+        valid = (self._hover_regime(estimate) and not self.tskf.on_ground
                  and not self.sensor_health.suspect(time_s))
         airborne = flying and nav.landed_state != LandedState.ON_GROUND
         records = self.detector.step(time_s, self.tskf.gamma_raw, self._pwm,
@@ -248,6 +253,13 @@ class Autopilot:
             f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
             "restart the autopilot to clear" for m in active))
         return records
+
+    def _hover_regime(self, estimate: StateEstimate) -> bool:
+        """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""
+        cfg = self.config.detector
+        return (abs(float(estimate.rate_frd[2])) < cfg.valid_yaw_rate_rad_s
+                and abs(float(estimate.euler_rad[0])) < cfg.valid_tilt_rad
+                and abs(float(estimate.euler_rad[1])) < cfg.valid_tilt_rad)
 
     def _crash_check(self, time_s: float, estimate: StateEstimate,
                      att_ref: AttitudeReference, thrust_n: float) -> list[DetectionRecord]:

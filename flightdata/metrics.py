@@ -11,13 +11,14 @@ chapter-7 report (``sim.thesis_report``) and the ground station's table
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from flightdata.geometry import wrap_pi_array
+from flightdata.records import DetectionRecord, FaultRecord
 from flightdata.series import FlightSeries
 from flightdata.thesis import AXES
 
@@ -144,6 +145,44 @@ def detection_latency_s(time_s: float, motor: int,
     return time_s - before[-1] if before else None
 
 
+_ACTUATOR_DETECTIONS = ("loe", "motor_lost")
+_SENSOR_DETECTIONS = ("sensor_rejected", "sensor_frozen", "sensor_inconsistent")
+
+
+def matching_fault(detection: DetectionRecord, faults: Sequence[FaultRecord]
+                   ) -> FaultRecord | None:
+    """The latest injected fault that ``detection`` is about, started at or before it: the
+    same motor for motor detections, the same sensor for sensor detections, a mass loss for a
+    mass change; None when there is none (a false alarm) or the detection is of another kind
+    (a crash, a thrust loss)."""
+    def about(f: FaultRecord) -> bool:
+        if detection.kind in _ACTUATOR_DETECTIONS:
+            return f.motor is not None and f.motor == detection.motor
+        if detection.kind in _SENSOR_DETECTIONS:
+            return f.sensor is not None and f.sensor == detection.sensor
+        return detection.kind == "mass_change" and f.kind == "mass_loss"
+    started = [f for f in faults
+               if f.action == "started" and f.time_s <= detection.time_s + 1e-9 and about(f)]
+    return started[-1] if started else None
+
+
+def detection_rows(detections: Sequence[DetectionRecord], faults: Sequence[FaultRecord]
+                   ) -> list[dict[str, Any]]:
+    """The detections as JSON rows, each with ``latency_s`` (after the injection it is about)
+    and ``false_alarm`` (a fault detection with no such injection; None for crash and
+    thrust-loss reports)."""
+    rows = []
+    for d in detections:
+        row = d.to_dict()
+        fault = matching_fault(d, faults) if d.action == "detected" else None
+        row["latency_s"] = None if fault is None else d.time_s - fault.time_s
+        fault_kind = d.kind in (*_ACTUATOR_DETECTIONS, *_SENSOR_DETECTIONS, "mass_change")
+        row["false_alarm"] = (fault is None) if (d.action == "detected" and fault_kind) \
+            else None
+        rows.append(row)
+    return rows
+
+
 def series_metrics(series: FlightSeries, loop_rate_hz: float) -> dict[str, Any]:
     """The errors, control effort, time flown and LOE figures of one run (m, deg, PWM, s).
 
@@ -155,7 +194,12 @@ def series_metrics(series: FlightSeries, loop_rate_hz: float) -> dict[str, Any]:
     errs = tracking_errors(series.ref_pos_ned[flying], series.pos_ned[flying],
                            series.ref_euler_rad[flying], series.euler_rad[flying])
     loe_final = [float(est[-1]) if len(est) else math.nan for est in series.loe_estimate]
+    times = series.time_s[flying]
     return {
+        # the samples the errors and the effort are taken over
+        "window": {"start_s": float(times[0]) if len(times) else None,
+                   "end_s": float(times[-1]) if len(times) else None,
+                   "samples": int(len(times))},
         "rms": {axis: fig.rms for axis, fig in errs.items()},
         "max": {axis: fig.max for axis, fig in errs.items()},
         "control_effort": control_effort(series.pwm_held(series.time_s[flying])),

@@ -44,6 +44,8 @@ import numpy as np
 from flightdata.config import finite, require
 from flightdata.records import OutcomeRecord
 
+Vector = Sequence[float] | np.ndarray
+
 
 @dataclass(frozen=True, kw_only=True)
 class OutcomeLimits:
@@ -65,20 +67,20 @@ class OutcomeLimits:
 class MissionArea:
     """Axis-aligned box (NED, m) around home and every target the vehicle was sent to."""
 
-    def __init__(self, points: Iterable[Sequence[float]] = ((0.0, 0.0, 0.0),)) -> None:
+    def __init__(self, points: Iterable[Vector] = ((0.0, 0.0, 0.0),)) -> None:
         self._lo = np.full(3, math.inf)
         self._hi = np.full(3, -math.inf)
         for p in points:
             self.extend(p)
 
-    def extend(self, point_ned: Sequence[float]) -> None:
+    def extend(self, point_ned: Vector) -> None:
         """Grow the box to hold ``point_ned`` (m, NED)."""
         p = np.asarray(point_ned, dtype=float).reshape(3)
         if np.all(np.isfinite(p)):
             self._lo = np.minimum(self._lo, p)
             self._hi = np.maximum(self._hi, p)
 
-    def outside_m(self, pos_ned: Sequence[float]) -> tuple[float, float]:
+    def outside_m(self, pos_ned: Vector) -> tuple[float, float]:
         """(horizontal distance outside the box, height above its top), m (0 inside)."""
         p = np.asarray(pos_ned, dtype=float)
         dx = max(self._lo[0] - p[0], 0.0, p[0] - self._hi[0])
@@ -87,7 +89,7 @@ class MissionArea:
         return math.hypot(dx, dy), above
 
 
-def tilt_deg(euler_rad: Sequence[float]) -> float:
+def tilt_deg(euler_rad: Vector) -> float:
     """Angle between the body z axis and the vertical, deg: acos(cos(roll) cos(pitch))."""
     c = math.cos(float(euler_rad[0])) * math.cos(float(euler_rad[1]))
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
@@ -125,7 +127,7 @@ class OutcomeJudge:
         self._last_touchdown_s: float | None = None
         self._max_outside_m = 0.0
 
-    def observe(self, time_s: float, pos_ned: Sequence[float], euler_rad: Sequence[float],
+    def observe(self, time_s: float, pos_ned: Vector, euler_rad: Vector,
                 on_ground: bool, touchdown_speed_m_s: float | None, armed: bool) -> None:
         """One tick of truth: time (s), position (m, NED), attitude (rad), ground contact,
         the plant's last touchdown speed (m/s), and whether the autopilot is armed."""
@@ -196,7 +198,7 @@ class OutcomeJudge:
         if time_s - self._tilted_since_s >= self.limits.tilted_contact_s - 1e-9:
             self._decide("crashed", self._tilted_since_s, "tilted_on_ground")
 
-    def _check_distance(self, time_s: float, pos_ned: Sequence[float]) -> None:
+    def _check_distance(self, time_s: float, pos_ned: Vector) -> None:
         horizontal, above = self.area.outside_m(pos_ned)
         self._max_outside_m = max(self._max_outside_m, horizontal, above)
         if max(horizontal, above) > self.limits.flyaway_distance_m:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -25,9 +25,12 @@ import numpy as np
 from fcu.autopilot import Autopilot
 from fcu.navigation.navigator import LandedState
 from flightdata.geometry import euler_from_quat
-from flightdata.metrics import series_metrics
+from flightdata.metrics import detection_rows, series_metrics
+from flightdata.mission import MissionItem
 from flightdata.recording import LiveRecorder, RecordingConfig, open_stream
+from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord
 from flightdata.series import FlightEvent, FlightSeries
+from sim.outcome import MissionArea, OutcomeJudge
 from sim.scenario import Scenario
 from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World
@@ -41,12 +44,14 @@ AUTO_MODE = 3  # ArduCopter AUTO
 
 @dataclass
 class FlightResult:
-    """What a run produced: metrics, events and the log."""
+    """What a run produced: metrics, events, records and the log."""
 
     scenario: Scenario
     log: FlightSeries  # every tick, with simulator truth, the estimate and the wind
-    events: list[tuple[float, str, str]]  # (time_s, source, text)
-    crashed: bool
+    events: list[tuple[float, str, str]]  # (time_s, source, text), for people
+    outcome: OutcomeRecord  # how the flight really ended (simulator truth, sim.outcome)
+    detections: list[DetectionRecord]  # what the autopilot concluded, in time order
+    faults: list[FaultRecord]  # what the simulator injected, in time order
     sim_s: float
     wall_s: float
     metrics: dict[str, Any] = field(default_factory=dict)
@@ -107,11 +112,10 @@ class TickLog:
             self.ref_euler[k] = self.euler[k]
         self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
 
-    def series(self, events: Sequence[tuple[float, str, str]] = ()) -> FlightSeries:
-        """The ticks so far as a :class:`FlightSeries` (views, not copies).
-
-        Fault onsets are taken from ``events`` (:func:`fault_onsets_s`).
-        """
+    def series(self, events: Sequence[tuple[float, str, str]] = (),
+               faults: Sequence[FaultRecord] = ()) -> FlightSeries:
+        """The ticks so far as a :class:`FlightSeries` (views, not copies), with the onsets
+        of the injected ``faults``."""
         k = self.n
         t = self.t[:k]
         return FlightSeries(
@@ -122,14 +126,8 @@ class TickLog:
             loe_estimate=tuple(self.loe_est[:k, j] for j in range(4)),
             loe_injected=self.loe_injected[:k], free_flight=self.free_flight[:k],
             est_pos_ned=self.est_pos[:k], wind_ned=self.wind[:k],
-            fault_times_s=tuple(fault_onsets_s(events)),
+            fault_times_s=tuple(sorted({f.time_s for f in faults if f.action == "started"})),
             events=tuple(FlightEvent(t_s, source, text) for t_s, source, text in events))
-
-
-def fault_onsets_s(events: Iterable[tuple[float, str, str]]) -> list[float]:
-    """Times (s) at which injected faults started acting, from ``FlightResult.events``."""
-    return sorted({t for t, source, text in events
-                   if source == "sim" and text.startswith("started:")})
 
 
 def start_mission(autopilot: Autopilot, scenario: Scenario) -> list[str]:
@@ -174,23 +172,18 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     loop_hz = scenario.autopilot.loop_rate_hz
     n_ticks = int(round(scenario.duration_s * loop_hz))
     rec = TickLog(n_ticks + 1, scenario.world.airframe.pwm_max)
-    events: list[tuple[float, str, str]] = []
-
-    def record(time_s: float, source: str, text: str) -> None:
-        events.append((time_s, source, text))
-        if on_event is not None:
-            on_event(time_s, source, text)
-
+    flight = _Records(on_event, OutcomeJudge(mission_area(scenario.mission)))
     wall0 = time.perf_counter()
     stack.first_tick()
     for refusal in start_mission(autopilot, scenario):
-        record(0.0, "runner", refusal)
+        flight.event(0.0, "runner", refusal)
     interrupted = False
     stop = _StopRequest(interruptible)
     try:
         for _ in range(n_ticks):
             stack.tick()
-            _record(stack, rec, record)
+            rec.append(world, autopilot)
+            flight.collect(stack)
             if on_tick is not None:
                 on_tick(world, autopilot)
             if stop.requested:
@@ -203,10 +196,69 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     finally:
         stop.restore()
     wall_s = time.perf_counter() - wall0
-    result = FlightResult(scenario, rec.series(events), events, world.plant.crashed,
-                          world.time_s, wall_s, interrupted=interrupted)
-    result.metrics = flight_metrics(result, autopilot)
+    outcome = flight.finish(world.time_s)
+    result = FlightResult(scenario, rec.series(flight.events, flight.faults), flight.events,
+                          outcome, flight.detections, flight.faults, world.time_s, wall_s,
+                          interrupted=interrupted)
+    result.metrics = flight_metrics(result)
     return result
+
+
+def mission_area(mission: Sequence[MissionItem], home_ned: Sequence[float] = (0.0, 0.0, 0.0)
+                 ) -> MissionArea:
+    """The box around home and every mission target (a take-off's altitude above home)."""
+    area = MissionArea([tuple(home_ned)])
+    for item in mission:
+        if item.pos_ned is not None:
+            area.extend(item.pos_ned)
+        if item.command == "takeoff":
+            area.extend((home_ned[0], home_ned[1], home_ned[2] - item.alt_m))
+    return area
+
+
+class _Records:
+    """A run's events, detections, faults and outcome, collected tick by tick."""
+
+    def __init__(self, on_event: EventCallback | None, judge: OutcomeJudge) -> None:
+        self._on_event = on_event
+        self.judge = judge
+        self.events: list[tuple[float, str, str]] = []
+        self.detections: list[DetectionRecord] = []
+        self.faults: list[FaultRecord] = []
+
+    def event(self, time_s: float, source: str, text: str) -> None:
+        self.events.append((time_s, source, text))
+        if self._on_event is not None:
+            self._on_event(time_s, source, text)
+
+    def collect(self, stack: SimulatedStack) -> None:
+        """The tick's autopilot and world events, and the truth for the outcome judge."""
+        world, autopilot = stack.world, stack.autopilot
+        autopilot_events, world_events = stack.drain_events()
+        for ev in autopilot_events:
+            if ev.record is not None:
+                self.detections.append(ev.record)
+            self.event(ev.time_s, "autopilot", ev.text)
+        for wev in world_events:
+            if isinstance(wev, FaultEvent):
+                self.faults.append(wev.record)
+                self.event(wev.time_s, "sim", wev.record.text())
+            elif isinstance(wev, PlantEvent):
+                self.event(wev.time_s, "sim", wev.description)
+        plant = world.plant
+        x = plant.state
+        self.judge.observe(world.time_s, x[0:3], euler_from_quat(x[6:10]), plant.on_ground,
+                           plant.touchdown_speed_m_s, autopilot.navigator.armed)
+        self._outcomes()
+
+    def _outcomes(self) -> None:
+        for outcome in self.judge.drain():
+            self.event(outcome.time_s, "sim", outcome.text())
+
+    def finish(self, time_s: float) -> OutcomeRecord:
+        outcome = self.judge.finish(time_s)
+        self._outcomes()
+        return outcome
 
 
 class _StopRequest:
@@ -233,34 +285,24 @@ class _StopRequest:
             self._previous = None
 
 
-def _record(stack: SimulatedStack, rec: TickLog, record: EventCallback) -> None:
-    """Log the tick just taken and pass its events on."""
-    rec.append(stack.world, stack.autopilot)
-    autopilot_events, world_events = stack.drain_events()
-    for ev in autopilot_events:
-        record(ev.time_s, "autopilot", ev.text)
-    for wev in world_events:
-        if isinstance(wev, FaultEvent):
-            record(wev.time_s, "sim", f"{wev.kind}: {wev.description}")
-        elif isinstance(wev, PlantEvent):
-            record(wev.time_s, "sim", wev.description)
-
-
-def flight_metrics(result: FlightResult, autopilot: Autopilot | None = None) -> dict[str, Any]:
+def flight_metrics(result: FlightResult) -> dict[str, Any]:
     """The ``--json`` metrics of one run (units: m, deg, PWM, s).
 
     Errors and control effort are taken over the flight: the ticks where a reference was
     tracked and the vehicle was off the ground (the thesis's runs are all flight; the
     seconds on the ground before take-off and after touchdown would only dilute them); see
-    :func:`flightdata.metrics.series_metrics`.
+    :func:`flightdata.metrics.series_metrics`. ``outcome`` says how the flight ended (a
+    flight that did not land makes them the figures of the part flown, not a result);
+    ``detections`` and ``faults`` are the autopilot's and the simulator's records
+    (:mod:`flightdata.records`), each detection with its latency after the latest injection
+    on the same motor or sensor.
     """
-    detections = [{"time_s": t, "text": text} for t, src, text in result.events
-                  if src == "autopilot" and "effectiveness" in text]
     return {
         "name": result.scenario.name,
+        "outcome": result.outcome.to_dict(),
         **series_metrics(result.log, result.scenario.autopilot.loop_rate_hz),
-        "detections": detections,
-        "crashed": result.crashed,
+        "detections": detection_rows(result.detections, result.faults),
+        "faults": [f.to_dict() for f in result.faults],
         "sim_s": result.sim_s,
         "wall_s": result.wall_s,
         "seed": result.scenario.seed,

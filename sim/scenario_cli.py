@@ -32,12 +32,27 @@ from flightdata.config import ConfigError
 from sim.scenario import load_scenario, shipped_names
 
 
+def _unsafe(metrics: dict[str, Any]) -> bool:
+    """The flight crashed or flew away (simulator truth, :mod:`sim.outcome`)."""
+    return metrics["outcome"]["kind"] in ("crashed", "flyaway")
+
+
 def _print_run(metrics: dict[str, Any]) -> None:
     rms, mx = metrics["rms"], metrics["max"]
+    outcome = metrics["outcome"]
     print(f"scenario {metrics['name']} (seed {metrics['seed']}): "
           f"{metrics['sim_s']:.1f} s simulated in {metrics['wall_s']:.2f} s "
-          f"({metrics['sim_s'] / max(metrics['wall_s'], 1e-9):.1f}x real time)"
-          + ("  CRASHED" if metrics["crashed"] else ""))
+          f"({metrics['sim_s'] / max(metrics['wall_s'], 1e-9):.1f}x real time)")
+    print(f"outcome: {outcome['kind'].upper()} at {outcome['time_s']:.2f} s: "
+          f"{outcome['reason']}")
+    window = metrics["window"]
+    if window["samples"] == 0:
+        print("no flight: no tracking errors")
+    else:
+        caveat = "" if outcome["kind"] == "landed" else \
+            f"; NOT a result: the flight ended {outcome['kind']}"
+        print(f"errors over the flight, {window['start_s']:.2f} - {window['end_s']:.2f} s"
+              f"{caveat}")
     print(f"{'error':<8}{'RMS':>10}{'max':>10}")
     for axis, unit in (("x", "m"), ("y", "m"), ("z", "m"), ("roll", "deg"), ("pitch", "deg"),
                        ("yaw", "deg")):
@@ -46,7 +61,10 @@ def _print_run(metrics: dict[str, Any]) -> None:
     est = metrics["loe_estimate"]["final"]
     print("final LOE estimate " + ", ".join(f"m{i + 1} {v:.3f}" for i, v in enumerate(est)))
     for det in metrics["detections"]:
-        print(f"  {det['time_s']:7.2f} s  {det['text']}")
+        latency = "" if det["latency_s"] is None else f" ({det['latency_s']:.2f} s after " \
+            "the injection)"
+        alarm = "  FALSE ALARM" if det["false_alarm"] else ""
+        print(f"  {det['time_s']:7.2f} s  {det['text']}{latency}{alarm}")
 
 
 def _write_json(path: str, data: Any) -> None:
@@ -97,7 +115,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"ftc-scenario: interrupted at t = {result.sim_s:.2f} s; the outputs cover the "
               "flight so far", file=sys.stderr)
         return 130
-    return 1 if result.crashed else 0
+    return 1 if _unsafe(result.metrics) else 0
 
 
 def cmd_list(_: argparse.Namespace) -> int:
@@ -114,7 +132,7 @@ def cmd_thesis(args: argparse.Namespace) -> int:
     print(report.markdown)
     if args.json:
         _write_json(args.json, report.metrics)
-    return 1 if any(m["crashed"] for m in report.metrics.values()) else 0
+    return 1 if any(_unsafe(m) for m in report.metrics.values()) else 0
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -90,7 +90,7 @@ def _progress(stream: IO[str] | None, name: str, metrics: dict[str, Any], done: 
     if stream is not None:
         rtf = metrics["sim_s"] / max(metrics["wall_s"], 1e-9)
         stream.write(f"[{done}/{total}] {name}: {metrics['sim_s']:.0f} s simulated, "
-                     f"{rtf:.0f}x real time{'  CRASHED' if metrics['crashed'] else ''}\n")
+                     f"{rtf:.0f}x real time, {metrics['outcome']['kind']}\n")
         stream.flush()
 
 
@@ -130,21 +130,45 @@ def render_markdown(metrics: dict[str, dict[str, Any]], tables: dict[str, Any]) 
         lines.append("")
         lines += image_lines(ours.get("figures") or {}, alt_prefix="tskf_step: ",
                              kinds=("loe",))
-    detections = [(n, d) for n, m in metrics.items() for d in m["detections"]]
-    if detections:
-        lines += ["## Fault detections", ""]
-        lines += table_lines(("run", "time (s)", "message"),
-                             ([n, f"{d['time_s']:.2f}", d["text"]] for n, d in detections),
-                             "lrl")
-        lines.append("")
+    lines += detection_section(metrics)
     return "\n".join(lines)
+
+
+def _outcome_note(ours: dict[str, Any]) -> str:
+    outcome = ours["outcome"]
+    if outcome["kind"] == "landed":
+        return ""
+    return f"  ({outcome['kind'].upper()} at {outcome['time_s']:.2f} s: {outcome['reason']}; " \
+        "the errors cover the part flown)"
+
+
+def detection_section(metrics: dict[str, dict[str, Any]]) -> list[str]:
+    """Per run: outcome, each detection with its latency after the injection it is about,
+    and the false alarms (detections no injection explains)."""
+    cells = []
+    for name, m in metrics.items():
+        found = [d for d in m["detections"] if d["action"] == "detected"]
+        latencies = ", ".join(
+            f"{d.get('motor') or d.get('sensor') or 'mass'} {d['kind']} "
+            + ("-" if d["latency_s"] is None else f"{d['latency_s']:.2f} s")
+            for d in found if not d["false_alarm"])
+        false_alarms = sum(1 for d in found if d["false_alarm"])
+        outcome = m["outcome"]
+        cells.append([name, f"{outcome['kind']} ({outcome['time_s']:.1f} s)",
+                      latencies or "none", str(false_alarms)])
+    return ["## Detection and outcome", "",
+            "Latency: from the injection to the detection it explains (simulated s); a false "
+            "alarm is a fault detection no injection explains. Outcome from simulator truth "
+            "(sim/outcome.py).", "",
+            *table_lines(("run", "outcome", "detections (latency)", "false alarms"), cells,
+                         "lllr"), ""]
 
 
 def _run_section(name: str, ours: dict[str, Any], row: dict[str, Any]) -> list[str]:
     """One thesis run: its errors and effort beside the thesis's, then its figures."""
     lines = [f"## {name}: {row['attitude'].upper()} + {row['estimator'].upper()}"
              f" + DOB {row['dob']}, faults: {row['faults']}"
-             + ("  (CRASHED)" if ours["crashed"] else ""), ""]
+             + _outcome_note(ours), ""]
     cells = [[f"{axis} ({unit})", f"{row[f'e_{axis}'][0]:.4f}", f"{ours['rms'][axis]:.4f}",
               f"{row[f'e_{axis}'][1]:.4f}", f"{ours['max'][axis]:.4f}"] for axis, unit in AXES]
     cells.append(["effort", fmt(row.get("effort"), 5), f"{ours['control_effort']:.5f}", "",
@@ -181,10 +205,10 @@ def _cases_section(cases: dict[str, dict[str, Any]], tables: dict[str, Any]) -> 
         diff = 100.0 * (ours["control_effort"] - row["effort"]) / row["effort"]
         cells.append([case, row["attitude"].upper(), " + ".join(row["faults"]),
                       f"{row['effort']:.5f}", f"{ours['control_effort']:.5f}",
-                      f"{diff:+.1f} %", "yes" if ours["crashed"] else "no"])
+                      f"{diff:+.1f} %", ours["outcome"]["kind"]])
     lines = ["## Table 7.11 / 7.12: fault types (EKF feedback, AbDOB)", "",
              *table_lines(("case", "controller", "faults", "thesis effort", "ours",
-                           "difference", "crashed"), cells, "lllrrrl"), ""]
+                           "difference", "outcome"), cells, "lllrrrl"), ""]
     linked = {c: m["figures"] for c, m in cases.items() if "figures" in m}
     if linked:
         lines += ["Figures of each case (PNG):", ""]

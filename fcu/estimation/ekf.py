@@ -411,14 +411,10 @@ class ExtendedKalmanEstimator(TickEstimator):
         self.reset()
 
     def _make_channels(self, height_source: str) -> tuple[_Channel, ...]:
-        n, accel_sigma = self.noise, self.accel_z_model_sigma
-        return tuple(
-            _Channel(sensor, sel, value_index, getattr(n, sensor),
-                     accel_sigma if sensor == "accel" and accel_sigma is not None
-                     else model_sigma)
-            for sensor, sel, value_index, model_sigma in common_channels(height_source,
-                                                                         self.model)
-            if sensor != "accel" or accel_sigma is not None)
+        n = self.noise
+        return tuple(_Channel(sensor, sel, value_index, getattr(n, sensor), model_sigma)
+                     for sensor, sel, value_index, model_sigma
+                     in common_channels(height_source, self.model, self.accel_z_model_sigma))
 
     def _select_channels(self, height_source: str) -> None:
         cs = self._sets[height_source]
@@ -453,7 +449,7 @@ class ExtendedKalmanEstimator(TickEstimator):
 
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
                      batches: Mapping[str, SampleBatch], *,
-                     excluded: Collection[str] = ()) -> StateEstimate:
+                     excluded: Collection[str] = (), reject: bool = True) -> StateEstimate:
         """Predict to ``time_s`` (s) with ``pwm_applied`` held, screen the tick's averaged
         samples and update with those that pass (:meth:`TickEstimator.step_grouped`);
         returns the posterior."""
@@ -480,7 +476,8 @@ class ExtendedKalmanEstimator(TickEstimator):
         # on the ground the accelerometer feels the ground reaction, not the thrust
         on_ground = f.on_ground
         batches = self._screen(self._channels, batches, f.x, f.P, excluded,
-                               lambda ch: not (ch.sensor == "accel" and on_ground))
+                               lambda ch: not (ch.sensor == "accel" and on_ground),
+                               reject and not on_ground)
         counts: list[int] = []
         deltas: list[float] = []
         z_l: list[float] = []

@@ -34,6 +34,7 @@ from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike
 from scipy.stats import chi2
 
@@ -89,6 +90,24 @@ class ChannelCheck:
     def outlier(self) -> bool:
         """NIS above the gate."""
         return self.nis > self.gate
+
+
+@njit(cache=True, error_model="numpy")
+def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatArray,
+                   r_var: float, wrap_yaw: bool) -> tuple[FloatArray, FloatArray, float]:
+    """One channel's screening against the prior (module docstring), compiled.
+
+    Returns ``nu = z - S x`` (third entry wrapped to [-pi, pi) when ``wrap_yaw``), the
+    diagonal of ``S P S' + R`` (``R = r_var I``) and ``NIS = nu' (S P S' + R)^-1 nu``.
+    """
+    nu = z - sel @ x
+    if wrap_yaw:
+        nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
+    s_mat = sel @ p_mat @ sel.T
+    for i in range(s_mat.shape[0]):
+        s_mat[i, i] += r_var
+    nis = float(nu @ np.linalg.solve(s_mat, nu))
+    return nu, np.diag(s_mat).copy(), nis
 
 
 _DENSITY_NAMES = ("pos", "accel", "euler", "ang_accel", "thrust")
@@ -163,15 +182,11 @@ class Channel:
         return self.sample_var / count + self.model_var
 
 
-ACCEL_Z_MODEL_SIGMA = 0.1
-"""m/s^2, model error of the accelerometer's thrust measurement: vertical drag, 0.35 N/(m/s)
-on 0.3 m/s of vertical gust, is 0.07 m/s^2 on 1.42 kg."""
-
-
-def common_channels(height_source: str, model: VehicleModel
+def common_channels(height_source: str, model: VehicleModel, accel_model_sigma: float | None
                     ) -> list[tuple[str, FloatArray, tuple[int, ...], float]]:
     """(sensor, ``S``, value entries, model error) of the measurements both estimators use,
-    in update order (module docstring)."""
+    in update order (module docstring); the accelerometer with its model error
+    ``accel_model_sigma`` (m/s^2), or not at all when None."""
     channels: list[tuple[str, FloatArray, tuple[int, ...], float]] = []
     if height_source == "baro":
         channels.append(("mocap_pos", selection((0, 1)), (0, 1), 0.0))
@@ -180,10 +195,11 @@ def common_channels(height_source: str, model: VehicleModel
         channels.append(("mocap_pos", selection((0, 1, 2)), (0, 1, 2), 0.0))
     channels.append(("mocap_att", selection((6, 7, 8)), (0, 1, 2), 0.0))
     channels.append(("gyro", selection((9, 10, 11)), (0, 1, 2), 0.0))
-    # body-z specific force f_z = -(T1 + T2 + T3 + T4)/m (thrust along -z_body)
-    accel = np.zeros((1, STATE_DIM))
-    accel[0, THRUST] = -1.0 / model.mass
-    channels.append(("accel", accel, (2,), ACCEL_Z_MODEL_SIGMA))
+    if accel_model_sigma is not None:
+        # body-z specific force f_z = -(T1 + T2 + T3 + T4)/m (thrust along -z_body)
+        accel = np.zeros((1, STATE_DIM))
+        accel[0, THRUST] = -1.0 / model.mass
+        channels.append(("accel", accel, (2,), accel_model_sigma))
     return channels
 
 
@@ -251,12 +267,14 @@ class TickEstimator:
 
     def _screen(self, channels: Iterable[Channel], batches: Mapping[str, SampleBatch],
                 x: FloatArray, p_mat: FloatArray, excluded: Collection[str],
-                usable: Callable[[Channel], bool]) -> dict[str, SampleBatch]:
+                usable: Callable[[Channel], bool], reject: bool) -> dict[str, SampleBatch]:
         """Screen the tick's measurements against the prior ``x``, ``p_mat`` (module
         docstring); returns the batches to update with and sets :attr:`screening`.
 
         ``usable(channel)`` says whether a delivered channel can be used at all now (the
-        accelerometer not on the ground).
+        accelerometer not on the ground); ``reject`` whether a lone outlier may be rejected
+        (the caller knows when the model is too uncertain for that: on the ground, in a
+        tumble).
         """
         checks: dict[str, ChannelCheck] = {}
         outliers: list[str] = []
@@ -264,14 +282,9 @@ class TickEstimator:
             batch = batches.get(ch.sensor)
             if batch is None:
                 continue
-            sel = ch.selection
-            z = np.asarray(batch.value, dtype=float)[ch.value_slice]
-            # nu = z - S x (yaw wrapped);  S P S' + R
-            nu = z - sel @ x
-            if ch.wrap_yaw:
-                nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
-            s_mat = sel @ p_mat @ sel.T + np.eye(ch.rows) * ch.noise_var(batch.count)
-            nis = float(nu @ np.linalg.solve(s_mat, nu))
+            nu, variance, nis = screen_channel(
+                ch.selection, np.asarray(batch.value, dtype=float)[ch.value_slice], x, p_mat,
+                ch.noise_var(batch.count), ch.wrap_yaw)
             if ch.sensor in excluded:
                 status = "excluded"
             elif not usable(ch):
@@ -280,9 +293,8 @@ class TickEstimator:
                 status = "applied"
                 if nis > ch.gate:
                     outliers.append(ch.sensor)
-            checks[ch.sensor] = ChannelCheck(ch.sensor, nu, np.diag(s_mat).copy(), nis,
-                                             ch.gate, status)
-        if len(outliers) == 1:  # a lone outlier is that sensor's fault (module docstring)
+            checks[ch.sensor] = ChannelCheck(ch.sensor, nu, variance, nis, ch.gate, status)
+        if reject and len(outliers) == 1:  # a lone outlier is that sensor's fault
             c = checks[outliers[0]]
             checks[c.sensor] = ChannelCheck(c.sensor, c.residual, c.variance, c.nis, c.gate,
                                             "rejected")
@@ -310,7 +322,7 @@ class TickEstimator:
 
     def step(self, time_s: float, pwm_applied: ArrayLike,
              samples: Iterable[SensorSampleLike], *,
-             excluded: Collection[str] = ()) -> StateEstimate:
+             excluded: Collection[str] = (), reject: bool = True) -> StateEstimate:
         """Advance to ``time_s`` and update with the tick's samples.
 
         Parameters
@@ -323,6 +335,8 @@ class TickEstimator:
             Samples produced since the previous tick.
         excluded : collection of str
             Sensors screened but not used (the health monitor's exclusions).
+        reject : bool
+            A lone outlier may be rejected for this tick (module docstring).
 
         Returns
         -------
@@ -330,11 +344,11 @@ class TickEstimator:
             Posterior at ``time_s``.
         """
         return self.step_grouped(time_s, pwm_applied, group_samples(samples, self._kinds),
-                                 excluded=excluded)
+                                 excluded=excluded, reject=reject)
 
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
                      batches: Mapping[str, SampleBatch], *,
-                     excluded: Collection[str] = ()) -> StateEstimate:
+                     excluded: Collection[str] = (), reject: bool = True) -> StateEstimate:
         """:meth:`step` with the tick's samples already averaged by
         :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use
         are ignored), so that several estimators can share one grouping."""

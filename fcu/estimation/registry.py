@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike
 from fcu.config import AutopilotConfig
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.estimator import ChannelCheck
-from fcu.estimation.state import Innovation, SampleBatch, StateEstimate
+from fcu.estimation.state import Innovation, SampleBatch, SensorNoise, StateEstimate
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.registry import Registry
 from flightdata import vocabulary
@@ -54,6 +54,7 @@ class StateEstimator(Protocol):
         ...
 
     height_source: str  # where height comes from now; settable between ticks
+    noise: SensorNoise  # the measurement noise it assumes
 
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None) -> None:
         """Restart at ``time_s`` (s) from ``initial`` (None: at rest at the origin)."""
@@ -61,7 +62,7 @@ class StateEstimator(Protocol):
 
     def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
                      batches: Mapping[str, SampleBatch], *,
-                     excluded: Collection[str] = ()) -> StateEstimate:
+                     excluded: Collection[str] = (), reject: bool = True) -> StateEstimate:
         """Advance to the tick ``time_s`` (s) with ``pwm_applied`` (4,) held since the
         previous tick and update with the tick's averaged samples, screened, without the
         ``excluded`` sensors; returns the estimate."""

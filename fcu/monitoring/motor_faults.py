@@ -16,8 +16,9 @@ cannot be told from an equal loss on all four motors. Assuming that at least one
 healthy (a quadrotor with four degraded motors is outside this detector), the estimates split
 into a mass change and per-motor losses::
 
-    e       = mean of gamma_j u_j over the motors neither declared nor (half) suspected
-              (the smallest gamma_j u_j when there are none)
+    e       = mean of gamma_j u_j over the motors not declared (the smallest gamma_j u_j
+              when all are), held while any motor is half suspected (a fault building
+              up is not a mass change)
     dm      = 4 K e / g                                   (kg, + heavier)
     delta_i = gamma_i - e / u_i                           (loss of effectiveness of motor i)
 
@@ -75,6 +76,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from fcu.model import VehicleModel
 from flightdata.config import finite, require
@@ -85,6 +87,26 @@ SIGNATURES = np.array([[0.0, 0.0, -1.0, 1.0],
                        [-1.0, 1.0, 0.0, 0.0],
                        [-1.0, -1.0, 1.0, 1.0]])
 _PWM_FILTER_S = 0.2  # s, time constant of the PWM low-pass
+
+
+@njit(cache=True, error_model="numpy")
+def weighted_fit(d: np.ndarray, var: np.ndarray, motors: np.ndarray
+                 ) -> tuple[np.ndarray, float]:
+    """``f = argmin (d - M_S f)' Sigma^-1 (d - M_S f)`` over the signatures of ``motors``
+    (indices 0..3, at most 3 of them) and its weighted residual sum of squares."""
+    w = 1.0 / np.sqrt(var)
+    b = d * w
+    k = motors.shape[0]
+    if k == 0:
+        return np.zeros(0), float(b @ b)
+    a = np.empty((3, k))
+    for i in range(3):
+        for j in range(k):
+            a[i, j] = SIGNATURES[i, motors[j]] * w[i]
+    # normal equations (A' A) f = A' b: the signatures of distinct motors are independent
+    f = np.linalg.solve(a.T @ a, a.T @ b)
+    r = b - a @ f
+    return f, float(r @ r)
 _ATTACK_S = 2.0  # s, time constant of the noise estimate's rise
 
 
@@ -177,6 +199,7 @@ class MotorFaultDetector:
         self._mass_since: float | None = None
         self._loe = np.zeros(4)
         self._mass_kg = 0.0
+        self._e = 0.0  # PWM, common-mode thrust deficit per motor
 
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, gamma: np.ndarray, pwm: np.ndarray, *, evidence: bool,
@@ -226,27 +249,22 @@ class MotorFaultDetector:
         return records
 
     def _update_common_mode(self, deficit: np.ndarray, u: np.ndarray) -> None:
-        others = [j for j in range(4) if j not in self._declared and j not in self._half]
-        e = float(np.mean(deficit[others])) if others else float(np.min(deficit))
+        if not self._half:
+            others = [j for j in range(4) if j not in self._declared]
+            self._e = float(np.mean(deficit[others])) if others else float(np.min(deficit))
+        e = self._e
         self._mass_kg = 4.0 * self._k * e / self._g
         self._loe = np.clip(deficit / u - e / u, 0.0, 1.0)
 
     def _fit(self, d: np.ndarray, motors: list[int]) -> tuple[np.ndarray, float]:
         """Weighted least squares of ``d`` on the signatures of ``motors``: (f, RSS)."""
-        w = 1.0 / np.sqrt(self._var)
-        b = d * w
-        if not motors:
-            return np.zeros(0), float(b @ b)
-        a = SIGNATURES[:, motors] * w[:, None]
-        f, *_ = np.linalg.lstsq(a, b, rcond=None)
-        r = b - a @ f
-        return f, float(r @ r)
+        return weighted_fit(d, self._var, np.array(motors, dtype=np.int64))
 
     def _candidates(self, d: np.ndarray, u: np.ndarray
                     ) -> tuple[tuple[int, float, float] | None, bool]:
         """(motor index, T, LOE) of the strongest suspected fault (or None), and whether any
         motor is half suspected (module docstring)."""
-        if self._lost:
+        if self._lost or len(self._declared) >= 3:  # a fourth is not identifiable
             self._half = set()
             return None, False
         cfg = self.config

@@ -8,11 +8,12 @@ consistent again for ``recover_s``:
   (:mod:`fcu.estimation.estimator`: NIS above a 6-sigma chi-square gate while every other
   sensor agrees with the model). ``reject_ticks`` consecutive rejections exclude the sensor
   (``sensor_rejected``, magnitude: the NIS). Garbage is caught this way in a few ticks.
-- **frozen signal**: a reading repeated bit for bit for ``frozen_ticks`` batches while the
-  estimate has moved more than ``frozen_sigma`` standard deviations of the innovation away
-  from it (``sensor_frozen``, magnitude: seconds frozen). Real sensors are noisy; a reading
-  that no longer changes while the vehicle moves is a dead driver. (Without the motion
-  condition a noise-free simulation at rest would trip it.)
+- **frozen signal**: a reading repeated bit for bit for ``frozen_ticks`` batches in flight
+  (``sensor_frozen``, magnitude: seconds frozen). Real sensors are noisy, and a flying
+  vehicle moves: a reading that no longer changes is a dead driver. (On the ground a
+  noise-free simulation repeats itself legitimately: the check waits for flight.) The
+  estimate cannot be the judge here: it follows a frozen position as long as that is
+  applied, so the repeat itself is the evidence.
 - **cross-check** of the two height sources: the barometer against the motion-capture
   height, as the mean difference over ``cross_window_s``; beyond ``cross_limit_m`` the
   barometer is excluded (``sensor_inconsistent``, magnitude: the difference, m). Motion
@@ -20,8 +21,15 @@ consistent again for ``recover_s``:
   the weather and the rotor wash; a motion-capture fault is caught by its own checks.
 
 While excluded, a sensor is still screened (its NIS is computed against the coasting estimate,
-whose covariance grows), so a sensor that comes back is seen to agree; a frozen one must also
-change again, an inconsistent barometer must come back within half the limit.
+whose covariance grows), so a sensor that comes back is seen to agree. Agreement with a
+coasting estimate is a weak test (its covariance has grown), so the sensor must also be
+*self-consistent* for ``recover_s``: each batch within ``jump_sigma`` noise standard
+deviations plus ``max_speed`` times the tick of the previous one (garbage jumps), and not
+repeated (a frozen one must change again). An inconsistent barometer must come back within
+half the limit.
+
+Rejections count, and sensors are frozen, only in flight: on the ground a touchdown or a
+disarm moves the vehicle in ways no estimator model follows.
 
 Fallback (:attr:`SensorHealth.height_source`): height comes from the configured source while
 it is trusted, else from the other one if trusted. :attr:`SensorHealth.position_fix` is False
@@ -51,18 +59,20 @@ class SensorHealthConfig:
 
     reject_ticks: int = 5  # consecutive screening rejections that exclude a sensor
     frozen_ticks: int = 5  # identical consecutive batches (with motion) that exclude it
-    frozen_sigma: float = 5.0  # innovation, in its standard deviations, that shows motion
     recover_s: float = 0.5  # s of consistency before an excluded sensor is re-admitted
     cross_window_s: float = 1.0  # s, averaging of the barometer / motion-capture height
     cross_limit_m: float = 0.06  # m, |mean difference| beyond which the barometer is out
     quiet_s: float = 1.0  # s after a rejection during which sensors count as suspect
+    jump_sigma: float = 6.0  # noise sigmas of a batch-to-batch change that is a jump
+    max_speed: float = 5.0  # sensor units per s a real signal may move (m/s, rad/s, ...)
 
     def __post_init__(self) -> None:
         for name in ("reject_ticks", "frozen_ticks"):
             value = getattr(self, name)
             require(isinstance(value, int) and value >= 1, name, value,
                     "must be an integer >= 1")
-        for name in ("frozen_sigma", "recover_s", "cross_window_s", "cross_limit_m"):
+        for name in ("recover_s", "cross_window_s", "cross_limit_m",
+                     "jump_sigma", "max_speed"):
             value = getattr(self, name)
             require(finite(value) and value > 0, name, value, "must be a number > 0")
         require(finite(self.quiet_s) and self.quiet_s >= 0, "quiet_s", self.quiet_s,
@@ -78,7 +88,9 @@ class _Watch:
     rejections: int = 0
     last_rejected_s: float = -math.inf
     last_value: np.ndarray | None = None
+    last_time_s: float = 0.0
     same: int = 0
+    jumped: bool = False  # the latest batch jumped from the one before
     frozen_since_s: float = 0.0
     good_since_s: float | None = None
 
@@ -108,7 +120,8 @@ class SensorHealth:
 
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, batches: Mapping[str, SampleBatch],
-             screening: Mapping[str, ChannelCheck], airborne: bool) -> list[DetectionRecord]:
+             screening: Mapping[str, ChannelCheck], airborne: bool,
+             noise: Mapping[str, float]) -> list[DetectionRecord]:
         """One tick, after the estimators' update.
 
         Parameters
@@ -120,13 +133,20 @@ class SensorHealth:
         screening : mapping of str to ChannelCheck
             The flying estimator's screening of them.
         airborne : bool
-            The vehicle is off the ground (the frozen check needs motion).
+            The vehicle is in flight (the checks count only then).
+        noise : mapping of str to float
+            Each sensor's noise, one sample, 1 sigma, sensor units (the jump test).
         """
         records: list[DetectionRecord] = []
         for sensor, check in screening.items():
             w = self._w(sensor)
-            records += self._frozen(time_s, sensor, w, batches.get(sensor), check, airborne)
-            records += self._innovation(time_s, sensor, w, check)
+            self._watch_value(time_s, w, batches.get(sensor), noise.get(sensor, 0.0),
+                              sensor == "mocap_att")
+            if airborne:
+                records += self._frozen(time_s, sensor, w)
+                records += self._innovation(time_s, sensor, w, check)
+            else:
+                w.rejections = 0
             records += self._recovery(time_s, sensor, w, check)
         records += self._cross_check(time_s, batches)
         return records
@@ -139,21 +159,33 @@ class SensorHealth:
         return [DetectionRecord(time_s=time_s, action="detected", kind=kind, sensor=sensor,
                                 magnitude=magnitude)]
 
-    def _frozen(self, time_s: float, sensor: str, w: _Watch, batch: SampleBatch | None,
-                check: ChannelCheck, airborne: bool) -> list[DetectionRecord]:
+    def _watch_value(self, time_s: float, w: _Watch, batch: SampleBatch | None,
+                     sigma: float, yaw_last: bool) -> None:
+        """Repeats (frozen) and jumps (garbage) of the batch values (``yaw_last``: the third
+        entry is an angle, its change wrapped to [-pi, pi))."""
         if batch is None:
-            return []
-        value = np.asarray(batch.value)
-        if w.last_value is not None and np.array_equal(value, w.last_value):
+            return
+        value = batch.value.tolist()
+        last = w.last_value
+        if last is not None and value == last.tolist():
             if w.same == 0:
                 w.frozen_since_s = time_s
             w.same += 1
+            w.jumped = False
         else:
             w.same = 0
-        w.last_value = value.copy()
-        moved = bool(np.any(np.abs(check.residual) > self.config.frozen_sigma
-                            * np.sqrt(check.variance)))
-        if airborne and w.same >= self.config.frozen_ticks and moved:
+            if last is not None:
+                limit = self.config.jump_sigma * sigma + self.config.max_speed * (
+                    time_s - w.last_time_s)
+                change = [a - b for a, b in zip(value, last.tolist(), strict=True)]
+                if yaw_last:
+                    change[2] = (change[2] + math.pi) % (2.0 * math.pi) - math.pi
+                w.jumped = any(abs(c) > limit for c in change)
+        w.last_value = np.asarray(batch.value).copy()
+        w.last_time_s = time_s
+
+    def _frozen(self, time_s: float, sensor: str, w: _Watch) -> list[DetectionRecord]:
+        if w.same >= self.config.frozen_ticks:
             return self._exclude(time_s, sensor, w, "sensor_frozen",
                                  time_s - w.frozen_since_s)
         return []
@@ -174,7 +206,7 @@ class SensorHealth:
         kind = w.excluded_as
         if kind is None or kind == "sensor_inconsistent":
             return []  # the cross-check re-admits the barometer
-        consistent = check.nis <= check.gate and (kind != "sensor_frozen" or w.same == 0)
+        consistent = check.nis <= check.gate and w.same == 0 and not w.jumped
         if not consistent:
             w.good_since_s = None
             return []

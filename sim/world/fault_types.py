@@ -80,6 +80,7 @@ from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple, get_args
 
 from flightdata.config import ConfigError, finite, from_mapping, require
+from flightdata.records import FaultRecord
 
 ActuatorKind = Literal["loe", "lock", "float", "hardover", "total_loss"]
 LoeProfile = Literal["step", "sinusoid", "random", "pulse"]
@@ -317,6 +318,32 @@ def fault_from_mapping(table: Mapping[str, Any]) -> Fault:
                       "(sensor fault) or a 'mass_loss_kg' (structural fault) key")
 
 
+_RECORD_ACTIONS = {"injected": "scheduled", "started": "started", "ended": "ended",
+                   "cleared": "cleared"}
+
+
+def fault_record(time_s: float, kind: EventKind, fault_id: int, fault: Fault) -> FaultRecord:
+    """The :class:`flightdata.records.FaultRecord` of an event of ``fault``.
+
+    Magnitude: the loss of effectiveness (a profile's peak; 1 for a total loss; NaN for lock,
+    float and hard-over), the bias or loss of accuracy (sensor unit, % of sigma), a drift's
+    rate (sensor unit per s), the mass lost (kg); NaN for freeze and calibration.
+    """
+    action = _RECORD_ACTIONS[kind]
+    if isinstance(fault, ActuatorFault):
+        magnitude = {"loe": fault.loe, "total_loss": 1.0}.get(fault.kind, math.nan)
+        return FaultRecord(time_s=time_s, action=action, kind=fault.kind,  # type: ignore[arg-type]
+                           motor=fault.motor, magnitude=magnitude, fault_id=fault_id,
+                           profile=fault.profile if fault.kind == "loe" else None)
+    if isinstance(fault, SensorFault):
+        magnitude = {"bias": fault.magnitude, "loss_of_accuracy": fault.magnitude,
+                     "drift": fault.rate}.get(fault.kind, math.nan)
+        return FaultRecord(time_s=time_s, action=action, kind=fault.kind,  # type: ignore[arg-type]
+                           sensor=fault.sensor, magnitude=magnitude, fault_id=fault_id)
+    return FaultRecord(time_s=time_s, action=action, kind="mass_loss",  # type: ignore[arg-type]
+                       magnitude=fault.mass_loss_kg, fault_id=fault_id)
+
+
 @dataclass(frozen=True, slots=True)
 class FaultEvent:
     """Something that happened to a fault, at a simulated time."""
@@ -325,6 +352,12 @@ class FaultEvent:
     kind: EventKind  # -, "injected" | "cleared" | "started" | "ended"
     fault_id: int  # -, id returned by FaultEngine.schedule
     description: str  # -, human-readable summary of the fault
+    fault: Fault  # the fault itself
+
+    @property
+    def record(self) -> FaultRecord:
+        """The event as data (:func:`fault_record`)."""
+        return fault_record(self.time_s, self.kind, self.fault_id, self.fault)
 
 
 class ScheduledFault(NamedTuple):

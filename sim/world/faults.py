@@ -404,7 +404,7 @@ class FaultEngine:
     # ------------------------------------------------------------------ internals
     def _emit(self, time_s: float, kind: EventKind, fault_id: int, fault: Fault) -> None:
         self.events.append(FaultEvent(time_s=float(time_s), kind=kind, fault_id=fault_id,
-                                      description=fault.describe()))
+                                      description=fault.describe(), fault=fault))
 
     def _set_next_change(self, time_s: float) -> None:
         self._next_change_s = time_s
