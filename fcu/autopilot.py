@@ -151,6 +151,7 @@ class Autopilot:
         self.crash_check.reset()
         self._pwm = np.zeros(4)
         self._torque_applied = np.zeros(3)
+        self._thrust_n = 0.0  # N, collective commanded at the last tick
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None
         self._flying = False
@@ -177,9 +178,9 @@ class Autopilot:
             estimator.height_source = health.height_source
         # a lone outlier is a sensor's fault only while the model can be trusted: in flight,
         # in the hover regime, with no motor lost (fcu.estimation.estimator)
-        airborne = self.navigator.landed_state != LandedState.ON_GROUND
-        reject = airborne and self._hover_regime(self.estimator.estimate) and \
-            not self.detector.lost
+        prior = self.estimator.estimate
+        reject = (self.navigator.landed_state == LandedState.IN_AIR and prior.alt_m > 0.2
+                  and self._hover_regime(prior) and not self.detector.lost)
         estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded,
                                           reject=reject)
         if self.estimator is not self.tskf:
@@ -188,8 +189,11 @@ class Autopilot:
         records = health.step(time_s, batches, self.estimator.screening, reject,
                               self._sensor_noise)
         healthy = all(map(math.isfinite, estimate.pos_ned.tolist()))
+        # ArduCopter's throttle-at-minimum test: asking for much less than hover thrust
+        low_thrust = self._thrust_n < 0.75 * self.model.mass * self.model.gravity
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
                                   float(estimate.euler_rad[2]), estimator_healthy=healthy,
+                                  on_ground_hint=True if low_thrust else None,
                                   position_fix=health.position_fix)
         for ev in nav.events:
             self._events.append(AutopilotEvent(ev.time_s, ev.kind, ev.text, ev.severity,
@@ -202,6 +206,7 @@ class Autopilot:
             self._flying = False
             self._pwm = np.zeros(4)
             self._torque_applied = np.zeros(3)
+            self._thrust_n = 0.0
             self.crash_check.step(time_s, flying=False, leg="", alt_m=0.0, vel_down_m_s=0.0,
                                   speed_m_s=0.0, lean_rad=0.0, attitude_error_rad=0.0,
                                   collective=0.0)
@@ -224,6 +229,7 @@ class Autopilot:
         d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
         torque_cmd = torque - d_hat
         pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
+        self._thrust_n = cmd.thrust_n
         _, self._torque_applied = self.allocator.mix(pwm)
         records += self._crash_check(time_s, estimate, att_ref, cmd.thrust_n)
         if not self.navigator.armed:  # the crash check disarmed

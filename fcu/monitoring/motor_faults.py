@@ -67,7 +67,10 @@ lost motor would not be survivable anyway.
 
 Recovery: a declared motor whose LOE stays below ``recovery_threshold`` for
 ``recovery_persistence_s`` in free flight is cleared. A mass change is reported when
-``|dm| > mass_threshold_kg`` holds for ``mass_persistence_s`` and cleared below half of it.
+``|dm| > mass_threshold_kg`` holds for ``mass_persistence_s`` and the estimate has settled
+(no motor half suspected, so the common mode is not held; within ``mass_settle_kg`` over the
+last 0.5 s), so that the magnitude reported is the settled one; it is cleared below half the
+threshold.
 """
 
 from __future__ import annotations
@@ -128,6 +131,7 @@ class DetectorConfig:
     valid_tilt_rad: float = 0.5  # rad, hover model valid below (roll and pitch)
     mass_threshold_kg: float = 0.1  # kg, |mass change| reported
     mass_persistence_s: float = 1.0  # s above it before it is reported
+    mass_settle_kg: float = 0.02  # kg, the most the estimate may move in 0.5 s when reported
 
     def __post_init__(self) -> None:
         require(finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
@@ -142,7 +146,7 @@ class DetectorConfig:
             value = getattr(self, name)
             require(finite(value) and value >= 0.0, name, value, "must be >= 0 s")
         for name in ("significance", "noise_tau_s", "valid_yaw_rate_rad_s", "valid_tilt_rad",
-                     "mass_threshold_kg"):
+                     "mass_threshold_kg", "mass_settle_kg"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
         require(len(self.noise_floor) == 3 and all(finite(v) and v > 0
@@ -197,6 +201,7 @@ class MotorFaultDetector:
         self._lost_since: dict[int, float] = {}
         self._mass_reported = False
         self._mass_since: float | None = None
+        self._mass_history: list[tuple[float, float]] = []  # (time s, kg) over the last 0.5 s
         self._loe = np.zeros(4)
         self._mass_kg = 0.0
         self._e = 0.0  # PWM, common-mode thrust deficit per motor
@@ -242,6 +247,7 @@ class MotorFaultDetector:
             self._suspect = None
             self._recover_since.clear()
             self._mass_since = None
+            self._mass_history.clear()
             return records
         records += self._declare(time_s, best)
         records += self._track_declared(time_s)
@@ -345,6 +351,16 @@ class MotorFaultDetector:
     def _track_mass(self, time_s: float) -> list[DetectionRecord]:
         cfg = self.config
         dm = self._mass_kg
+        history = self._mass_history
+        if self._half:  # the common mode is held: no news about the mass
+            history.clear()
+        else:
+            history.append((time_s, dm))
+        while history and history[0][0] < time_s - 0.5 - 1e-9:
+            history.pop(0)
+        values = [v for _, v in history]
+        settled = (len(history) > 1 and history[-1][0] - history[0][0] >= 0.5 - 1e-9
+                   and max(values) - min(values) <= cfg.mass_settle_kg)
         limit = cfg.mass_threshold_kg if not self._mass_reported else 0.5 * cfg.mass_threshold_kg
         pending = abs(dm) > limit if not self._mass_reported else abs(dm) < limit
         if not pending:
@@ -352,7 +368,7 @@ class MotorFaultDetector:
             return []
         if self._mass_since is None:
             self._mass_since = time_s
-        if time_s - self._mass_since < cfg.mass_persistence_s - 1e-9:
+        if time_s - self._mass_since < cfg.mass_persistence_s - 1e-9 or not settled:
             return []
         self._mass_since = None
         self._mass_reported = not self._mass_reported

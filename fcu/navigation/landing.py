@@ -2,7 +2,11 @@
 
 The vehicle looks on the ground when its estimated altitude is below ``land_detect_alt_m``,
 its vertical speed below ``land_detect_speed_m_s``, and the caller's ``on_ground_hint`` is
-not False. While landing, that must hold continuously for ``land_detect_time_s`` before the
+not False. A True hint (the autopilot asks for much less than hover thrust and the vehicle
+does not move: ArduCopter's throttle-at-minimum test) accepts an estimated altitude and
+vertical speed up to three times the limits: a height source a few centimetres off or a few
+centimetres noisy (a drifting barometer) must not keep a vehicle that sits on the ground from
+knowing it. While landing, that must hold continuously for ``land_detect_time_s`` before the
 landing is detected (:class:`LandingDetector`). The same test gates arming
 (:mod:`fcu.navigation.arming`).
 """
@@ -29,9 +33,11 @@ class LandedState(IntEnum):
 def looks_on_ground(pos_ned: np.ndarray, vel_ned: np.ndarray, on_ground_hint: bool | None,
                     config: NavigatorConfig) -> bool:
     """Low (altitude ``-z`` below ``land_detect_alt_m``, m), still (``|v_z|`` below
-    ``land_detect_speed_m_s``, m/s) and not contradicted by ``on_ground_hint``."""
-    return bool(-pos_ned[2] < config.land_detect_alt_m
-                and abs(vel_ned[2]) < config.land_detect_speed_m_s
+    ``land_detect_speed_m_s``, m/s; both three times that with a True ``on_ground_hint``) and
+    not contradicted by ``on_ground_hint``."""
+    scale = 3.0 if on_ground_hint is True else 1.0
+    return bool(-pos_ned[2] < scale * config.land_detect_alt_m
+                and abs(vel_ned[2]) < scale * config.land_detect_speed_m_s
                 and on_ground_hint is not False)
 
 
