@@ -17,8 +17,8 @@ healthy (a quadrotor with four degraded motors is outside this detector), the es
 into a mass change and per-motor losses::
 
     e       = mean of gamma_j u_j over the motors not declared (the smallest gamma_j u_j
-              when all are), held while any motor is half suspected (a fault building
-              up is not a mass change)
+              when all are), low-passed over ``common_tau_s`` and held while any motor is
+              half suspected (a fault building up is not a mass change)
     dm      = 4 K e / g                                   (kg, + heavier)
     delta_i = gamma_i - e / u_i                           (loss of effectiveness of motor i)
 
@@ -132,6 +132,7 @@ class DetectorConfig:
     mass_threshold_kg: float = 0.1  # kg, |mass change| reported
     mass_persistence_s: float = 1.0  # s above it before it is reported
     mass_settle_kg: float = 0.02  # kg, the most the estimate may move in 0.5 s when reported
+    common_tau_s: float = 0.3  # s, low-pass of the common mode (mass change)
 
     def __post_init__(self) -> None:
         require(finite(self.threshold) and 0.0 < self.threshold < 1.0, "threshold",
@@ -146,7 +147,7 @@ class DetectorConfig:
             value = getattr(self, name)
             require(finite(value) and value >= 0.0, name, value, "must be >= 0 s")
         for name in ("significance", "noise_tau_s", "valid_yaw_rate_rad_s", "valid_tilt_rad",
-                     "mass_threshold_kg", "mass_settle_kg"):
+                     "mass_threshold_kg", "mass_settle_kg", "common_tau_s"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
         require(len(self.noise_floor) == 3 and all(finite(v) and v > 0
@@ -235,10 +236,10 @@ class MotorFaultDetector:
         u = self._u
         g = np.asarray(gamma, dtype=float)
         deficit = g * u  # PWM units
-        self._update_common_mode(deficit, u)
-        d = SIGNATURES @ (deficit / self._u_hover)
+        d = SIGNATURES @ (deficit / self._u_hover)  # mass-invariant: no common mode
         records: list[DetectionRecord] = []
         best, half_suspected = self._candidates(d, u) if (evidence or learn) else (None, False)
+        self._update_common_mode(deficit, u)
         if not half_suspected and learn:
             self._learn(d)
         if best is not None and not evidence:
@@ -257,7 +258,8 @@ class MotorFaultDetector:
     def _update_common_mode(self, deficit: np.ndarray, u: np.ndarray) -> None:
         if not self._half:
             others = [j for j in range(4) if j not in self._declared]
-            self._e = float(np.mean(deficit[others])) if others else float(np.min(deficit))
+            raw = float(np.mean(deficit[others])) if others else float(np.min(deficit))
+            self._e += min(1.0, self.dt_s / self.config.common_tau_s) * (raw - self._e)
         e = self._e
         self._mass_kg = 4.0 * self._k * e / self._g
         self._loe = np.clip(deficit / u - e / u, 0.0, 1.0)

@@ -35,7 +35,7 @@ from flightdata.geometry import wrap_pi_array
 from flightdata.report import section_lines
 from flightdata.series import FlightSeries
 from flightdata.thesis import thesis_tables
-from sim.runner import FlightResult, fault_onsets_s, fly
+from sim.runner import FlightResult, fly
 from sim.scenario import load_scenario
 from sim.thesis_report import render_markdown
 from sim.world.faults import ActuatorFault
@@ -75,8 +75,8 @@ def assert_line(line: Line2D, x: np.ndarray, y: np.ndarray) -> None:
     np.testing.assert_array_equal(xy[:, 1], y)  # NaN where not flying, on both sides
 
 
-def test_fault_onsets_come_from_the_started_events(flight: FlightResult) -> None:
-    assert fault_onsets_s(flight.events) == [FAULT_AT_S]
+def test_fault_onsets_come_from_the_started_fault_records(flight: FlightResult) -> None:
+    assert [f.time_s for f in flight.faults if f.action == "started"] == [FAULT_AT_S]
     assert flight.log.fault_onsets_s() == [FAULT_AT_S]  # what the figures mark
 
 

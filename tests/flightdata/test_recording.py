@@ -171,7 +171,7 @@ def test_every_event_is_in_the_text_log(recorded: Recorded) -> None:
     rows = rrd_rows(recorded.rrd, "/events")
     assert len(rows) == len(recorded.result.events)
     texts = [r["TextLog:text"] for _, r in rows]
-    injected = [(t, r) for t, r in rows if "[sim] started: motor 3" in r["TextLog:text"]]
+    injected = [(t, r) for t, r in rows if "[sim] fault started: motor 3" in r["TextLog:text"]]
     assert len(injected) == 1 and injected[0][0] == pytest.approx(FAULT_AT_S, abs=1e-9)
     assert injected[0][1]["TextLog:level"] == "[WARN]"
     assert any("[autopilot] armed" in text for text in texts)

@@ -32,7 +32,7 @@ def metrics(name: str) -> dict[str, Any]:
 
 def test_baseline_tracks_to_a_centimetre_at_hover_effort() -> None:
     m = metrics("baseline")
-    assert not m["crashed"]
+    assert m["outcome"]["kind"] == "landed", m["outcome"]
     for axis in ("x", "y", "z"):
         assert m["rms"][axis] <= 0.01, axis  # issue 3: RMS position error <= 1 cm per axis
         assert m["max"][axis] <= 0.05, axis  # issue 3: max position error <= 5 cm
@@ -48,7 +48,7 @@ def test_baseline_raises_no_fault_detection() -> None:
 @pytest.mark.parametrize("name", ["lqg_loe", "lqg_abdob_loe"])
 def test_lqg_survives_table_7_3_faults(name: str) -> None:
     m = metrics(name)
-    assert not m["crashed"]
+    assert m["outcome"]["kind"] == "landed", m["outcome"]
     assert m["rms"]["z"] <= 0.05  # issue 3: the altitude dips at each fault and recovers
     for axis in ("x", "y", "z"):
         assert m["max"][axis] < 0.15, axis
@@ -81,7 +81,8 @@ def test_tskf_estimates_the_table_6_1_step_profile() -> None:
 
 @pytest.mark.parametrize("case", [f"case{i}" for i in range(1, 9)])
 def test_table_7_11_cases_finish_without_a_crash(case: str) -> None:
-    assert not metrics(case)["crashed"]
+    outcome = metrics(case)["outcome"]
+    assert outcome["kind"] == "landed", outcome  # simulator truth: down, gently, disarmed
 
 
 @pytest.mark.parametrize("case", ["case1", "case2", "case7"])
@@ -99,6 +100,6 @@ def test_faults_of_15_percent_or_more_are_detected_within_3_s(name: str) -> None
         if getattr(fault, "loe", 0.0) < 0.15:
             continue
         hits = [d["time_s"] - fault.start_s for d in m["detections"]
-                if d["text"].startswith(f"motor {fault.motor} lost")
+                if d["kind"] in ("loe", "motor_lost") and d["motor"] == fault.motor
                 and d["time_s"] >= fault.start_s]
         assert hits and min(hits) <= 3.0, (fault, m["detections"])

@@ -91,7 +91,8 @@ def test_run_json_holds_the_documented_metrics(tmp_path: Path) -> None:
     data = json.loads(out.read_text())
     for key in ("rms", "max"):
         assert set(data[key]) == {"x", "y", "z", "roll", "pitch", "yaw"}
-    for key in ("control_effort", "loe_estimate", "detections", "crashed", "sim_s", "wall_s"):
+    for key in ("control_effort", "loe_estimate", "detections", "faults", "outcome", "window",
+                "sim_s", "wall_s"):
         assert key in data
     assert data["seed"] == 4 and data["sim_s"] == pytest.approx(12.0)
 
