@@ -166,21 +166,68 @@ def matching_fault(detection: DetectionRecord, faults: Sequence[FaultRecord]
     return started[-1] if started else None
 
 
+@dataclass(frozen=True)
+class ScoredDetection:
+    """A detection with what the injected faults say of it.
+
+    Attributes
+    ----------
+    record : DetectionRecord
+    latency_s : float or None
+        Time from the injection it is about to it, s (None: no such injection, or a clearing).
+    false_alarm : bool or None
+        A fault detection that no injection explains; None for crash and thrust-loss
+        reports and for clearings.
+    """
+
+    record: DetectionRecord
+    latency_s: float | None
+    false_alarm: bool | None
+
+    @property
+    def motor(self) -> int | None:
+        """Motor 1..4 of a motor detection."""
+        return self.record.motor
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time of the decision, s."""
+        return self.record.time_s
+
+    @property
+    def kind(self) -> str:
+        """The detection kind (:data:`flightdata.vocabulary.DETECTION_KINDS`)."""
+        return self.record.kind
+
+    @property
+    def percent(self) -> float:
+        """The estimated magnitude in percent (a loss of effectiveness), rounded."""
+        return float(round(100.0 * self.record.magnitude))
+
+    def text(self) -> str:
+        """The record's sentence."""
+        return self.record.text()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The record's JSON form plus ``latency_s`` and ``false_alarm``."""
+        return {**self.record.to_dict(), "latency_s": self.latency_s,
+                "false_alarm": self.false_alarm}
+
+
+def score_detection(detection: DetectionRecord, faults: Sequence[FaultRecord]
+                    ) -> ScoredDetection:
+    """``detection`` scored against the injected ``faults`` (:class:`ScoredDetection`)."""
+    fault = matching_fault(detection, faults) if detection.action == "detected" else None
+    fault_kind = detection.kind in (*_ACTUATOR_DETECTIONS, *_SENSOR_DETECTIONS, "mass_change")
+    false_alarm = (fault is None) if (detection.action == "detected" and fault_kind) else None
+    return ScoredDetection(detection, None if fault is None else
+                           detection.time_s - fault.time_s, false_alarm)
+
+
 def detection_rows(detections: Sequence[DetectionRecord], faults: Sequence[FaultRecord]
                    ) -> list[dict[str, Any]]:
-    """The detections as JSON rows, each with ``latency_s`` (after the injection it is about)
-    and ``false_alarm`` (a fault detection with no such injection; None for crash and
-    thrust-loss reports)."""
-    rows = []
-    for d in detections:
-        row = d.to_dict()
-        fault = matching_fault(d, faults) if d.action == "detected" else None
-        row["latency_s"] = None if fault is None else d.time_s - fault.time_s
-        fault_kind = d.kind in (*_ACTUATOR_DETECTIONS, *_SENSOR_DETECTIONS, "mass_change")
-        row["false_alarm"] = (fault is None) if (d.action == "detected" and fault_kind) \
-            else None
-        rows.append(row)
-    return rows
+    """The detections as JSON rows (:meth:`ScoredDetection.to_dict`)."""
+    return [score_detection(d, faults).to_dict() for d in detections]
 
 
 def series_metrics(series: FlightSeries, loop_rate_hz: float) -> dict[str, Any]:

@@ -67,7 +67,6 @@ the four motor commands (thesis Table 7.2: 0.0796 at hover), computed by
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -76,23 +75,25 @@ from typing import Any
 import numpy as np
 
 from flightdata.geometry import euler_from_quat
-from flightdata.metrics import control_effort, detection_latency_s, tracking_errors
+from flightdata.metrics import ScoredDetection, control_effort, score_detection, tracking_errors
+from flightdata.records import (
+    WIRE_NAME,
+    DetectionRecord,
+    FaultRecord,
+    OutcomeRecord,
+    Record,
+    from_wire,
+)
 from flightdata.series import FlightEvent, FlightSeries
 from flightdata.thesis import AXES
 from gcs.alignment import Aligned, align, hold, truth_ned
 from gcs.mavlink import MAVLinkMessage, mavlink2, read_tlog
-from gcs.table import Detection, FlightReport, Injection
+from gcs.table import FlightReport, Injection
 
 __all__ = ["FlightAnalyzer", "analyze_tlog", "replay_tlog"]
 
 _M = mavlink2
 PWM_MAX = 0.05  # motor command at full power (Qball-X4, thesis Table 7.1)
-_DETECTION = re.compile(r"motor\s+(\d)\s+lost about\s+(\d+(?:\.\d+)?)\s*%\s*effectiveness",
-                        re.IGNORECASE)
-_CRASH = re.compile(r"\bcrash", re.IGNORECASE)
-# the simulator's fault STATUSTEXTs (sim/vehicle_port.py, sim/world/faults.py describe())
-_FAULT_ON = re.compile(r"^SIM: (?:fault started: |injected |SIM motor [1-4]: )motor ([1-4]): ")
-_FAULT_OFF = re.compile(r"^SIM: (?:fault (?:ended|cleared): |cleared |ended )motor ([1-4]): ")
 _UINT32_US = 1 << 32
 
 
@@ -160,12 +161,17 @@ class FlightAnalyzer:
         self.mission_acks: list[tuple[float | None, int]] = []
         self.mission_start_s: float | None = None
         self.injections: list[Injection] = []
-        self.detections: list[Detection] = []
-        self.crashed = False
+        self.detections: list[ScoredDetection] = []
+        self.faults: list[FaultRecord] = []
+        self.outcome: OutcomeRecord | None = None
+        self.crashed = False  # the outcome is a crash or a fly-away
         self.crash_text = ""
         self._sent_params: dict[str, float] = {}
         self._sent_timesync: set[int] = set()  # ts1 of our TIMESYNC requests
-        self._active_faults: dict[int, list[str]] = {}  # motor -> announced fault texts
+        # motor -> {fault id: effectiveness kept (1 - loe), NaN when not a constant loss}
+        self._active_faults: dict[int, dict[int, float]] = {}
+        self._record_seqs: set[int] = set()
+        self.malformed_records = 0
         self.last_vehicle_unix_us: int | None = None
         self.events: list[FlightEvent] = []  # every event emitted, in order
 
@@ -337,14 +343,6 @@ class FlightAnalyzer:
             severity, text = p.payload
             self.statustexts.append((t, severity, text))
             self._emit(t, "STATUS", f"[{_severity(severity)}] {text}")
-            m = _DETECTION.search(text)
-            if m:
-                self._detection(t, int(m.group(1)), float(m.group(2)), text)
-            self._fault_text(t, text)
-            if _CRASH.search(text) and severity <= _M.MAV_SEVERITY_CRITICAL:
-                self.crashed = True
-                self.crash_text = text
-                self._emit(t, "CRASH", text)
         elif p.kind == "ack":
             command, result = p.payload
             self.acks.append((t, command, result))
@@ -369,30 +367,64 @@ class FlightAnalyzer:
         if command == _M.MAV_CMD_MISSION_START and accepted and self.mission_start_s is None:
             self.mission_start_s = t
 
-    def _fault_text(self, t: float, text: str) -> None:
-        """Injections from the simulator's STATUSTEXT (see the module docstring).
-
-        Each motor keeps the faults announced and not yet cleared, by description; the LOE
-        in force is the latest one's (0 when none). The simulator announces a replacement
-        before the "cleared" of the fault it replaces (and re-announces unchanged ones when
-        another motor's parameter changes), so a "cleared" removes the oldest entry with its
-        description, and the value in force changes only when the last entry does.
-        """
-        on = _FAULT_ON.match(text)
-        m = on or _FAULT_OFF.match(text)
-        if m is None:
+    def _on_debug_float_array(self, msg: MAVLinkMessage) -> None:
+        """Fault, detection and outcome records (DEBUG_FLOAT_ARRAY ``FTC_REC``,
+        :mod:`flightdata.records`): the first copy of each sequence number counts."""
+        if _text(msg.name) != WIRE_NAME:
             return
-        motor = int(m.group(1))
-        what = text[m.end(1):].lstrip(": ")  # e.g. "loe 20 % (step)", "total loss"
-        active = self._active_faults.setdefault(motor, [])
-        before = active[-1] if active else ""
-        if on:
-            active.append(what)
-        elif what in active:
-            active.remove(what)
-        after = active[-1] if active else ""
-        if after != before:
-            self._injected(t, motor, _loe_of(after), text)
+        try:
+            seq, record = from_wire(int(msg.array_id), msg.data, int(msg.time_usec) * 1e-6)
+        except (ValueError, IndexError):
+            self.malformed_records += 1
+            return
+        if seq in self._record_seqs:
+            return
+        self._record_seqs.add(seq)
+        self._on_record(record)
+
+    def _on_record(self, record: Record) -> None:
+        t = record.time_s
+        if isinstance(record, FaultRecord):
+            self.faults.append(record)
+            self._emit(t, "FAULT", record.text())
+            if record.motor is not None:
+                self._motor_fault(record)
+        elif isinstance(record, DetectionRecord):
+            scored = score_detection(record, self.faults)
+            self.detections.append(scored)
+            lat = "" if scored.latency_s is None else \
+                f", latency {scored.latency_s:.3f} s after the injection"
+            alarm = " (FALSE ALARM: no injection explains it)" if scored.false_alarm else ""
+            self._emit(t, "DETECT", f"{record.text()}{lat}{alarm}{self._since_start(t)}")
+        else:
+            self.outcome = record
+            self._emit(t, "OUTCOME", record.text())
+            if record.kind in ("crashed", "flyaway"):
+                self.crashed = True
+                self.crash_text = record.text()
+                self._emit(t, "CRASH", record.text())
+
+    def _motor_fault(self, record: FaultRecord) -> None:
+        """The loss of effectiveness in force on the record's motor: active faults' kept
+        effectiveness multiply (as the simulator composes them); NaN for a lock, a
+        hard-over or a time-varying loss, which no constant gamma describes."""
+        assert record.motor is not None
+        motor = record.motor
+        active = self._active_faults.setdefault(motor, {})
+        before = _loe_in_force(active)
+        if record.action == "started":
+            constant = record.kind == "total_loss" or (record.kind == "loe"
+                                                        and record.profile == "step")
+            magnitude = 1.0 if record.kind in ("total_loss", "float") else record.magnitude
+            active[record.fault_id] = 1.0 - magnitude if constant or record.kind == "float" \
+                else math.nan
+        elif record.action in ("ended", "cleared"):
+            active.pop(record.fault_id, None)
+        else:
+            return
+        after = _loe_in_force(active)
+        if not (after == before or (math.isnan(after) and math.isnan(before))):
+            self._injected(record.time_s, motor, after, record.text())
 
     def _injected(self, t: float, motor: int, loe: float, text: str) -> None:
         inj = Injection(motor=motor, loe=loe, time_s=t, text=text)
@@ -404,16 +436,6 @@ class FlightAnalyzer:
         if self.mission_start_s is None:
             return ""
         return f", mission +{t - self.mission_start_s:.3f} s"
-
-    def _detection(self, t: float, motor: int, percent: float, text: str) -> None:
-        latency = detection_latency_s(t, motor,
-                                      ((i.motor, i.loe, i.time_s) for i in self.injections))
-        det = Detection(motor=motor, percent=percent, time_s=t, latency_s=latency, text=text)
-        self.detections.append(det)
-        lat = "no injection on that motor" if latency is None else \
-            f"latency {latency:.3f} s after the injection"
-        self._emit(t, "DETECT", f"motor {motor} fault detected ({percent:g} %), {lat}"
-                   f"{self._since_start(t)}")
 
     # ------------------------------------------------------------------ results
     def truth_ned(self, rows: np.ndarray) -> np.ndarray | None:
@@ -515,7 +537,8 @@ class FlightAnalyzer:
                             mission_start_s=self.mission_start_s, loe=self._loe_table(t_end),
                             injections=list(self.injections), detections=list(self.detections),
                             crashed=self.crashed, vehicle_time_s=self.clock_s,
-                            params=dict(self.params))
+                            params=dict(self.params), outcome=self.outcome,
+                            faults=list(self.faults))
 
     def _loe_table(self, t_end: float | None) -> list[dict[str, Any]]:
         rows = []
@@ -524,7 +547,8 @@ class FlightAnalyzer:
             est = self._loe_est[motor]
             if t_end is not None:
                 est = [e for e in est if e[0] <= t_end + 1e-9] or est
-            dets = [d for d in self.detections if d.motor == motor]
+            dets = [d for d in self.detections
+                    if d.motor == motor and d.record.action == "detected"]
             rows.append({
                 "motor": motor,
                 "injected": inj[-1].loe if inj else 0.0,
@@ -536,14 +560,12 @@ class FlightAnalyzer:
         return rows
 
 
-def _loe_of(what: str) -> float:
-    """LOE in force of a simulator fault description ("" = none; NaN: not a constant LOE)."""
-    if not what:
-        return 0.0
-    if what.startswith(("total loss", "float")):
-        return 1.0
-    m = re.match(r"loe ([0-9.eE+-]+) % \(step\)", what)
-    return float(m.group(1)) / 100.0 if m else math.nan
+def _loe_in_force(active: dict[int, float]) -> float:
+    """1 - the product of the kept effectivenesses (0 with no fault; NaN if any is NaN)."""
+    kept = 1.0
+    for k in active.values():
+        kept *= k
+    return 1.0 - kept
 
 
 def _severity(severity: int) -> str:
@@ -576,6 +598,7 @@ _HANDLERS: dict[str, Callable[[FlightAnalyzer, MAVLinkMessage], None]] = {
     "MISSION_CURRENT": FlightAnalyzer._on_mission_current,
     "MISSION_ITEM_REACHED": FlightAnalyzer._on_item_reached,
     "STATUSTEXT": FlightAnalyzer._on_statustext,
+    "DEBUG_FLOAT_ARRAY": FlightAnalyzer._on_debug_float_array,
     "COMMAND_ACK": FlightAnalyzer._on_command_ack,
     "PARAM_VALUE": FlightAnalyzer._on_param_value,
     "MISSION_ACK": FlightAnalyzer._on_mission_ack,

@@ -13,10 +13,12 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
+from flightdata.metrics import ScoredDetection
+from flightdata.records import FaultRecord, OutcomeRecord
 from flightdata.report import fmt
 from flightdata.thesis import AXES
 
-__all__ = ["Detection", "FlightReport", "Injection", "format_report"]
+__all__ = ["FlightReport", "Injection", "format_report"]
 
 
 @dataclass(frozen=True)
@@ -41,29 +43,6 @@ class Injection:
     text: str
 
 
-@dataclass(frozen=True)
-class Detection:
-    """A fault detection the vehicle reported (STATUSTEXT), with its latency.
-
-    Attributes
-    ----------
-    motor : int
-    percent : float
-        The loss the vehicle estimated, %.
-    time_s : float
-        Vehicle time of the report, s.
-    latency_s : float or None
-        Time since the latest injection on that motor took effect; None when there was none.
-    text : str
-    """
-
-    motor: int
-    percent: float
-    time_s: float
-    latency_s: float | None
-    text: str
-
-
 @dataclass
 class FlightReport:
     """The thesis-style result of one flight (units: m, deg, PWM, s)."""
@@ -76,16 +55,22 @@ class FlightReport:
     mission_start_s: float | None
     loe: list[dict[str, Any]]
     injections: list[Injection]
-    detections: list[Detection]
-    crashed: bool
+    detections: list[ScoredDetection]  # the vehicle's detection records, scored
+    crashed: bool  # the outcome is a crash or a fly-away
     vehicle_time_s: float | None
     params: dict[str, float] = field(default_factory=dict)
+    outcome: OutcomeRecord | None = None  # the simulator's verdict on the flight
+    faults: list[FaultRecord] = field(default_factory=list)  # the simulator's fault records
 
     def to_json(self) -> dict[str, Any]:
-        """A JSON-ready dict (keys as ``ftc-scenario run --json`` where they overlap)."""
-        out = asdict(self)
+        """A JSON-ready dict (keys as ``ftc-scenario run --json`` where they overlap:
+        ``outcome``, ``detections`` and ``faults`` are the same records)."""
+        out = {k: v for k, v in asdict(self).items()
+               if k not in ("detections", "outcome", "faults")}
         out["injections"] = [asdict(i) for i in self.injections]
-        out["detections"] = [asdict(d) for d in self.detections]
+        out["detections"] = [d.to_dict() for d in self.detections]
+        out["faults"] = [f.to_dict() for f in self.faults]
+        out["outcome"] = None if self.outcome is None else self.outcome.to_dict()
         return out
 
 
@@ -96,9 +81,12 @@ def format_report(report: FlightReport, title: str = "flight") -> str:
     head = f"{title}: {report.samples} in-flight samples, {report.flight_s:.2f} s in the air"
     if start is not None:
         head += f", mission started at vehicle t = {start:.2f} s"
-    if report.crashed:
-        head += "  CRASHED"
     lines.append(head)
+    if report.outcome is not None:
+        outcome = report.outcome
+        lines.append(f"outcome: {outcome.kind.upper()} at {outcome.time_s:.2f} s: "
+                     f"{outcome.reason}" + ("" if outcome.safe else
+                                            "  (the errors cover the part flown)"))
     config = [f"{k} {report.params[k]:g}" for k in ("ATT_CTRL", "EST_TYPE", "DOB_TYPE")
               if k in report.params]
     if config:
@@ -122,4 +110,8 @@ def format_report(report: FlightReport, title: str = "flight") -> str:
                      f"{fmt(row['latency_s'], 2):>11}")
     if start is not None:
         lines.append("(times in s after the mission start)")
+    others = [d for d in report.detections if d.motor is None or d.false_alarm]
+    for d in others:
+        alarm = "  FALSE ALARM" if d.false_alarm else ""
+        lines.append(f"detection at {rel(d.time_s)}: {d.text()}{alarm}")
     return "\n".join(lines)

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flightdata.config import finite, require
+from flightdata.mission import MissionItem
 from flightdata.records import OutcomeRecord
 
 Vector = Sequence[float] | np.ndarray
@@ -80,6 +81,13 @@ class MissionArea:
             self._lo = np.minimum(self._lo, p)
             self._hi = np.maximum(self._hi, p)
 
+    def corners(self) -> list[tuple[float, float, float]]:
+        """The box's two extreme corners (none while empty), m, NED."""
+        if not np.all(np.isfinite(self._lo)):
+            return []
+        lo, hi = self._lo.tolist(), self._hi.tolist()
+        return [(lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])]
+
     def outside_m(self, pos_ned: Vector) -> tuple[float, float]:
         """(horizontal distance outside the box, height above its top), m (0 inside)."""
         p = np.asarray(pos_ned, dtype=float)
@@ -87,6 +95,18 @@ class MissionArea:
         dy = max(self._lo[1] - p[1], 0.0, p[1] - self._hi[1])
         above = max(self._lo[2] - p[2], 0.0)  # NED: higher = more negative z
         return math.hypot(dx, dy), above
+
+
+def mission_area(mission: Sequence[MissionItem], home_ned: Vector = (0.0, 0.0, 0.0)
+                 ) -> MissionArea:
+    """The box around home and every mission target (a take-off's altitude above home)."""
+    area = MissionArea([tuple(home_ned)])
+    for item in mission:
+        if item.pos_ned is not None:
+            area.extend(item.pos_ned)
+        if item.command == "takeoff":
+            area.extend((home_ned[0], home_ned[1], home_ned[2] - item.alt_m))
+    return area
 
 
 def tilt_deg(euler_rad: Vector) -> float:

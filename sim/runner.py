@@ -26,11 +26,10 @@ from fcu.autopilot import Autopilot
 from fcu.navigation.navigator import LandedState
 from flightdata.geometry import euler_from_quat
 from flightdata.metrics import detection_rows, series_metrics
-from flightdata.mission import MissionItem
 from flightdata.recording import LiveRecorder, RecordingConfig, open_stream
 from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord
 from flightdata.series import FlightEvent, FlightSeries
-from sim.outcome import MissionArea, OutcomeJudge
+from sim.outcome import OutcomeJudge, mission_area
 from sim.scenario import Scenario
 from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World
@@ -202,18 +201,6 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
                           interrupted=interrupted)
     result.metrics = flight_metrics(result)
     return result
-
-
-def mission_area(mission: Sequence[MissionItem], home_ned: Sequence[float] = (0.0, 0.0, 0.0)
-                 ) -> MissionArea:
-    """The box around home and every mission target (a take-off's altitude above home)."""
-    area = MissionArea([tuple(home_ned)])
-    for item in mission:
-        if item.pos_ned is not None:
-            area.extend(item.pos_ned)
-        if item.command == "takeoff":
-            area.extend((home_ned[0], home_ned[1], home_ned[2] - item.alt_m))
-    return area
 
 
 class _Records:

@@ -85,7 +85,9 @@ from fcu.mavlink.port import (
     Severity,
     SimTruth,
 )
+from flightdata.geometry import euler_from_quat
 from flightdata.mission import MissionItem as NavItem
+from sim.outcome import MissionArea, OutcomeJudge, mission_area
 from sim.sim_params import SimParams
 from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World, WorldConfig
@@ -156,7 +158,11 @@ class SimVehicle:
     def __init__(self, setup: VehicleSetup) -> None:
         self.setup = setup
         self.stack = SimulatedStack(setup.world, setup.autopilot, setup.seed, setup.faults)
-        self.port = AutopilotPort(self.stack, setup.origin, truth=self._truth)
+        self.judge = OutcomeJudge(MissionArea())
+        self.port = AutopilotPort(self.stack, setup.origin, truth=self._truth,
+                                  on_target=self.judge.area.extend)
+        self._judged_mission: tuple[NavItem, ...] | None = None
+        self._was_armed = False
         self._owned: dict[str, int] = {}  # fault slot (param name / motor) -> fault id
         self._quiet_ids: set[int] = set()  # faults injected here: their engine events are ours
         self._last_contact_s = -math.inf
@@ -214,9 +220,34 @@ class SimVehicle:
         self.port.collect(autopilot_events)
         for wev in world_events:
             if isinstance(wev, FaultEvent):
+                self.port.post_record(wev.record)
                 self._fault_event(wev)
             elif isinstance(wev, PlantEvent):
                 self._plant_event(wev)
+        self._judge()
+
+    def _judge(self) -> None:
+        """The outcome of each flight, from truth (:mod:`sim.outcome`), announced as a
+        record and a STATUSTEXT; a new flight starts when the vehicle is armed again."""
+        nav = self.stack.autopilot.navigator
+        items = nav.mission_items
+        if items is not self._judged_mission:
+            self._judged_mission = items
+            for point in mission_area(items, nav.home_pos_ned).corners():
+                self.judge.area.extend(point)
+        armed = nav.armed
+        if armed and not self._was_armed:
+            self.judge.rearm()
+            self.judge.area.extend(nav.home_pos_ned)
+        self._was_armed = armed
+        world = self.world
+        x = world.plant.state
+        self.judge.observe(world.time_s, x[0:3], euler_from_quat(x[6:10]),
+                           world.plant.on_ground, world.plant.touchdown_speed_m_s, armed)
+        for outcome in self.judge.drain():
+            self.port.post_record(outcome)
+            severity = Severity.INFO if outcome.safe else Severity.CRITICAL
+            self.port.post(severity, f"SIM: {outcome.text()}")
 
     def _plant_event(self, ev: PlantEvent) -> None:
         if ev.kind == "crash":

@@ -34,6 +34,7 @@ from fcu.mavlink.port import (
     MissionItemReached,
     ParamSpec,
     PositionTarget,
+    RecordEvent,
     SensorHealth,
     Severity,
     SimTruth,
@@ -46,6 +47,7 @@ from fcu.navigation.navigator import Mode, mode_name
 from flightdata.geometry import body_rates_from_euler_rates
 from flightdata.mission import MAV_CMD_BY_COMMAND, SPEED_TYPE_BY_MAV_PARAM
 from flightdata.mission import MissionItem as NavItem
+from flightdata.records import Record
 
 __all__ = ["BRAKE_ARMABLE", "AutopilotHost", "AutopilotPort", "vehicle_autopilot_config"]
 
@@ -88,6 +90,9 @@ class AutopilotPort:
         Geodetic position of the NED origin (home at boot).
     truth : callable, optional
         Simulator truth for SIM_STATE (None outside simulation, or no callable).
+    on_target : callable, optional
+        Called with each position (m, NED) the vehicle is sent to by a go-to command
+        (the simulator's outcome judge learns where the vehicle is meant to be).
 
     Notes
     -----
@@ -96,10 +101,12 @@ class AutopilotPort:
     """
 
     def __init__(self, host: AutopilotHost, origin: GeoPoint, *,
-                 truth: Callable[[], SimTruth | None] | None = None) -> None:
+                 truth: Callable[[], SimTruth | None] | None = None,
+                 on_target: Callable[[np.ndarray], None] | None = None) -> None:
         self.host = host
         self.origin = origin
         self._truth = truth if truth is not None else (lambda: None)
+        self._on_target = on_target if on_target is not None else (lambda pos_ned: None)
         self._config = host.autopilot.config
         self._events: list[VehicleEvent] = []
         self._snap: VehicleSnapshot | None = None
@@ -118,11 +125,17 @@ class AutopilotPort:
                 continue  # the endpoint reports refusals with the command's ACK
             if ev.kind == "item_reached" and ev.seq is not None:
                 self._events.append(MissionItemReached(int(ev.seq)))
+            if ev.record is not None:
+                self.post_record(ev.record)
             self.post(_SEVERITY.get(ev.severity, Severity.INFO), ev.text)
 
     def post(self, severity: int, text: str) -> None:
         """Queue a STATUSTEXT (the composition root's own messages go here too)."""
         self._events.append(StatusText(int(severity), text))
+
+    def post_record(self, record: Record) -> None:
+        """Queue a fault, detection or outcome record (DEBUG_FLOAT_ARRAY ``FTC_REC``)."""
+        self._events.append(RecordEvent(record))
 
     def invalidate(self) -> None:
         """Forget the cached snapshot (something outside the autopilot changed)."""
@@ -225,7 +238,10 @@ class AutopilotPort:
 
     def goto(self, pos_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
         """SET_POSITION_TARGET_* / DO_REPOSITION: a cubic leg to ``pos_ned`` (GUIDED only)."""
-        return self._nav("Go-to", self.host.autopilot.navigator.go_to(pos_ned, yaw_rad))
+        result = self._nav("Go-to", self.host.autopilot.navigator.go_to(pos_ned, yaw_rad))
+        if result.accepted:
+            self._on_target(np.asarray(pos_ned, dtype=float))
+        return result
 
     def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
         """Velocity set-points are not flown by this autopilot (position legs only)."""

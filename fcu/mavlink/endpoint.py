@@ -54,11 +54,13 @@ from fcu.mavlink.port import (
     MissionItemReached,
     ParamProvider,
     ParamSpec,
+    RecordEvent,
     Severity,
     StatusText,
     VehiclePort,
     VehicleSnapshot,
 )
+from fcu.mavlink.record_relay import RecordRelay
 from fcu.mavlink.streams import DEFAULT_RATES_HZ, StreamScheduler
 
 __all__ = ["EndpointConfig", "EndpointStats", "MavlinkEndpoint"]
@@ -172,6 +174,7 @@ class MavlinkEndpoint:
         self.stats = EndpointStats()
         self._codec = Codec(config.sysid, config.compid)
         self._outbox = _Outbox(self._codec, link, self.stats)
+        self._records = RecordRelay()
         entries = self._own_params()
         entries += entries_from(port)
         for provider in extra_params:
@@ -339,6 +342,10 @@ class MavlinkEndpoint:
             elif isinstance(event, MissionItemReached):
                 self._outbox.send(_M.MAVLink_mission_item_reached_message(
                     build.clamp_int(event.seq, 0, 0xFFFF, 0)))
+            elif isinstance(event, RecordEvent):
+                self._outbox.send(self._records.add(event.record, self._time_s))
+        for msg in self._records.due(self._time_s):
+            self._outbox.send(msg)
 
     def _run_failsafe(self, wall_time_s: float) -> None:
         fs = self._failsafe

@@ -52,6 +52,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
+from flightdata.records import Record
 
 __all__ = [
     "AttitudeTarget",
@@ -70,6 +71,7 @@ __all__ = [
     "ParamProvider",
     "ParamSpec",
     "PositionTarget",
+    "RecordEvent",
     "SensorHealth",
     "Severity",
     "SimTruth",
@@ -491,7 +493,15 @@ class MissionItemReached:
     seq: int
 
 
-VehicleEvent = StatusText | MissionItemReached
+@dataclass(frozen=True, slots=True)
+class RecordEvent:
+    """A fault, detection or outcome record (DEBUG_FLOAT_ARRAY ``FTC_REC``,
+    :mod:`fcu.mavlink.record_relay`)."""
+
+    record: Record
+
+
+VehicleEvent = StatusText | MissionItemReached | RecordEvent
 
 
 @runtime_checkable
