@@ -34,6 +34,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
+import numpy as np
+
 from flightdata.vocabulary import (
     DETECTION_KINDS,
     FAULT_KINDS,
@@ -353,15 +355,21 @@ def to_wire(record: Record, seq: int) -> tuple[int, list[float]]:
         record.impact_speed_m_s, record.tilt_deg, record.distance_m]
 
 
+def _decimal(value: float) -> float:
+    """A float32 as the shortest decimal that rounds to it (0.2, not 0.2000000030)."""
+    return float(str(np.float32(value)))
+
+
 def from_wire(array_id: int, data: Sequence[float], time_s: float) -> tuple[int, Record]:
-    """``(seq, record)`` from a DEBUG_FLOAT_ARRAY's ``array_id``, ``data`` and time.
+    """``(seq, record)`` from a DEBUG_FLOAT_ARRAY's ``array_id``, ``data`` and time (the
+    float32 fields read back as the shortest decimals that round to them).
 
     Raises
     ------
     ValueError
         An unknown ``array_id`` or a code outside its vocabulary.
     """
-    d = [float(v) for v in data]
+    d = [_decimal(v) for v in data]
     seq = int(round(d[0]))
     if array_id == WIRE_ARRAY_IDS["fault"]:
         action = _word(d[1], FAULT_ACTIONS, "fault action")

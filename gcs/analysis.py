@@ -168,7 +168,7 @@ class FlightAnalyzer:
         self.crash_text = ""
         self._sent_params: dict[str, float] = {}
         self._sent_timesync: set[int] = set()  # ts1 of our TIMESYNC requests
-        # motor -> {fault id: effectiveness kept (1 - loe), NaN when not a constant loss}
+        # motor -> {fault id: its loss of effectiveness, NaN when not a constant loss}
         self._active_faults: dict[int, dict[int, float]] = {}
         self._record_seqs: set[int] = set()
         self.malformed_records = 0
@@ -416,7 +416,7 @@ class FlightAnalyzer:
             constant = record.kind == "total_loss" or (record.kind == "loe"
                                                         and record.profile == "step")
             magnitude = 1.0 if record.kind in ("total_loss", "float") else record.magnitude
-            active[record.fault_id] = 1.0 - magnitude if constant or record.kind == "float" \
+            active[record.fault_id] = magnitude if constant or record.kind == "float" \
                 else math.nan
         elif record.action in ("ended", "cleared"):
             active.pop(record.fault_id, None)
@@ -561,10 +561,14 @@ class FlightAnalyzer:
 
 
 def _loe_in_force(active: dict[int, float]) -> float:
-    """1 - the product of the kept effectivenesses (0 with no fault; NaN if any is NaN)."""
+    """The losses of effectiveness composed: 1 - the product of the kept effectivenesses
+    (0 with no fault, the fault's own value with one; NaN if any is NaN)."""
+    losses = list(active.values())
+    if len(losses) <= 1:
+        return losses[0] if losses else 0.0
     kept = 1.0
-    for k in active.values():
-        kept *= k
+    for loe in losses:
+        kept *= 1.0 - loe
     return 1.0 - kept
 
 

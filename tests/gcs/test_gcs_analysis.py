@@ -7,7 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from fcu.mavlink.record_relay import record_message
 from flightdata.geometry import euler_from_quat
+from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord, Record
 from gcs.alignment import metres_per_degree, velocity_aided
 from gcs.analysis import FlightAnalyzer
 from gcs.mavlink import decode_packet, mavlink2
@@ -156,41 +158,69 @@ def _status(s: Stream, t_s: float, text: str, severity: int = 4) -> None:
     s.v(M.MAVLink_attitude_message(int(round(t_s * 1e3)), 0, 0, 0, 0, 0, 0))  # dates it
 
 
-def test_injections_follow_the_simulator_statustext_quirks() -> None:
+def _record(s: Stream, record: Record, seq: int) -> None:
+    """A record as the vehicle sends it (DEBUG_FLOAT_ARRAY FTC_REC)."""
+    s.v(record_message(record, seq, record.time_s))
+
+
+def _motor(t: float, action: str, motor: int, loe: float, fault_id: int,
+           kind: str = "loe") -> FaultRecord:
+    return FaultRecord(time_s=t, action=action, kind=kind,  # type: ignore[arg-type]
+                       motor=motor, magnitude=loe if kind == "loe" else 1.0,
+                       fault_id=fault_id, profile="step" if kind == "loe" else None)
+
+
+def test_injections_follow_the_fault_records() -> None:
     s = Stream()
     s.boot()
-    _status(s, 22.0, "SIM: SIM motor 3: motor 3: loe 20 % (step)")
-    _status(s, 38.0, "SIM: SIM motor 1: motor 1: loe 30 % (step)")
-    # changing motor 4 re-announces motors 1 and 3, then clears the replaced ones a tick later
-    _status(s, 48.0, "SIM: SIM motor 1: motor 1: loe 30 % (step)")
-    _status(s, 48.0, "SIM: SIM motor 3: motor 3: loe 20 % (step)")
-    _status(s, 48.0, "SIM: SIM motor 4: motor 4: loe 15 % (step)")
-    _status(s, 48.01, "SIM: cleared motor 1: loe 30 % (step)")
-    _status(s, 48.01, "SIM: cleared motor 3: loe 20 % (step)")
-    # a value change announces the new fault before the old one's "cleared"
-    _status(s, 50.0, "SIM: SIM motor 3: motor 3: loe 45 % (step)")
-    _status(s, 50.01, "SIM: cleared motor 3: loe 20 % (step)")
-    # scheduled scenario faults and INJECT_FAILURE use other words
-    _status(s, 51.0, "SIM: fault started: motor 2: loe 25 % (step)")
-    _status(s, 52.0, "SIM: injected motor 2: total loss")
-    _status(s, 53.0, "SIM: cleared motor 2: total loss")
+    records = [
+        _motor(22.0, "started", 3, 0.20, 1),
+        _motor(38.0, "started", 1, 0.30, 2),
+        _motor(48.0, "started", 4, 0.15, 3),
+        # a replacement: the new fault starts, then the old one is cleared
+        _motor(50.0, "started", 3, 0.45, 4),
+        _motor(50.01, "cleared", 3, 0.20, 1),
+        # two faults on one motor multiply their kept effectiveness: 1 - 0.75 * 0.8 = 0.4
+        _motor(51.0, "started", 2, 0.25, 5),
+        _motor(52.0, "started", 2, 0.20, 6),
+        _motor(53.0, "cleared", 2, 0.20, 6),
+    ]
+    for seq, record in enumerate(records, 1):
+        _record(s, record, seq)
+        _record(s, record, seq)  # a repeat (the vehicle sends each record several times)
     final = {row["motor"]: row["injected"] for row in s.analyzer.report().loe}
-    assert final == {1: 0.30, 2: 0.25, 3: 0.45, 4: 0.15}
-    times = [(i.motor, i.loe, i.time_s) for i in s.analyzer.injections]
+    assert final == pytest.approx({1: 0.30, 2: 0.25, 3: 0.45, 4: 0.15})
+    times = [(i.motor, round(i.loe, 9), i.time_s) for i in s.analyzer.injections]
     assert times[:3] == [(3, 0.2, 22.0), (1, 0.3, 38.0), (4, 0.15, 48.0)]
+    assert (2, 0.4, 52.0) in times  # the second fault on motor 2, composed
+    assert len(s.analyzer.faults) == len(records)  # repeats are dropped
 
 
 def test_detection_latency_is_measured_from_the_injection() -> None:
     s = Stream()
     s.boot()
-    _status(s, 22.0, "SIM: SIM motor 3: motor 3: loe 20 % (step)")
-    _status(s, 22.71, "motor 3 lost about 19 % effectiveness", severity=2)
-    _status(s, 30.0, "motor 2 lost about 12 % effectiveness", severity=2)  # false alarm
+    _record(s, _motor(22.0, "started", 3, 0.20, 1), 1)
+    _record(s, DetectionRecord(time_s=22.71, action="detected", kind="loe", motor=3,
+                               magnitude=0.19), 2)
+    _record(s, DetectionRecord(time_s=30.0, action="detected", kind="loe", motor=2,
+                               magnitude=0.12), 3)  # false alarm
     d3, d2 = s.analyzer.detections
     assert (d3.motor, d3.percent) == (3, 19.0)
-    assert d3.latency_s == pytest.approx(0.71, abs=1e-9)
-    assert d2.latency_s is None
+    assert d3.latency_s == pytest.approx(0.71, abs=1e-6)
+    assert d2.latency_s is None and d2.false_alarm
     assert any(kind == "DETECT" and "latency 0.710 s" in text for _, kind, text in s.events)
+
+
+def test_an_unsafe_outcome_record_is_a_crash_and_a_safe_one_is_not() -> None:
+    s = Stream()
+    s.boot()
+    _record(s, OutcomeRecord(kind="landed", time_s=56.0, cause="touchdown",
+                             impact_speed_m_s=0.1, tilt_deg=1.0), 1)
+    assert not s.analyzer.crashed
+    _record(s, OutcomeRecord(kind="crashed", time_s=80.0, cause="impact_speed",
+                             impact_speed_m_s=2.6, tilt_deg=48.0), 2)
+    assert s.analyzer.crashed and "crashed" in s.analyzer.crash_text
+    assert s.analyzer.report().outcome is not None
 
 
 def test_chunked_statustext_is_reassembled() -> None:
@@ -202,7 +232,7 @@ def test_chunked_statustext_is_reassembled() -> None:
         s.v(M.MAVLink_statustext_message(2, chunk.encode(), 7, seq))
     s.v(M.MAVLink_attitude_message(1000, 0, 0, 0, 0, 0, 0))
     assert s.analyzer.statustexts[-1] == (1.0, 2, text)
-    assert s.analyzer.crashed
+    assert not s.analyzer.crashed  # words are for people: only an outcome record decides
 
 
 def test_timesync_answer_dates_a_command_even_at_time_zero() -> None:

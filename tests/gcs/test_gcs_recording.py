@@ -19,6 +19,7 @@ import pytest
 import rerun as rr
 from test_gcs_analysis import Stream, north_of, vn_of
 
+from fcu.mavlink.record_relay import record_message
 from flightdata.figures import figure_kinds, make_figures, position_series, save_figures
 from flightdata.recording import (
     SIM_TIMELINE,
@@ -27,9 +28,9 @@ from flightdata.recording import (
     open_stream,
     write_recording,
 )
+from flightdata.records import FaultRecord
 from flightdata.series import FlightSeries
 from gcs.cli import build_parser
-from gcs.mavlink import mavlink2 as M
 from gcs.report import write_report
 
 FAULT_AT_S = 1.0  # s, motor 3 loses 20 % in the synthetic flight
@@ -46,8 +47,8 @@ def synthetic_flight(stream: Stream | None = None, *,
     for k in range(1, 201):
         t = k * 0.01
         if k == round(FAULT_AT_S * 100):
-            s.v(M.MAVLink_statustext_message(4, b"SIM: SIM motor 3: motor 3: loe 20 % (step)",
-                                             0, 0))
+            s.v(record_message(FaultRecord(time_s=t, action="started", kind="loe", motor=3,
+                                           magnitude=0.2, fault_id=1, profile="step"), 1, t))
         err = 0.004 if k % 2 else -0.002
         s.tick(t, north_m=north_of(t), ref_north_m=north_of(t) + err, roll=0.01, ref_roll=0.03,
                vn_m_s=vn_of(t), servo_us=1400 + k)

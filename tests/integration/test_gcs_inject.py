@@ -80,5 +80,5 @@ def test_total_loss_of_a_motor_is_a_crash(tmp_path: Path) -> None:
          "--tlog", str(tmp_path / "f.tlog"), "--json", str(tmp_path / "f.json")],
         cwd=ROOT, capture_output=True, text=True, timeout=WALL_S, stdin=subprocess.DEVNULL)
     assert proc.returncode == 1, proc.stdout + proc.stderr
-    assert proc.stderr.strip().splitlines()[-1].startswith("ftc-gcs: crash: SIM: crash: ")
+    assert proc.stderr.strip().splitlines()[-1].startswith("ftc-gcs: crash: outcome: crashed at ")
     assert "CRASHED" in proc.stdout  # the table of what was flown is still printed
