@@ -127,9 +127,11 @@ class OutcomeJudge:
 
     Notes
     -----
-    Call :meth:`observe` after every tick with the truth, then :meth:`finish` at the end of
-    a headless run. :attr:`outcome` holds the current flight's decided outcome (None while
-    undecided); :meth:`drain` returns each outcome once, as it is decided.
+    Call :meth:`observe` after every tick with the truth and the touchdowns the plant reported
+    during the tick (several contacts can happen between two ticks: a crash, a bounce and a
+    soft touchdown), then :meth:`finish` at the end of a headless run. :attr:`outcome` holds
+    the current flight's decided outcome (None while undecided); :meth:`drain` returns each
+    outcome once, as it is decided.
     """
 
     def __init__(self, area: MissionArea, limits: OutcomeLimits | None = None) -> None:
@@ -148,10 +150,15 @@ class OutcomeJudge:
         self._max_outside_m = 0.0
 
     def observe(self, time_s: float, pos_ned: Vector, euler_rad: Vector,
-                on_ground: bool, touchdown_speed_m_s: float | None, armed: bool) -> None:
+                on_ground: bool, touchdowns: Sequence[tuple[float, float]], armed: bool) -> None:
         """One tick of truth: time (s), position (m, NED), attitude (rad), ground contact,
-        the plant's last touchdown speed (m/s), and whether the autopilot is armed."""
+        the touchdowns of the tick as (time s, speed m/s), and whether the autopilot is
+        armed."""
         tilt = tilt_deg(euler_rad)
+        if self._flying:
+            for t_contact, speed in touchdowns:
+                if self._flying:
+                    self._touchdown(t_contact, speed)
         if not on_ground:
             self._last_air_tilt_deg = tilt
             if not self._flying and self.outcome is None:
@@ -159,8 +166,6 @@ class OutcomeJudge:
             if self._flying:
                 self._check_distance(time_s, pos_ned)
         elif self._flying:
-            if not self._was_on_ground:
-                self._touchdown(time_s, touchdown_speed_m_s)
             if self._flying:
                 self._check_tilted_contact(time_s, tilt)
             if self._flying and not armed:
@@ -196,8 +201,8 @@ class OutcomeJudge:
         self._last_touchdown_s = None
         self._max_outside_m = 0.0
 
-    def _touchdown(self, time_s: float, speed_m_s: float | None) -> None:
-        speed = 0.0 if speed_m_s is None else float(speed_m_s)
+    def _touchdown(self, time_s: float, speed_m_s: float) -> None:
+        speed = float(speed_m_s)
         tilt = self._last_air_tilt_deg
         self._contact_speeds.append(speed)
         self._max_contact_tilt_deg = max(self._max_contact_tilt_deg, tilt)

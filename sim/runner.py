@@ -226,16 +226,18 @@ class _Records:
             if ev.record is not None:
                 self.detections.append(ev.record)
             self.event(ev.time_s, "autopilot", ev.text)
+        touchdowns = []
         for wev in world_events:
             if isinstance(wev, FaultEvent):
                 self.faults.append(wev.record)
                 self.event(wev.time_s, "sim", wev.record.text())
             elif isinstance(wev, PlantEvent):
                 self.event(wev.time_s, "sim", wev.description)
-        plant = world.plant
-        x = plant.state
-        self.judge.observe(world.time_s, x[0:3], euler_from_quat(x[6:10]), plant.on_ground,
-                           plant.touchdown_speed_m_s, autopilot.navigator.armed)
+                if wev.kind in ("touchdown", "crash"):
+                    touchdowns.append((wev.time_s, wev.speed_m_s))
+        x = world.plant.state
+        self.judge.observe(world.time_s, x[0:3], euler_from_quat(x[6:10]),
+                           world.plant.on_ground, touchdowns, autopilot.navigator.armed)
         self._outcomes()
 
     def _outcomes(self) -> None:

@@ -218,15 +218,18 @@ class SimVehicle:
     def _collect(self) -> None:
         autopilot_events, world_events = self.stack.drain_events()
         self.port.collect(autopilot_events)
+        touchdowns = []
         for wev in world_events:
             if isinstance(wev, FaultEvent):
                 self.port.post_record(wev.record)
                 self._fault_event(wev)
             elif isinstance(wev, PlantEvent):
                 self._plant_event(wev)
-        self._judge()
+                if wev.kind in ("touchdown", "crash"):
+                    touchdowns.append((wev.time_s, wev.speed_m_s))
+        self._judge(touchdowns)
 
-    def _judge(self) -> None:
+    def _judge(self, touchdowns: list[tuple[float, float]]) -> None:
         """The outcome of each flight, from truth (:mod:`sim.outcome`), announced as a
         record and a STATUSTEXT; a new flight starts when the vehicle is armed again."""
         nav = self.stack.autopilot.navigator
@@ -243,7 +246,7 @@ class SimVehicle:
         world = self.world
         x = world.plant.state
         self.judge.observe(world.time_s, x[0:3], euler_from_quat(x[6:10]),
-                           world.plant.on_ground, world.plant.touchdown_speed_m_s, armed)
+                           world.plant.on_ground, touchdowns, armed)
         for outcome in self.judge.drain():
             self.port.post_record(outcome)
             severity = Severity.INFO if outcome.safe else Severity.CRITICAL

@@ -285,7 +285,10 @@ class TwoStageKalmanFilter(TickEstimator):
         error spread onto the per-motor estimates at fault onsets (Table 6.1 harness: a
         failed motor's estimate left its 0.05 band when the next motor failed); with 0.4
         every estimate stays in band and the collective (a mass change) still settles
-        within a second.
+        within a second. In turbulence the vertical drag is larger still: the accelerometer's
+        noise becomes its measured innovation power when that is larger (adaptive
+        measurement noise in the manner of Mehra 1970: fast attack 2 s, slow decay 20 s), so
+        that gusts are not read as collective thrust changes.
 
     Attributes
     ----------
@@ -380,6 +383,7 @@ class TwoStageKalmanFilter(TickEstimator):
         x0, p0 = self._initial_state(initial)
         self._time_s = float(time_s)
         self._u = np.zeros(N_MOTORS)  # PWM held over the latest interval
+        self._accel_power = 0.0  # (m/s^2)^2, measured innovation power of the accelerometer
         # bias-free filter: x_bar, P^x (eq. 6.15-6.19)
         self.x_bar = x0.astype(float)
         self.P_x = np.diag(p0)
@@ -434,11 +438,22 @@ class TwoStageKalmanFilter(TickEstimator):
                                self.V @ self.P_gamma @ self.V.T + self.P_x, excluded,
                                lambda ch: not (ch.sensor == "accel" and on_ground),
                                reject and not on_ground)
+        self._learn_accel_power()
         self._update(batches)
         self._estimate = self._make_estimate()
         return self._estimate
 
     # ---- filter maths ----------------------------------------------------------------------
+    def _learn_accel_power(self) -> None:
+        """The accelerometer row's measured innovation power nu^2: fast attack (2 s), slow
+        decay (20 s); what its measurement noise becomes when larger than the model's."""
+        check = self.screening.get("accel")
+        if check is None or check.status != "applied":
+            return
+        sq = float(check.residual[0]) ** 2
+        rate = self.dt_s / (2.0 if sq > self._accel_power else 20.0)
+        self._accel_power += rate * (sq - self._accel_power)
+
     def _current_model(self) -> LinearHoverModel:
         x_bar, v, gamma, x_hat = self._x_hat_of
         if not (x_bar is self.x_bar and v is self.V and gamma is self.gamma_raw):
@@ -487,7 +502,10 @@ class TwoStageKalmanFilter(TickEstimator):
                 value = [v + d for v, d in zip(value, shift.tolist(), strict=True)]
             y_l += value
             # R = sigma^2 / n for the mean of n samples (+ model error)
-            r_l += [ch.noise_var(batch.count)] * k
+            r_var = ch.noise_var(batch.count)
+            if ch.sensor == "accel":  # adaptive: the measured innovation power (class doc)
+                r_var = max(r_var, self._accel_power)
+            r_l += [r_var] * k
             if ch.sensor == "mocap_att":
                 yaw_row = m + 2
             blocks.append((ch.sensor, m, m + k))

@@ -101,6 +101,7 @@ class PlantEvent:
     time_s: float
     kind: str  # "touchdown" | "liftoff" | "crash"
     description: str
+    speed_m_s: float = 0.0  # m/s, speed at the contact instant (touchdown and crash)
 
 
 WorldEvent = FaultEvent | PlantEvent
@@ -305,10 +306,12 @@ class World:
         was_on_ground, was_crashed = bool(self._w["was_on_ground"]), bool(self._w["was_crashed"])
         if self.plant.crashed and not was_crashed:
             speed = self.plant.touchdown_speed_m_s or 0.0
-            self._events.append(PlantEvent(t, "crash", f"crash: touchdown at {speed:.2f} m/s"))
+            self._events.append(PlantEvent(t, "crash", f"crash: touchdown at {speed:.2f} m/s",
+                                           speed))
         elif self.plant.on_ground and not was_on_ground:
             speed = self.plant.touchdown_speed_m_s or 0.0
-            self._events.append(PlantEvent(t, "touchdown", f"touchdown at {speed:.2f} m/s"))
+            self._events.append(PlantEvent(t, "touchdown", f"touchdown at {speed:.2f} m/s",
+                                           speed))
         elif not self.plant.on_ground and was_on_ground:
             self._events.append(PlantEvent(t, "liftoff", "lift-off"))
         self._w["was_on_ground"] = self.plant.on_ground

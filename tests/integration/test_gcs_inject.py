@@ -49,7 +49,7 @@ def test_inject_failure_command_and_a_parameter_fault(vehicle_link) -> None:  # 
     injections = [(i.motor, i.loe) for i in report.injections]
     assert injections == [(2, 0.25)]
     # scheduled on the vehicle's clock: announced when it starts, on the planned tick
-    assert report.injections[0].text == "SIM: fault started: motor 2: loe 25 % (step)"
+    assert report.injections[0].text == "fault started: motor 2: loe 25 % (step)"
     assert motor_fault.error_s == pytest.approx(0.0, abs=1e-9)
     assert [d.motor for d in report.detections] == [2]
     assert report.params["SIM_MASS_DROP"] == pytest.approx(0.3)
@@ -63,7 +63,7 @@ def test_a_parameter_injection_takes_effect_on_arrival(vehicle_link) -> None:  #
     (timing,) = outcome.timing
     # sent ahead by the measured lag: lands within a few ticks of its target, load permitting
     assert timing.error_s is not None and abs(timing.error_s) <= 1.0  # s simulated
-    assert outcome.report.injections[0].text == "SIM: SIM motor 2: motor 2: loe 25 % (step)"
+    assert outcome.report.injections[0].text == "fault started: motor 2: loe 25 % (step)"
 
 
 def test_total_loss_of_a_motor_is_a_crash(tmp_path: Path) -> None:

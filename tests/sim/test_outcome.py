@@ -17,14 +17,16 @@ def fly(judge: OutcomeJudge, seconds: float, t0: float = 0.0, z: float = -0.6,
     t = t0
     for _ in range(int(round(seconds / 0.01))):
         t += 0.01
-        judge.observe(t, (north, 0.5, z), euler, False, None, True)
+        judge.observe(t, (north, 0.5, z), euler, False, (), True)
     return t
 
 
-def touch(judge: OutcomeJudge, t: float, speed: float, armed: bool = True,
+def touch(judge: OutcomeJudge, t: float, speed: float | None, armed: bool = True,
           euler: tuple[float, float, float] = LEVEL) -> float:
+    """A tick on the ground; ``speed``: of a touchdown during it (None: it sat there)."""
     t += 0.01
-    judge.observe(t, (0.5, 0.5, 0.0), euler, True, speed, armed)
+    judge.observe(t, (0.5, 0.5, 0.0), euler, True,
+                  [] if speed is None else [(t - 0.005, speed)], armed)
     return t
 
 
@@ -33,10 +35,10 @@ def test_a_gentle_landing_then_disarm_is_landed_at_the_touchdown() -> None:
     t = fly(judge, 5.0)
     t_down = touch(judge, t, 0.1)
     assert judge.outcome is None  # still armed on the ground
-    touch(judge, t_down + 1.0, 0.1, armed=False)
+    touch(judge, t_down + 1.0, None, armed=False)
     assert judge.outcome is not None
     assert (judge.outcome.kind, judge.outcome.cause) == ("landed", "touchdown")
-    assert judge.outcome.time_s == pytest.approx(t_down)
+    assert judge.outcome.time_s == pytest.approx(t_down - 0.005)  # the contact instant
     assert judge.drain() == [judge.outcome] and judge.drain() == []
 
 
@@ -49,7 +51,7 @@ def test_a_hard_or_tilted_touchdown_is_a_crash(speed: float, roll_deg: float,
     t_down = touch(judge, t, speed)
     assert judge.outcome is not None
     assert (judge.outcome.kind, judge.outcome.cause) == ("crashed", cause)
-    assert judge.outcome.time_s == pytest.approx(t_down)
+    assert judge.outcome.time_s == pytest.approx(t_down - 0.005)
     # what follows (hops, a later gentle landing) does not change a crash
     t = fly(judge, 1.0, t0=t_down)
     touch(judge, t, 0.1, armed=False)
@@ -85,10 +87,20 @@ def test_end_of_run_in_the_air_on_the_ground_and_never_flown() -> None:
     judge = OutcomeJudge(MissionArea(AREA))
     t = touch(judge, fly(judge, 1.0), 0.2)
     outcome = judge.finish(t + 3.0)
-    assert (outcome.kind, outcome.time_s) == ("landed", pytest.approx(t))
+    assert (outcome.kind, outcome.time_s) == ("landed", pytest.approx(t - 0.005))
     judge = OutcomeJudge(MissionArea(AREA))
-    judge.observe(0.01, (0.0, 0.0, 0.0), LEVEL, True, None, False)
+    judge.observe(0.01, (0.0, 0.0, 0.0), LEVEL, True, (), False)
     assert (judge.finish(60.0).kind, judge.finish(60.0).cause) == ("landed", "no_flight")
+
+
+def test_a_crash_between_two_ticks_counts_even_if_a_soft_contact_follows() -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    t = fly(judge, 1.0)
+    # within one tick: a hard touchdown, a bounce, a soft one (what the plant reports)
+    judge.observe(t + 0.01, (0.5, 0.5, 0.0), LEVEL, True, [(t + 0.002, 5.1), (t + 0.006, 0.0)],
+                  True)
+    assert judge.outcome is not None
+    assert (judge.outcome.kind, judge.outcome.impact_speed_m_s) == ("crashed", 5.1)
 
 
 def test_rearming_starts_a_new_flight() -> None:
