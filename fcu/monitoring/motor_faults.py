@@ -38,7 +38,8 @@ Turbulence shows up in ``d`` as noise whose size differs per axis: gusts act on 
 centre of pressure and twist the frame in roll and pitch, never in yaw. The detector keeps a
 running estimate of that noise, ``Sigma = diag(s_roll^2, s_pitch^2, s_yaw^2)``, from the
 residual of ``d`` after the faults already declared (fast attack 2 s, slow decay
-``noise_tau_s``, floored at ``noise_floor``, and frozen while any motor is even half
+``noise_tau_s``, floored at ``noise_floor``, not learned for ``settle_s`` after a
+declaration (the TSKF's transient), and frozen while any motor is even half
 suspected: LOE above half the threshold with a statistic above a quarter of the
 significance, so that a fault building up is never learned as noise), and tests
 each candidate motor j with the generalised likelihood ratio of "one more fault on j"::
@@ -69,8 +70,9 @@ Recovery: a declared motor whose LOE stays below ``recovery_threshold`` for
 ``recovery_persistence_s`` in free flight is cleared. Vertical gusts move the common mode
 too (0.05-0.07 kg one sigma in MIL-F-8785C moderate turbulence, 0.004 kg in the thesis's
 indoor air), so the mass threshold follows its measured spread ``s_m`` as the motor
-thresholds follow theirs (learned while no change is reported and ``|dm|`` is below the
-threshold; fast attack 2 s, slow decay ``noise_tau_s``). A mass change is reported when
+thresholds follow theirs (learned while no change is reported and ``|dm|`` is below
+``mass_threshold_kg``, so that a change ramping up is never learned as spread; fast attack
+2 s, slow decay ``noise_tau_s``). A mass change is reported when
 ``|dm| > max(mass_threshold_kg, mass_sigmas x s_m)`` holds for ``mass_persistence_s`` and
 the estimate has settled
 (no motor half suspected, so the common mode is not held; within ``mass_settle_kg`` over the
@@ -248,7 +250,8 @@ class MotorFaultDetector:
         records: list[DetectionRecord] = []
         best, half_suspected = self._candidates(d, u) if (evidence or learn) else (None, False)
         self._update_common_mode(deficit, u)
-        if not half_suspected and learn:
+        settling = time_s - self._last_declared_s < self.config.settle_s
+        if not half_suspected and learn and not settling:
             self._learn(d)
         if best is not None and not evidence:
             best = None
@@ -362,7 +365,7 @@ class MotorFaultDetector:
         cfg = self.config
         dm = self._mass_kg
         threshold = max(cfg.mass_threshold_kg, cfg.mass_sigmas * math.sqrt(self._mass_var))
-        if not self._mass_reported and abs(dm) < threshold and not self._half:
+        if not self._mass_reported and abs(dm) < cfg.mass_threshold_kg and not self._half:
             self._mass_n += 1
             sq = dm * dm
             rate = max(self.dt_s / (_ATTACK_S if sq > self._mass_var else cfg.noise_tau_s),
