@@ -123,14 +123,13 @@ class Autopilot:
         self.dob = DOB_REGISTRY.factory(cfg.dob)(cfg, self.dt_s)
         self.allocator = ALLOCATOR_REGISTRY.factory(cfg.allocator)(cfg, self.dt_s)
         # the per-motor effectiveness always comes from a TSKF: the selected estimator when
-        # it is one, else a TSKF of its own, which leaves the accelerometer to the estimator
-        # that flies: in turbulence the accelerometer's model error (vertical drag) reaches
-        # the per-motor estimates through the thrust states' correlations (MIL-F-8785C
-        # moderate, 30 seeds: motor false alarms in 2 with it, none without)
+        # it is one, else a TSKF of its own, the thesis's, which leaves the accelerometer to
+        # the estimator that flies: in turbulence the accelerometer's model error (vertical
+        # drag) reaches the per-motor estimates through the thrust states' correlations
+        # (MIL-F-8785C moderate, 30 seeds: motor false alarms in 2 with it, none without)
         self.tskf = (self.estimator if isinstance(self.estimator, TwoStageKalmanFilter)
                      else TwoStageKalmanFilter(model, self.dt_s,
-                                               height_source=cfg.height_source,
-                                               accel_z_model_sigma=None))
+                                               height_source=cfg.height_source))
         self._estimators: tuple[StateEstimator, ...] = (
             (self.tskf,) if self.estimator is self.tskf else (self.tskf, self.estimator))
         self.navigator = Navigator(cfg.navigator)

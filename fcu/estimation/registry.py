@@ -24,7 +24,7 @@ from fcu.config import AutopilotConfig
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.estimator import ChannelCheck
 from fcu.estimation.state import Innovation, SampleBatch, SensorNoise, StateEstimate
-from fcu.estimation.tskf import TwoStageKalmanFilter
+from fcu.estimation.tskf import FLYING_ACCEL_MODEL_SIGMA, TwoStageKalmanFilter
 from fcu.registry import Registry
 from flightdata import vocabulary
 
@@ -74,7 +74,9 @@ EstimatorFactory = Callable[[AutopilotConfig, float], StateEstimator]
 ESTIMATOR_REGISTRY: Registry[EstimatorFactory] = Registry(
     "state estimator", "estimator", vocabulary.ESTIMATORS, {
         "ekf": lambda cfg, dt_s: ExtendedKalmanEstimator(cfg.model, dt_s, cfg.height_source),
-        "tskf": lambda cfg, dt_s: TwoStageKalmanFilter(cfg.model, dt_s,
-                                                       height_source=cfg.height_source),
+        # flying, the TSKF uses the accelerometer as the EKF does (fcu.estimation.tskf)
+        "tskf": lambda cfg, dt_s: TwoStageKalmanFilter(
+            cfg.model, dt_s, height_source=cfg.height_source,
+            accel_z_model_sigma=FLYING_ACCEL_MODEL_SIGMA),
     })
 """State estimators by ``AutopilotConfig.estimator`` name."""

@@ -243,6 +243,9 @@ def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: 
     return x_hat, p_diag
 
 
+FLYING_ACCEL_MODEL_SIGMA = 0.4
+"""m/s^2, the accelerometer's model error when the TSKF flies (see TwoStageKalmanFilter)."""
+
 # Default random-walk variance of gamma per 10 ms step (eq. 6.9): see TwoStageKalmanFilter.
 DEFAULT_Q_GAMMA = 1e-4
 
@@ -279,8 +282,10 @@ class TwoStageKalmanFilter(TickEstimator):
     ground_margin_m : float
         Distance above the ground within which the vehicle counts as on the ground, m.
     accel_z_model_sigma : float or None
-        Model error of the accelerometer's thrust measurement, m/s^2; None leaves the
-        accelerometer out. 0.4, four times the EKF's: the linear hover model also neglects
+        Model error of the accelerometer's thrust measurement, m/s^2; None (the default, the
+        thesis's TSKF) leaves the accelerometer out. The autopilot uses it (0.4,
+        :data:`FLYING_ACCEL_MODEL_SIGMA`) when the TSKF is the estimator that flies, four
+        times the EKF's: the linear hover model also neglects
         the thrust's tilt and the drag in this row, and with 0.1 the accelerometer's model
         error spread onto the per-motor estimates at fault onsets (Table 6.1 harness: a
         failed motor's estimate left its 0.05 band when the next motor failed); with 0.4
@@ -325,7 +330,7 @@ class TwoStageKalmanFilter(TickEstimator):
                  initial_uncertainty: InitialUncertainty | None = None,
                  ground_z_ned: float | None = 0.0,
                  ground_margin_m: float = 0.02,
-                 accel_z_model_sigma: float | None = 0.4) -> None:
+                 accel_z_model_sigma: float | None = None) -> None:
         if not (math.isfinite(q_gamma) and q_gamma >= 0):
             raise ValueError(f"q_gamma = {q_gamma!r}: must be a finite number >= 0")
         if not (math.isfinite(gamma_std0) and gamma_std0 > 0):
