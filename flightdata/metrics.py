@@ -33,6 +33,7 @@ __all__ = [
     "error_figure",
     "flying_mask",
     "loe_convergence_times",
+    "loe_settled_error",
     "series_metrics",
     "tracking_errors",
 ]
@@ -124,6 +125,31 @@ def loe_convergence_times(series: FlightSeries,
                 delay = None
             out.append({"motor": m + 1, "time_s": float(time_s[k]),
                         "loe": float(truth[k, m]), "settled_after_s": delay})
+    return out
+
+
+def loe_settled_error(series: FlightSeries, settle_s: float = 3.0) -> list[float | None]:
+    """Per motor, the largest |estimate - truth| of the LOE while flying, once settled.
+
+    Over the flying samples (take-off to touchdown, the landing descent included) except the
+    ``settle_s`` seconds after each change of the injected LOE of any motor (the estimator's
+    convergence, which :func:`loe_convergence_times` times). A motor locked or hard-over
+    (no gamma, NaN truth) counts from its last numeric truth. None for a motor without a
+    sample to judge.
+    """
+    flying = np.asarray(series.flying, dtype=bool)
+    truth = np.nan_to_num(series.loe_injected, nan=1.0)
+    estimate = series.loe_estimate_held()
+    time_s = series.time_s
+    changes = np.flatnonzero(np.any(np.abs(np.diff(truth, axis=0)) > 1e-9, axis=1)) + 1
+    settled = flying.copy()
+    for k in changes:
+        settled &= ~((time_s >= time_s[k]) & (time_s < time_s[k] + settle_s))
+    out: list[float | None] = []
+    for m in range(4):
+        error = np.abs(estimate[settled, m] - truth[settled, m])
+        error = error[np.isfinite(error)]
+        out.append(float(error.max()) if error.size else None)
     return out
 
 
@@ -256,5 +282,7 @@ def series_metrics(series: FlightSeries, loop_rate_hz: float) -> dict[str, Any]:
             "true_final": [float(v) for v in np.nan_to_num(series.loe_injected[-1],
                                                            nan=-1.0)],
             "convergence": loe_convergence_times(series),
+            # per motor, the largest error while flying, 3 s after any change of the truth
+            "settled_error_max": loe_settled_error(series),
         },
     }

@@ -1,9 +1,12 @@
 """The ground station: drives a vehicle over MAVLink with pymavlink only (never fcu or sim).
 
-Modules: :mod:`gcs.mavlink` (dialect and wire version, .tlog reading), :mod:`gcs.station`
-(the link: commands, parameters, missions, injections), :mod:`gcs.flight` (the whole flight),
-:mod:`gcs.analysis` (telemetry to the thesis table and a flight series), :mod:`gcs.alignment`
-(truth and references on the SIM_STATE samples), :mod:`gcs.table` (the table and its text),
+Modules: :mod:`gcs.mavlink` (dialect and wire version, .tlog reading), :mod:`gcs.link` (the
+link: heartbeat, receiving and recording, replies, commands and their ACKs),
+:mod:`gcs.station` (the ground station on it: streams, parameters, missions, arming,
+injections), :mod:`gcs.flight` (the whole flight), :mod:`gcs.telemetry` (packets to the
+vehicle clock, dated events, samples and records), :mod:`gcs.analysis` (those to the thesis
+table and a flight series), :mod:`gcs.alignment` (truth and references on the SIM_STATE
+samples), :mod:`gcs.table` (the table and its text),
 :mod:`gcs.report` (the Markdown report), :mod:`gcs.mission`, :mod:`gcs.faults`,
 :mod:`gcs.records` (.tlog and event log), :mod:`gcs.spawn` (a vehicle child process),
 :mod:`gcs.cli` (``ftc-gcs``), :mod:`gcs.pytest_plugin` (the ``vehicle_link`` fixture).

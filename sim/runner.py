@@ -33,7 +33,7 @@ from sim.outcome import OutcomeJudge, mission_area
 from sim.scenario import Scenario
 from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World
-from sim.world.faults import FaultEvent
+from sim.world.fault_types import FaultEvent
 
 if TYPE_CHECKING:
     import rerun as rr

@@ -21,7 +21,7 @@ A scenario is a TOML file (the shipped ones live in ``sim/scenarios/``)::
                                      #   "items" with [[mission.items]] tables
                                      #   (fcu.navigation.navigator.MissionItem fields, local NED)
     [[faults]]                       # any number; the keys choose the kind:
-    motor = 1                        #   actuator (sim.world.faults.ActuatorFault)
+    motor = 1                        #   actuator (sim.world.fault_types.ActuatorFault)
     kind = "loe"                     #   loe | lock | float | hardover | total_loss
     start_s = 38.0
     loe = 0.30
@@ -49,7 +49,7 @@ from flightdata.config import ConfigError, finite, from_mapping, load_toml, requ
 from flightdata.mission import MissionItem, thesis_mission
 from sim.world import WorldConfig
 from sim.world.airframe import Airframe
-from sim.world.faults import Fault, fault_from_mapping
+from sim.world.fault_types import Fault, fault_from_mapping
 from sim.world.wind import WindConfig
 
 #: Default wind of a scenario: indoor air, as the Qball-X4 flew. A 0.3 m/s mean draught from

@@ -6,12 +6,17 @@ Usage::
     ftc-scenario run NAME|FILE.toml [--seed N] [--json PATH] [--rrd PATH] [--rerun]
                                     [--figures DIR]
     ftc-scenario thesis [--out DIR] [--json PATH] [--seed N] [--jobs N]
+    ftc-scenario seeds NAME|FILE.toml --seeds 1-30 [--jobs N] [--json PATH]
 
 ``run`` shows a live progress line on stderr when it is a terminal (simulated time, real-time
 factor, flight phase) and a final line otherwise. ``--rrd`` records the flight, with truth, to
 a rerun ``.rrd`` file, ``--rerun`` streams it to a rerun viewer it starts
 (:func:`sim.runner.open_recording`, :mod:`flightdata.recording`) and ``--figures`` writes the
 thesis-style figures as PNG and PDF (:mod:`flightdata.figures`).
+
+``seeds`` flies one scenario over many seeds and counts outcomes, detections and false
+alarms (a detection that matches no injected fault, :func:`flightdata.metrics.score_detection`):
+the figures the fault-detection claims rest on.
 
 Bad input (unknown scenario, bad file, bad value) prints one line naming what was wrong and
 exits with status 2; a crash of the simulated vehicle exits with status 1. Ctrl-C ends a run
@@ -24,7 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -135,6 +140,58 @@ def cmd_thesis(args: argparse.Namespace) -> int:
     return 1 if any(_unsafe(m) for m in report.metrics.values()) else 0
 
 
+def cmd_seeds(args: argparse.Namespace) -> int:
+    from sim.batch import fly_many
+
+    scenario = load_scenario(args.scenario)  # bad input fails here, before any flight
+    flown = fly_many([(args.scenario, seed) for seed in args.seeds], jobs=args.jobs,
+                     progress=sys.stderr)
+    print(f"scenario {scenario.name} over {len(flown)} seeds "
+          f"({args.seeds[0]}..{args.seeds[-1]})")
+    print(f"{'seed':>6}  {'outcome':<9}{'at s':>8}  {'false':>5}  detections")
+    for m in flown:
+        dets = ", ".join(
+            ("" if d["action"] == "detected" else "cleared ")
+            + f"{d['kind']} {d.get('motor') or d.get('sensor') or ''}@{d['time_s']:.2f}"
+            + ("!" if d["false_alarm"] else "") for d in m["detections"])
+        false = sum(1 for d in m["detections"] if d["false_alarm"])
+        print(f"{m['seed']:>6}  {m['outcome']['kind']:<9}{m['outcome']['time_s']:>8.2f}  "
+              f"{false:>5}  {dets}")
+    summary = seed_summary(flown)
+    print("outcomes: " + ", ".join(f"{k} {v}" for k, v in summary["outcomes"].items()))
+    print(f"false detections: {summary['false_detections']} in "
+          f"{summary['runs_with_false_detections']} of {len(flown)} runs "
+          "(! marks them above)")
+    if summary["latency_s"]["median"] is not None:
+        lat = summary["latency_s"]
+        print(f"detection latency: median {lat['median']:.2f} s, max {lat['max']:.2f} s "
+              f"over {lat['count']} detections of injected faults")
+    if args.json:
+        _write_json(args.json, {"summary": summary, "runs": flown})
+    return 1 if any(_unsafe(m) for m in flown) else 0
+
+
+def seed_summary(flown: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Outcome counts, false detections and detection latency over runs' metrics."""
+    import statistics
+
+    outcomes: dict[str, int] = {}
+    for m in flown:
+        outcomes[m["outcome"]["kind"]] = outcomes.get(m["outcome"]["kind"], 0) + 1
+    false = [sum(1 for d in m["detections"] if d["false_alarm"]) for m in flown]
+    latencies = [d["latency_s"] for m in flown for d in m["detections"]
+                 if d["latency_s"] is not None]
+    return {
+        "runs": len(flown),
+        "outcomes": dict(sorted(outcomes.items())),
+        "false_detections": sum(false),
+        "runs_with_false_detections": sum(1 for f in false if f),
+        "latency_s": {"count": len(latencies),
+                      "median": statistics.median(latencies) if latencies else None,
+                      "max": max(latencies) if latencies else None},
+    }
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="ftc-scenario", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -157,27 +214,49 @@ def build_parser() -> argparse.ArgumentParser:
     thesis.add_argument("--seed", type=_seed, help="override every scenario's seed")
     thesis.add_argument("--jobs", type=_jobs, default=2, help="parallel runs (default 2)")
     thesis.set_defaults(func=cmd_thesis)
+    seeds = sub.add_parser("seeds", help="fly one scenario over many seeds, count outcomes "
+                           "and false alarms")
+    seeds.add_argument("scenario", help="a shipped scenario name or a scenario .toml file")
+    seeds.add_argument("--seeds", type=_seed_range, required=True, metavar="A-B|A,B,..",
+                       help="the seeds: a range A-B (both included) or a comma list")
+    seeds.add_argument("--jobs", type=_jobs, default=2, help="parallel runs (default 2)")
+    seeds.add_argument("--json", metavar="PATH", help="write the summary and every run's "
+                       "metrics as JSON")
+    seeds.set_defaults(func=cmd_seeds)
     return parser
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--seed {text!r}: must be an integer >= 0") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"--seed {text!r}: must be an integer >= 0")
-    return value
+def _int_at_least(option: str, least: int) -> Callable[[str], int]:
+    """An argparse type: an integer >= ``least``, refused in one line naming ``option``."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = least - 1
+        if value < least:
+            raise argparse.ArgumentTypeError(f"{option} {text!r}: must be an integer >= {least}")
+        return value
+    return parse
 
 
-def _jobs(text: str) -> int:
+_seed = _int_at_least("--seed", 0)
+_jobs = _int_at_least("--jobs", 1)
+
+
+def _seed_range(text: str) -> list[int]:
+    """``A-B`` (both included) or ``A,B,...``: distinct integers >= 0."""
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--jobs {text!r}: must be an integer >= 1") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"--jobs {text!r}: must be an integer >= 1")
-    return value
+        if "-" in text:
+            first, last = (_seed(part) for part in text.split("-", 1))
+            seeds = list(range(first, last + 1))
+        else:
+            seeds = [_seed(part) for part in text.split(",")]
+    except argparse.ArgumentTypeError:
+        seeds = []
+    if not seeds or len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(
+            f"--seeds {text!r}: must be a range A-B or a comma list of integers >= 0")
+    return seeds
 
 
 def main(argv: Sequence[str] | None = None) -> int:

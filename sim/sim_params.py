@@ -11,16 +11,28 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from fcu.mavlink.port import CommandResult, ParamSpec
-from sim.world.faults import ActuatorFault, SensorFault, StructuralFault
+from sim.world.fault_types import ActuatorFault, Fault, SensorFault, StructuralFault
 from sim.world.wind import WindConfig
+from sim.world.world import World
 
-if TYPE_CHECKING:
-    from sim.vehicle_port import SimVehicle
+__all__ = ["FI_DEFAULTS", "SimParamHost", "SimParams"]
 
-__all__ = ["FI_DEFAULTS", "SimParams"]
+
+class SimParamHost(Protocol):
+    """What the ``SIM_*`` parameters act on (:class:`sim.vehicle_port.SimVehicle`)."""
+
+    @property
+    def world(self) -> World: ...
+
+    def owned_fault(self, slot: str) -> Fault | None: ...
+
+    def own_fault(self, slot: str, fault: Fault | None) -> None: ...
+
+    def notice(self, text: str) -> None: ...
+
 
 FI_UNITS = {"GYR": "rad/s", "ACC": "m/s^2", "MAG": "rad", "BAR": "m", "GPS": "m"}
 """Unit of each SIM_FI_<S> sensor stem."""
@@ -42,15 +54,17 @@ class SimParams:
     A :class:`fcu.mavlink.port.ParamProvider`: pass it to the endpoint in ``extra_params``.
     """
 
-    vehicle: SimVehicle
+    vehicle: SimParamHost
+    speedup: float = 1.0  # SIM_SPEEDUP at boot
+    start_paused: bool = False  # SIM_PAUSE at boot
     _params: dict[str, _SimParam] = field(default_factory=dict)
     _values: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        setup = self.vehicle.setup
-        wind = setup.world.wind
+        world_config = self.vehicle.world.config
+        wind = world_config.wind
         self._wind_config: WindConfig = wind
-        mass_kg = setup.world.airframe.mass
+        mass_kg = world_config.airframe.mass
         defs: list[_SimParam] = [
             _SimParam(ParamSpec(name="SIM_ENGINE_FAIL", value=0, min_value=0, max_value=15,
                                 integer=True, description="Motors hit by SIM_ENGINE_MUL, "
@@ -98,11 +112,11 @@ class SimParams:
                                 min_value=0.0, max_value=30.0,
                                 description="Dryden turbulence W20, m/s (0 none)"),
                       self._turbulence),
-            _SimParam(ParamSpec(name="SIM_PAUSE", value=1 if setup.start_paused else 0,
+            _SimParam(ParamSpec(name="SIM_PAUSE", value=1 if self.start_paused else 0,
                                 min_value=0, max_value=1, allowed=(0.0, 1.0), integer=True,
                                 description="Hold simulated time (1) or run (0)"),
                       lambda x: CommandResult.ok()),
-            _SimParam(ParamSpec(name="SIM_SPEEDUP", value=setup.speedup, min_value=0.0,
+            _SimParam(ParamSpec(name="SIM_SPEEDUP", value=self.speedup, min_value=0.0,
                                 description="Simulated s per wall s (read-only, --speedup)"),
                       lambda x: CommandResult.denied("read-only (set by --speedup at start)")),
             _SimParam(ParamSpec(name="SIM_FI_LOE", value=0.3, min_value=0.0, max_value=1.0,

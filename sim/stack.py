@@ -22,7 +22,7 @@ import numpy as np
 from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
 from fcu.navigation.navigator import Mode
 from sim.world import World, WorldConfig, WorldEvent
-from sim.world.faults import Fault
+from sim.world.fault_types import Fault
 
 
 def steps_per_tick(world: WorldConfig, autopilot: AutopilotConfig) -> int:

@@ -11,8 +11,6 @@ embeds them next to the tables with relative links (:mod:`flightdata.report`).
 
 from __future__ import annotations
 
-import multiprocessing
-import signal
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,8 +18,9 @@ from typing import IO, Any
 
 from flightdata.figures import FIGURES
 from flightdata.metrics import attitude_rms_norm
-from flightdata.report import fmt, image_lines, relative_paths, table_lines
+from flightdata.report import fmt, image_lines, table_lines
 from flightdata.thesis import AXES, EXTRA_RUNS, THESIS_CASES, THESIS_RUNS, thesis_tables
+from sim.batch import fly_many
 
 
 @dataclass
@@ -30,68 +29,6 @@ class ThesisReport:
 
     metrics: dict[str, dict[str, Any]]
     markdown: str
-
-
-def _run_one(args: tuple[str, int | None, str | None]) -> dict[str, Any]:
-    """Fly one scenario; with an output directory, draw its figures there too.
-
-    Returns the run's metrics, plus ``"figures"``: kind -> paths relative to the output
-    directory (PNG first, then PDF) when figures were drawn.
-    """
-    from sim.runner import fly
-    from sim.scenario import load_scenario
-
-    name, seed, out_dir = args
-    scenario = load_scenario(name)
-    if seed is not None:
-        scenario = scenario.with_seed(seed)
-    result = fly(scenario)
-    metrics = dict(result.metrics)
-    if out_dir is not None:
-        from flightdata.figures import save_figures
-
-        root = Path(out_dir)
-        written = save_figures(result.log, root / "figures" / name, name=name)
-        metrics["figures"] = relative_paths(written, root)
-    return metrics
-
-
-def _ignore_sigint() -> None:
-    """Worker initializer: Ctrl-C is the parent's to handle (it terminates the pool)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def run_all(names: Sequence[str], seed: int | None = None, jobs: int = 2,
-            progress: IO[str] | None = None,
-            out_dir: Path | None = None) -> dict[str, dict[str, Any]]:
-    """Fly the named scenarios (in parallel processes when ``jobs`` > 1).
-
-    With ``out_dir``, each run's figures go to ``out_dir/figures/<name>/`` (see
-    :func:`_run_one`).
-    """
-    work = [(n, seed, None if out_dir is None else str(out_dir)) for n in names]
-    out: dict[str, dict[str, Any]] = {}
-    if jobs <= 1:
-        results = map(_run_one, work)
-        for name, metrics in zip(names, results, strict=True):
-            out[name] = metrics
-            _progress(progress, name, metrics, len(out), len(names))
-        return out
-    ctx = multiprocessing.get_context("fork")
-    with ctx.Pool(jobs, initializer=_ignore_sigint) as pool:
-        for metrics in pool.imap_unordered(_run_one, work):
-            out[metrics["name"]] = metrics
-            _progress(progress, metrics["name"], metrics, len(out), len(names))
-    return {n: out[n] for n in names}
-
-
-def _progress(stream: IO[str] | None, name: str, metrics: dict[str, Any], done: int,
-              total: int) -> None:
-    if stream is not None:
-        rtf = metrics["sim_s"] / max(metrics["wall_s"], 1e-9)
-        stream.write(f"[{done}/{total}] {name}: {metrics['sim_s']:.0f} s simulated, "
-                     f"{rtf:.0f}x real time, {metrics['outcome']['kind']}\n")
-        stream.flush()
 
 
 def _thesis_attitude_norm(row: dict[str, Any]) -> float:
@@ -224,7 +161,9 @@ def run_thesis(out_dir: Path | None = None, seed: int | None = None, jobs: int =
                names: Sequence[str] | None = None) -> ThesisReport:
     """Run the chapter-7 set and render the report (written to ``out_dir/report.md``)."""
     names = list(names) if names is not None else [*THESIS_RUNS, *EXTRA_RUNS, *THESIS_CASES]
-    metrics = run_all(names, seed=seed, jobs=jobs, progress=progress, out_dir=out_dir)
+    flown = fly_many([(name, seed) for name in names], jobs=jobs, progress=progress,
+                     out_dir=out_dir)
+    metrics = dict(zip(names, flown, strict=True))
     markdown = render_markdown(metrics, thesis_tables())
     if out_dir is not None:
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -77,21 +77,15 @@ from dataclasses import dataclass, replace
 
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import AutopilotPort
-from fcu.mavlink.port import (
-    CommandResult,
-    FailureType,
-    FailureUnit,
-    GeoPoint,
-    Severity,
-    SimTruth,
-)
+from fcu.mavlink.enums import FailureType, FailureUnit, Severity
+from fcu.mavlink.port import CommandResult, GeoPoint, SimTruth
 from flightdata.geometry import euler_from_quat
 from flightdata.mission import MissionItem as NavItem
 from sim.outcome import MissionArea, OutcomeJudge, mission_area
 from sim.sim_params import SimParams
 from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World, WorldConfig
-from sim.world.faults import ActuatorFault, Fault, FaultEvent, SensorFault
+from sim.world.fault_types import ActuatorFault, Fault, FaultEvent, SensorFault
 
 __all__ = ["SimVehicle", "VehicleSetup"]
 
@@ -166,7 +160,8 @@ class SimVehicle:
         self._owned: dict[str, int] = {}  # fault slot (param name / motor) -> fault id
         self._quiet_ids: set[int] = set()  # faults injected here: their engine events are ours
         self._last_contact_s = -math.inf
-        self.sim_params = SimParams(self)
+        self.sim_params = SimParams(self, speedup=setup.speedup,
+                                    start_paused=setup.start_paused)
 
     # ------------------------------------------------------------------ stepping
     @property

@@ -243,9 +243,7 @@ def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: 
     return x_hat, p_diag
 
 
-FLYING_ACCEL_MODEL_SIGMA = 0.4
-"""m/s^2, the accelerometer's model error when the TSKF flies (see TwoStageKalmanFilter)."""
-
+FLYING_ACCEL_MODEL_SIGMA = 0.4  # m/s^2, accelerometer model error of the TSKF that flies
 # Default random-walk variance of gamma per 10 ms step (eq. 6.9): see TwoStageKalmanFilter.
 DEFAULT_Q_GAMMA = 1e-4
 
@@ -283,10 +281,9 @@ class TwoStageKalmanFilter(TickEstimator):
         Distance above the ground within which the vehicle counts as on the ground, m.
     accel_z_model_sigma : float or None
         Model error of the accelerometer's thrust measurement, m/s^2; None (the default, the
-        thesis's TSKF) leaves the accelerometer out. The autopilot uses it (0.4,
-        :data:`FLYING_ACCEL_MODEL_SIGMA`) when the TSKF is the estimator that flies, four
-        times the EKF's: the linear hover model also neglects
-        the thrust's tilt and the drag in this row, and with 0.1 the accelerometer's model
+        thesis's TSKF) leaves the accelerometer out. The TSKF that flies uses 0.4
+        (:data:`FLYING_ACCEL_MODEL_SIGMA`), four times the EKF's: the linear hover model also
+        neglects the thrust's tilt and the drag in this row, and with 0.1 the accelerometer's model
         error spread onto the per-motor estimates at fault onsets (Table 6.1 harness: a
         failed motor's estimate left its 0.05 band when the next motor failed); with 0.4
         every estimate stays in band and the collective (a mass change) still settles

@@ -4,6 +4,9 @@ Modules, one job each:
 
 - :mod:`~fcu.mavlink.port`: what the endpoint needs from the vehicle (``VehiclePort``,
   ``VehicleSnapshot``, ``FailureInjector``, ``ParamProvider``) in SI units and NED.
+- :mod:`~fcu.mavlink.enums`: the MAVLink numbers it speaks in (``MavState``, ``Severity``,
+  ``FailureUnit``, ``FailureType``); flight modes are the navigator's
+  (:class:`fcu.navigation.modes.Mode`, ArduCopter's numbers).
 - :mod:`~fcu.mavlink.codec`: the dialect choice, packing and per-datagram parsing.
 - :mod:`~fcu.mavlink.geo`: local NED <-> latitude/longitude/altitude.
 - :mod:`~fcu.mavlink.messages`: telemetry and reply messages from a snapshot (unit edge).
@@ -17,17 +20,14 @@ Modules, one job each:
 """
 
 from fcu.mavlink.endpoint import EndpointConfig, EndpointStats, MavlinkEndpoint
+from fcu.mavlink.enums import FailureType, FailureUnit, MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,
     BatteryState,
     CommandResult,
-    CopterMode,
     FailureInjector,
-    FailureType,
-    FailureUnit,
     GeoPoint,
     LandedState,
-    MavState,
     MissionItem,
     MissionItemReached,
     MissionState,
@@ -35,7 +35,6 @@ from fcu.mavlink.port import (
     ParamSpec,
     PositionTarget,
     SensorHealth,
-    Severity,
     SimTruth,
     StatusText,
     VehicleEvent,
@@ -48,7 +47,6 @@ __all__ = [
     "AttitudeTarget",
     "BatteryState",
     "CommandResult",
-    "CopterMode",
     "EndpointConfig",
     "EndpointStats",
     "FailureInjector",

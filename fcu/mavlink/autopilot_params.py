@@ -5,7 +5,8 @@ whose configuration it exposes, as ArduPilot keeps a library's parameters with t
 ``ATT_CTRL``, ``EST_TYPE``, ``DOB_TYPE``, ``HGT_SOURCE`` select the configuration choices of
 :mod:`flightdata.vocabulary` (value = index of the choice); the position gains
 ``POS_XY_*``/``POS_Z_*``, the PD gains ``ATT_PD_*``, the LQR weights ``LQR_*``, the DOB cut-off,
-the fault detector's threshold and persistence, and the navigator's settings under their
+the fault detector's threshold, persistence and significance (``FD_*``), the crash check's
+action (``FS_CRASH_CHECK``, as ArduCopter's), and the navigator's settings under their
 ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY`` s...).
 :class:`fcu.mavlink.autopilot_port.AutopilotPort` applies them: a change rebuilds the
 autopilot with the new configuration, so it is accepted only disarmed on the ground, except
@@ -101,12 +102,16 @@ def _top_param(name: str, attr: str, unit: str, description: str, lo: float,
                     max_value=hi)
 
 
-def _detector_param(name: str, attr: str, unit: str, description: str, lo: float,
-                    hi: float) -> ApParam:
+def _group_param(name: str, group: str, attr: str, unit: str, description: str, lo: float,
+                 hi: float, integer: bool = False) -> ApParam:
+    """A field of one of the configuration's groups (``detector``, ``crash``...)."""
+    cast: Callable[[float], Any] = int if integer else float
     return ApParam(name, f"{description}, {unit}",
-                    get=lambda c: float(getattr(c.detector, attr)),
-                    set=lambda c, v: replace(c, detector=_with(c.detector, attr, float(v))),
-                    min_value=lo, max_value=hi)
+                   get=lambda c: float(getattr(getattr(c, group), attr)),
+                   set=lambda c, v: _with(c, group, _with(getattr(c, group), attr, cast(v))),
+                   min_value=lo, max_value=hi, integer=integer,
+                   allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1))
+                   if integer else None)
 
 
 AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
@@ -151,11 +156,16 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
     _gain_param("LQR_QRATE_Y", "lqr", "q_rate", (2,), "1/(rad/s)^2", "LQR yaw rate weight",
                 1e-9),
     _gain_param("LQR_R_Y", "lqr", "r_torque", (2,), "1/(N*m)^2", "LQR yaw torque weight", 1e-9),
-    _detector_param("FD_THRESH", "threshold", "fraction",
-                    "Fault detector: LOE above which a motor is suspected", 0.01, 0.99),
-    _detector_param("FD_PERSIST", "persistence_s", "s",
-                    "Fault detector: time above the threshold before a fault is declared",
-                    0.0, 60.0),
+    _group_param("FD_THRESH", "detector", "threshold", "fraction",
+                 "Fault detector: LOE above which a motor is suspected", 0.01, 0.99),
+    _group_param("FD_PERSIST", "detector", "persistence_s", "s",
+                 "Fault detector: time above the threshold before a fault is declared",
+                 0.0, 60.0),
+    _group_param("FD_SIGNIF", "detector", "significance", "chi-square",
+                 "Fault detector: GLR statistic a motor fault must exceed (25: 5 sigma)",
+                 1.0, 1e4),
+    _group_param("FS_CRASH_CHECK", "crash", "action", "0 report, 1 disarm",
+                 "Crash check: what a detected crash does", 0, 1, integer=True),
     _nav_param("WPNAV_SPEED", "speed_horizontal_m_s", 100.0, "cm/s",
                "Horizontal leg speed", 1.0, 500.0, live_speed="ground"),
     _nav_param("WPNAV_SPEED_UP", "speed_up_m_s", 100.0, "cm/s", "Climb speed", 1.0, 500.0,

@@ -25,18 +25,17 @@ import numpy as np
 
 from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
+from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,
     CommandResult,
     GeoPoint,
-    MavState,
     MissionItem,
     MissionItemReached,
     ParamSpec,
     PositionTarget,
     RecordEvent,
     SensorHealth,
-    Severity,
     SimTruth,
     StatusText,
     VehicleEvent,

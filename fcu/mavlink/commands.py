@@ -38,16 +38,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.enums import FailureType, FailureUnit
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m
 from fcu.mavlink.mission import GLOBAL_FRAMES, LOCAL_FRAMES, RELATIVE_ALT_FRAMES
-from fcu.mavlink.port import (
-    CommandResult,
-    FailureInjector,
-    FailureType,
-    FailureUnit,
-    VehiclePort,
-    VehicleSnapshot,
-)
+from fcu.mavlink.port import CommandResult, FailureInjector, VehiclePort, VehicleSnapshot
 from fcu.mavlink.streams import StreamScheduler
 
 __all__ = ["CommandDispatcher", "CommandLimits", "CommandOutcome", "CommandRequest"]

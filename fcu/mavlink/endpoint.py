@@ -42,26 +42,25 @@ from dataclasses import dataclass, field
 from fcu.mavlink import messages as build
 from fcu.mavlink.codec import Codec, MAVLinkMessage, mavlink2
 from fcu.mavlink.commands import CommandDispatcher, CommandLimits, CommandOutcome, CommandRequest
+from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
 from fcu.mavlink.link import Address, Link
 from fcu.mavlink.mission import MissionConfig, MissionProtocol
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
 from fcu.mavlink.port import (
     CommandResult,
-    CopterMode,
     FailureInjector,
-    MavState,
     MissionItemReached,
     ParamProvider,
     ParamSpec,
     RecordEvent,
-    Severity,
     StatusText,
     VehiclePort,
     VehicleSnapshot,
 )
 from fcu.mavlink.record_relay import RecordRelay
 from fcu.mavlink.streams import DEFAULT_RATES_HZ, StreamScheduler
+from fcu.navigation.modes import Mode
 
 __all__ = ["EndpointConfig", "EndpointStats", "MavlinkEndpoint"]
 
@@ -364,7 +363,7 @@ class MavlinkEndpoint:
             return
         self.stats.gcs_failsafes += 1
         lost = f"GCS failsafe: no heartbeat for {config.timeout_s:g} s"
-        if action == FailsafeAction.RTL_OR_CONTINUE_MISSION and snap.custom_mode == CopterMode.AUTO:
+        if action == FailsafeAction.RTL_OR_CONTINUE_MISSION and snap.custom_mode == Mode.AUTO:
             self._outbox.status(Severity.CRITICAL, f"{lost}, continuing mission")
             return
         kind = "land" if action == FailsafeAction.LAND else "rtl"

@@ -31,8 +31,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
-from fcu.mavlink.port import CopterMode, LandedState, MavState, Severity, VehicleSnapshot
+from fcu.mavlink.port import LandedState, VehicleSnapshot
+from fcu.navigation.modes import Mode
 from flightdata.geometry import euler_from_quat, quat_from_euler, wrap_pi
 
 __all__ = [
@@ -69,9 +71,7 @@ AUTOPILOT_CAPABILITIES = (
 """What AUTOPILOT_VERSION advertises (each one implemented by this endpoint)."""
 
 # ArduCopter sets GUIDED_ENABLED for the modes under position control (GCS_Copter::base_mode).
-_GUIDED_MODES = frozenset({CopterMode.AUTO, CopterMode.GUIDED, CopterMode.LOITER,
-                           CopterMode.RTL, CopterMode.POSHOLD, CopterMode.BRAKE,
-                           CopterMode.SMART_RTL})
+_GUIDED_MODES = frozenset({Mode.AUTO, Mode.GUIDED, Mode.LOITER, Mode.RTL, Mode.BRAKE})
 
 
 @dataclass(frozen=True, slots=True)
@@ -326,7 +326,7 @@ def extended_sys_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkM
 def mission_current(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     """MISSION_CURRENT with ``total`` (items without home; UINT16_MAX: no mission) and state."""
     total = ctx.mission_total if ctx.mission_total > 0 else UINT16_MAX
-    mode = 1 if snap.custom_mode == CopterMode.AUTO else 2
+    mode = 1 if snap.custom_mode == Mode.AUTO else 2
     return _M.MAVLink_mission_current_message(
         clamp_int(snap.mission_seq, 0, UINT16_MAX, 0), total,
         clamp_int(snap.mission_state, 0, UINT8_MAX, 0), mode)

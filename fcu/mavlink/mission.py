@@ -40,15 +40,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.enums import Severity
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.link import Address, Outbox
-from fcu.mavlink.port import (
-    CommandResult,
-    GeoPoint,
-    MissionItem,
-    Severity,
-    VehicleSnapshot,
-)
+from fcu.mavlink.port import CommandResult, GeoPoint, MissionItem, VehicleSnapshot
 
 __all__ = [
     "MissionConfig",

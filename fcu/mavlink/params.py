@@ -22,8 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.enums import Severity
 from fcu.mavlink.link import Address, Outbox
-from fcu.mavlink.port import CommandResult, ParamProvider, ParamSpec, Severity
+from fcu.mavlink.port import CommandResult, ParamProvider, ParamSpec
 
 __all__ = ["ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable", "entries_from"]
 

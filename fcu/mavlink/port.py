@@ -46,11 +46,11 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from enum import IntEnum
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from fcu.mavlink.enums import MavState
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 from flightdata.records import Record
 
@@ -58,13 +58,9 @@ __all__ = [
     "AttitudeTarget",
     "BatteryState",
     "CommandResult",
-    "CopterMode",
     "FailureInjector",
-    "FailureType",
-    "FailureUnit",
     "GeoPoint",
     "LandedState",
-    "MavState",
     "MissionItem",
     "MissionItemReached",
     "MissionState",
@@ -73,91 +69,12 @@ __all__ = [
     "PositionTarget",
     "RecordEvent",
     "SensorHealth",
-    "Severity",
     "SimTruth",
     "StatusText",
     "VehicleEvent",
     "VehiclePort",
     "VehicleSnapshot",
 ]
-
-
-class CopterMode(IntEnum):
-    """ArduCopter flight-mode numbers (HEARTBEAT.custom_mode, pymavlink mode_mapping_acm)."""
-
-    STABILIZE = 0
-    ALT_HOLD = 2
-    AUTO = 3
-    GUIDED = 4
-    LOITER = 5
-    RTL = 6
-    LAND = 9
-    POSHOLD = 16
-    BRAKE = 17
-    SMART_RTL = 21
-
-
-class MavState(IntEnum):
-    """MAV_STATE values for HEARTBEAT.system_status."""
-
-    UNINIT = 0
-    BOOT = 1
-    CALIBRATING = 2
-    STANDBY = 3
-    ACTIVE = 4
-    CRITICAL = 5
-    EMERGENCY = 6
-    POWEROFF = 7
-
-
-class Severity(IntEnum):
-    """MAV_SEVERITY values for STATUSTEXT."""
-
-    EMERGENCY = 0
-    ALERT = 1
-    CRITICAL = 2
-    ERROR = 3
-    WARNING = 4
-    NOTICE = 5
-    INFO = 6
-    DEBUG = 7
-
-
-class FailureUnit(IntEnum):
-    """FAILURE_UNIT values (MAV_CMD_INJECT_FAILURE param1)."""
-
-    SENSOR_GYRO = 0
-    SENSOR_ACCEL = 1
-    SENSOR_MAG = 2
-    SENSOR_BARO = 3
-    SENSOR_GPS = 4
-    SENSOR_OPTICAL_FLOW = 5
-    SENSOR_VIO = 6
-    SENSOR_DISTANCE_SENSOR = 7
-    SENSOR_AIRSPEED = 8
-    SYSTEM_BATTERY = 100
-    SYSTEM_MOTOR = 101
-    SYSTEM_SERVO = 102
-    SYSTEM_AVOIDANCE = 103
-    SYSTEM_RC_SIGNAL = 104
-    SYSTEM_MAVLINK_SIGNAL = 105
-
-
-class FailureType(IntEnum):
-    """FAILURE_TYPE values (MAV_CMD_INJECT_FAILURE param2).
-
-    DRIFT (8) is newer than the common.xml bundled with pymavlink 2.4.50; it is accepted.
-    """
-
-    OK = 0
-    OFF = 1
-    STUCK = 2
-    GARBAGE = 3
-    WRONG = 4
-    SLOW = 5
-    DELAYED = 6
-    INTERMITTENT = 7
-    DRIFT = 8
 
 
 @dataclass(frozen=True, slots=True)
@@ -345,7 +262,7 @@ class VehicleSnapshot:
     armed : bool
         Motors armed.
     custom_mode : int
-        ArduCopter mode number (:class:`CopterMode`).
+        ArduCopter mode number (:class:`fcu.navigation.modes.Mode`).
     pos_ned, vel_ned : ndarray, shape (3,)
         Estimated position (m, about ``origin``) and velocity (m/s).
     euler_rad : ndarray, shape (3,)
@@ -358,7 +275,8 @@ class VehicleSnapshot:
     home_pos_ned : ndarray, shape (3,), or None
         Current home (RTL target), m, NED about the origin; None until set.
     system_status : int
-        :class:`MavState`; the endpoint raises it to CRITICAL while its GCS failsafe acts.
+        :class:`fcu.mavlink.enums.MavState`; the endpoint raises it to CRITICAL while its GCS
+        failsafe acts.
     landed_state : int
         :class:`LandedState`.
     position_target, attitude_target : optional

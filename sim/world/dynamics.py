@@ -65,13 +65,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from flightdata.config import finite
 from sim.world.airframe import Airframe
-from sim.world.rotations import (
-    euler_to_quat,
-    quat_to_euler,
-    quat_to_rotation,
-    rotation_entries,
-    yaw_of,
-)
+from sim.world.rotations import rotation_entries, yaw_of
 
 FloatArray = NDArray[np.float64]
 
@@ -593,6 +587,5 @@ class RigidBodyPlant:
 
 
 __all__ = ["PARAM_SIZE", "PLANT_STATE", "POS_NED", "QUAT_WXYZ", "RATE_FRD", "STATE_SIZE",
-           "THRUST_N", "VEL_NED", "RigidBodyPlant", "derivative", "euler_to_quat",
-           "pack_params", "plant_step", "quat_to_euler", "quat_to_rotation", "rk4_step",
-           "specific_force_frd", "specific_force_into"]
+           "THRUST_N", "VEL_NED", "RigidBodyPlant", "derivative", "pack_params", "plant_step",
+           "rk4_step", "specific_force_frd", "specific_force_into"]

@@ -2,8 +2,8 @@
 
 The engine sits inside the plant (docs/design.md). The autopilot never reads it: a fault
 reaches the autopilot only through what the sensors report and how the vehicle moves. What
-each fault kind does, and how several compose, is documented in :mod:`sim.world.fault_types`
-(whose names this module re-exports).
+each fault kind does, and how several compose, is documented in :mod:`sim.world.fault_types`,
+which defines the faults and the events this engine emits.
 
 Here ``t0`` is the simulated time at which a fault starts acting: the first engine call with
 ``time_s >= start_s`` (the plant calls the engine every step, so ``t0`` is the first plant step
@@ -45,22 +45,16 @@ from sim.world import fault_rules
 from sim.world.fault_arrays import FaultArrays, keeps_all_draws, new_row
 from sim.world.fault_rules import ACTIVE, PENDING, FaultRecord, MotorGroup, SensorGroup
 from sim.world.fault_types import (
-    DEFAULT_GARBAGE_RANGE,
     MOTORS,
     SENSOR_AXES,
     SENSOR_NAMES,
     ActuatorFault,
-    ActuatorKind,
     EventKind,
     Fault,
     FaultEvent,
-    LoeProfile,
     ScheduledFault,
     SensorFault,
-    SensorKind,
-    SensorName,
     StructuralFault,
-    fault_from_mapping,
 )
 
 _OVERRIDE_KINDS = ("lock", "float", "hardover")
@@ -514,7 +508,4 @@ class FaultEngine:
         self.arrays.lay_out(rows, act_start, sens_start, self._mass_kg)
 
 
-__all__ = ["DEFAULT_GARBAGE_RANGE", "MOTORS", "SENSOR_AXES", "SENSOR_NAMES", "ActuatorFault",
-           "ActuatorKind", "EventKind", "Fault", "FaultEngine", "FaultEvent", "LoeProfile",
-           "ScheduledFault", "SensorFault", "SensorKind", "SensorName", "StructuralFault",
-           "fault_from_mapping"]
+__all__ = ["FaultEngine"]

@@ -368,6 +368,5 @@ def _divisor_rates(plant_rate_hz: float) -> list[str]:
     return [f"{plant_rate_hz / d:g}" for d in (1, 2, 4, 5, 10)]
 
 
-__all__ = ["NOISE_BLOCK", "SENSOR_AXES", "SENSOR_NAMES", "SENSOR_STATE", "SensorConfig",
-           "SensorSample", "SensorSuite", "noise_ready", "quat_to_euler_zyx", "sensor_due",
-           "sensor_reading"]
+__all__ = ["NOISE_BLOCK", "SENSOR_STATE", "SensorConfig", "SensorSuite", "noise_ready",
+           "quat_to_euler_zyx", "sensor_due", "sensor_reading"]

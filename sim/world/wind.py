@@ -24,9 +24,10 @@ north, so a wind from the north (0 deg) at V m/s is the NED velocity (-V, 0, 0).
 
 Floors
 ------
-* Altitude: the low-altitude curves of [1]_ (figs. 10 and 11) and [2]_ cover 10 ft <= h <=
-  1000 ft; ``L_w = h`` goes to zero on the ground, which would make the vertical gust white.
-  ``min_altitude_m`` defaults to 10 ft = 3.048 m, the clip JSBSim applies [5]_. Above 1000 ft
+* Altitude: the low-altitude curves of MIL-F-8785C (figs. 10 and 11) and MIL-HDBK-1797
+  cover 10 ft <= h <= 1000 ft; ``L_w = h`` goes to zero on the ground, which would make the
+  vertical gust white.
+  ``min_altitude_m`` defaults to 10 ft = 3.048 m, the clip JSBSim applies. Above 1000 ft
   the medium/high-altitude model is not implemented: altitude is clipped to 1000 ft, where
   the low-altitude formulas give sigma_u = sigma_v = sigma_w and L_u = L_v = L_w = 1000 ft.
 * Airspeed: T = L / V grows without bound at hover (the frozen field would never move past
@@ -52,18 +53,8 @@ the cache band, the block of pre-drawn normals and the next row to use) lives in
 the reference) and :func:`dryden_step` (numba, for the world's compiled stepping) advance it
 with the same operations in the same order; only :meth:`DrydenWind.step` retunes and draws.
 
-References
-----------
-.. [1] MIL-F-8785C, "Military Specification: Flying Qualities of Piloted Airplanes",
-   US Department of Defense, 5 Nov. 1980, sec. 3.7 (atmospheric disturbances).
-.. [2] MIL-HDBK-1797, "Flying Qualities of Piloted Aircraft", US Department of Defense,
-   19 Dec. 1997, sec. 4.9.
-.. [3] D. T. Gillespie, "Exact numerical simulation of the Ornstein-Uhlenbeck process and its
-   integral", Phys. Rev. E 54(2), 2084-2091, 1996.
-.. [4] C. F. Van Loan, "Computing integrals involving the matrix exponential", IEEE Trans.
-   Automatic Control 23(3), 395-404, 1978.
-.. [5] JSBSim, ``src/models/atmosphere/FGWinds.cpp`` (ttMilspec turbulence: "clip height
-   functions at 10 ft"; Yeager, NASA CR-1998-206937).
+References: those of :mod:`sim.world.dryden` (MIL-F-8785C, MIL-HDBK-1797, Gillespie 1996,
+Van Loan 1978, JSBSim).
 """
 
 from __future__ import annotations
@@ -77,7 +68,6 @@ from numba import njit
 from flightdata.config import finite, require
 from sim.world.dryden import (
     FT_TO_M,
-    GRID_RATIO,
     KT_TO_M_S,
     LOW_ALTITUDE_CEILING_M,
     P_CHOL,
@@ -85,8 +75,6 @@ from sim.world.dryden import (
     dryden_length_scales_m,
     dryden_sigmas_m_s,
     second_order_coefficients,
-    second_order_model,
-    van_loan,
 )
 
 W20_KT = {"none": 0.0, "light": 15.0, "moderate": 30.0, "severe": 45.0}  # kt, MIL-F-8785C
@@ -519,8 +507,5 @@ class DrydenWind:
         return np.array(self._length)
 
 
-__all__ = ["BLOCK_STEPS", "CACHE_BAND", "FT_TO_M", "GRID_RATIO", "KT_TO_M_S",
-           "LOW_ALTITUDE_CEILING_M", "W20_KT", "WIND_DRAW", "WIND_READY", "WIND_RETUNE",
-           "WIND_STATE", "DrydenWind", "WindConfig",
-           "dryden_length_scales_m", "dryden_ready", "dryden_sigmas_m_s", "dryden_step",
-           "second_order_coefficients", "second_order_model", "van_loan"]
+__all__ = ["BLOCK_STEPS", "CACHE_BAND", "W20_KT", "WIND_DRAW", "WIND_READY", "WIND_RETUNE",
+           "WIND_STATE", "DrydenWind", "WindConfig", "dryden_ready", "dryden_step"]

@@ -49,11 +49,11 @@ from sim.world.dynamics import (
     THRUST_N,
     VEL_NED,
     RigidBodyPlant,
-    quat_to_euler,
     specific_force_frd,
 )
-from sim.world.fault_types import SENSOR_NAMES
-from sim.world.faults import FaultEngine, FaultEvent
+from sim.world.fault_types import SENSOR_NAMES, FaultEvent
+from sim.world.faults import FaultEngine
+from sim.world.rotations import quat_to_euler
 from sim.world.samples import SAMPLE_RECORD, SampleBatch
 from sim.world.sensors import SensorConfig, SensorSuite
 from sim.world.stepping import STOP_CONTACT, STOP_DONE, STOP_DRAW, WORLD_STATE, world_steps

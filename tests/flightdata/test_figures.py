@@ -38,7 +38,7 @@ from flightdata.thesis import thesis_tables
 from sim.runner import FlightResult, fly
 from sim.scenario import load_scenario
 from sim.thesis_report import render_markdown
-from sim.world.faults import ActuatorFault
+from sim.world.fault_types import ActuatorFault
 
 REPO = Path(__file__).resolve().parents[2]
 FIGURE_KINDS = figure_kinds()

@@ -19,7 +19,7 @@ from flightdata.geometry import (
     wrap_pi,
     wrap_pi_array,
 )
-from sim.world.dynamics import quat_to_euler
+from sim.world.rotations import quat_to_euler
 
 
 def rotation_of(q: np.ndarray) -> np.ndarray:

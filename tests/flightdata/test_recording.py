@@ -28,7 +28,7 @@ from flightdata.vocabulary import MOTORS
 from sim.runner import FlightResult, fly, open_recording
 from sim.scenario import Scenario, load_scenario
 from sim.scenario_cli import main
-from sim.world.faults import ActuatorFault
+from sim.world.fault_types import ActuatorFault
 
 REPO = Path(__file__).resolve().parents[2]
 FAULT_AT_S = 6.0  # s, motor 3 loses 30 % while hovering after the take-off (5 s)

@@ -20,6 +20,7 @@ from vehicle_harness import ANSWER_S, ROOT, Gcs, M, mission_item
 from fcu.mavlink.geo import geo_to_ned
 from fcu.mavlink.port import GeoPoint
 from flightdata.mission import MissionItem
+from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord, from_wire
 from sim.runner import fly
 from sim.scenario import load_scenario
 
@@ -197,6 +198,55 @@ def test_simulator_fault_is_found_by_the_autopilot(start_vehicle, gcs: Gcs) -> N
     assert -sim.vd == pytest.approx(0.0, abs=0.3)  # still holding altitude (truth)
     heartbeat = gcs.wait_heartbeat(ANSWER_S)
     assert heartbeat.system_status == M.MAV_STATE_CRITICAL  # a detected fault is active
+
+
+def _records(messages: list) -> list:
+    """The structured records (DEBUG_FLOAT_ARRAY FTC_REC) among messages, first copies."""
+    seen: dict[int, object] = {}
+    for msg in messages:
+        if msg.get_type() == "DEBUG_FLOAT_ARRAY" and msg.name == "FTC_REC":
+            seq, record = from_wire(int(msg.array_id), msg.data, int(msg.time_usec) * 1e-6)
+            seen.setdefault(seq, record)
+    return list(seen.values())
+
+
+@pytest.mark.slow
+def test_a_crash_disarms_within_3_s_and_a_lost_motor_blocks_arming(start_vehicle,
+                                                                     gcs: Gcs) -> None:
+    start_vehicle("--speedup", "5", outs=[gcs.port])
+    gcs.auto_heartbeat(1.0)
+    gcs.wait_heartbeat()
+    assert gcs.set_mode(GUIDED).result == ACCEPTED
+    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
+    since = gcs.mark()
+    assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.0).result == ACCEPTED
+    gcs.wait("STATUSTEXT", lambda m: "take-off complete" in m.text, since=since)
+    # ArduPilot style: motor 1 (front) dead
+    since = gcs.mark()
+    assert gcs.param_set("SIM_ENGINE_MUL", 0.0).param_value == 0.0
+    assert gcs.param_set("SIM_ENGINE_FAIL", 1).param_value == 1.0
+    disarmed = gcs.wait("HEARTBEAT", lambda m: (m.get_srcSystem(), m.get_srcComponent())
+                        == gcs.target and not m.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED,
+                        timeout_s=120.0, since=since)
+    after = gcs.messages(since=since)
+    at_disarm = after.index(disarmed)
+    disarm_s = max(m.time_boot_ms for m in after[:at_disarm]
+                   if m.get_type() == "ATTITUDE") / 1e3
+    gcs.collect(2.0)  # the records are repeated: let their copies arrive
+    records = _records(gcs.messages(since=since))
+    (fault,) = [r for r in records if isinstance(r, FaultRecord) and r.action == "started"]
+    outcome = [r for r in records if isinstance(r, OutcomeRecord)]
+    assert outcome and outcome[0].kind in ("crashed", "flyaway"), outcome
+    assert fault.time_s < outcome[0].time_s <= disarm_s
+    assert disarm_s - outcome[0].time_s <= 3.0, (outcome[0], disarm_s)
+    motor = [r for r in records
+             if isinstance(r, DetectionRecord) and r.kind in ("loe", "motor_lost")]
+    assert motor and {r.motor for r in motor} == {1}, motor
+    # a motor detected failed: arming is refused, with the reason
+    since = gcs.mark()
+    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_DENIED
+    reason = gcs.wait("STATUSTEXT", lambda m: "motor 1" in m.text, since=since)
+    assert "arm" in reason.text.lower(), reason.text
 
 
 @pytest.mark.slow

@@ -16,7 +16,8 @@ from pathlib import Path
 import pytest
 
 from gcs.faults import FaultSpec
-from gcs.mission import WireItem, mavlink2
+from gcs.mavlink import mavlink2
+from gcs.mission import WireItem
 
 M = mavlink2
 ROOT = Path(__file__).resolve().parents[2]

@@ -7,14 +7,11 @@ orderings the thesis reports (../shared/reference/thesis-notes.md, "what reprodu
 
 from __future__ import annotations
 
-from functools import cache
-from typing import Any
-
 import pytest
+from flown import metrics
 
 from flightdata.metrics import attitude_rms_norm
 from flightdata.thesis import thesis_tables
-from sim.runner import fly
 from sim.scenario import load_scenario
 
 pytestmark = pytest.mark.slow
@@ -22,12 +19,6 @@ pytestmark = pytest.mark.slow
 TABLES = thesis_tables()
 AIRFRAME = TABLES["airframe"]
 HOVER_EFFORT = AIRFRAME["mass"] * AIRFRAME["gravity"] / AIRFRAME["thrust_gain"]  # m g / K
-
-
-@cache
-def metrics(name: str) -> dict[str, Any]:
-    """Fly a shipped scenario once per test session."""
-    return fly(load_scenario(name)).metrics
 
 
 def test_baseline_tracks_to_a_centimetre_at_hover_effort() -> None:

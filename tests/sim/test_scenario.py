@@ -77,6 +77,30 @@ def test_cli_reports_bad_input_in_one_line(tmp_path: Path, capsys: pytest.Captur
     assert "known scenarios are" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("seeds", ["", "3-1", "a-b", "1,1", "-2", "1,x"])
+def test_cli_seeds_refuses_a_bad_seed_list_in_one_line(
+        seeds: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(["seeds", "baseline", "--seeds", seeds])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "--seeds" in err and "Traceback" not in err
+
+
+def test_cli_seeds_counts_outcomes_and_false_alarms(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    path = write(tmp_path, 'name = "short"\nduration_s = 12.0\n'
+                           '[mission]\nkind = "thesis"\ntakeoff_s = 4.0\nleg_s = 3.0\n')
+    out = tmp_path / "seeds.json"
+    assert main(["seeds", str(path), "--seeds", "5,6", "--jobs", "1", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert [run["seed"] for run in data["runs"]] == [5, 6]
+    assert data["summary"]["runs"] == 2
+    assert sum(data["summary"]["outcomes"].values()) == 2
+    assert data["summary"]["false_detections"] == 0
+    assert "false detections: 0 in 0 of 2 runs" in capsys.readouterr().out
+
+
 def test_cli_list_names_every_shipped_scenario(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["list"]) == 0
     listed = {line.split()[0] for line in capsys.readouterr().out.splitlines()}

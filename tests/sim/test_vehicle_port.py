@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from fcu.autopilot import AutopilotConfig
-from fcu.mavlink.port import FailureType, FailureUnit, GeoPoint
+from fcu.mavlink.enums import FailureType, FailureUnit
+from fcu.mavlink.port import GeoPoint
 from sim.vehicle_port import SimVehicle, VehicleSetup
 from sim.world import WorldConfig
 

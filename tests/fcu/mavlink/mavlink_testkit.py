@@ -19,34 +19,33 @@ from pymavlink import mavutil
 
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
+from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,
     CommandResult,
-    CopterMode,
     GeoPoint,
     LandedState,
-    MavState,
     MissionItem,
     MissionItemReached,
     MissionState,
     ParamSpec,
     PositionTarget,
-    Severity,
     SimTruth,
     StatusText,
     VehicleEvent,
     VehicleSnapshot,
 )
 from fcu.mavlink.udp import UdpLink
+from fcu.navigation.modes import Mode
 
 M = mavlink2
 ORIGIN = GeoPoint(40.8908, 29.3788, 100.0)  # deg, deg, m AMSL (an arbitrary lab site)
 WAIT_S = 5.0  # s, generous bound for any single answer over loopback
-SUPPORTED_MODES = {CopterMode.STABILIZE, CopterMode.ALT_HOLD, CopterMode.AUTO,
-                   CopterMode.GUIDED, CopterMode.LOITER, CopterMode.RTL, CopterMode.LAND,
-                   CopterMode.BRAKE}
-ARMABLE_MODES = {CopterMode.STABILIZE, CopterMode.ALT_HOLD, CopterMode.GUIDED,
-                 CopterMode.LOITER}
+SUPPORTED_MODES = {Mode.STABILIZE, Mode.ALT_HOLD, Mode.AUTO,
+                   Mode.GUIDED, Mode.LOITER, Mode.RTL, Mode.LAND,
+                   Mode.BRAKE}
+ARMABLE_MODES = {Mode.STABILIZE, Mode.ALT_HOLD, Mode.GUIDED,
+                 Mode.LOITER}
 MISSION_COMMANDS = {M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_LAND,
                     M.MAV_CMD_NAV_RETURN_TO_LAUNCH, M.MAV_CMD_DO_CHANGE_SPEED}
 
@@ -63,7 +62,7 @@ class FakeVehicle:
         self.origin = origin
         self.time_s = 0.0
         self.armed = False
-        self.mode = int(CopterMode.STABILIZE)
+        self.mode = int(Mode.STABILIZE)
         self.pos_ned = np.zeros(3)
         self.vel_ned = np.zeros(3)
         self.yaw_rad = 0.0
@@ -104,11 +103,11 @@ class FakeVehicle:
             self.pos_ned = self.pos_ned + self.vel_ned * dt_s
 
     def _arrived(self) -> None:
-        if self.mode == CopterMode.LAND and not self.in_air:
+        if self.mode == Mode.LAND and not self.in_air:
             self.armed = False
             self.target = None
             self._events.append(StatusText(Severity.INFO, "Landed, disarmed"))
-        elif self.mode == CopterMode.AUTO and self.mission_state == MissionState.ACTIVE:
+        elif self.mode == Mode.AUTO and self.mission_state == MissionState.ACTIVE:
             self._events.append(MissionItemReached(self.mission_seq))
             if self.mission_seq >= len(self.mission):
                 self.mission_state = MissionState.COMPLETE
@@ -126,7 +125,7 @@ class FakeVehicle:
 
     def snapshot(self) -> VehicleSnapshot:
         landed = LandedState.IN_AIR if self.in_air else LandedState.ON_GROUND
-        if self.in_air and self.mode == CopterMode.LAND:
+        if self.in_air and self.mode == Mode.LAND:
             landed = LandedState.LANDING
         ref = None if self.target is None else PositionTarget(pos_ned=self.target.copy(),
                                                                yaw_rad=self.yaw_rad)
@@ -182,35 +181,35 @@ class FakeVehicle:
         self._call("set_mode", custom_mode)
         if custom_mode not in SUPPORTED_MODES:
             return CommandResult.denied(f"Mode {custom_mode} not supported")
-        if custom_mode == CopterMode.AUTO and not self.mission:
+        if custom_mode == Mode.AUTO and not self.mission:
             return CommandResult.denied("AUTO: no mission")
         self.mode = custom_mode
-        if custom_mode == CopterMode.LAND:
+        if custom_mode == Mode.LAND:
             self.target = np.array([self.pos_ned[0], self.pos_ned[1], 0.0])
-        elif custom_mode == CopterMode.RTL and self.home_pos_ned is not None:
+        elif custom_mode == Mode.RTL and self.home_pos_ned is not None:
             self.target = self.home_pos_ned.copy()
         return CommandResult.ok()
 
     def takeoff(self, alt_m: float) -> CommandResult:
         self._call("takeoff", alt_m)
-        if self.mode != CopterMode.GUIDED or not self.armed:
+        if self.mode != Mode.GUIDED or not self.armed:
             return CommandResult.denied("Takeoff: needs GUIDED and armed")
         self.target = np.array([self.pos_ned[0], self.pos_ned[1], -alt_m])
         return CommandResult.ok()
 
     def land(self) -> CommandResult:
         self._call("land")
-        return self.set_mode(CopterMode.LAND)
+        return self.set_mode(Mode.LAND)
 
     def return_to_launch(self) -> CommandResult:
         self._call("rtl")
         if self.home_pos_ned is None:
             return CommandResult.denied("RTL: no home")
-        return self.set_mode(CopterMode.RTL)
+        return self.set_mode(Mode.RTL)
 
     def goto(self, pos_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
         self._call("goto", np.asarray(pos_ned, dtype=float).copy(), yaw_rad)
-        if self.mode != CopterMode.GUIDED or not self.armed:
+        if self.mode != Mode.GUIDED or not self.armed:
             return CommandResult.denied("Goto: needs GUIDED and armed")
         self.target = np.asarray(pos_ned, dtype=float).copy()
         if yaw_rad is not None:
@@ -250,7 +249,7 @@ class FakeVehicle:
             return CommandResult.denied("no mission")
         if not self.armed:
             return CommandResult.denied("Mission start: not armed")
-        self.mode = int(CopterMode.AUTO)
+        self.mode = int(Mode.AUTO)
         self.mission_state = MissionState.ACTIVE
         self._fly_item()
         return CommandResult.ok()
@@ -273,7 +272,7 @@ class FakeVehicle:
         self._call("trigger_failsafe", source, action)
         self.failsafes[source] = action
         if self.armed and self.in_air:
-            return self.set_mode(CopterMode.RTL if action == "rtl" else CopterMode.LAND)
+            return self.set_mode(Mode.RTL if action == "rtl" else Mode.LAND)
         self.armed = False
         return CommandResult.ok()
 

@@ -13,7 +13,7 @@ from numpy.testing import assert_allclose
 
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.geo import ned_to_geo
-from fcu.mavlink.port import CopterMode
+from fcu.navigation.modes import Mode
 
 M = mavlink2
 NAN = math.nan
@@ -125,10 +125,10 @@ def test_commands_for_another_system_are_not_answered(fly: tuple[Gcs, VehicleThr
 
 def test_guided_takeoff_goto_land(fly: tuple[Gcs, VehicleThread]) -> None:
     gcs, vehicle = fly
-    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.GUIDED).result == ACCEPTED
+    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.GUIDED).result == ACCEPTED
     assert gcs.ack(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
     hb = gcs.recv("HEARTBEAT", condition=lambda m: m.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED)
-    assert hb is not None and hb.custom_mode == CopterMode.GUIDED
+    assert hb is not None and hb.custom_mode == Mode.GUIDED
     assert hb.base_mode & M.MAV_MODE_FLAG_GUIDED_ENABLED
     assert gcs.ack(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 2.0).result == ACCEPTED
     # 2 m at 2 m/s and 5x: well under a wall second; relative_alt in mm.
@@ -150,14 +150,14 @@ def test_guided_takeoff_goto_land(fly: tuple[Gcs, VehicleThread]) -> None:
                      lambda m: abs(m.x - 4.0) < 0.05 and abs(m.y + 3.0) < 0.05)
     assert there is not None
     assert gcs.ack(M.MAV_CMD_NAV_LAND).result == ACCEPTED
-    landed = gcs.recv("HEARTBEAT", 2 * WAIT_S, lambda m: m.custom_mode == CopterMode.LAND
+    landed = gcs.recv("HEARTBEAT", 2 * WAIT_S, lambda m: m.custom_mode == Mode.LAND
                       and not m.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED)
     assert landed is not None
 
 
 def test_arm_refused_in_land_then_forced(fly: tuple[Gcs, VehicleThread]) -> None:
     gcs, vehicle = fly
-    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.LAND).result == ACCEPTED
+    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.LAND).result == ACCEPTED
     gcs.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     got = gcs.gather({"COMMAND_ACK": lambda m: m.command == M.MAV_CMD_COMPONENT_ARM_DISARM,
                       "STATUSTEXT": lambda m: "armable" in m.text})
@@ -169,10 +169,10 @@ def test_arm_refused_in_land_then_forced(fly: tuple[Gcs, VehicleThread]) -> None
 def test_legacy_set_mode_is_acknowledged_and_confirmed_by_heartbeat(
         fly: tuple[Gcs, VehicleThread]) -> None:
     gcs, _ = fly
-    gcs.mav.set_mode_send(1, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, CopterMode.LOITER)
+    gcs.mav.set_mode_send(1, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, Mode.LOITER)
     acks = gcs.acks(M.MAVLINK_MSG_ID_SET_MODE)
     assert [a.result for a in acks] == [ACCEPTED]
-    assert gcs.recv("HEARTBEAT", condition=lambda m: m.custom_mode == CopterMode.LOITER)
+    assert gcs.recv("HEARTBEAT", condition=lambda m: m.custom_mode == Mode.LOITER)
     gcs.mav.set_mode_send(1, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 13)  # SPORT: refused
     assert [a.result for a in gcs.acks(M.MAVLINK_MSG_ID_SET_MODE)] == [DENIED]
 
@@ -271,7 +271,7 @@ def test_change_speed_types(fly: tuple[Gcs, VehicleThread]) -> None:
 
 def test_set_position_target_local_ned(fly: tuple[Gcs, VehicleThread]) -> None:
     gcs, vehicle = fly
-    gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.GUIDED)
+    gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.GUIDED)
     gcs.ack(M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     use_pos_yaw = 0b0000_1001_1111_1000  # ignore vel, acc, yaw rate: position + yaw
     gcs.mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, use_pos_yaw,
@@ -297,7 +297,7 @@ def test_set_position_target_local_ned(fly: tuple[Gcs, VehicleThread]) -> None:
 
 def test_set_position_target_body_offset(fly: tuple[Gcs, VehicleThread]) -> None:
     gcs, vehicle = fly
-    gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.GUIDED)
+    gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.GUIDED)
     gcs.ack(M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     with vehicle.lock:
         vehicle.vehicle.yaw_rad = math.pi / 2  # nose east

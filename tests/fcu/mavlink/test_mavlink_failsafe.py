@@ -9,8 +9,9 @@ from mavlink_testkit import WAIT_S, Gcs, MemoryGcs, memory_endpoint, started
 
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import EndpointConfig
+from fcu.mavlink.enums import MavState
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
-from fcu.mavlink.port import CopterMode, MavState
+from fcu.navigation.modes import Mode
 
 M = mavlink2
 LAND = GcsFailsafeConfig(action=FailsafeAction.LAND, timeout_s=5.0, gcs_sysid=255)
@@ -64,21 +65,21 @@ def heartbeat_from(gcs: MemoryGcs) -> None:
 
 def test_speed_up_never_fires_it_but_silence_does() -> None:
     endpoint, vehicle, link, gcs = memory_endpoint()
-    vehicle.armed, vehicle.mode, vehicle.pos_ned[2] = True, CopterMode.GUIDED, -2.0
+    vehicle.armed, vehicle.mode, vehicle.pos_ned[2] = True, Mode.GUIDED, -2.0
     # 20 wall seconds of GCS heartbeats at 1 Hz while the simulation runs 100x faster.
     for k in range(2001):
         wall = k * 0.01
         if k % 100 == 0:
             heartbeat_from(gcs)
         endpoint.tick(100.0 * wall, wall)
-    assert not endpoint.gcs_failsafe_active and vehicle.mode == CopterMode.GUIDED
+    assert not endpoint.gcs_failsafe_active and vehicle.mode == Mode.GUIDED
     # Silence: 4.99 s after the last heartbeat nothing, at 5 s LAND.
     for k in range(1, 500):
         endpoint.tick(2000.0 + k, 20.0 + k * 0.01)
     assert not endpoint.gcs_failsafe_active
     endpoint.tick(3000.0, 25.0)
     assert endpoint.gcs_failsafe_active
-    assert vehicle.mode == CopterMode.LAND
+    assert vehicle.mode == Mode.LAND
     assert ("trigger_failsafe", "gcs", "land") in vehicle.calls
     texts = [m.text for m in link.take("STATUSTEXT")]
     assert any("GCS failsafe" in t and "LAND" in t for t in texts)
@@ -94,24 +95,24 @@ def test_speed_up_never_fires_it_but_silence_does() -> None:
 def test_rtl_action_and_no_gcs_no_failsafe() -> None:
     config = EndpointConfig(gcs_failsafe_action=int(FailsafeAction.RTL))
     endpoint, vehicle, _, gcs = memory_endpoint(config)
-    vehicle.armed, vehicle.mode, vehicle.pos_ned[2] = True, CopterMode.GUIDED, -2.0
+    vehicle.armed, vehicle.mode, vehicle.pos_ned[2] = True, Mode.GUIDED, -2.0
     for k in range(100):  # no GCS ever: a headless run never fails safe
         endpoint.tick(k, k)
     assert not endpoint.gcs_failsafe_active
     heartbeat_from(gcs)
     endpoint.tick(100.0, 100.0)
     endpoint.tick(106.0, 106.0)
-    assert vehicle.mode == CopterMode.RTL
+    assert vehicle.mode == Mode.RTL
 
 
 def test_continue_mission_in_auto() -> None:
     config = EndpointConfig(gcs_failsafe_action=int(FailsafeAction.RTL_OR_CONTINUE_MISSION))
     endpoint, vehicle, _, gcs = memory_endpoint(config)
-    vehicle.armed, vehicle.mode, vehicle.pos_ned[2] = True, CopterMode.AUTO, -2.0
+    vehicle.armed, vehicle.mode, vehicle.pos_ned[2] = True, Mode.AUTO, -2.0
     heartbeat_from(gcs)
     endpoint.tick(0.0, 0.0)
     endpoint.tick(10.0, 10.0)
-    assert endpoint.gcs_failsafe_active and vehicle.mode == CopterMode.AUTO
+    assert endpoint.gcs_failsafe_active and vehicle.mode == Mode.AUTO
     assert not [c for c in vehicle.calls if c[0] == "trigger_failsafe"]
 
 
@@ -121,7 +122,7 @@ def test_failsafe_over_udp_at_50x() -> None:
         try:
             gcs.mav.param_set_send(1, 1, b"FS_GCS_TIMEOUT", 2.0, M.MAV_PARAM_TYPE_REAL32)
             assert gcs.recv("PARAM_VALUE", condition=lambda m: m.param_value == 2.0)
-            assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.GUIDED).result == 0
+            assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.GUIDED).result == 0
             assert gcs.ack(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == 0
             assert gcs.ack(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 5.0).result == 0
             # Heartbeats every 0.3 s for 4 wall s (200 simulated s): no failsafe.
@@ -140,7 +141,7 @@ def test_failsafe_over_udp_at_50x() -> None:
             # 0.1 s: a heartbeat is stamped with the wall time of the tick that reads it,
             # which may precede our send by up to one tick (a few ms).
             assert 2.0 - 0.1 <= elapsed <= 2.0 + WAIT_S
-            hb = gcs.recv("HEARTBEAT", condition=lambda m: m.custom_mode == CopterMode.LAND)
+            hb = gcs.recv("HEARTBEAT", condition=lambda m: m.custom_mode == Mode.LAND)
             assert hb is not None and hb.system_status == MavState.CRITICAL
         finally:
             vehicle.stop()

@@ -13,15 +13,11 @@ from numpy.testing import assert_allclose
 
 from fcu.mavlink import messages as build
 from fcu.mavlink.codec import Codec, mavlink2
+from fcu.mavlink.enums import MavState
 from fcu.mavlink.geo import metres_per_degree
-from fcu.mavlink.port import (
-    BatteryState,
-    CopterMode,
-    MavState,
-    SensorHealth,
-    VehicleSnapshot,
-)
+from fcu.mavlink.port import BatteryState, SensorHealth, VehicleSnapshot
 from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from fcu.navigation.modes import Mode
 from flightdata.geometry import euler_from_quat
 
 M = mavlink2
@@ -50,13 +46,13 @@ def one(msg_id: int, s: VehicleSnapshot, ctx: build.TelemetryContext | None = No
 
 
 def test_heartbeat_identity_and_flags() -> None:
-    hb = one(M.MAVLINK_MSG_ID_HEARTBEAT, snap(armed=True, custom_mode=CopterMode.GUIDED))
+    hb = one(M.MAVLINK_MSG_ID_HEARTBEAT, snap(armed=True, custom_mode=Mode.GUIDED))
     assert (hb.type, hb.autopilot) == (M.MAV_TYPE_QUADROTOR, M.MAV_AUTOPILOT_ARDUPILOTMEGA)
     assert hb.custom_mode == 4
     assert hb.base_mode & M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
     assert hb.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED
     assert hb.base_mode & M.MAV_MODE_FLAG_GUIDED_ENABLED
-    hb = one(M.MAVLINK_MSG_ID_HEARTBEAT, snap(armed=False, custom_mode=CopterMode.STABILIZE,
+    hb = one(M.MAVLINK_MSG_ID_HEARTBEAT, snap(armed=False, custom_mode=Mode.STABILIZE,
                                               system_status=MavState.BOOT))
     assert not hb.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED
     assert not hb.base_mode & M.MAV_MODE_FLAG_GUIDED_ENABLED
@@ -150,7 +146,7 @@ def test_home_position_only_when_home_is_set() -> None:
 
 def test_mission_current_total_and_state() -> None:
     msg = one(M.MAVLINK_MSG_ID_MISSION_CURRENT, snap(mission_seq=2, mission_state=3,
-                                                    custom_mode=CopterMode.AUTO),
+                                                    custom_mode=Mode.AUTO),
               build.TelemetryContext(mission_total=4))
     assert (msg.seq, msg.total, msg.mission_state, msg.mission_mode) == (2, 4, 3, 1)
     msg = one(M.MAVLINK_MSG_ID_MISSION_CURRENT, snap())

@@ -25,7 +25,8 @@ from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import EndpointConfig
 from fcu.mavlink.geo import geo_to_ned, ned_to_geo
 from fcu.mavlink.mission import MissionConfig, WireItem, to_mission_item, validate_item
-from fcu.mavlink.port import CopterMode, GeoPoint, MissionState
+from fcu.mavlink.port import GeoPoint, MissionState
+from fcu.navigation.modes import Mode
 
 M = mavlink2
 NAN, INF = math.nan, math.inf
@@ -299,9 +300,9 @@ def test_mission_flight_reports_reached_items_and_completion(
     gcs, vehicle = link
     items = square()
     assert upload(gcs, items).ack.type == M.MAV_MISSION_ACCEPTED
-    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.GUIDED).result == M.MAV_RESULT_ACCEPTED
+    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.GUIDED).result == M.MAV_RESULT_ACCEPTED
     assert gcs.ack(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
-    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, CopterMode.AUTO).result == M.MAV_RESULT_ACCEPTED
+    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.AUTO).result == M.MAV_RESULT_ACCEPTED
     gcs.command_long(M.MAV_CMD_MISSION_START, 0, 0)
     acks: list[int] = []
     reached: list[int] = []

@@ -22,13 +22,11 @@ from sim.world.dynamics import (
     VEL_NED,
     RigidBodyPlant,
     derivative,
-    euler_to_quat,
     pack_params,
-    quat_to_euler,
-    quat_to_rotation,
     rk4_step,
     specific_force_frd,
 )
+from sim.world.rotations import euler_to_quat, quat_to_euler, quat_to_rotation
 
 AF = Airframe()
 NO_DRAG = Airframe(drag_coeff_xy=0.0, drag_coeff_z=0.0, drag_quad_coeff=0.0)

@@ -12,14 +12,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flightdata.config import ConfigError, from_mapping
-from sim.world.faults import (
+from sim.world.fault_types import (
     DEFAULT_GARBAGE_RANGE,
     ActuatorFault,
-    FaultEngine,
     SensorFault,
     StructuralFault,
     fault_from_mapping,
 )
+from sim.world.faults import FaultEngine
 
 PWM_MAX = 0.05  # thesis Table 7.1
 MASS_KG = 1.42  # thesis Table 7.1

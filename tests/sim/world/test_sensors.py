@@ -11,8 +11,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from flightdata.config import ConfigError, from_mapping
-from sim.world.faults import FaultEngine, SensorFault
-from sim.world.sensors import SENSOR_NAMES, SensorConfig, SensorSuite, quat_to_euler_zyx
+from sim.world.fault_types import SENSOR_NAMES, SensorFault
+from sim.world.faults import FaultEngine
+from sim.world.sensors import SensorConfig, SensorSuite, quat_to_euler_zyx
 
 PLANT_HZ = 500.0
 

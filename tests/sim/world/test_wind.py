@@ -17,18 +17,16 @@ from scipy.linalg import solve_continuous_lyapunov
 from scipy.optimize import brentq
 
 from flightdata.config import ConfigError, from_mapping
-from sim.world.wind import (
-    BLOCK_STEPS,
+from sim.world.dryden import (
     FT_TO_M,
     KT_TO_M_S,
     LOW_ALTITUDE_CEILING_M,
-    DrydenWind,
-    WindConfig,
     dryden_length_scales_m,
     dryden_sigmas_m_s,
     second_order_model,
     van_loan,
 )
+from sim.world.wind import BLOCK_STEPS, DrydenWind, WindConfig
 
 # Statistics conditions: the 10 ft altitude floor and a fast airspeed keep the correlation
 # times short (T_u = T_v = 0.461 s, T_w = 0.061 s), so 10 000 T_u is 4.6 M steps at 1 ms.

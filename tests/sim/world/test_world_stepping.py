@@ -29,7 +29,8 @@ from sim.world.fault_kernels import (
     corrupt_reading,
     sensor_draws_ready,
 )
-from sim.world.faults import ActuatorFault, FaultEngine, SensorFault, StructuralFault
+from sim.world.fault_types import ActuatorFault, SensorFault, StructuralFault
+from sim.world.faults import FaultEngine
 from sim.world.samples import SampleBatch, SensorSample
 from sim.world.sensors import SensorConfig
 from sim.world.stepping import STOP_CONTACT, STOP_DONE, STOP_DRAW, STOP_PYTHON

@@ -1,0 +1,42 @@
+"""The autopilot's parameter table: each parameter reads and writes its configuration field."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from fcu.config import AutopilotConfig
+from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
+
+
+def _inside(lo: float, hi: float, current: float) -> float:
+    """A value within [lo, hi] that differs from ``current``."""
+    lo = max(lo, -1e6)
+    hi = min(hi, 1e6)
+    for candidate in (lo + 0.25 * (hi - lo), lo + 0.75 * (hi - lo), lo, hi):
+        if not math.isclose(candidate, current):
+            return candidate
+    raise AssertionError("no other value")
+
+
+@pytest.mark.parametrize("param", [p for p in AUTOPILOT_PARAMS if not p.read_only],
+                         ids=lambda p: p.name)
+def test_every_parameter_round_trips_through_the_configuration(param) -> None:
+    config = AutopilotConfig()
+    current = param.get(config)
+    if param.allowed is not None:
+        value = next(v for v in param.allowed if v != current)
+    else:
+        value = _inside(param.min_value, param.max_value, current)
+    changed = param.set(config, value)
+    assert param.get(changed) == pytest.approx(value)
+    assert param.get(config) == current  # the configuration is immutable
+
+
+def test_crash_check_and_detector_parameters_reach_their_groups() -> None:
+    config = AutopilotConfig()
+    report_only = find_param("FS_CRASH_CHECK").set(config, 0)  # type: ignore[union-attr]
+    assert report_only.crash.action == 0 and config.crash.action == 1
+    strict = find_param("FD_SIGNIF").set(config, 49.0)  # type: ignore[union-attr]
+    assert strict.detector.significance == 49.0
