@@ -52,7 +52,10 @@ def test_inject_failure_command_and_a_parameter_fault(vehicle_link) -> None:  # 
     # scheduled on the vehicle's clock: announced when it starts, on the planned tick
     assert report.injections[0].text == "fault started: motor 2: loe 25 % (step)"
     assert motor_fault.error_s == pytest.approx(0.0, abs=1e-9)
-    assert [d.motor for d in report.detections] == [2]
+    assert [d.motor for d in report.detections if d.kind in ("loe", "motor_lost")] == [2]
+    # the 0.3 kg drop is reported as a mass change (kg, negative: lighter), not a motor fault
+    (mass,) = [d for d in report.detections if d.kind == "mass_change"]
+    assert mass.record.magnitude == pytest.approx(-0.3, abs=0.05)
     assert report.params["SIM_MASS_DROP"] == pytest.approx(0.3)
 
 
