@@ -29,6 +29,15 @@ ACCEPTED = M.MAV_RESULT_ACCEPTED
 _SPEED_TYPES = {"ground": 1, "climb": 2, "descent": 3}
 
 
+def guided_take_off(gcs: Gcs, alt_m: float) -> None:
+    """GUIDED, arm, NAV_TAKEOFF to ``alt_m`` and wait for the take-off to complete."""
+    assert gcs.set_mode(GUIDED).result == ACCEPTED
+    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
+    since = gcs.mark()
+    assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, alt_m).result == ACCEPTED
+    gcs.wait("STATUSTEXT", lambda m: "take-off complete" in m.text, since=since)
+
+
 def wire_mission(items: tuple[MissionItem, ...]) -> list:
     """Navigator mission items as MISSION_ITEM_INT, local NED (exact for these numbers)."""
     nan = math.nan
@@ -137,11 +146,7 @@ def test_gcs_loss_failsafe_lands_on_wall_time_only(start_vehicle, gcs: Gcs) -> N
     gcs.wait_heartbeat()
     gcs.auto_heartbeat(1.0)  # 1 Hz of wall time: 20 s of simulated time between two
     assert gcs.param_set("FS_GCS_TIMEOUT", 2.0).param_value == 2.0
-    assert gcs.set_mode(GUIDED).result == ACCEPTED
-    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
-    since = gcs.mark()
-    assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.0).result == ACCEPTED
-    gcs.wait("STATUSTEXT", lambda m: "take-off complete" in m.text, since=since)
+    guided_take_off(gcs, 1.0)
     # Hover for 4 s of wall time (80 s simulated) with heartbeats every wall second.
     hover = gcs.collect(4.0)
     assert not [m.text for m in hover if m.get_type() == "STATUSTEXT" and "failsafe" in
@@ -170,11 +175,7 @@ def test_gcs_loss_failsafe_lands_on_wall_time_only(start_vehicle, gcs: Gcs) -> N
 def test_simulator_fault_is_found_by_the_autopilot(start_vehicle, gcs: Gcs) -> None:
     start_vehicle("--speedup", "10", outs=[gcs.port])
     gcs.wait_heartbeat()
-    assert gcs.set_mode(GUIDED).result == ACCEPTED
-    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
-    since = gcs.mark()
-    assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.0).result == ACCEPTED
-    gcs.wait("STATUSTEXT", lambda m: "take-off complete" in m.text, since=since)
+    guided_take_off(gcs, 1.0)
     before = [m for m in gcs.collect(1.0) if m.get_type() == "SERVO_OUTPUT_RAW"]
     # ArduPilot style: motor 1 (front) at 70 % thrust
     since = gcs.mark()
@@ -216,11 +217,7 @@ def test_a_crash_disarms_within_3_s_and_a_lost_motor_blocks_arming(start_vehicle
     start_vehicle("--speedup", "5", outs=[gcs.port])
     gcs.auto_heartbeat(1.0)
     gcs.wait_heartbeat()
-    assert gcs.set_mode(GUIDED).result == ACCEPTED
-    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
-    since = gcs.mark()
-    assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.0).result == ACCEPTED
-    gcs.wait("STATUSTEXT", lambda m: "take-off complete" in m.text, since=since)
+    guided_take_off(gcs, 1.0)
     # ArduPilot style: motor 1 (front) dead
     since = gcs.mark()
     assert gcs.param_set("SIM_ENGINE_MUL", 0.0).param_value == 0.0

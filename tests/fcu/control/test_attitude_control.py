@@ -7,6 +7,7 @@ import control
 import numpy as np
 import pytest
 import scipy.linalg
+from axis_plant import discrete_axes
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
@@ -30,13 +31,7 @@ def simulate_axes(controller, *, steps: int, disturbance_nm: np.ndarray,
     Exact ZOH discretisation of the plant at the loop rate; the measurement may be delayed by
     whole ticks. Returns the angles, shape (steps, 3).
     """
-    a_s, b_s = [], []
-    for inertia in MODEL.inertia:
-        a_c = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0 / inertia], [0.0, 0.0, -motor_rad_s]])
-        b_c = np.array([[0.0, 0.0], [0.0, 1.0 / inertia], [motor_rad_s, 0.0]])
-        d = control.c2d(control.ss(a_c, b_c, np.eye(3), np.zeros((3, 2))), DT)
-        a_s.append(np.asarray(d.A))
-        b_s.append(np.asarray(d.B))
+    a_s, b_s = discrete_axes(MODEL, DT, motor_rad_s)
     x = np.zeros((3, 3))  # axis x [angle, rate, motor torque]
     if start_rad is not None:
         x[:, 0] = start_rad

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import control
 import numpy as np
 import pytest
+from axis_plant import discrete_axes
 
 from fcu.config import AutopilotConfig
 from fcu.control.attitude_lqr import AttitudeLQR, LqrWeights
@@ -39,13 +39,7 @@ def closed_loop(controller, dob, *, seconds: float, motor_rad_s: float = MODEL.m
     tick), tau_cmd = controller - d_hat. The plant is the exact ZOH discretisation at the
     loop rate, with D_STEP from T_STEP on. Returns time (s), angles (rad) and d_hat (N*m).
     """
-    a_s, b_s = [], []
-    for inertia in MODEL.inertia:
-        a_c = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0 / inertia], [0.0, 0.0, -motor_rad_s]])
-        b_c = np.array([[0.0, 0.0], [0.0, 1.0 / inertia], [motor_rad_s, 0.0]])
-        d = control.c2d(control.ss(a_c, b_c, np.eye(3), np.zeros((3, 2))), DT)
-        a_s.append(np.asarray(d.A))
-        b_s.append(np.asarray(d.B))
+    a_s, b_s = discrete_axes(MODEL, DT, motor_rad_s)
     steps = int(round(seconds / DT))
     x = np.zeros((3, 3))  # per axis [angle, rate, motor torque]
     history = [x.copy()] * (delay_ticks + 1)

@@ -13,7 +13,6 @@ Run ``python tests/fcu/test_ekf.py`` for a per-step cost benchmark (prints, neve
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -449,33 +448,3 @@ def test_bad_settings_name_the_key() -> None:
     ekf.step(1.0, U_HOVER, [])
     with pytest.raises(ValueError, match="time_s"):
         ekf.step(0.5, U_HOVER, [])
-
-
-def benchmark(n_ticks: int = 5000) -> None:
-    """Print the EKF's CPU time per 100 Hz tick with the default sensor mix."""
-    rng = np.random.default_rng(0)
-    for source in ("mocap", "baro"):
-        ekf = ExtendedKalmanEstimator(MODEL, DT, height_source=source)  # type: ignore[arg-type]
-        ekf.reset(0.0, initial_estimate(hover_state(), np.full(STATE_DIM, 1e-2)))
-        ticks = []
-        for k in range(1, n_ticks + 1):
-            t = k * DT
-            x = hover_state()
-            s = samples_at(rng, t, x, ("mocap_pos", "mocap_att", "baro"))
-            s += [SensorSample("gyro", t - 0.006, rng.normal(size=3) * 0.003),
-                  SensorSample("gyro", t - 0.002, rng.normal(size=3) * 0.003),
-                  SensorSample("accel", t - 0.006, rng.normal(size=3) * 0.03),
-                  SensorSample("accel", t - 0.002, rng.normal(size=3) * 0.03)]
-            ticks.append(s)
-        best = math.inf
-        for _ in range(5):
-            ekf.reset(0.0, initial_estimate(hover_state(), np.full(STATE_DIM, 1e-2)))
-            t0 = time.process_time()
-            for k, s in enumerate(ticks, start=1):
-                ekf.step(k * DT, U_HOVER, s)
-            best = min(best, (time.process_time() - t0) / n_ticks)
-        print(f"EKF ({source} height): {best * 1e6:.1f} us CPU per tick (best of 5)")
-
-
-if __name__ == "__main__":
-    benchmark()

@@ -624,34 +624,3 @@ def test_no_detection_in_a_fault_free_flight_with_wind(
     assert run.pos_true[-1, 2] == pytest.approx(-0.6, abs=0.05)  # it did take off and hover
     # before the motors start the filter's ground model holds gamma still
     np.testing.assert_array_equal(run.gamma_raw[run.t < 1.0], 0.0)
-
-
-def benchmark(n_ticks: int = 5000) -> None:
-    """Print the TSKF's CPU time per 100 Hz tick with the default sensor mix."""
-    rng = np.random.default_rng(0)
-    for source in ("mocap", "baro"):
-        tskf = TwoStageKalmanFilter(MODEL, height_source=source)  # type: ignore[arg-type]
-        ticks = []
-        for k in range(1, n_ticks + 1):
-            t = k * DT
-            s = [SensorSample("mocap_pos", t, hover_state()[0:3] + 5e-4 * rng.normal(size=3)),
-                 SensorSample("mocap_att", t, 2e-3 * rng.normal(size=3)),
-                 SensorSample("baro", t, np.array([0.6]) + 0.02 * rng.normal(size=1))]
-            s += [SensorSample("gyro", t - 0.006, rng.normal(size=3) * 0.003),
-                  SensorSample("gyro", t - 0.002, rng.normal(size=3) * 0.003),
-                  SensorSample("accel", t - 0.006, rng.normal(size=3) * 0.03),
-                  SensorSample("accel", t - 0.002, rng.normal(size=3) * 0.03)]
-            ticks.append(s)
-        best = math.inf
-        for _ in range(5):
-            tskf.reset(0.0, StateEstimate.from_vector(0.0, hover_state(),
-                                                      np.full(STATE_DIM, 1e-4)))
-            t0 = time.process_time()
-            for k, s in enumerate(ticks, start=1):
-                tskf.step(k * DT, U_HOVER, s)
-            best = min(best, (time.process_time() - t0) / n_ticks)
-        print(f"TSKF ({source} height): {best * 1e6:.1f} us CPU per tick (best of 5)")
-
-
-if __name__ == "__main__":
-    benchmark()
