@@ -51,7 +51,7 @@ from fcu.monitoring.sensor_health import SensorHealth
 from fcu.navigation.guidance import Reference
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
 from flightdata.records import DetectionRecord
-from flightdata.vocabulary import SENSORS
+from flightdata.vocabulary import FTC_MODES, SENSORS
 
 # AutopilotConfig is defined in fcu.config; named here too because it is the configuration
 # of this module's Autopilot
@@ -101,6 +101,9 @@ class AutopilotStatus:
     motors_lost: tuple[int, ...] = ()  # motors 1..4 declared lost
 
 
+FTC_USE_SUSPECTED = True
+
+
 class Autopilot:
     """Estimators, navigator, controllers and allocation run at ``loop_rate_hz``.
 
@@ -142,6 +145,7 @@ class Autopilot:
         self._sensor_noise = {name: float(getattr(noise, name)) for name in SENSORS}
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
         self.crash_check = CrashCheck(cfg.crash)
+        self.ftc_active = cfg.ftc == "active"
         self.reset()
 
     def reset(self) -> None:
@@ -231,6 +235,8 @@ class Autopilot:
                                     att_ref.rate, att_ref.acc)
         d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
         torque_cmd = torque - d_hat
+        self.allocator.set_effectiveness(self._ftc_effectiveness() if self.ftc_active
+                                         else None)
         pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
         self._thrust_n = cmd.thrust_n
         _, self._torque_applied = self.allocator.mix(pwm)
@@ -262,6 +268,32 @@ class Autopilot:
             f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
             "restart the autopilot to clear" for m in active))
         return records
+
+    def _ftc_effectiveness(self) -> np.ndarray:
+        """Active FTC: per motor, ``1 - LOE`` of the motors the detector has declared (its
+        estimate, mass change removed, :mod:`fcu.monitoring.motor_faults`), 1 for the others.
+
+        Only declared motors are reconfigured: an undeclared motor's estimate is noise about
+        zero (turbulence moves it by a few per cent), and feeding it to the mixer would
+        shake healthy motors for nothing.
+        """
+        e = np.ones(4)
+        loe = self.detector.evidence.loe
+        motors = set(self.detector.active)
+        if FTC_USE_SUSPECTED and self.detector.suspected is not None:
+            motors.add(self.detector.suspected)
+        for motor in motors:
+            e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
+        return e
+
+    def set_ftc(self, mode: str) -> None:
+        """Switch fault-tolerant control between ``"passive"`` and ``"active"``, in flight too:
+        the next tick allocates with (or without) the estimated effectiveness; the
+        controllers' states carry over, so the switch is a step in the motor commands only
+        as large as the fault being compensated."""
+        if mode not in FTC_MODES:
+            raise ValueError(f"ftc = {mode!r}: must be one of {', '.join(FTC_MODES)}")
+        self.ftc_active = mode == "active"
 
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""

@@ -25,7 +25,7 @@ from flightdata.vocabulary import CONFIG_CHOICES
 class AutopilotConfig:
     """The autopilot's whole configuration (frozen; TOML table ``[autopilot]``).
 
-    ``attitude``, ``estimator``, ``dob``, ``height_source`` and ``allocator`` each take one
+    ``attitude``, ``estimator``, ``dob``, ``height_source``, ``allocator`` and ``ftc`` each take one
     of the names :data:`flightdata.vocabulary.CONFIG_CHOICES` lists for them.
     """
 
@@ -34,6 +34,7 @@ class AutopilotConfig:
     dob: str = "none"  # disturbance observer on roll, pitch and yaw: "none", "vbdob", "abdob"
     height_source: str = "mocap"  # height from motion capture ("mocap") or "baro"
     allocator: str = "attitude_first"  # control allocation (inverse of eq. 3.2)
+    ftc: str = "passive"  # "passive" (the thesis) or "active": allocation uses the estimates
     loop_rate_hz: float = 100.0  # Hz, control and estimation tick
     dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
     attitude_ref_bandwidth_rad_s: float = 15.0  # rad/s, attitude reference filter

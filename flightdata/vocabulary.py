@@ -40,12 +40,17 @@ ALLOCATORS: tuple[str, ...] = ("attitude_first",)
 """Control allocators: the inverse of eq. 3.2 with attitude-first saturation (no parameter
 selects one yet)."""
 
+FTC_MODES: tuple[str, ...] = ("passive", "active")
+"""Fault-tolerant control: ``passive`` (the thesis: robust control, the estimates only
+reported) or ``active`` (the allocation uses the estimated effectiveness of each motor)."""
+
 CONFIG_CHOICES: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "attitude": ATTITUDE_LAWS,
     "estimator": ESTIMATORS,
     "dob": DISTURBANCE_OBSERVERS,
     "height_source": HEIGHT_SOURCES,
     "allocator": ALLOCATORS,
+    "ftc": FTC_MODES,
 })
 """Configuration key (``[autopilot]`` table) -> its ordered choices."""
 
@@ -54,6 +59,7 @@ CONFIG_PARAMS: Mapping[str, str] = MappingProxyType({
     "estimator": "EST_TYPE",
     "dob": "DOB_TYPE",
     "height_source": "HGT_SOURCE",
+    "ftc": "FTC_MODE",
 })
 """Configuration key -> the MAVLink parameter that selects it (value = index of the choice);
 keys of :data:`CONFIG_CHOICES` without a parameter are set in the configuration only."""

@@ -18,13 +18,25 @@ Saturation strategy (each motor must stay in [pwm_min, pwm_max]); attitude comes
 because a quadrotor that loses roll/pitch control loses everything, while a yaw or altitude
 error is recoverable:
 
-1. keep the requested collective ``c`` and roll/pitch pattern, scale the yaw pattern by the
-   largest ``s_yaw`` in [0, 1] that fits;
+0. when the whole request fits, it is allocated exactly;
+1. else keep the requested collective ``c`` and roll/pitch pattern, scale the yaw pattern by
+   the largest ``s_yaw`` in [0, 1] that fits;
 2. if roll/pitch alone does not fit at ``c``, drop yaw and shift the collective to the nearest
    value that fits (trading altitude for attitude), then give back as much yaw as fits at the
    shifted collective;
 3. only when the roll/pitch spread alone exceeds the PWM range, scale roll and pitch down
    together (direction of the tilt torque kept) until the spread equals the range.
+
+Active fault-tolerant control (beyond the thesis, which stops at passive tolerance; chapter 8
+names reconfiguration as future work): with the estimated effectiveness ``e_i = 1 - gamma_i``
+of each motor (:meth:`Allocator.set_effectiveness`), eq. 3.2 becomes ``U = B diag(e) u``.
+Writing ``v = diag(e) u`` (the thrust each motor actually gives, in PWM units) the nominal
+inverse applies to ``v`` unchanged, and only the bounds move: ``e_i pwm_min <= v_i <= e_i
+pwm_max``. The same strategy, with per-motor bounds, gives ``v``; the command is
+``u_i = v_i / e_i``. So the controllers see the nominal airframe (no gain changes: the loop
+gains of eq. 5.3-5.10 are those of the nominal plant again), the priorities are kept
+(thrust and roll/pitch before yaw), and a weak motor's smaller range is where saturation
+shows first. With every ``e_i = 1`` this is exactly the nominal allocation, to the bit.
 """
 
 from __future__ import annotations
@@ -37,6 +49,7 @@ from fcu.floats import clip, floats
 from fcu.model import VehicleModel
 
 _EPS_PWM = 1e-12  # numerical slack on the PWM bounds, far below any physical PWM step
+MIN_EFFECTIVENESS = 0.05  # the least effectiveness the allocation assumes of a motor
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,6 +100,24 @@ class Allocator:
         self._per_thrust_f = float(self._per_thrust[0])
         self._per_roll_f, self._per_pitch_f, self._per_yaw_f = (
             self._per_roll.tolist(), self._per_pitch.tolist(), self._per_yaw.tolist())
+        self._effectiveness = [1.0, 1.0, 1.0, 1.0]  # e_i = 1 - gamma_i believed (active FTC)
+
+    @property
+    def effectiveness(self) -> np.ndarray:
+        """The per-motor effectiveness the allocation assumes, shape (4,), in (0, 1]."""
+        return np.array(self._effectiveness)
+
+    def set_effectiveness(self, effectiveness: np.ndarray | None) -> None:
+        """Assume motor i gives ``effectiveness[i]`` of its nominal thrust (None: all 1).
+
+        Values are clipped to [:data:`MIN_EFFECTIVENESS`, 1]: a motor believed dead is still
+        commanded (at most full power), never divided by zero.
+        """
+        if effectiveness is None:
+            self._effectiveness = [1.0, 1.0, 1.0, 1.0]
+            return
+        self._effectiveness = [clip(float(e), MIN_EFFECTIVENESS, 1.0)
+                               for e in floats(effectiveness, 4)]
 
     @property
     def max_thrust_n(self) -> float:
@@ -119,7 +150,9 @@ class Allocator:
     def _allocate(self, thrust_n: float, torque_nm: np.ndarray
                   ) -> tuple[np.ndarray, float, float, float, float]:
         """The strategy of the module docstring: (pwm, s_yaw, s_rp, c, c0)."""
-        lo, hi = self.model.pwm_min, self.model.pwm_max
+        e = self._effectiveness
+        lo = [self.model.pwm_min * ei for ei in e]  # bounds on v = e u (module docstring)
+        hi = [self.model.pwm_max * ei for ei in e]
         # four motors in plain floats (numpy's per-call overhead would dominate)
         t_roll, t_pitch, t_yaw = floats(torque_nm, 3)
         c0 = float(thrust_n) * self._per_thrust_f  # requested collective PWM, c = U1/(4K)
@@ -127,48 +160,70 @@ class Allocator:
                                                           strict=True)]
         d_yaw = [t_yaw * y for y in self._per_yaw_f]
 
-        # 1. collective and roll/pitch as requested, yaw scaled to fit
-        s_yaw = _largest_scale_f([c0 + d for d in d_rp], d_yaw, lo, hi)
+        # 0. the whole request fits: exact; 1. else collective and roll/pitch as requested,
+        # yaw scaled to fit
+        exact = [c0 + d + y for d, y in zip(d_rp, d_yaw, strict=True)]
+        if all(lo_i - _EPS_PWM <= x <= hi_i + _EPS_PWM
+               for x, lo_i, hi_i in zip(exact, lo, hi, strict=True)):
+            s_yaw: float | None = 1.0
+        else:
+            s_yaw = _largest_scale_f([c0 + d for d in d_rp], d_yaw, lo, hi)
         if s_yaw is not None:
             c, s_rp = c0, 1.0
         else:
-            rp_min, rp_max = min(d_rp), max(d_rp)
-            spread = rp_max - rp_min
-            if spread <= hi - lo:
+            c_lo = max(lo_i - d for lo_i, d in zip(lo, d_rp, strict=True))
+            c_hi = min(hi_i - d for hi_i, d in zip(hi, d_rp, strict=True))
+            if c_lo <= c_hi:
                 # 2. roll/pitch fits the range: shift the collective to the nearest feasible
-                c, s_rp = clip(c0, lo - rp_min, hi - rp_max), 1.0
+                c, s_rp = clip(c0, c_lo, c_hi), 1.0
             else:
-                # 3. roll/pitch alone exceeds the range: scale it to the range, no yaw
-                s_rp = (hi - lo) / spread
-                c = lo - s_rp * rp_min
+                # 3. roll/pitch alone exceeds the range: scale it until it fits, no yaw
+                s_rp = _largest_spread_scale(d_rp, lo, hi)
+                c = max(lo_i - s_rp * d for lo_i, d in zip(lo, d_rp, strict=True))
             s_yaw = _largest_scale_f([c + s_rp * d for d in d_rp], d_yaw, lo, hi) or 0.0
-        pwm = np.array([clip(c + s_rp * d + s_yaw * y, lo, hi)
-                        for d, y in zip(d_rp, d_yaw, strict=True)])
+        pwm = np.array([clip(c + s_rp * d + s_yaw * y, lo_i, hi_i) / ei
+                        for d, y, lo_i, hi_i, ei in zip(d_rp, d_yaw, lo, hi, e, strict=True)])
         return pwm, s_yaw, s_rp, c, c0
 
     def mix(self, pwm: np.ndarray) -> tuple[float, np.ndarray]:
-        """Eq. 3.2: thrust U1 (N) and torques [U2, U3, U4] (N*m, shape (3,)) from PWM u[4]."""
-        u = self._mixer @ np.asarray(pwm, dtype=float).reshape(4)
+        """Eq. 3.2: thrust U1 (N) and torques [U2, U3, U4] (N*m, shape (3,)) from PWM u[4],
+        with the effectiveness the allocation assumes (``B diag(e) u``)."""
+        u = self._mixer @ (np.asarray(pwm, dtype=float).reshape(4) * self._effectiveness)
         return float(u[0]), u[1:].copy()
 
 
 def _largest_scale(base: np.ndarray, pattern: np.ndarray, lo: float, hi: float) -> float | None:
     """Largest s in [0, 1] with lo <= base + s * pattern <= hi, or None if s = 0 is infeasible."""
+    n = len(base)
     return _largest_scale_f(np.asarray(base, dtype=float).tolist(),
-                            np.asarray(pattern, dtype=float).tolist(), lo, hi)
+                            np.asarray(pattern, dtype=float).tolist(), [lo] * n, [hi] * n)
 
 
-def _largest_scale_f(base: list[float], pattern: list[float], lo: float, hi: float
-                     ) -> float | None:
-    """:func:`_largest_scale` on plain floats."""
-    lo_tol, hi_tol = lo - _EPS_PWM, hi + _EPS_PWM
-    if any(b < lo_tol or b > hi_tol for b in base):
+def _largest_scale_f(base: list[float], pattern: list[float], lo: list[float],
+                     hi: list[float]) -> float | None:
+    """:func:`_largest_scale` on plain floats, with per-motor bounds."""
+    if any(b < lo_i - _EPS_PWM or b > hi_i + _EPS_PWM
+           for b, lo_i, hi_i in zip(base, lo, hi, strict=True)):
         return None
     s = 1.0
-    for b, p in zip(base, pattern, strict=True):
+    for b, p, lo_i, hi_i in zip(base, pattern, lo, hi, strict=True):
         # |p| <= _EPS_PWM cannot leave the bounds by more than the slack at any s in [0, 1]
         if p > _EPS_PWM:
-            s = min(s, (hi - b) / p)
+            s = min(s, (hi_i - b) / p)
         elif p < -_EPS_PWM:
-            s = min(s, (lo - b) / p)
+            s = min(s, (lo_i - b) / p)
     return s if s > 0.0 else 0.0
+
+
+def _largest_spread_scale(d: list[float], lo: list[float], hi: list[float]) -> float:
+    """Largest s in [0, 1] for which some c puts every ``c + s d_i`` in [lo_i, hi_i].
+
+    For each pair with ``d_j > d_i``: ``lo_i - s d_i <= hi_j - s d_j``, i.e.
+    ``s <= (hi_j - lo_i) / (d_j - d_i)``. With equal bounds this is range / spread.
+    """
+    s = 1.0
+    for i, d_i in enumerate(d):
+        for j, d_j in enumerate(d):
+            if d_j > d_i:
+                s = min(s, (hi[j] - lo[i]) / (d_j - d_i))
+    return max(s, 0.0)

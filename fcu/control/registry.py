@@ -90,6 +90,10 @@ class ControlAllocator(Protocol):
         """Eq. 3.2: thrust U1 (N) and torques [U2, U3, U4] (N*m, (3,)) that ``pwm`` asks for."""
         ...
 
+    def set_effectiveness(self, effectiveness: np.ndarray | None) -> None:
+        """Per-motor effectiveness (4,) to allocate for (active FTC); None: nominal."""
+        ...
+
 
 AttitudeLawFactory = Callable[[AutopilotConfig, float], AttitudeLaw]
 DobFactory = Callable[[AutopilotConfig, float], DisturbanceObserver]

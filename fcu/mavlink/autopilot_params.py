@@ -11,7 +11,8 @@ ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY
 :class:`fcu.mavlink.autopilot_port.AutopilotPort` applies them: a change rebuilds the
 autopilot with the new configuration, so it is accepted only disarmed on the ground, except
 the parameters with ``live_speed`` (``WPNAV_SPEED``, ``WPNAV_SPEED_UP``, ``WPNAV_SPEED_DN``),
-which also act at once in flight like DO_CHANGE_SPEED.
+which also act at once in flight like DO_CHANGE_SPEED, and ``FTC_MODE``, which switches the
+fault-tolerant control at once, in flight or not.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ class ApParam:
     allowed: tuple[float, ...] | None = None
     integer: bool = False
     live_speed: str | None = None  # DO_CHANGE_SPEED type applied at once in flight
+    live_ftc: bool = False  # the FTC mode: switched at once, in flight too (no rebuild)
     read_only: bool = False
 
 
@@ -123,6 +125,9 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
                 "Disturbance observer: 0 none, 1 VbDOB, 2 AbDOB (eq. 6.27-6.30)"),
     _enum_param("height_source",
                 "Height source: 0 motion capture, 1 barometer"),
+    replace(_enum_param("ftc", "Fault-tolerant control: 0 passive (thesis), 1 active "
+                        "(allocation uses the estimated motor effectiveness); "
+                        "switches in flight"), live_ftc=True),
     ApParam("ARMING_CHECK", "Pre-arm checks: 1 all, always (read-only; COMPONENT_ARM_DISARM "
              "p2 = 21196 forces)", get=lambda c: 1.0, set=lambda c, v: c, min_value=0,
              max_value=1, integer=True, read_only=True),

@@ -324,6 +324,12 @@ class AutopilotPort:
             new = spec.set(self._config, float(value))
         except (ValueError, TypeError) as err:
             return CommandResult.denied(str(err))
+        if spec.live_ftc:
+            self.host.autopilot.set_ftc(new.ftc)
+            self._config = new
+            self._snap = None
+            self.post(Severity.INFO, f"FTC: {new.ftc}")
+            return CommandResult.ok()
         nav = self.host.autopilot.navigator
         if nav.armed or not nav.landed:
             if spec.live_speed is None:

@@ -430,6 +430,12 @@ class MotorFaultDetector:
         return tuple(sorted(j + 1 for j in self._declared))
 
     @property
+    def suspected(self) -> int | None:
+        """The motor (1..4) suspected now and not yet declared (LOE above the threshold and
+        GLR above the significance, persistence running), if any."""
+        return None if self._suspect is None else self._suspect + 1
+
+    @property
     def lost(self) -> tuple[int, ...]:
         """Motors (1..4) currently declared lost."""
         return tuple(sorted(j + 1 for j in self._lost))

@@ -103,3 +103,55 @@ def test_any_request_stays_in_bounds_and_keeps_tilt_direction(thrust: float, rol
                                atol=WRENCH_TOL)
     np.testing.assert_allclose(got[3], report.yaw_scale * yaw, atol=WRENCH_TOL)
     assert 0.0 <= report.yaw_scale <= 1.0 and 0.0 <= report.roll_pitch_scale <= 1.0
+
+
+# --------------------------------------------------------------------------------------------
+# active FTC: allocation for the estimated effectiveness (module docstring)
+# --------------------------------------------------------------------------------------------
+@settings(max_examples=200, deadline=None)
+@given(thrust=st.floats(10.0, 20.0), roll=st.floats(-0.1, 0.1), pitch=st.floats(-0.1, 0.1),
+       yaw=st.floats(-0.02, 0.02), e=st.lists(st.floats(0.3, 1.0), min_size=4, max_size=4))
+def test_reconfigured_allocation_delivers_the_wrench_through_weakened_motors(
+        thrust: float, roll: float, pitch: float, yaw: float, e: list[float]) -> None:
+    alloc = Allocator(MODEL)
+    alloc.set_effectiveness(np.array(e))
+    request = np.array([thrust, roll, pitch, yaw])
+    effective = np.linalg.solve(MODEL.mixer(), request)  # v = diag(e) u
+    report = alloc.allocate_report(thrust, request[1:])
+    delivered = MODEL.mixer() @ (report.pwm * np.array(e))  # what the weakened motors give
+    if np.all((effective >= LO * np.array(e)) & (effective <= HI * np.array(e))):
+        np.testing.assert_allclose(delivered, request, atol=WRENCH_TOL)
+        assert not report.saturated
+    assert np.all(report.pwm >= LO - PWM_TOL) and np.all(report.pwm <= HI + PWM_TOL)
+    # mix() reports what the allocation believes the motors give
+    thrust_out, torque_out = alloc.mix(report.pwm)
+    np.testing.assert_allclose([thrust_out, *torque_out], delivered, atol=WRENCH_TOL)
+
+
+def test_full_effectiveness_is_the_nominal_allocation_to_the_bit() -> None:
+    rng = np.random.default_rng(5)
+    alloc = Allocator(MODEL)
+    alloc.set_effectiveness(np.ones(4))
+    for _ in range(500):
+        thrust = float(rng.uniform(0.0, 30.0))
+        tau = rng.uniform(-0.5, 0.5, 3) * np.array([1.0, 1.0, 0.1])
+        assert np.array_equal(alloc.allocate(thrust, tau), ALLOC.allocate(thrust, tau))
+
+
+def test_a_weak_motor_gives_up_yaw_before_roll_and_pitch() -> None:
+    alloc = Allocator(MODEL)
+    alloc.set_effectiveness(np.array([0.4, 1.0, 1.0, 1.0]))
+    weight = MODEL.mass * MODEL.gravity
+    report = alloc.allocate_report(weight, np.array([0.0, 0.05, 0.05]))
+    thrust, torque = alloc.mix(report.pwm)
+    assert report.pwm[0] == pytest.approx(HI)  # motor 1 at full power: 40 % of its thrust
+    assert report.roll_pitch_scale == 1.0 and torque[1] == pytest.approx(0.05)  # pitch kept
+    assert report.yaw_scale < 1.0  # yaw gave way
+
+
+def test_effectiveness_is_clipped_and_none_restores_the_nominal() -> None:
+    alloc = Allocator(MODEL)
+    alloc.set_effectiveness(np.array([0.0, 1.5, 0.5, 1.0]))
+    np.testing.assert_array_equal(alloc.effectiveness, [0.05, 1.0, 0.5, 1.0])
+    alloc.set_effectiveness(None)
+    np.testing.assert_array_equal(alloc.effectiveness, np.ones(4))
