@@ -22,7 +22,7 @@ import numpy as np
 from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
 from fcu.navigation.navigator import Mode
 from sim.world import World, WorldConfig, WorldEvent
-from sim.world.fault_types import Fault
+from sim.world.fault_types import ActuatorFault, Fault, SensorFault
 
 
 def steps_per_tick(world: WorldConfig, autopilot: AutopilotConfig) -> int:
@@ -100,15 +100,21 @@ class SimulatedStack:
         return self.autopilot.drain_events(), self.world.drain_events()
 
 
+_WARM_UP_FAULTS = (ActuatorFault(motor=1, kind="loe", loe=0.05, start_s=0.0),
+                   SensorFault(sensor="baro", kind="bias", magnitude=0.001, start_s=0.0))
+
+
 def warm_up(world: WorldConfig, autopilot: AutopilotConfig, seed: int, ticks: int = 50) -> None:
     """Fly a throwaway stack for ``ticks`` ticks (boot, arm, take-off).
 
     The plant, sensors and estimators are numba code whose first call loads (or compiles)
     machine code: about 0.2 s that would otherwise fall on the first real tick, a glitch in
     a real-time run. The copy has its own world and autopilot, so the real ones are
-    untouched (determinism is kept).
+    untouched (determinism is kept). It flies with a small actuator and a sensor fault, so
+    that the fault kernels are loaded (or, on a fresh machine, compiled: seconds) here too and
+    not at the first fault of the real flight.
     """
-    stack = SimulatedStack(world, autopilot, seed)
+    stack = SimulatedStack(world, autopilot, seed, faults=_WARM_UP_FAULTS)
     stack.first_tick()
     nav = stack.autopilot.navigator
     nav.set_mode(int(Mode.GUIDED))
