@@ -67,11 +67,13 @@ class VehicleProcess:
     ----------
     args : sequence of str
         Extra command-line options (``--speedup``, ``--out`` ...). ``--bind 127.0.0.1:0``
-        is added.
+        is added unless ``any_port`` is False.
+    any_port : bool
+        Bind a free port (False: the vehicle's own default, e.g. from ``--instance``).
     """
 
-    def __init__(self, args: Sequence[str]) -> None:
-        self.args = ["--bind", "127.0.0.1:0", *args]
+    def __init__(self, args: Sequence[str], any_port: bool = True) -> None:
+        self.args = [*(["--bind", "127.0.0.1:0"] if any_port else []), *args]
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
         self.proc = subprocess.Popen(
