@@ -59,7 +59,7 @@ class VehicleSpec:
     start_paused: bool = True
     max_sim_s: float = 600.0  # s simulated
     extra_args: Sequence[str] = field(default_factory=tuple)
-    signing_key: bytes | None = None
+    signing_key: bytes | None = field(default=None, repr=False)  # never shown in a repr
     python: str = sys.executable
 
     def command(self, gcs_port: int) -> list[str]:

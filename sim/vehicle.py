@@ -91,7 +91,8 @@ class VehicleOptions:
     start_paused: bool = False  # boot with SIM_PAUSE = 1
     timing_log: Path | None = None  # per-tick wall-clock timing, CSV
     realtime_priority: int = 0  # SCHED_FIFO priority of the loop (1..99); 0 = normal
-    signing_key: bytes | None = None  # MAVLink 2 signing key (32 bytes); None: unsigned
+    signing_key: bytes | None = field(default=None, repr=False)  # MAVLink 2 signing key
+    # (32 bytes; None: unsigned); never shown in a repr
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.speedup) and 0.0 < self.speedup <= 1000.0):

@@ -95,7 +95,8 @@ class EndpointConfig:
     gcs_failsafe_action: int = int(FailsafeAction.LAND)  # FS_GCS_ENABLE default
     gcs_failsafe_timeout_s: float = 5.0  # FS_GCS_TIMEOUT default, s (2..120)
     gcs_sysid: int = 255  # SYSID_MYGCS default
-    signing_key: bytes | None = None  # MAVLink 2 signing key at start (32 bytes); None: off
+    signing_key: bytes | None = field(default=None, repr=False)  # MAVLink 2 signing key
+    # at start (32 bytes; None: off); never shown in a repr
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255:
