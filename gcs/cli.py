@@ -3,6 +3,7 @@
 Usage::
 
     ftc-gcs fly    [--connect URL | --spawn-vehicle [--speedup X] [--seed N] [--scenario S]]
+                   [--signing-key KEY]
                    [--mission thesis|FILE] [--faults table7.3|FILE] [--fault SPEC ...]
                    [--inject-via command|param]
                    [--attitude pd|lqg] [--estimator ekf|tskf] [--dob none|vbdob|abdob]
@@ -27,13 +28,20 @@ made from the .tlog after the flight (also after a failed one), the same way ``r
 makes them from any .tlog (:mod:`flightdata.recording`, :mod:`flightdata.figures`,
 :mod:`gcs.report`).
 
+``--signing-key KEY`` signs everything sent with MAVLink 2 signing and accepts only packets
+signed with the same key (KEY: a passphrase, hashed with SHA-256 as MAVProxy's ``signing
+setup`` does, or ``hex:`` and 64 hex digits; :mod:`flightdata.signing`); a vehicle started
+here gets the same key. A vehicle whose signing does not match (another key, or none) ends
+the flight with ``ftc-gcs: signing: <why>`` (exit status 3).
+
 Fault specs: ``MOTOR:LOE@AT_S`` (``--fault 3:0.20@22``) or ``PARAM=VALUE@AT_S``
 (``--fault SIM_BARO_GLITCH=0.1@30``); times are simulated seconds after the mission start.
 
 Exit status: 0 flown and landed; 1 crash (or disarmed without flying); 2 bad usage or input
-file; 3 vehicle not found; 4 command refused; 5 mission rejected; 6 timeout (no answer, link
-lost, mission not finished); 130 interrupted. A failed flight prints one line
-``ftc-gcs: <kind>: <reason>`` on stderr (and the table of what was recorded, on stdout).
+file; 3 vehicle not found (or its signing does not match); 4 command refused; 5 mission
+rejected; 6 timeout (no answer, link lost, mission not finished); 130 interrupted. A failed
+flight prints one line ``ftc-gcs: <kind>: <reason>`` on stderr (and the table of what was
+recorded, on stdout).
 """
 
 from __future__ import annotations
@@ -48,6 +56,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from flightdata import vocabulary
+from flightdata.signing import key_from_text
 from gcs.analysis import analyze_tlog
 from gcs.errors import EXIT_INTERRUPTED, EXIT_USAGE
 from gcs.faults import (
@@ -99,6 +108,13 @@ def _param(text: str) -> tuple[str, float]:
     return name.upper(), number
 
 
+def _signing_key(text: str) -> bytes:
+    try:
+        return key_from_text(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
     link = p.add_argument_group("vehicle")
     if not demo:
@@ -118,6 +134,10 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                       "flight is prepared")
     link.add_argument("--vehicle-arg", action="append", default=[], metavar="ARG",
                       help="spawned vehicle: extra ftc-vehicle option (repeatable)")
+    link.add_argument("--signing-key", type=_signing_key, default=None, metavar="KEY",
+                      help="MAVLink 2 signing key: a passphrase (SHA-256, as MAVProxy's "
+                      "'signing setup') or hex: and 64 hex digits; a spawned vehicle gets it "
+                      "too")
     what = p.add_argument_group("flight")
     what.add_argument("--mission", default="thesis", metavar="thesis|FILE",
                       help="the thesis mission (default) or a QGC WPL 110 / TOML file")
@@ -265,7 +285,8 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
     event_log = args.event_log or tlog.with_suffix(".events.log")
     try:
         gs = GroundStation.open(url, tlog=tlog, event_log=event_log,
-                                echo=None if args.quiet else sys.stderr)
+                                echo=None if args.quiet else sys.stderr,
+                                signing_key=args.signing_key)
     except OSError as err:
         print(f"{PROG}: error: cannot open {url}: {err.strerror or err}", file=sys.stderr)
         return EXIT_USAGE
@@ -277,10 +298,10 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
             spec = VehicleSpec(speedup=args.speedup, seed=args.seed, scenario=args.scenario,
                                start_paused=not args.no_pause,
                                max_sim_s=args.max_flight_s + 120.0,
-                               extra_args=tuple(args.vehicle_arg))
+                               extra_args=tuple(args.vehicle_arg), signing_key=args.signing_key)
             vehicle = SpawnedVehicle(spec, port, log_path=tlog.with_suffix(".vehicle.log"))
             vehicle.start()
-            gs.log("LINK", f"started vehicle pid {vehicle.pid}: {' '.join(spec.command(port))}")
+            gs.log("LINK", f"started vehicle pid {vehicle.pid}: {spec.shown(port)}")
         outcome = fly(gs, plan, vehicle_gone=None if vehicle is None else vehicle.why_gone)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted; records kept in {tlog} and {event_log}", file=sys.stderr)

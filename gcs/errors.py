@@ -8,6 +8,7 @@ code   error                when
                             disarmed without ever taking off (FlightError)
 2      (usage)              bad flags or input files (argparse convention)
 3      VehicleNotFound      no HEARTBEAT from an autopilot within the timeout
+3      SigningMismatch      the vehicle's MAVLink 2 signing does not match ours
 4      CommandRefused       the vehicle refused a command or a parameter
 5      MissionRejected      the vehicle rejected the mission upload
 6      FlightTimeout        no answer, link lost, or the mission did not finish
@@ -26,6 +27,7 @@ __all__ = [
     "FlightError",
     "FlightTimeout",
     "MissionRejected",
+    "SigningMismatch",
     "VehicleNotFound",
 ]
 
@@ -62,6 +64,14 @@ class VehicleNotFound(FlightError):
 
     exit_code = 3
     label = "vehicle not found"
+
+
+class SigningMismatch(VehicleNotFound):
+    """The vehicle signs with another key, or signs while we do not, or does not sign while
+    we do: nothing we send would be obeyed (or nothing it sends verifies)."""
+
+    exit_code = 3
+    label = "signing"
 
 
 class CommandRefused(FlightError):

@@ -9,6 +9,11 @@ sends COMMAND_LONG waiting for the COMMAND_ACK (retrying as MAVSDK does). What a
 station does over it (parameters, missions, arming, injections) is
 :class:`gcs.station.GroundStation`.
 
+With a signing key (MAVLink 2 signing, :func:`gcs.mavlink.enable_signing`) everything sent is
+signed and only packets that verify with the key are handled; :meth:`Link.wait_vehicle` says
+at once, with :class:`gcs.errors.SigningMismatch`, when the vehicle's signing does not match
+ours (it signs and we have no key, or three of its HEARTBEATs failed the signature check).
+
 Every packet sent or received goes, in order, to the .tlog (:class:`gcs.records.TlogWriter`)
 and to a :class:`gcs.analysis.FlightAnalyzer`, whose events go to the event log.
 
@@ -27,9 +32,17 @@ from pathlib import Path
 from typing import Any, Self
 
 from flightdata.series import FlightEvent
+from flightdata.signing import timestamp_from_unix
 from gcs.analysis import FlightAnalyzer
-from gcs.errors import CommandRefused, FlightTimeout, VehicleNotFound
-from gcs.mavlink import MAVLinkMessage, decode_packet, mavlink2, open_link
+from gcs.errors import CommandRefused, FlightTimeout, SigningMismatch, VehicleNotFound
+from gcs.mavlink import (
+    MAVLinkMessage,
+    decode_packet,
+    enable_signing,
+    is_signed,
+    mavlink2,
+    open_link,
+)
 from gcs.records import EventLog, TlogWriter
 from gcs.telemetry import mavlink_text
 
@@ -40,6 +53,7 @@ _HEARTBEAT_PERIOD_S = 1.0  # s wall, GCS heartbeat (ArduPilot FS_GCS_TIMEOUT def
 ACK_TIMEOUT_S = 1.0  # s wall, per attempt
 _ACK_ATTEMPTS = 3
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its ACK
+_UNVERIFIED_HEARTBEATS = 3  # autopilot HEARTBEATs failing the signature check: a mismatch
 
 
 class Link:
@@ -55,11 +69,19 @@ class Link:
         Where every packet is recorded.
     events : EventLog or None
         Where events are written.
+    signing_key : bytes or None
+        MAVLink 2 signing key (32 bytes); None: unsigned.
     """
 
     def __init__(self, conn: Any, url: str, *, tlog: TlogWriter | None = None,
-                 events: EventLog | None = None) -> None:
+                 events: EventLog | None = None, signing_key: bytes | None = None) -> None:
         self.conn = conn
+        self.signing = signing_key is not None
+        if signing_key is not None:
+            enable_signing(conn, signing_key, time.time())
+        self.unverified = 0  # packets dropped by the signature check
+        self._unverified_heartbeats: list[bytes] = []  # raw autopilot HEARTBEATs dropped
+        self._vehicle_signs = False  # a signed autopilot HEARTBEAT was seen
         self.url = url
         self.tlog = tlog
         self.events = events if events is not None else EventLog(None)
@@ -76,7 +98,8 @@ class Link:
     # ------------------------------------------------------------------ lifecycle
     @classmethod
     def open(cls, url: str, *, tlog: str | Path | None = None,
-             event_log: str | Path | None = None, echo: Any = None) -> Self:
+             event_log: str | Path | None = None, echo: Any = None,
+             signing_key: bytes | None = None) -> Self:
         """Open ``url`` and the records.
 
         Parameters
@@ -89,10 +112,12 @@ class Link:
             Event log to write.
         echo : text stream or None
             Also print events there (e.g. ``sys.stderr``).
+        signing_key : bytes or None
+            MAVLink 2 signing key (32 bytes); None: unsigned.
         """
         conn = open_link(url)
         return cls(conn, url, tlog=None if tlog is None else TlogWriter(tlog),
-                   events=EventLog(event_log, echo))
+                   events=EventLog(event_log, echo), signing_key=signing_key)
 
     def close(self) -> None:
         """Close the link and flush the records (idempotent)."""
@@ -150,6 +175,8 @@ class Link:
             sysid, compid = self.target
             msgs.append(_M.MAVLink_timesync_message(0, time.time_ns()))
         mav = self.conn.mav
+        if mav.signing.sign_outgoing:  # never behind the wall clock, as MAVProxy keeps it
+            mav.signing.timestamp = max(mav.signing.timestamp, timestamp_from_unix(time.time()))
         packets = []
         for m in msgs:
             packets.append(bytes(m.pack(mav)))
@@ -203,6 +230,7 @@ class Link:
             if msg is None:
                 break
             if msg.get_type() == "BAD_DATA":
+                self._note_unverified(msg)
                 continue
             handled += 1
             self._handle(msg)
@@ -210,7 +238,36 @@ class Link:
             self._last_rx_wall = time.monotonic()
         return handled
 
+    def _note_unverified(self, bad: MAVLinkMessage) -> None:
+        """Count a packet the signature check dropped; keep the autopilot HEARTBEATs."""
+        if getattr(bad, "reason", "") != "Invalid signature":
+            return
+        self.unverified += 1
+        packet = bytes(bad.data)
+        msg = decode_packet(packet)
+        if (msg is not None and msg.get_type() == "HEARTBEAT"
+                and int(msg.autopilot) != _M.MAV_AUTOPILOT_INVALID
+                and len(self._unverified_heartbeats) < _UNVERIFIED_HEARTBEATS):
+            self._unverified_heartbeats.append(packet)
+
+    def _signing_mismatch(self) -> str | None:
+        """Why the vehicle's signing cannot match ours (None: no sign of a mismatch yet)."""
+        if not self.signing and self._vehicle_signs:
+            return (f"the autopilot on {self.url} signs its packets (MAVLink 2 signing) and "
+                    "drops unsigned ones: give its key with --signing-key")
+        if len(self._unverified_heartbeats) < _UNVERIFIED_HEARTBEATS:
+            return None
+        if not any(is_signed(p) for p in self._unverified_heartbeats):
+            return (f"the autopilot on {self.url} does not sign its packets (no signing key "
+                    "on the vehicle?), so none verifies with --signing-key")
+        return (f"the autopilot on {self.url} signs with another key than --signing-key "
+                f"({self.unverified} of its packets failed the signature check)")
+
     def _handle(self, msg: MAVLinkMessage) -> None:
+        if (not self.signing and not self._vehicle_signs and msg.get_type() == "HEARTBEAT"
+                and int(msg.autopilot) != _M.MAV_AUTOPILOT_INVALID
+                and is_signed(msg.get_msgbuf())):
+            self._vehicle_signs = True
         before = self.analyzer.clock_s
         self._record(bytes(msg.get_msgbuf()), msg)
         vehicle = self.analyzer.vehicle
@@ -292,14 +349,21 @@ class Link:
         ------
         VehicleNotFound
             When none arrives within ``timeout_s`` wall seconds, or ``gone`` says why.
+        SigningMismatch
+            When the vehicle's MAVLink 2 signing does not match ours.
         """
-        self.log("LINK", f"listening on {self.url}")
+        self.log("LINK", f"listening on {self.url}" + (" (signing)" if self.signing else ""))
         deadline = time.monotonic() + timeout_s
-        while self.analyzer.vehicle is None:
+        while self.analyzer.vehicle is None or self._signing_mismatch():
+            mismatch = self._signing_mismatch()
+            if mismatch:
+                raise SigningMismatch(mismatch)
             left = deadline - time.monotonic()
             if left <= 0:
                 raise VehicleNotFound(f"no HEARTBEAT from an autopilot on {self.url} within "
-                                      f"{timeout_s:g} s")
+                                      f"{timeout_s:g} s" + (
+                                          f" ({self.unverified} packets failed the signature "
+                                          "check)" if self.unverified else ""))
             why = gone() if gone is not None else None
             if why:
                 raise VehicleNotFound(why)

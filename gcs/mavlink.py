@@ -11,6 +11,10 @@ variable for the whole process and swaps parsers. We never rely on that: after
 the auto-switch off, so the wire version does not depend on the environment or on what the
 vehicle happened to send first. The environment is never read or written here.
 
+MAVLink 2 signing: :func:`enable_signing` makes a connection sign everything it sends with a
+key (:mod:`flightdata.signing` for the KEY format) and accept only packets that verify with
+it, plus unsigned RADIO_STATUS and RADIO, as MAVProxy's ``signing key`` does.
+
 Recorded flights (.tlog) are read by :func:`read_tlog`, a small reader of MAVProxy's format
 (``[uint64 big-endian UNIX time in microseconds][one MAVLink packet]`` repeated) on the same
 explicit MAVLink 2 codec; pymavlink's own ``mavutil.mavlink_connection("x.tlog")``,
@@ -29,6 +33,8 @@ from typing import Any, TypeAlias
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
+from flightdata.signing import UNSIGNED_ALLOWED_IDS, timestamp_from_unix
+
 __all__ = [
     "DIALECT",
     "GCS_COMPID",
@@ -36,6 +42,8 @@ __all__ = [
     "LogRecord",
     "MAVLinkMessage",
     "decode_packet",
+    "enable_signing",
+    "is_signed",
     "mavlink2",
     "open_link",
     "read_tlog",
@@ -100,6 +108,37 @@ def open_link(url: str, *, source_system: int = GCS_SYSID,
         except OSError:
             pass  # the kernel keeps its default; a slow reader then drops, as a radio would
     return conn
+
+
+def _radio_only(mav: Any, msg_id: int) -> bool:
+    return msg_id in UNSIGNED_ALLOWED_IDS
+
+
+def enable_signing(conn: Any, key: bytes, unix_s: float) -> None:
+    """Sign what ``conn`` sends with ``key`` and drop received packets that do not verify.
+
+    Parameters
+    ----------
+    conn : pymavlink.mavutil.mavfile
+        An open MAVLink 2 connection (:func:`open_link`).
+    key : bytes
+        32-byte secret key (:func:`flightdata.signing.key_from_text`).
+    unix_s : float
+        UNIX time now, s: the first signature timestamp (link id 0).
+
+    Notes
+    -----
+    A dropped packet comes out of ``recv_msg`` as BAD_DATA with the reason
+    ``"Invalid signature"`` (unsigned, or signed with another key, or replayed).
+    """
+    conn.setup_signing(bytes(key), sign_outgoing=True, allow_unsigned_callback=_radio_only,
+                       initial_timestamp=timestamp_from_unix(unix_s), link_id=0)
+
+
+def is_signed(packet: bytes | bytearray) -> bool:
+    """Whether a raw MAVLink packet carries a signature (MAVLink 2, signed flag)."""
+    return (len(packet) > 2 and packet[0] == mavlink2.PROTOCOL_MARKER_V2
+            and bool(packet[2] & mavlink2.MAVLINK_IFLAG_SIGNED))
 
 
 def decode_packet(data: bytes) -> MAVLinkMessage | None:

@@ -28,10 +28,15 @@ with :meth:`VehicleLink.fly`.
 Marker ``@pytest.mark.vehicle(...)``: ``speedup`` (default 10), ``seed`` (default: the
 scenario's), ``scenario`` (world and autopilot configuration; default the vehicle's
 ``baseline``), ``start_paused`` (default True), ``extra_args`` (more ``ftc-vehicle``
-options), ``connect_timeout_s`` (wall, default 60: the first start compiles the plant).
+options), ``connect_timeout_s`` (wall, default 60: the first start compiles the plant),
+``signing_key`` (MAVLink 2 signing: a KEY as ``ftc-vehicle --signing-key`` takes it, a
+passphrase or ``hex:`` and 64 hex digits, or the 32 bytes; the vehicle starts with it and the
+link signs with it; default None, unsigned).
 
-Everything runs on 127.0.0.1 with ports the operating system picks; the ground station never
-imports the simulator.
+Everything runs on 127.0.0.1 with ports the operating system picks (both the vehicle and the
+link bind port 0), so tests run in parallel under pytest-xdist (``pytest -n 2``): each
+worker starts its own vehicle for each test that asks for one, and no two share a port. The
+ground station never imports the simulator.
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from typing import Any
 
 import pytest
 
+from flightdata.signing import KEY_BYTES, key_from_text
 from gcs.faults import FaultSpec
 from gcs.flight import FlightOutcome, FlightPlan, fly
 from gcs.mavlink import open_link
@@ -93,7 +99,23 @@ def pytest_configure(config: pytest.Config) -> None:
     """Register the ``vehicle`` marker."""
     config.addinivalue_line(
         "markers", "vehicle(speedup=10, seed=None, scenario=None, start_paused=True, "
-        "extra_args=(), connect_timeout_s=60): options of the vehicle_link fixture")
+        "extra_args=(), connect_timeout_s=60, signing_key=None): options of the vehicle_link "
+        "fixture")
+
+
+def _signing_key(value: object) -> bytes | None:
+    """The marker's ``signing_key`` as 32 bytes (pytest.UsageError when it is not a key)."""
+    if value is None:
+        return None
+    if isinstance(value, bytes) and len(value) == KEY_BYTES and any(value):
+        return value
+    if isinstance(value, str):
+        try:
+            return key_from_text(value)
+        except ValueError as err:
+            raise pytest.UsageError(f"vehicle marker: {err}") from None
+    raise pytest.UsageError(f"vehicle marker: signing_key must be a KEY string or "
+                            f"{KEY_BYTES} bytes, not all zero")
 
 
 @pytest.fixture
@@ -103,15 +125,17 @@ def vehicle_link(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Veh
     options: dict[str, Any] = dict(marker.kwargs) if marker is not None else {}
     connect_timeout_s = float(options.pop("connect_timeout_s", 60.0))
     extra = tuple(options.pop("extra_args", ()))
+    signing_key = _signing_key(options.pop("signing_key", None))
     spec = VehicleSpec(speedup=float(options.pop("speedup", 10.0)),
                        seed=options.pop("seed", None), scenario=options.pop("scenario", None),
-                       start_paused=bool(options.pop("start_paused", True)), extra_args=extra)
+                       start_paused=bool(options.pop("start_paused", True)), extra_args=extra,
+                       signing_key=signing_key)
     if options:
         raise pytest.UsageError(f"vehicle marker: unknown option(s) {sorted(options)}")
     url = "udpin:127.0.0.1:0"
     conn = open_link(url)
     link = VehicleLink(conn, url, tlog=TlogWriter(tmp_path / "flight.tlog"),
-                       events=EventLog(tmp_path / "flight.events.log"))
+                       events=EventLog(tmp_path / "flight.events.log"), signing_key=signing_key)
     port = int(conn.port.getsockname()[1])
     vehicle = SpawnedVehicle(spec, port, log_path=tmp_path / "vehicle.log")
     link.vehicle = vehicle

@@ -47,6 +47,8 @@ class VehicleSpec:
         The vehicle stops by itself after this much simulated time.
     extra_args : sequence of str
         More ``ftc-vehicle`` options, passed through.
+    signing_key : bytes or None
+        MAVLink 2 signing key the vehicle starts with (32 bytes; None: unsigned).
     python : str
         Interpreter to run ``-m sim`` with.
     """
@@ -57,6 +59,7 @@ class VehicleSpec:
     start_paused: bool = True
     max_sim_s: float = 600.0  # s simulated
     extra_args: Sequence[str] = field(default_factory=tuple)
+    signing_key: bytes | None = field(default=None, repr=False)  # never shown in a repr
     python: str = sys.executable
 
     def command(self, gcs_port: int) -> list[str]:
@@ -70,8 +73,16 @@ class VehicleSpec:
             cmd += ["--scenario", self.scenario]
         if self.start_paused:
             cmd.append("--start-paused")
+        if self.signing_key is not None:
+            cmd += ["--signing-key", "hex:" + self.signing_key.hex()]
         cmd += list(self.extra_args)
         return cmd
+
+    def shown(self, gcs_port: int) -> str:
+        """:meth:`command` as one line for logs, the signing key left out."""
+        cmd = self.command(gcs_port)
+        return " ".join("hex:<key>" if prev == "--signing-key" else word
+                        for prev, word in zip(["", *cmd], cmd, strict=False))
 
 
 class SpawnedVehicle:

@@ -124,11 +124,13 @@ class GroundStation(Link):
         Where every packet is recorded.
     events : EventLog or None
         Where events are written.
+    signing_key : bytes or None
+        MAVLink 2 signing key (32 bytes); None: unsigned.
     """
 
     def __init__(self, conn: Any, url: str, *, tlog: TlogWriter | None = None,
-                 events: EventLog | None = None) -> None:
-        super().__init__(conn, url, tlog=tlog, events=events)
+                 events: EventLog | None = None, signing_key: bytes | None = None) -> None:
+        super().__init__(conn, url, tlog=tlog, events=events, signing_key=signing_key)
         self.param_names: dict[str, float] = {}
         self.param_count: int | None = None
         self.injection_timing: list[InjectionTiming] = []

@@ -41,15 +41,37 @@ from sim.scenario import Scenario
 from sim.stack import warm_up
 from sim.vehicle_port import SimVehicle, VehicleSetup
 
-__all__ = ["DEFAULT_BIND", "DEFAULT_HOME", "MAX_LAG_S", "SERVICE_PERIOD_S", "RunSummary",
-           "VehicleOptions", "VehicleProcess", "build_setup"]
+__all__ = ["DEFAULT_BIND", "DEFAULT_HOME", "MAX_INSTANCE", "MAX_LAG_S", "SERVICE_PERIOD_S",
+           "RunSummary", "VehicleOptions", "VehicleProcess", "build_setup", "instance_addresses"]
 
 DEFAULT_BIND: Address = ("127.0.0.1", 14555)
 """Where the vehicle listens by default (``udpout:127.0.0.1:14555`` reaches it)."""
 DEFAULT_HOME = GeoPoint(-35.363261, 149.165230, 584.0)
 """ArduPilot SITL's default location (CMAC, Canberra): deg, deg, m AMSL."""
+MAX_INSTANCE = 9  # highest --instance: beyond it the API port 14540 + N meets 14550 + 10 M
 SERVICE_PERIOD_S = 0.02  # wall s, longest gap between endpoint services while waiting
 MAX_LAG_S = 0.25  # wall s, longest backlog caught up before the schedule is re-anchored
+
+
+def instance_addresses(instance: int) -> tuple[Address, tuple[Address, ...]]:
+    """Default listening address and telemetry destinations of vehicle ``instance``.
+
+    As ArduPilot SITL's ``-I N`` moves its ports by 10 N, instance N listens on
+    127.0.0.1:14555 + 10 N and sends to the ground-station port 14550 + 10 N; the API port
+    (MAVSDK) is 14540 + N, PX4 SITL's convention for instance N (14540 + 10 N would be the
+    ground-station port of instance N - 1). For N in 0..:data:`MAX_INSTANCE` no port of one
+    instance is a port of another.
+
+    Raises
+    ------
+    ValueError
+        ``instance`` outside 0..MAX_INSTANCE.
+    """
+    if not 0 <= instance <= MAX_INSTANCE:
+        raise ValueError(f"instance = {instance!r}: must be in 0..{MAX_INSTANCE}")
+    (gcs_host, gcs_port), (api_host, api_port) = DEFAULT_PEERS
+    bind = (DEFAULT_BIND[0], DEFAULT_BIND[1] + 10 * instance)
+    return bind, ((gcs_host, gcs_port + 10 * instance), (api_host, api_port + instance))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -69,6 +91,8 @@ class VehicleOptions:
     start_paused: bool = False  # boot with SIM_PAUSE = 1
     timing_log: Path | None = None  # per-tick wall-clock timing, CSV
     realtime_priority: int = 0  # SCHED_FIFO priority of the loop (1..99); 0 = normal
+    signing_key: bytes | None = field(default=None, repr=False)  # MAVLink 2 signing key
+    # (32 bytes; None: unsigned); never shown in a repr
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.speedup) and 0.0 < self.speedup <= 1000.0):
@@ -104,6 +128,7 @@ class RunSummary:
     ticks: int = 0
     reanchors: int = 0  # backlogs given up (see MAX_LAG_S)
     malformed: int = 0  # datagrams the endpoint could not parse
+    signing_rejected: int = 0  # packets dropped by the MAVLink 2 signing check
     tick_starts_s: list[float] = field(default_factory=list)  # wall, per tick (timing log)
     tick_busy_s: list[float] = field(default_factory=list)  # wall, tick + endpoint
 
@@ -134,7 +159,8 @@ class VehicleProcess:
         self.endpoint = MavlinkEndpoint(
             self.vehicle.port, self.link,
             config=EndpointConfig(sysid=options.sysid, compid=options.compid,
-                                  pwm_max=model.pwm_max, boot_unix_time_s=time.time()),
+                                  pwm_max=model.pwm_max, boot_unix_time_s=time.time(),
+                                  signing_key=options.signing_key),
             injector=self.vehicle, extra_params=[self.vehicle.sim_params])
         self.summary = RunSummary()
 
@@ -175,6 +201,7 @@ class VehicleProcess:
         """Release the socket and write the timing log (if asked)."""
         self.link.close()
         self.summary.malformed = self.endpoint.stats.malformed
+        self.summary.signing_rejected = self.endpoint.signing.stats.rejected
         path = self.options.timing_log
         if path is not None:
             s = self.summary

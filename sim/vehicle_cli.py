@@ -3,9 +3,10 @@
 Usage::
 
     ftc-vehicle [--scenario NAME|FILE.toml] [--seed N] [--speedup X]
-                [--bind HOST:PORT] [--out HOST:PORT ...] [--sysid N] [--compid N]
-                [--home LAT,LON,ALT] [--duration S] [--with-faults] [--load-mission]
-                [--start-paused] [--timing-log PATH] [--realtime [PRIORITY]]
+                [--bind HOST:PORT] [--out HOST:PORT ...] [--instance N] [--sysid N]
+                [--compid N] [--signing-key KEY] [--home LAT,LON,ALT] [--duration S]
+                [--with-faults] [--load-mission] [--start-paused] [--timing-log PATH]
+                [--realtime [PRIORITY]]
 
 The vehicle boots disarmed in STABILIZE on the ground at home, with the scenario's world and
 autopilot configuration (default ``baseline``) but no mission and no faults unless asked, and
@@ -13,6 +14,17 @@ waits for a ground station: MAVLink 2 over UDP, listening on ``--bind`` (default
 127.0.0.1:14555) and sending telemetry to every ``--out`` (default 127.0.0.1:14550 and
 127.0.0.1:14540; ``--out none`` for none) and to whoever writes to it. It runs in real time,
 or ``--speedup`` times faster; the same seed flies the same trajectory at any speed-up.
+
+``--instance N`` (0..9) moves those default ports as ArduPilot SITL's ``-I N`` does, by 10 N:
+it listens on 14555 + 10 N and sends to 14550 + 10 N, and to the API port 14540 + N (PX4
+SITL's convention for instance N); ``--bind`` and ``--out``, when given, are used as given.
+Every instance keeps ``--sysid`` (default 1), as ArduPilot keeps SYSID_THISMAV = 1.
+
+``--signing-key KEY`` starts with MAVLink 2 signing on (see :mod:`flightdata.signing` for
+KEY: a passphrase hashed as MAVProxy's ``signing setup`` does, or ``hex:`` and 64 hex
+digits): every packet sent is signed and unsigned or wrongly signed packets are dropped. A
+key installed later over MAVLink (SETUP_SIGNING) lasts until the process ends; only a key on
+the command line is there again after a restart.
 
 One line on stdout says where it listens; Ctrl-C or SIGTERM stops it cleanly (exit 0). A bad
 option or scenario prints one line and exits with status 2; an address that cannot be bound
@@ -96,6 +108,15 @@ def _positive(text: str) -> float:
     return value
 
 
+def _signing_key(text: str) -> bytes:
+    from flightdata.signing import key_from_text
+
+    try:
+        return key_from_text(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
 def _int_in(low: int, high: int) -> argparse._ActionType:  # noqa: SLF001
     def parse(text: str) -> int:
         try:
@@ -119,14 +140,21 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seed of every random stream (default: the scenario's)")
     p.add_argument("--speedup", type=_positive, default=1.0,
                    help="simulated seconds per wall second (default 1, at most 1000)")
-    p.add_argument("--bind", type=_bind, default=("127.0.0.1", 14555), metavar="HOST:PORT",
-                   help="local UDP address (default 127.0.0.1:14555; port 0 = any free)")
+    p.add_argument("--bind", type=_bind, default=None, metavar="HOST:PORT",
+                   help="local UDP address (default 127.0.0.1:14555 + 10 N for --instance N; "
+                   "port 0 = any free)")
     p.add_argument("--out", type=_out, action="append", metavar="HOST:PORT",
-                   help="telemetry destination, repeatable (default 127.0.0.1:14550 and "
-                   "127.0.0.1:14540; 'none' for none)")
+                   help="telemetry destination, repeatable (default 127.0.0.1:14550 + 10 N "
+                   "and 127.0.0.1:14540 + N for --instance N; 'none' for none)")
+    p.add_argument("--instance", type=_int_in(0, 9), default=0, metavar="N",  # MAX_INSTANCE
+                   help="vehicle number N (0..9): default ports moved as ArduPilot SITL's "
+                   "-I N (default 0)")
     p.add_argument("--sysid", type=_int_in(1, 255), default=1, help="MAVLink system id (1)")
     p.add_argument("--compid", type=_int_in(1, 255), default=1,
                    help="MAVLink component id (1)")
+    p.add_argument("--signing-key", type=_signing_key, default=None, metavar="KEY",
+                   help="MAVLink 2 signing key: a passphrase (SHA-256, as MAVProxy's 'signing "
+                   "setup') or hex: and 64 hex digits; unsigned packets are then dropped")
     p.add_argument("--home", type=_home, default=None, metavar="LAT,LON,ALT",
                    help="home at boot, degrees and metres AMSL (default ArduPilot's CMAC "
                    "-35.363261,149.165230,584)")
@@ -159,30 +187,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
 
     from fcu.mavlink import GeoPoint
-    from fcu.mavlink.udp import DEFAULT_PEERS
     from flightdata.config import ConfigError
     from sim.scenario import load_scenario
-    from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess
+    from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess, instance_addresses
 
     try:
         scenario = load_scenario(args.scenario)
         if args.seed is not None:
             scenario = scenario.with_seed(args.seed)
-        outs = DEFAULT_PEERS if args.out is None else tuple(o for o in args.out if o)
+        default_bind, default_outs = instance_addresses(args.instance)
+        bind = default_bind if args.bind is None else args.bind
+        outs = default_outs if args.out is None else tuple(o for o in args.out if o)
         origin = DEFAULT_HOME if args.home is None else GeoPoint(*args.home)
         options = VehicleOptions(
             scenario=scenario, speedup=args.speedup, sysid=args.sysid, compid=args.compid,
-            bind=args.bind, outs=outs, origin=origin, max_sim_s=args.duration,
+            bind=bind, outs=outs, origin=origin, max_sim_s=args.duration,
             with_faults=args.with_faults, load_mission=args.load_mission,
             start_paused=args.start_paused, timing_log=args.timing_log,
-            realtime_priority=args.realtime)
+            realtime_priority=args.realtime, signing_key=args.signing_key)
         process = VehicleProcess(options)
     except (ConfigError, ValueError) as err:
         parser.error(str(err))
     try:
         host, port = process.open()
     except OSError as err:
-        print(f"{PROG}: cannot listen on {args.bind[0]}:{args.bind[1]}: {err.strerror or err}",
+        print(f"{PROG}: cannot listen on {bind[0]}:{bind[1]}: {err.strerror or err}",
               file=sys.stderr)
         return 1
     realtime = process.enter_realtime()
@@ -190,6 +219,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f"{PROG}: listening on udp {host}:{port} as sysid {args.sysid} compid "
           f"{args.compid}; telemetry to {outs_text}; scenario {scenario.name} seed "
           f"{scenario.seed}; speed-up {args.speedup:g}x"
+          + (f"; instance {args.instance}" if args.instance else "")
+          + ("; MAVLink 2 signing on" if args.signing_key is not None else "")
           + ("; paused (set SIM_PAUSE 0 to start)" if args.start_paused else "")
           + (f"; {realtime}" if realtime else ""), flush=True)
     try:
@@ -198,7 +229,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         process.close()
     print(f"{PROG}: stopped at {summary.sim_s:.2f} s simulated, {summary.running_wall_s:.2f} s "
           f"running wall time ({summary.ratio:.2f}x; {summary.cpu_ratio:.1f}x per CPU second), "
-          f"{summary.ticks} ticks, {summary.malformed} malformed datagrams", flush=True)
+          f"{summary.ticks} ticks, {summary.malformed} malformed datagrams"
+          + (f", {summary.signing_rejected} packets failing the signing check"
+             if args.signing_key is not None or summary.signing_rejected else ""), flush=True)
     return 0
 
 

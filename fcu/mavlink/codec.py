@@ -7,8 +7,9 @@ through pymavlink's import-time environment variables (``MAVLINK20``, ``MAVLINK_
 :class:`Codec` packs outgoing messages with the vehicle's system and component ids and a
 rolling sequence number, and parses incoming datagrams. UDP delivers whole datagrams, so each
 datagram is parsed by a fresh parser: a truncated or garbage packet can never swallow the
-start of the next datagram. The parsers share one signing state, which is the hook for
-MAVLink 2 signing (SETUP_SIGNING) when it is added.
+start of the next datagram. The parsers carry no signing key: they decode signed and unsigned
+packets alike, and :mod:`fcu.mavlink.signing` checks signatures on the decoded packets (with
+the key held by the packer's signing state, which signs what is sent).
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ class Codec:
 
     @property
     def signing(self) -> mavlink2.MAVLinkSigning:
-        """Signing state shared by the packer and every parser (hook for MAVLink 2 signing)."""
+        """The packer's signing state (key, timestamp): set, outgoing packets are signed."""
         return self._mav.signing
 
     def pack(self, msg: MAVLinkMessage) -> bytes:
@@ -97,8 +98,7 @@ class Codec:
             One UDP datagram (any content, including random bytes).
         """
         parser = mavlink2.MAVLink(None)
-        parser.robust_parsing = True
-        parser.signing = self._mav.signing
+        parser.robust_parsing = True  # no key: signatures are checked by fcu.mavlink.signing
         messages: list[MAVLinkMessage] = []
         malformed = 0
         unknown = 0

@@ -26,6 +26,10 @@ Robustness: nothing received can raise out of ``handle_bytes``/``poll``/``tick``
 packets, unknown message ids and handler errors are counted in :attr:`MavlinkEndpoint.stats`
 (SYS_STATUS.errors_comm reports the malformed count).
 
+Signing: MAVLink 2 signing (SETUP_SIGNING, ``EndpointConfig.signing_key``) is
+:mod:`fcu.mavlink.signing`; with a key, packets that fail its check are dropped before any
+handling.
+
 Clocks: telemetry rates and message time fields use simulated time (see streams.py);
 HEARTBEAT has a wall-clock floor; the GCS failsafe and mission time-outs use the wall clock.
 TIMESYNC answers with the simulated time in ns (never decreasing).
@@ -59,6 +63,7 @@ from fcu.mavlink.port import (
     VehicleSnapshot,
 )
 from fcu.mavlink.record_relay import RecordRelay
+from fcu.mavlink.signing import MessageSigning, check_key
 from fcu.mavlink.streams import DEFAULT_RATES_HZ, StreamScheduler
 from fcu.navigation.modes import Mode
 
@@ -90,6 +95,8 @@ class EndpointConfig:
     gcs_failsafe_action: int = int(FailsafeAction.LAND)  # FS_GCS_ENABLE default
     gcs_failsafe_timeout_s: float = 5.0  # FS_GCS_TIMEOUT default, s (2..120)
     gcs_sysid: int = 255  # SYSID_MYGCS default
+    signing_key: bytes | None = field(default=None, repr=False)  # MAVLink 2 signing key
+    # at start (32 bytes; None: off); never shown in a repr
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255:
@@ -106,6 +113,8 @@ class EndpointConfig:
                              "must be in 2..120")
         if not 1 <= self.gcs_sysid <= 255:
             raise ValueError(f"gcs_sysid = {self.gcs_sysid!r}: must be in 1..255")
+        if self.signing_key is not None:
+            check_key(self.signing_key)
 
 
 @dataclass
@@ -173,6 +182,7 @@ class MavlinkEndpoint:
         self.stats = EndpointStats()
         self._codec = Codec(config.sysid, config.compid)
         self._outbox = _Outbox(self._codec, link, self.stats)
+        self.signing = MessageSigning(self._codec.signing, self._outbox, key=config.signing_key)
         self._records = RecordRelay()
         entries = self._own_params()
         entries += entries_from(port)
@@ -260,6 +270,7 @@ class MavlinkEndpoint:
         """
         self._time_s = time_s
         self.poll(wall_time_s)
+        self._guard(lambda: self.signing.tick(time_s, wall_time_s))
         self._guard(self._forward_events)
         self._guard(lambda: self._run_failsafe(wall_time_s))
         self._guard(lambda: self._mission.tick(wall_time_s))
@@ -289,7 +300,8 @@ class MavlinkEndpoint:
         for msg in parsed.messages:
             self.stats.messages += 1
             try:
-                self._handle_message(msg, addr)
+                if self.signing.accept(msg):  # always True without a key
+                    self._handle_message(msg, addr)
             except Exception:
                 self.stats.handler_errors += 1
                 _log.exception("error handling %s", msg.get_type())
@@ -501,6 +513,10 @@ class MavlinkEndpoint:
         snap = self._port.snapshot()
         self._outbox.send(build.mission_current(snap, self._context()), addr)
 
+    def _setup_signing(self, msg: MAVLinkMessage, src: tuple[int, int],
+                       addr: Address) -> None:
+        self.signing.handle_setup(msg)
+
     def _ftp(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
         """MAVLink FTP: this vehicle has no file server; say so at once.
 
@@ -558,6 +574,7 @@ class MavlinkEndpoint:
         "SET_POSITION_TARGET_LOCAL_NED": _setpoint,
         "SET_POSITION_TARGET_GLOBAL_INT": _setpoint,
         "FILE_TRANSFER_PROTOCOL": _ftp,
+        "SETUP_SIGNING": _setup_signing,
     }
 
     # ------------------------------------------------------------------ reboot

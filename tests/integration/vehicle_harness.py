@@ -7,7 +7,10 @@ bounded by a generous wall-clock limit (a loaded two-core machine); nothing here
 
 The ground station is a bare UDP socket plus pymavlink's ``ardupilotmega`` MAVLink 2 codec
 (chosen explicitly, no environment variables), so a test controls every byte it sends: it can
-drop a packet on purpose, send NaN fields, or send random bytes.
+drop a packet on purpose, send NaN fields, or send random bytes. With ``signing_key`` it signs
+what it sends (MAVLink 2 signing); it always decodes what it receives without a key, so a test
+sees signed and unsigned packets alike and checks signatures itself (``raw`` keeps every
+datagram when asked).
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from pathlib import Path
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+from flightdata.signing import timestamp_from_unix
 
 M = mavlink2
 ROOT = Path(__file__).resolve().parents[2]
@@ -62,11 +67,13 @@ class VehicleProcess:
     ----------
     args : sequence of str
         Extra command-line options (``--speedup``, ``--out`` ...). ``--bind 127.0.0.1:0``
-        is added.
+        is added unless ``any_port`` is False.
+    any_port : bool
+        Bind a free port (False: the vehicle's own default, e.g. from ``--instance``).
     """
 
-    def __init__(self, args: Sequence[str]) -> None:
-        self.args = ["--bind", "127.0.0.1:0", *args]
+    def __init__(self, args: Sequence[str], any_port: bool = True) -> None:
+        self.args = [*(["--bind", "127.0.0.1:0"] if any_port else []), *args]
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
         self.proc = subprocess.Popen(
@@ -140,10 +147,15 @@ class Gcs:
     ----------
     sysid, compid : int
         Our MAVLink identity (255/190: a GCS, as MAVProxy and QGroundControl are).
+    signing_key : bytes or None
+        Sign what we send with this 32-byte key (see :meth:`sign_with`).
+    keep_raw : bool
+        Keep every received datagram in :attr:`raw`.
     """
 
     def __init__(self, sysid: int = 255, compid: int = 190,
-                 target: tuple[int, int] = (1, 1)) -> None:
+                 target: tuple[int, int] = (1, 1), signing_key: bytes | None = None,
+                 keep_raw: bool = False) -> None:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
         self.sock.bind(("127.0.0.1", 0))
@@ -157,6 +169,17 @@ class Gcs:
         self._stop = threading.Event()
         self._heartbeat_s = 0.0  # wall period of automatic GCS heartbeats (0 = none)
         self._last_hb = -math.inf
+        self.raw: list[bytes] | None = [] if keep_raw else None
+        self.sign_with(signing_key)
+
+    def sign_with(self, key: bytes | None, link_id: int = 0) -> None:
+        """Sign what we send with ``key`` from now on (None: unsigned); timestamps start at
+        the wall clock (10 us since 2015) and grow by one per packet."""
+        signing = self.mav.signing
+        signing.secret_key = key
+        signing.sign_outgoing = key is not None
+        signing.link_id = link_id
+        signing.timestamp = max(signing.timestamp, timestamp_from_unix(time.time()))
 
     @property
     def port(self) -> int:
@@ -221,6 +244,8 @@ class Gcs:
                 if self.vehicle is None:
                     self.vehicle = (addr[0], addr[1])
                 with self._lock:
+                    if self.raw is not None:
+                        self.raw.append(data)
                     for msg in self._parse(data):
                         self.log.append(Received(now, msg))
                         count += 1
