@@ -134,7 +134,8 @@ class VehicleProcess:
         self.endpoint = MavlinkEndpoint(
             self.vehicle.port, self.link,
             config=EndpointConfig(sysid=options.sysid, compid=options.compid,
-                                  pwm_max=model.pwm_max, boot_unix_time_s=time.time()),
+                                  pwm_max=model.pwm_max, boot_unix_time_s=time.time(),
+                                  max_stream_rate_hz=1.0 / self.vehicle.tick_s),
             injector=self.vehicle, extra_params=[self.vehicle.sim_params])
         self.summary = RunSummary()
 

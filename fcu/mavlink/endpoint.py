@@ -83,6 +83,7 @@ class EndpointConfig:
     pwm_max: float = 0.05  # motor command at full power (VehicleModel.pwm_max)
     heartbeat_wall_period_s: float = 1.0  # s, longest wall-clock gap between HEARTBEATs
     stream_rates_hz: Mapping[int, float] = field(default_factory=lambda: dict(DEFAULT_RATES_HZ))
+    max_stream_rate_hz: float = 100.0  # Hz simulated, the autopilot's loop rate (one per tick)
     mission: MissionConfig = field(default_factory=MissionConfig)
     limits: CommandLimits = field(default_factory=CommandLimits)
     flight_sw_version: tuple[int, int, int] = (4, 5, 0)  # ArduCopter protocol generation
@@ -98,6 +99,8 @@ class EndpointConfig:
             raise ValueError(f"compid = {self.compid!r}: must be in 1..255")
         if not self.pwm_max > 0:
             raise ValueError(f"pwm_max = {self.pwm_max!r}: must be > 0")
+        if not (math.isfinite(self.max_stream_rate_hz) and self.max_stream_rate_hz > 0):
+            raise ValueError(f"max_stream_rate_hz = {self.max_stream_rate_hz!r}: must be > 0")
         if self.gcs_failsafe_action not in {int(a) for a in FailsafeAction}:
             raise ValueError(f"gcs_failsafe_action = {self.gcs_failsafe_action!r}: must be one "
                              f"of {[int(a) for a in FailsafeAction]}")
@@ -179,7 +182,8 @@ class MavlinkEndpoint:
         for provider in extra_params:
             entries += entries_from(provider)
         self._params = ParamService(ParamTable(entries), self._outbox)
-        self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s)
+        self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s,
+                                        config.max_stream_rate_hz)
         self._mission = MissionProtocol(self._outbox, port.snapshot, port.mission_set,
                                         config.mission)
         self._commands = CommandDispatcher(port, injector, self._streams, self._build_message,
