@@ -201,11 +201,17 @@ class FlightAnalyzer(TelemetryReader):
 
 
 def replay_tlog(path: str | Path, *, pwm_max: float = PWM_MAX,
-                on_event: Callable[[FlightEvent], None] | None = None) -> FlightAnalyzer:
-    """A :class:`FlightAnalyzer` fed with every packet of a recorded flight."""
+                on_event: Callable[[FlightEvent], None] | None = None,
+                on_packet: Callable[[], None] | None = None) -> FlightAnalyzer:
+    """A :class:`FlightAnalyzer` fed with every packet of a recorded flight.
+
+    ``on_packet`` is called after each packet (a progress counter).
+    """
     analyzer = FlightAnalyzer(pwm_max=pwm_max, on_event=on_event)
     for record in read_tlog(path):
         analyzer.feed(record.message, record.unix_time_us)
+        if on_packet is not None:
+            on_packet()
     return analyzer
 
 

@@ -94,6 +94,7 @@ class TelemetryReader:
         self.airborne_alt_m = airborne_alt_m
         self._on_event = on_event
         self.vehicle: tuple[int, int] | None = None  # (sysid, compid)
+        self.packets = 0  # packets fed (both directions)
         self.clock_s: float | None = None
         self._pending: list[_Pending] = []
         self._chunks: dict[int, list[str]] = {}
@@ -139,6 +140,7 @@ class TelemetryReader:
         kind = msg.get_type()
         if kind == "BAD_DATA":
             return
+        self.packets += 1
         src = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.vehicle is None and kind == "HEARTBEAT" and self._is_autopilot(msg):
             self.vehicle = src

@@ -184,6 +184,7 @@ class VehicleProcess:
             lines += [f"{k + 1},{start - t0:.6f},{busy:.6f}"
                       for k, (start, busy) in enumerate(zip(s.tick_starts_s, s.tick_busy_s,
                                                             strict=True))]
+            path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text("\n".join(lines) + "\n")
 
     def run(self, should_stop: Callable[[], bool]) -> RunSummary:
