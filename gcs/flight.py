@@ -250,14 +250,16 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     gs.request_streams(plan.telemetry_hz)
     params = gs.fetch_params()
     for name, value in plan.params.items():
-        if name not in params:
+        if name not in params and gs.read_param(name) is None:
             offered = ", ".join(n for n in sorted(params) if n[:4] == name[:4]) or "none alike"
             raise CommandRefused(f"parameter {name} is not offered by the vehicle "
                                  f"(similar: {offered})")
-        if same_float32(params[name], value):
+        if same_float32(gs.param_names[name], value):
             gs.log("PARAM", f"{name} = {value:g} (already)")
             continue
         gs.set_param(name, value)
+    if "SIM_PAUSE" not in gs.param_names:
+        gs.read_param("SIM_PAUSE")  # a simulator held at t = 0 must be told to go
     gs.wait_home()
     gs.wait_armable(plan.ready_timeout_s)
     gs.upload_mission(plan.mission)
