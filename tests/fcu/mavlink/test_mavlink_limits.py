@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from mavlink_testkit import ORIGIN, MemoryGcs, MemoryLink, memory_endpoint
+from mavlink_testkit import ORIGIN, FakeVehicle, MemoryGcs, MemoryLink, memory_endpoint
 
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.commands import CommandLimits
@@ -128,3 +128,31 @@ def test_the_clamp_follows_the_configured_loop_rate() -> None:
     (interval,) = [m for m in sent if m.get_type() == "MESSAGE_INTERVAL"]
     assert interval.interval_us == 20_000
 
+
+
+class StepClock:
+    """A wall clock that moves ``step_s`` each time it is read."""
+
+    def __init__(self, step_s: float) -> None:
+        self.now_s, self.step_s = 0.0, step_s
+
+    def __call__(self) -> float:
+        self.now_s += self.step_s
+        return self.now_s
+
+
+def test_a_flood_is_handled_a_budget_at_a_time_in_order_and_nothing_lost() -> None:
+    link = MemoryLink()
+    endpoint = MavlinkEndpoint(FakeVehicle(), link,
+                               config=EndpointConfig(receive_budget_s=0.0025),
+                               clock=StepClock(0.001))  # each datagram "takes" 1 ms
+    gcs = MemoryGcs(link)
+    n_params = len(endpoint.params.names)
+    for k in range(100):
+        gcs.put(M.MAVLink_param_request_read_message(1, 1, b"", k % n_params))
+    handled = [endpoint.poll(1.0) for _ in range(40)]
+    assert handled[:33] == [3] * 33 and handled[33] == 1 and sum(handled) == 100
+    # every request answered, in the order it came
+    values = link.take("PARAM_VALUE")
+    assert [v.param_index for v in values] == [k % n_params for k in range(100)]
+    assert endpoint.stats.datagrams == 100
