@@ -274,7 +274,8 @@ def make_figures(series: FlightSeries, name: str | None = None) -> dict[str, Fig
 
 def save_figures(series: FlightSeries, out_dir: str | Path, *, name: str | None = None,
                  formats: Sequence[str] = FORMATS, dpi: float = 100.0,
-                 prefix: str = "") -> dict[str, list[Path]]:
+                 prefix: str = "",
+                 on_figure: Callable[[str], None] | None = None) -> dict[str, list[Path]]:
     """Draw every registered figure and write each as ``out_dir/{prefix}{kind}.{format}``.
 
     Parameters
@@ -291,6 +292,8 @@ def save_figures(series: FlightSeries, out_dir: str | Path, *, name: str | None 
         Resolution of raster formats, dots per inch.
     prefix : str
         Prepended to each file name.
+    on_figure : callable or None
+        Called with each kind once its files are written (a progress counter).
 
     Returns
     -------
@@ -307,6 +310,8 @@ def save_figures(series: FlightSeries, out_dir: str | Path, *, name: str | None 
             path = out / f"{prefix}{kind}.{fmt}"
             fig.savefig(path, dpi=dpi, metadata=_metadata(fmt))
             paths[kind].append(path)
+        if on_figure is not None:
+            on_figure(kind)
     return paths
 
 

@@ -18,12 +18,13 @@ import numpy as np
 
 from flightdata.series import hold_index
 
-__all__ = ["Aligned", "align", "hold", "metres_per_degree", "stale_after", "truth_ned",
-           "velocity_aided"]
+__all__ = ["Aligned", "align", "bridged", "covered_time_s", "hold", "metres_per_degree",
+           "stale_after", "truth_ned", "velocity_aided"]
 
 WGS84_A_M = 6378137.0  # m
 WGS84_E2 = 6.69437999014e-3
 GAP_S = 0.5  # s without SIM_STATE that ends a stretch of velocity integration
+BRIDGE_S = GAP_S  # s: a stream missing for up to this long lost packets; longer, it stopped
 
 Home = tuple[int, int, int, float, float, float]
 
@@ -45,21 +46,30 @@ class Aligned:
     ----------
     truth : (n, 11) the SIM_STATE rows
     pos : (n, 3) true NED position, m (:func:`truth_ned`)
-    pos_ref, att_ref : (k, 4) reference rows (time, x, y, z / roll, pitch, yaw)
-    i_pos, i_att : (n,) index of the reference row held on each sample
-    fresh_pos, fresh_att : (n,) bool, that reference row is recent enough to be tracked
-    flying : (n,) bool, both references fresh and the vehicle airborne
+    ref_pos, ref_att : (n, 3) the position (m) and attitude (rad) references on each sample:
+        the one of that tick, else interpolated across lost packets (:func:`bridged`), NaN
+        where the reference had stopped
+    fresh_pos, fresh_att : (n,) bool, the reference of that very tick arrived
+    tracked : (n,) bool, both references exist on the sample (fresh or bridged)
+    airborne : (n,) bool, the vehicle is off the ground
+    flying : (n,) bool, both references fresh and the vehicle airborne: the samples the
+        errors are taken over
     """
 
     truth: np.ndarray
     pos: np.ndarray
-    pos_ref: np.ndarray
-    att_ref: np.ndarray
-    i_pos: np.ndarray
+    ref_pos: np.ndarray
+    ref_att: np.ndarray
     fresh_pos: np.ndarray
-    i_att: np.ndarray
     fresh_att: np.ndarray
+    tracked: np.ndarray
+    airborne: np.ndarray
     flying: np.ndarray
+
+    def flight_s(self) -> float:
+        """Simulated seconds airborne under a tracked reference, lost samples bridged
+        (:func:`covered_time_s`)."""
+        return covered_time_s(self.truth[:, 0], self.tracked & self.airborne)
 
 
 def truth_ned(rows: np.ndarray, home: Home) -> np.ndarray:
@@ -88,23 +98,95 @@ def truth_ned(rows: np.ndarray, home: Home) -> np.ndarray:
 
 def align(truth: np.ndarray, pos_ref: np.ndarray, att_ref: np.ndarray, home: Home,
           airborne_alt_m: float) -> Aligned:
-    """Hold the references on the SIM_STATE samples and find the flying ones.
+    """Put the references on the SIM_STATE samples and find the flying ones.
 
-    A sample flies when a position and an attitude reference younger than their own
-    period exist (:func:`stale_after`) and the true altitude above home exceeds
-    ``airborne_alt_m`` (raised to two float32 steps of SIM_STATE.alt at home's altitude
-    when those are coarser).
+    A sample flies when the position and attitude references of its own tick arrived
+    (younger than their period, :func:`stale_after`) and the true altitude above home
+    exceeds ``airborne_alt_m`` (raised to two float32 steps of SIM_STATE.alt at home's
+    altitude when those are coarser). A reference lost in transit is bridged
+    (:func:`bridged`): it is drawn and the time counts, but no error is taken there.
     """
     pos = truth_ned(truth, home)
     t = truth[:, 0]
-    i_pos, fresh_pos = hold(pos_ref[:, 0], t, fresh_s=stale_after(pos_ref[:, 0]))
-    i_att, fresh_att = hold(att_ref[:, 0], t, fresh_s=stale_after(att_ref[:, 0]))
+    ref_pos, fresh_pos, have_pos = bridged(pos_ref, t, stale_after(pos_ref[:, 0]))
+    ref_att, fresh_att, have_att = bridged(att_ref, t, stale_after(att_ref[:, 0]),
+                                           angles=True)
     home_alt_m = home[2] * 1e-3
     threshold = max(airborne_alt_m, 2.0 * float(np.spacing(np.float32(abs(home_alt_m) + 1.0))))
     airborne = (-pos[:, 2] + home[5]) > threshold
     flying = fresh_pos & fresh_att & airborne
-    return Aligned(truth=truth, pos=pos, pos_ref=pos_ref, att_ref=att_ref, i_pos=i_pos,
-                   fresh_pos=fresh_pos, i_att=i_att, fresh_att=fresh_att, flying=flying)
+    return Aligned(truth=truth, pos=pos, ref_pos=ref_pos, ref_att=ref_att, fresh_pos=fresh_pos,
+                   fresh_att=fresh_att, tracked=have_pos & have_att, airborne=airborne,
+                   flying=flying)
+
+
+def bridged(rows: np.ndarray, t_query: np.ndarray, fresh_s: float, *,
+            angles: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A reference stream's value at each query time, across lost packets.
+
+    Parameters
+    ----------
+    rows : (k, 4) time (s, non-decreasing) and three values
+    t_query : (n,) s
+    fresh_s : float
+        Age up to which the latest sample is the one of the query's own tick.
+    angles : bool
+        The values are angles (rad): interpolated along the shorter way round.
+
+    Returns
+    -------
+    values : (n, 3)
+        The fresh sample; else the straight line between the samples either side when they
+        are at most :data:`BRIDGE_S` apart (packets were lost, the stream went on); else NaN
+        (the stream had stopped, or not started).
+    fresh : (n,) bool
+        The value is the fresh sample.
+    known : (n,) bool
+        The value is fresh or bridged.
+    """
+    t_query = np.asarray(t_query, dtype=float)
+    n = len(t_query)
+    values = np.full((n, 3), np.nan)
+    if not len(rows):
+        return values, np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    t_src = rows[:, 0]
+    i, fresh = hold(t_src, t_query, fresh_s=fresh_s)
+    values[fresh] = rows[i[fresh], 1:4]
+    j = np.minimum(i + 1, len(t_src) - 1)
+    span = t_src[j] - t_src[i]
+    gap = (~fresh & (hold_index(t_src, t_query) >= 0) & (j > i) & (span <= BRIDGE_S + 1e-9)
+           & (t_query <= t_src[j] + 1e-9))
+    if np.any(gap):
+        a, b = rows[i[gap], 1:4], rows[j[gap], 1:4]
+        w = ((t_query[gap] - t_src[i[gap]]) / span[gap])[:, None]
+        step = np.angle(np.exp(1j * (b - a))) if angles else b - a
+        values[gap] = a + w * step
+        if angles:
+            values[gap] = np.angle(np.exp(1j * values[gap]))
+    return values, fresh, fresh | gap
+
+
+def covered_time_s(t_s: np.ndarray, counted: np.ndarray) -> float:
+    """Seconds covered by the ``counted`` samples, across lost ones.
+
+    Each counted sample covers the time to the next sample when that is at most
+    :data:`GAP_S` away (the samples lost in between were of the same flight), else one
+    median sample period. Without losses this is the number of counted samples times the
+    period.
+
+    Parameters
+    ----------
+    t_s : (n,) sample times, s, non-decreasing
+    counted : (n,) bool
+    """
+    t_s = np.asarray(t_s, dtype=float)
+    if not np.any(counted):
+        return 0.0
+    steps = np.diff(t_s)
+    period = float(np.median(steps)) if len(steps) else 0.0
+    to_next = np.r_[steps, period]
+    span = np.where(to_next <= GAP_S + 1e-9, to_next, period)
+    return float(np.sum(span[np.asarray(counted, dtype=bool)]))
 
 
 def velocity_aided(t_s: np.ndarray, coarse_m: np.ndarray, vel_m_s: np.ndarray) -> np.ndarray:

@@ -44,6 +44,13 @@ are aligned by sample-and-hold on the vehicle's time stamps. Stream all five at 
 autopilot's 100 Hz for a one-to-one match with the runner's ticks (``ftc-gcs fly`` asks for
 that).
 
+Lost packets (a lossy radio, an overflowing socket): errors are taken only over the samples
+whose truth and both references arrived, a random subset, so they stay unbiased; a
+reference missing for at most :data:`gcs.alignment.BRIDGE_S` (0.5 s) between two that
+arrived was lost, not stopped, and is interpolated for the figures; the flight time counts
+every airborne, tracked stretch across lost samples (:func:`gcs.alignment.covered_time_s`),
+so at 30 % loss it is still the real one.
+
 Errors are reference minus truth: RMS and maximum of |error| in x, y, z (m) and roll, pitch,
 yaw (deg, wrapped to +-180); control effort is the mean over those samples of the sum of
 the four motor commands (thesis Table 7.2: 0.0796 at hover), computed by
@@ -118,8 +125,7 @@ class FlightAnalyzer(TelemetryReader):
         else:
             t = al.truth[:, 0]
             pos, euler = al.pos, al.truth[:, 1:4]
-            ref_pos = np.where(al.fresh_pos[:, None], al.pos_ref[al.i_pos, 1:4], np.nan)
-            ref_euler = np.where(al.fresh_att[:, None], al.att_ref[al.i_att, 1:4], np.nan)
+            ref_pos, ref_euler = al.ref_pos, al.ref_att
             flying = al.flying
         return FlightSeries(
             time_s=t, flying=flying, pos_ned=pos, euler_rad=euler, ref_pos_ned=ref_pos,
@@ -146,13 +152,12 @@ class FlightAnalyzer(TelemetryReader):
         if al is None:
             return self._make_report()
         truth, pos, flying = al.truth, al.pos, al.flying
-        pos_ref, att_ref, i_pos, i_att = al.pos_ref, al.att_ref, al.i_pos, al.i_att
         t = truth[:, 0]
         n = int(np.count_nonzero(flying))
         if n == 0:
             return self._make_report()
-        errors = tracking_errors(pos_ref[i_pos[flying], 1:4], pos[flying],
-                                 att_ref[i_att[flying], 1:4], truth[flying, 1:4])
+        errors = tracking_errors(al.ref_pos[flying], pos[flying], al.ref_att[flying],
+                                 truth[flying, 1:4])
         rms: dict[str, float | None] = {axis: fig.rms for axis, fig in errors.items()}
         mx: dict[str, float | None] = {axis: fig.max for axis, fig in errors.items()}
         effort = None
@@ -161,9 +166,8 @@ class FlightAnalyzer(TelemetryReader):
             i_srv, have = hold(servo[:, 0], t[flying], fresh_s=None)
             if np.all(have):
                 effort = control_effort(servo[i_srv, 1:5])
-        period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
         t_end = float(t[flying][-1])
-        return self._make_report(rms=rms, mx=mx, effort=effort, flight_s=n * period,
+        return self._make_report(rms=rms, mx=mx, effort=effort, flight_s=al.flight_s(),
                                  samples=n, t_end=t_end)
 
     def _make_report(self, *, rms: dict[str, float | None] | None = None,
@@ -201,11 +205,17 @@ class FlightAnalyzer(TelemetryReader):
 
 
 def replay_tlog(path: str | Path, *, pwm_max: float = PWM_MAX,
-                on_event: Callable[[FlightEvent], None] | None = None) -> FlightAnalyzer:
-    """A :class:`FlightAnalyzer` fed with every packet of a recorded flight."""
+                on_event: Callable[[FlightEvent], None] | None = None,
+                on_packet: Callable[[], None] | None = None) -> FlightAnalyzer:
+    """A :class:`FlightAnalyzer` fed with every packet of a recorded flight.
+
+    ``on_packet`` is called after each packet (a progress counter).
+    """
     analyzer = FlightAnalyzer(pwm_max=pwm_max, on_event=on_event)
     for record in read_tlog(path):
         analyzer.feed(record.message, record.unix_time_us)
+        if on_packet is not None:
+            on_packet()
     return analyzer
 
 

@@ -56,9 +56,11 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from flightdata import vocabulary
+from flightdata.outputs import OutputError, check_file_output, check_folder_output
 from flightdata.signing import key_from_text
-from gcs.analysis import analyze_tlog
-from gcs.errors import EXIT_INTERRUPTED, EXIT_USAGE
+from flightdata.steps import Steps
+from gcs.analysis import replay_tlog
+from gcs.errors import EXIT_INTERRUPTED, EXIT_USAGE, FlightError
 from gcs.faults import (
     TABLE_7_3,
     FaultScheduleError,
@@ -68,6 +70,7 @@ from gcs.faults import (
     sorted_schedule,
 )
 from gcs.flight import FlightOutcome, FlightPlan, config_params, fly
+from gcs.mavlink import check_url
 from gcs.mission import MissionFileError, WireItem, load_mission, thesis_mission
 from gcs.spawn import SpawnedVehicle, VehicleSpec
 from gcs.station import GroundStation
@@ -75,6 +78,8 @@ from gcs.table import format_report
 
 PROG = "ftc-gcs"
 DEFAULT_URL = "udpin:0.0.0.0:14550"
+_SLOW_TLOG_BYTES = 1 << 20  # a .tlog this big takes seconds to read: say so
+DEFAULT_CONNECT_TIMEOUT_S = 60.0  # s wall: a vehicle started meanwhile compiles its plant
 TABLE_TITLE = "flight"  # the same for fly, demo and report: report reprints the table exactly
 
 
@@ -174,8 +179,9 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
     _add_view_options(rec)
     lim = p.add_argument_group("time limits")
     lim.add_argument("--connect-timeout", type=_positive, default=None, metavar="S",
-                     help="wall s to wait for the vehicle (default 10; 60 for a vehicle "
-                     "started here, whose first start compiles the plant)")
+                     help=f"wall s to wait for the vehicle's first HEARTBEAT (default "
+                     f"{DEFAULT_CONNECT_TIMEOUT_S:g}: a vehicle started at the same time "
+                     "needs its start-up)")
     lim.add_argument("--link-timeout", type=_positive, default=5.0, metavar="S",
                      help="wall s of silence in flight before giving up (default 5)")
     lim.add_argument("--max-flight-s", type=_positive, default=120.0, metavar="S",
@@ -263,7 +269,43 @@ def _timing_lines(outcome: FlightOutcome) -> list[str]:
     return lines
 
 
+def _check_outputs(args: argparse.Namespace, files: Sequence[str]) -> None:
+    """Refuse unwritable outputs before any work (:mod:`flightdata.outputs`)."""
+    for option in files:
+        path = getattr(args, option.removeprefix("--").replace("-", "_"))
+        if path is not None:
+            check_file_output(option, path)
+    for option in ("--figures", "--report"):
+        path = getattr(args, option.removeprefix("--"))
+        if path is not None:
+            check_folder_output(option, path)
+
+
+def _missing_folders(path: Path) -> list[Path]:
+    """The folders of ``path`` that do not exist yet, deepest first."""
+    out = []
+    while not path.exists() and path != path.parent:
+        out.append(path)
+        path = path.parent
+    return out
+
+
+def _remove_empty_records(paths: Sequence[Path | None], folders: Sequence[Path]) -> None:
+    """A flight that never found its vehicle leaves nothing: its records hold only our own
+    packets and lines; folders created for them go too when empty."""
+    for path in paths:
+        if path is not None and path.exists():
+            path.unlink()
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            break  # not empty (or not ours): keep it and everything above it
+
+
 def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
+    spawn = demo or args.spawn_vehicle
+    url = "udpin:127.0.0.1:0" if spawn else (args.connect or DEFAULT_URL)
     try:
         faults = _schedule(args)
         mission = _mission(args)
@@ -271,25 +313,40 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
         params.update(dict(args.param))
         plan = FlightPlan(mission=mission, faults=faults, params=params,
                           inject_via=args.inject_via, max_flight_s=args.max_flight_s,
-                          connect_timeout_s=args.connect_timeout or (
-                              60.0 if demo or args.spawn_vehicle else 10.0),
+                          connect_timeout_s=args.connect_timeout or DEFAULT_CONNECT_TIMEOUT_S,
                           link_timeout_s=args.link_timeout, wall_timeout_s=args.timeout)
     except (FaultScheduleError, MissionFileError, ValueError) as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
-    spawn = demo or args.spawn_vehicle
-    url = "udpin:127.0.0.1:0" if spawn else (args.connect or DEFAULT_URL)
+    try:
+        check_url(url)
+    except ValueError as err:
+        print(f"{PROG}: error: --connect {url!r}: {err}", file=sys.stderr)
+        return EXIT_USAGE
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
     stem = f"{'demo' if demo else 'flight'}-{stamp}"
     tlog = args.tlog or args.out_dir / f"{stem}.tlog"
     event_log = args.event_log or tlog.with_suffix(".events.log")
     try:
+        if args.tlog is None or args.event_log is None:
+            check_folder_output("--out-dir", args.out_dir)
+        _check_outputs(args, ("--tlog", "--event-log", "--json", "--rrd"))
+    except OutputError as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    vehicle_log = tlog.with_suffix(".vehicle.log")
+    new_folders = sorted({f for p in (tlog, event_log, vehicle_log)
+                          for f in _missing_folders(p.parent)},
+                         key=lambda f: len(f.parts), reverse=True)
+    try:
         gs = GroundStation.open(url, tlog=tlog, event_log=event_log,
                                 echo=None if args.quiet else sys.stderr,
                                 signing_key=args.signing_key)
-    except OSError as err:
-        print(f"{PROG}: error: cannot open {url}: {err.strerror or err}", file=sys.stderr)
+    except (OSError, ValueError) as err:
+        reason = err.strerror if isinstance(err, OSError) and err.strerror else err
+        print(f"{PROG}: error: cannot open {url}: {reason}", file=sys.stderr)
         return EXIT_USAGE
+    steps = Steps(None if args.quiet else sys.stderr, prog=PROG)
     vehicle: SpawnedVehicle | None = None
     live = _live_recorder(args.rerun, gs, stem) if args.rerun is not None else None
     try:
@@ -299,10 +356,11 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
                                start_paused=not args.no_pause,
                                max_sim_s=args.max_flight_s + 120.0,
                                extra_args=tuple(args.vehicle_arg), signing_key=args.signing_key)
-            vehicle = SpawnedVehicle(spec, port, log_path=tlog.with_suffix(".vehicle.log"))
+            vehicle = SpawnedVehicle(spec, port, log_path=vehicle_log)
             vehicle.start()
             gs.log("LINK", f"started vehicle pid {vehicle.pid}: {spec.shown(port)}")
-        outcome = fly(gs, plan, vehicle_gone=None if vehicle is None else vehicle.why_gone)
+        outcome = fly(gs, plan, vehicle_gone=None if vehicle is None else vehicle.why_gone,
+                      steps=steps)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted; records kept in {tlog} and {event_log}", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -312,15 +370,22 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
             vehicle.stop()
         if live is not None:
             live.close()
+    if gs.analyzer.vehicle is None:  # nothing flown: no table, no records of nothing
+        empty_vehicle_log = vehicle is None or not vehicle.output().strip()
+        _remove_empty_records([tlog, event_log, vehicle_log if empty_vehicle_log else None],
+                              new_folders)
+        error = outcome.error or FlightError("no vehicle")
+        print(f"{PROG}: {error.one_line()}", file=sys.stderr)
+        return error.exit_code
     print(format_report(outcome.report, title=TABLE_TITLE))
     for line in _timing_lines(outcome):
         print(line)
     print(f"records: {outcome.tlog} (tlog), {outcome.event_log} (events)")
     if args.json is not None:
         _write_json(args.json, _clean(outcome.to_json()))
-    if outcome.tlog is not None and outcome.tlog.exists():
+    if outcome.replayed is not None and outcome.tlog is not None:
         try:
-            _write_views(args, outcome.tlog, outcome.report)
+            _write_views(args, outcome.tlog, outcome.report, outcome.replayed, steps)
         except OSError as err:  # the flight's own result stands; say what was not written
             print(f"{PROG}: error: cannot write the views of the flight: {err}",
                   file=sys.stderr)
@@ -333,7 +398,24 @@ def cmd_report(args: argparse.Namespace) -> int:
     if not args.tlog.is_file():
         print(f"{PROG}: error: {args.tlog}: no such file", file=sys.stderr)
         return EXIT_USAGE
-    report = analyze_tlog(args.tlog)
+    try:
+        _check_outputs(args, ("--json", "--rrd"))
+    except OutputError as err:
+        print(f"{PROG}: error: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    steps = Steps(sys.stderr, prog=PROG)
+    slow = args.tlog.stat().st_size >= _SLOW_TLOG_BYTES
+    with (steps if slow else Steps(None)).step(f"reading {args.tlog}") as step:
+        analyzer = replay_tlog(args.tlog, on_packet=step.advance)
+    if analyzer.packets == 0:
+        print(f"{PROG}: error: {args.tlog}: not a .tlog (no MAVLink packets in it)",
+              file=sys.stderr)
+        return EXIT_USAGE
+    if analyzer.vehicle is None:
+        print(f"{PROG}: error: {args.tlog}: no flight in it (no HEARTBEAT from an autopilot "
+              f"among its {analyzer.packets} packets)", file=sys.stderr)
+        return EXIT_USAGE
+    report = analyzer.report()
     print(format_report(report, title=TABLE_TITLE))
     for d in report.detections:
         lat = "-" if d.latency_s is None else f"{d.latency_s:.2f} s"
@@ -342,7 +424,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     if args.json is not None:
         _write_json(args.json, _clean(report.to_json()))
     try:
-        _write_views(args, args.tlog, report)
+        _write_views(args, args.tlog, report, analyzer, steps)
     except OSError as err:
         print(f"{PROG}: error: cannot write the views of {args.tlog}: {err}", file=sys.stderr)
         return EXIT_USAGE
@@ -372,32 +454,42 @@ def _live_recorder(target: str, gs: GroundStation, name: str) -> Any:
     return live
 
 
-def _write_views(args: argparse.Namespace, tlog: Path, report: Any) -> None:
-    """The --rrd, --figures and --report outputs of a recorded flight."""
+def _write_views(args: argparse.Namespace, tlog: Path, report: Any, analyzer: Any,
+                 steps: Steps) -> None:
+    """The --rrd, --figures and --report outputs of a recorded flight (``analyzer``: its
+    .tlog read back)."""
     if args.rrd is None and args.figures is None and args.report is None:
         return
-    from gcs.analysis import replay_tlog
-
-    series = replay_tlog(tlog).series()
+    series = analyzer.series()
     if args.rrd is not None:
         from flightdata.recording import open_stream, write_recording
 
-        stream = open_stream(tlog.stem, rrd_path=args.rrd)
-        try:
-            write_recording(series, stream)
-        finally:
-            stream.disconnect()
+        with steps.step(f"writing the recording {args.rrd}"):
+            stream = open_stream(tlog.stem, rrd_path=args.rrd)
+            try:
+                write_recording(series, stream)
+            finally:
+                stream.disconnect()
         print(f"recording: {args.rrd}")
-    if args.figures is not None:
-        from flightdata.figures import save_figures
+    drawn = None
+    if args.figures is not None or args.report is not None:
+        from flightdata.figures import FIGURES, FORMATS, save_figures
 
-        save_figures(series, args.figures)
+        kinds = f"{len(FIGURES)} kinds, {' and '.join(f.upper() for f in FORMATS)}"
+    if args.figures is not None:
+        with steps.step(f"writing figures ({kinds}) in {args.figures}",
+                        total=len(FIGURES)) as step:
+            drawn = save_figures(series, args.figures, on_figure=lambda _: step.advance())
         print(f"figures: {args.figures}")
     if args.report is not None:
         from gcs.report import write_report
 
-        path = write_report(args.report, report, series, title=f"Flight {tlog.stem}",
-                            source=str(tlog))
+        doing = "copying" if drawn is not None else "writing"
+        with steps.step(f"writing the report in {args.report} ({doing} its figures: {kinds})",
+                        total=len(FIGURES)) as step:
+            path = write_report(args.report, report, series, title=f"Flight {tlog.stem}",
+                                source=str(tlog), drawn=drawn,
+                                on_figure=lambda _: step.advance())
         print(f"report: {path}")
 
 

@@ -30,7 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from flightdata import vocabulary
-from gcs.analysis import analyze_tlog
+from flightdata.steps import Steps
+from gcs.analysis import FlightAnalyzer, replay_tlog
 from gcs.errors import CommandRefused, Crashed, FlightError, FlightTimeout
 from gcs.faults import FaultSpec, sorted_schedule
 from gcs.mission import WireItem
@@ -124,6 +125,9 @@ class FlightOutcome:
         Why the flight failed (None: flown and landed).
     tlog : Path or None
     event_log : Path or None
+    replayed : FlightAnalyzer or None
+        The .tlog read back (its :meth:`~gcs.analysis.FlightAnalyzer.series` feeds the
+        figures and recordings); None without a .tlog.
     """
 
     report: FlightReport
@@ -131,6 +135,7 @@ class FlightOutcome:
     error: FlightError | None
     tlog: Path | None
     event_log: Path | None
+    replayed: FlightAnalyzer | None = None
 
     @property
     def exit_code(self) -> int:
@@ -187,7 +192,8 @@ class _Injector:
 
 def fly(gs: GroundStation, plan: FlightPlan,
         progress: Callable[[GroundStation], None] | None = None,
-        vehicle_gone: Callable[[], str | None] | None = None) -> FlightOutcome:
+        vehicle_gone: Callable[[], str | None] | None = None,
+        steps: Steps | None = None) -> FlightOutcome:
     """Fly ``plan`` with the vehicle on ``gs``; the records are closed at the end.
 
     Parameters
@@ -199,6 +205,8 @@ def fly(gs: GroundStation, plan: FlightPlan,
         Called about once per wall second during the flight.
     vehicle_gone : callable or None
         For a vehicle we started: why it can no longer answer (it exited), else None.
+    steps : Steps or None
+        Where to say what is being done after the flight (reading the .tlog back).
 
     Returns
     -------
@@ -223,10 +231,14 @@ def fly(gs: GroundStation, plan: FlightPlan,
     gs.close()
     report = live
     tlog = gs.tlog.path if gs.tlog is not None else None
-    if tlog is not None and tlog.exists():
-        report = analyze_tlog(tlog)
+    replayed = None
+    if tlog is not None and tlog.exists() and gs.analyzer.vehicle is not None:
+        with (steps or Steps(None)).step(f"reading the flight back from {tlog}",
+                                         total=gs.tlog.packets if gs.tlog else None) as step:
+            replayed = replay_tlog(tlog, on_packet=step.advance)
+        report = replayed.report()
     return FlightOutcome(report=report, timing=list(gs.injection_timing), error=error,
-                         tlog=tlog, event_log=gs.events.path)
+                         tlog=tlog, event_log=gs.events.path, replayed=replayed)
 
 
 def _fly(gs: GroundStation, plan: FlightPlan,
@@ -238,14 +250,16 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     gs.request_streams(plan.telemetry_hz)
     params = gs.fetch_params()
     for name, value in plan.params.items():
-        if name not in params:
+        if name not in params and gs.read_param(name) is None:
             offered = ", ".join(n for n in sorted(params) if n[:4] == name[:4]) or "none alike"
             raise CommandRefused(f"parameter {name} is not offered by the vehicle "
                                  f"(similar: {offered})")
-        if same_float32(params[name], value):
+        if same_float32(gs.param_names[name], value):
             gs.log("PARAM", f"{name} = {value:g} (already)")
             continue
         gs.set_param(name, value)
+    if "SIM_PAUSE" not in gs.param_names:
+        gs.read_param("SIM_PAUSE")  # a simulator held at t = 0 must be told to go
     gs.wait_home()
     gs.wait_armable(plan.ready_timeout_s)
     gs.upload_mission(plan.mission)

@@ -1,13 +1,25 @@
 """One MAVLink link to one vehicle: heartbeat, receive and record, replies, commands.
 
 :class:`Link` owns a pymavlink connection (MAVLink 2, ardupilotmega, see :mod:`gcs.mavlink`)
-and does what every exchange with the vehicle rests on: it sends its own HEARTBEAT once per
+and does what every exchange with the vehicle rests on: it sends its own HEARTBEAT twice per
 wall-clock second (the vehicle's GCS-loss failsafe counts it), receives every packet, keeps
 the vehicle's protocol replies (COMMAND_ACK, PARAM_VALUE, MISSION_REQUEST/_INT, MISSION_ACK,
-STATUSTEXT, SYS_STATUS) until someone waits for them, finds the vehicle and its clock, and
-sends COMMAND_LONG waiting for the COMMAND_ACK (retrying as MAVSDK does). What a ground
-station does over it (parameters, missions, arming, injections) is
-:class:`gcs.station.GroundStation`.
+STATUSTEXT, SYS_STATUS, MESSAGE_INTERVAL) until someone waits for them, finds the vehicle and
+its clock, and sends COMMAND_LONG waiting for the COMMAND_ACK. What a ground station does
+over it (parameters, missions, arming, injections) is :class:`gcs.station.GroundStation`.
+
+A bad link
+----------
+Two threads keep the link alive whatever the caller is busy with (drawing a live view, a
+slow machine): one sends the HEARTBEAT on its own timer, one drains the socket as datagrams
+arrive into a queue that :meth:`Link.pump` handles (so the operating system's buffer,
+enlarged to 4 MiB, never overflows while the caller is busy). The caller's thread does all
+the rest; the codec, the socket writes and the records are shared under one lock. The
+heartbeat goes out every 0.5 s so that a link losing a third of its packets practically
+never goes the vehicle's 5 s (``FS_GCS_TIMEOUT``) without one. Commands are retried with
+back-off (:data:`ACK_TIMEOUTS_S`: 8 attempts over about 20 s), and a command whose ACK was
+lost but whose effect the vehicle already shows (armed, a mode, a stream interval read back)
+counts as done: see :meth:`Link.command`.
 
 With a signing key (MAVLink 2 signing, :func:`gcs.mavlink.enable_signing`) everything sent is
 signed and only packets that verify with the key are handled; :meth:`Link.wait_vehicle` says
@@ -25,7 +37,9 @@ never mix.
 from __future__ import annotations
 
 import math
+import queue
 import select
+import threading
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -46,14 +60,17 @@ from gcs.mavlink import (
 from gcs.records import EventLog, TlogWriter
 from gcs.telemetry import mavlink_text
 
-__all__ = ["ACK_TIMEOUT_S", "Link"]
+__all__ = ["ACK_TIMEOUTS_S", "ACK_TIMEOUT_S", "Link"]
 
 _M = mavlink2
-_HEARTBEAT_PERIOD_S = 1.0  # s wall, GCS heartbeat (ArduPilot FS_GCS_TIMEOUT default is 5 s)
-ACK_TIMEOUT_S = 1.0  # s wall, per attempt
-_ACK_ATTEMPTS = 3
+_HEARTBEAT_PERIOD_S = 0.5  # s wall, GCS heartbeat (ArduPilot FS_GCS_TIMEOUT default is 5 s)
+ACK_TIMEOUT_S = 1.0  # s wall, the first attempt's wait for an answer
+ACK_TIMEOUTS_S = (1.0, 1.5, 2.0, 2.5, 3.0, 3.0, 3.0, 3.0)
+"""Wall seconds each attempt of a command waits for its answer (8 attempts, ~19 s)."""
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its ACK
 _UNVERIFIED_HEARTBEATS = 3  # autopilot HEARTBEATs failing the signature check: a mismatch
+_READ_WAIT_S = 0.1  # s wall, longest the reader thread sleeps before looking again
+_PUMP_BATCH = 20_000  # messages handled per pump at most (the caller keeps control)
 
 
 class Link:
@@ -94,6 +111,12 @@ class Link:
         self._event_hooks: list[Callable[[FlightEvent], None]] = []
         self._sent_clock: float | None = None  # vehicle clock when the last command left
         self.closed = False
+        # the threads (started by start(), e.g. on the first pump)
+        self._io = threading.RLock()  # the codec, socket writes and the records
+        self._received: queue.SimpleQueue[tuple[MAVLinkMessage, float]] = queue.SimpleQueue()
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self.receive_errors = 0  # socket errors seen by the reader thread
 
     # ------------------------------------------------------------------ lifecycle
     @classmethod
@@ -119,13 +142,28 @@ class Link:
         return cls(conn, url, tlog=None if tlog is None else TlogWriter(tlog),
                    events=EventLog(event_log, echo), signing_key=signing_key)
 
+    def start(self) -> None:
+        """Start the heartbeat and reader threads (idempotent; :meth:`pump` calls it)."""
+        if self._threads or self.closed:
+            return
+        self._threads = [threading.Thread(target=self._heartbeat_loop, name="gcs-heartbeat",
+                                          daemon=True),
+                         threading.Thread(target=self._read_loop, name="gcs-reader",
+                                          daemon=True)]
+        for thread in self._threads:
+            thread.start()
+
     def close(self) -> None:
-        """Close the link and flush the records (idempotent)."""
+        """Stop the threads, close the link and flush the records (idempotent)."""
         if self.closed:
             return
         self.closed = True
+        self._stop.set()
+        for thread in self._threads:
+            thread.join(timeout=5.0)
         try:
-            self.conn.close()
+            with self._io:
+                self.conn.close()
         finally:
             if self.tlog is not None:
                 self.tlog.close()
@@ -138,8 +176,10 @@ class Link:
         self.close()
 
     # ------------------------------------------------------------------ recording
-    def _record(self, packet: bytes, msg: MAVLinkMessage) -> None:
-        stamp = time.time()
+    def _record(self, packet: bytes, msg: MAVLinkMessage, stamp: float | None = None) -> None:
+        """Log ``packet`` (received at UNIX time ``stamp``, s; now when None) and feed it."""
+        if stamp is None:
+            stamp = time.time()
         if self.tlog is not None:
             self.tlog.write(packet, stamp)
         self.analyzer.feed(msg, int(stamp * 1e6))
@@ -160,7 +200,7 @@ class Link:
 
     # ------------------------------------------------------------------ sending
     def send(self, msg: MAVLinkMessage, *, with_timesync: bool = False) -> None:
-        """Pack, send and record one message.
+        """Pack, send and record one message (any thread).
 
         Parameters
         ----------
@@ -174,6 +214,14 @@ class Link:
         if with_timesync:
             sysid, compid = self.target
             msgs.append(_M.MAVLink_timesync_message(0, time.time_ns()))
+        with self._io:
+            packets = self._pack(msgs)
+            self.conn.write(b"".join(packets))
+            for m, packet in zip(msgs, packets, strict=True):
+                decoded = decode_packet(packet)  # what the wire (and the .tlog) carries
+                self._record(packet, decoded if decoded is not None else m)
+
+    def _pack(self, msgs: Sequence[MAVLinkMessage]) -> list[bytes]:
         mav = self.conn.mav
         if mav.signing.sign_outgoing:  # never behind the wall clock, as MAVProxy keeps it
             mav.signing.timestamp = max(mav.signing.timestamp, timestamp_from_unix(time.time()))
@@ -183,16 +231,30 @@ class Link:
             mav.seq = (mav.seq + 1) % 256
             mav.total_packets_sent += 1
             mav.total_bytes_sent += len(packets[-1])
-        self.conn.write(b"".join(packets))
-        for m, packet in zip(msgs, packets, strict=True):
-            decoded = decode_packet(packet)  # what the wire (and the .tlog) carries: float32
-            self._record(packet, decoded if decoded is not None else m)
+        return packets
 
     def send_heartbeat(self) -> None:
-        """Our HEARTBEAT (a ground station: type GCS, autopilot INVALID)."""
-        self.send(_M.MAVLink_heartbeat_message(_M.MAV_TYPE_GCS, _M.MAV_AUTOPILOT_INVALID, 0,
-                                               0, _M.MAV_STATE_ACTIVE, 3))
+        """Our HEARTBEAT (a ground station: type GCS, autopilot INVALID), from any thread.
+
+        Recorded in the .tlog but not fed to the analyzer (it carries nothing the table
+        uses, and the analyzer belongs to the caller's thread).
+        """
+        msg = _M.MAVLink_heartbeat_message(_M.MAV_TYPE_GCS, _M.MAV_AUTOPILOT_INVALID, 0, 0,
+                                           _M.MAV_STATE_ACTIVE, 3)
+        with self._io:
+            (packet,) = self._pack([msg])
+            self.conn.write(packet)
+            if self.tlog is not None:
+                self.tlog.write(packet, time.time())
         self._last_heartbeat_wall = time.monotonic()
+
+    def _heartbeat_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                self.send_heartbeat()
+            except (OSError, ValueError):
+                pass  # a closed or failing socket: the caller's thread reports the link
+            self._stop.wait(_HEARTBEAT_PERIOD_S)
 
     @property
     def target(self) -> tuple[int, int]:
@@ -202,6 +264,33 @@ class Link:
         return self.analyzer.vehicle
 
     # ------------------------------------------------------------------ receiving
+    def _read_loop(self) -> None:
+        """The reader thread: move every datagram's messages into the queue at once."""
+        fd = getattr(self.conn, "fd", None)
+        while not self._stop.is_set():
+            try:
+                if fd is not None:
+                    select.select([fd], [], [], _READ_WAIT_S)
+                else:
+                    time.sleep(0.005)
+            except (OSError, ValueError):
+                return  # closed
+            while not self._stop.is_set():
+                try:
+                    with self._io:
+                        msg = self.conn.recv_msg()
+                except (ConnectionError, OSError):
+                    self.receive_errors += 1
+                    break
+                except Exception:  # a malformed packet pymavlink chokes on: skip it
+                    self.receive_errors += 1
+                    continue
+                if msg is None:
+                    break
+                # BAD_DATA too: a packet that failed the signature check is counted
+                # (Link._note_unverified)
+                self._received.put((msg, time.time()))
+
     def pump(self, wait_s: float = 0.0) -> int:
         """Wait up to ``wait_s`` wall seconds for data, then handle all that is waiting.
 
@@ -210,32 +299,27 @@ class Link:
         int
             Messages handled.
         """
-        now = time.monotonic()
-        if now - self._last_heartbeat_wall >= _HEARTBEAT_PERIOD_S:
-            self.send_heartbeat()
-        fd = getattr(self.conn, "fd", None)
-        if wait_s > 0 and fd is not None:
-            try:
-                select.select([fd], [], [], wait_s)
-            except (OSError, ValueError):
-                pass
-        elif wait_s > 0:
-            time.sleep(wait_s)
+        self.start()
         handled = 0
+        try:
+            item = self._received.get(timeout=wait_s) if wait_s > 0 else \
+                self._received.get_nowait()
+        except queue.Empty:
+            return 0
         while True:
-            try:
-                msg = self.conn.recv_msg()
-            except (ConnectionError, OSError):
-                break
-            if msg is None:
-                break
+            msg, stamp = item
             if msg.get_type() == "BAD_DATA":
                 self._note_unverified(msg)
-                continue
+            else:
+                self._handle(msg, stamp)
             handled += 1
-            self._handle(msg)
-        if handled:
-            self._last_rx_wall = time.monotonic()
+            if handled >= _PUMP_BATCH:
+                break
+            try:
+                item = self._received.get_nowait()
+            except queue.Empty:
+                break
+        self._last_rx_wall = time.monotonic()
         return handled
 
     def _note_unverified(self, bad: MAVLinkMessage) -> None:
@@ -263,13 +347,14 @@ class Link:
         return (f"the autopilot on {self.url} signs with another key than --signing-key "
                 f"({self.unverified} of its packets failed the signature check)")
 
-    def _handle(self, msg: MAVLinkMessage) -> None:
+    def _handle(self, msg: MAVLinkMessage, stamp: float | None = None) -> None:
         if (not self.signing and not self._vehicle_signs and msg.get_type() == "HEARTBEAT"
                 and int(msg.autopilot) != _M.MAV_AUTOPILOT_INVALID
                 and is_signed(msg.get_msgbuf())):
             self._vehicle_signs = True
         before = self.analyzer.clock_s
-        self._record(bytes(msg.get_msgbuf()), msg)
+        with self._io:
+            self._record(bytes(msg.get_msgbuf()), msg, stamp)
         vehicle = self.analyzer.vehicle
         if vehicle is not None and (msg.get_srcSystem(), msg.get_srcComponent()) == vehicle:
             self._last_vehicle_wall = time.monotonic()
@@ -395,8 +480,10 @@ class Link:
 
     # ------------------------------------------------------------------ commands
     def command(self, command: int, params: Sequence[float] = (), *, what: str = "",
-                accept_temporarily_rejected: bool = False, with_timesync: bool = False) -> int:
-        """COMMAND_LONG, waiting for its COMMAND_ACK (3 attempts, 1 s apart).
+                accept_temporarily_rejected: bool = False, with_timesync: bool = False,
+                applied: Callable[[], bool] | None = None,
+                read_back: Callable[[], None] | None = None) -> int:
+        """COMMAND_LONG, waiting for its COMMAND_ACK (retried with back-off).
 
         Parameters
         ----------
@@ -410,6 +497,14 @@ class Link:
             Return TEMPORARILY_REJECTED instead of raising.
         with_timesync : bool
             Date the command exactly (see :meth:`send`).
+        applied : callable or None
+            Whether the vehicle already shows the command's effect (armed, a mode, a stream
+            interval read back...). Polled while waiting: an ACK lost on the way back then
+            costs no more than the read-back, and a retry the vehicle refuses because the
+            first attempt took effect counts as done.
+        read_back : callable or None
+            Asks the vehicle for the state ``applied`` looks at (e.g. GET_MESSAGE_INTERVAL);
+            called with every attempt after the first.
 
         Returns
         -------
@@ -421,19 +516,36 @@ class Link:
         CommandRefused
             DENIED, UNSUPPORTED, FAILED..., with the vehicle's STATUSTEXT reason.
         FlightTimeout
-            No ACK after three attempts.
+            No answer after every attempt (:data:`ACK_TIMEOUTS_S`).
         """
         p = [float(v) for v in params] + [0.0] * (7 - len(params))
         name = what or (_M.enums["MAV_CMD"][command].name.removeprefix("MAV_CMD_")
                         if command in _M.enums["MAV_CMD"] else str(command))
         sysid, compid = self.target
-        for attempt in range(_ACK_ATTEMPTS):
-            self._take_all("COMMAND_ACK", lambda m: int(m.command) == command)
+
+        def is_ack(m: MAVLinkMessage) -> bool:
+            return int(m.command) == command
+
+        for attempt, timeout_s in enumerate(ACK_TIMEOUTS_S):
+            self._take_all("COMMAND_ACK", is_ack)
             self.send(_M.MAVLink_command_long_message(sysid, compid, command, attempt, *p),
                       with_timesync=with_timesync)
+            if attempt and read_back is not None:
+                read_back()
             self._sent_clock = self.analyzer.clock_s
-            ack = self._wait_reply(["COMMAND_ACK"], lambda m: int(m.command) == command,
-                                   ACK_TIMEOUT_S)
+            deadline = time.monotonic() + timeout_s
+            ack = None
+            while ack is None:
+                ack = self._take("COMMAND_ACK", is_ack)
+                if ack is not None:
+                    break
+                if attempt and applied is not None and applied():
+                    self.log("ACK", f"{name}: answer lost, the vehicle shows it done")
+                    return _M.MAV_RESULT_ACCEPTED
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    break
+                self.pump(min(left, 0.05))
             if ack is None:
                 continue
             result = int(ack.result)
@@ -441,12 +553,15 @@ class Link:
                 return result
             if result == _M.MAV_RESULT_TEMPORARILY_REJECTED and accept_temporarily_rejected:
                 return result
+            if attempt and applied is not None and applied():
+                self.log("ACK", f"{name}: the first attempt took effect (read back)")
+                return _M.MAV_RESULT_ACCEPTED
             result_name = _M.enums["MAV_RESULT"][result].name.removeprefix("MAV_RESULT_") \
                 if result in _M.enums["MAV_RESULT"] else str(result)
             reason = self._refusal_reason()
             raise CommandRefused(f"{name}: {result_name}" + (f": {reason}" if reason else ""))
-        raise FlightTimeout(f"no COMMAND_ACK for {name} after {_ACK_ATTEMPTS} attempts "
-                            f"({ACK_TIMEOUT_S:g} s apart)")
+        raise FlightTimeout(f"no COMMAND_ACK for {name} after {len(ACK_TIMEOUTS_S)} attempts "
+                            f"over {sum(ACK_TIMEOUTS_S):g} s")
 
     def _take_all(self, kind: str, match: Callable[[MAVLinkMessage], bool]) -> None:
         while self._take(kind, match) is not None:
@@ -463,4 +578,5 @@ class Link:
 
 
 _REPLY_TYPES = frozenset({"COMMAND_ACK", "PARAM_VALUE", "MISSION_REQUEST_INT",
-                          "MISSION_REQUEST", "MISSION_ACK", "STATUSTEXT", "SYS_STATUS"})
+                          "MISSION_REQUEST", "MISSION_ACK", "STATUSTEXT", "SYS_STATUS",
+                          "MESSAGE_INTERVAL"})

@@ -45,6 +45,7 @@ __all__ = [
     "enable_signing",
     "is_signed",
     "mavlink2",
+    "check_url",
     "open_link",
     "read_tlog",
     "use_mavlink2",
@@ -75,6 +76,43 @@ def use_mavlink2(conn: Any) -> None:
     conn.first_byte = False  # mavutil's auto-switch would set os.environ["MAVLINK20"]
 
 
+_NETWORK_KINDS = ("udpin", "udpout", "udp", "udpbcast", "tcp", "tcpin")
+_LISTENING_KINDS = ("udpin", "udp", "tcpin")  # port 0 = any free port
+
+
+def check_url(url: str) -> None:
+    """Check a connection string before opening it.
+
+    Network forms are ``KIND:HOST:PORT`` with KIND one of udpin, udpout, udp, udpbcast, tcp,
+    tcpin (``HOST:PORT`` alone is pymavlink's udpin); anything starting with ``/`` or ``COM``
+    is a serial device (``DEVICE[,BAUD]``), opened as it is.
+
+    Raises
+    ------
+    ValueError
+        One line saying what is wrong with ``url``.
+    """
+    if url.startswith("/") or url.upper().startswith("COM"):
+        return
+    parts = url.split(":")
+    if len(parts) == 2 and parts[0] not in _NETWORK_KINDS:
+        parts = ["udpin", *parts]
+    if len(parts) != 3 or not parts[1]:
+        raise ValueError("expected KIND:HOST:PORT (udpin:0.0.0.0:14550, "
+                         "udpout:127.0.0.1:14555, tcp:HOST:PORT) or a serial device")
+    kind, _, port_text = parts
+    if kind not in _NETWORK_KINDS:
+        raise ValueError(f"{kind!r} is not one of {', '.join(_NETWORK_KINDS)} (or a serial "
+                         "device)")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ValueError(f"port {port_text!r} is not a number") from None
+    low = 0 if kind in _LISTENING_KINDS else 1
+    if not low <= port <= 65535:
+        raise ValueError(f"port {port} not in {low}..65535")
+
+
 def open_link(url: str, *, source_system: int = GCS_SYSID,
               source_component: int = GCS_COMPID) -> Any:
     """Open a MAVLink 2 ground-station connection.
@@ -95,11 +133,18 @@ def open_link(url: str, *, source_system: int = GCS_SYSID,
 
     Raises
     ------
+    ValueError
+        A malformed connection string (:func:`check_url`).
     OSError
-        When the socket cannot be opened (port in use, bad address).
+        When the socket cannot be opened (port in use, bad address, unknown host).
     """
-    conn = mavutil.mavlink_connection(url, dialect=DIALECT, source_system=source_system,
-                                      source_component=source_component, autoreconnect=False)
+    check_url(url)
+    try:
+        conn = mavutil.mavlink_connection(url, dialect=DIALECT, source_system=source_system,
+                                          source_component=source_component,
+                                          autoreconnect=False)
+    except (ValueError, OverflowError) as err:  # what pymavlink lets through unparsed
+        raise ValueError(str(err)) from None
     use_mavlink2(conn)
     sock = getattr(conn, "port", None)
     if isinstance(sock, socket.socket):

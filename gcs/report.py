@@ -7,6 +7,8 @@ in ``DIR/figures/``, all from the flight's .tlog.
 
 from __future__ import annotations
 
+import shutil
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from flightdata.figures import save_figures
@@ -41,12 +43,32 @@ def render_markdown(report: FlightReport, figures: dict[str, list[str]], *, titl
 
 
 def write_report(out_dir: str | Path, report: FlightReport, series: FlightSeries, *,
-                 title: str = "Flight report", source: str | None = None) -> Path:
-    """Write ``out_dir/report.md`` and its figures in ``out_dir/figures``; returns the .md."""
+                 title: str = "Flight report", source: str | None = None,
+                 drawn: Mapping[str, Sequence[Path]] | None = None,
+                 on_figure: Callable[[str], None] | None = None) -> Path:
+    """Write ``out_dir/report.md`` and its figures in ``out_dir/figures``; returns the .md.
+
+    ``drawn``: the same figures already written elsewhere (``save_figures`` of this series,
+    untitled), copied instead of drawn again. ``on_figure`` is called with each kind written.
+    """
     root = Path(out_dir)
     root.mkdir(parents=True, exist_ok=True)
-    written = save_figures(series, root / "figures", name=None)
+    if drawn is None:
+        written = save_figures(series, root / "figures", name=None, on_figure=on_figure)
+    else:
+        written = _copy_figures(drawn, root / "figures", on_figure)
     path = root / "report.md"
     path.write_text(render_markdown(report, relative_paths(written, root), title=title,
                                     source=source) + "\n")
     return path
+
+
+def _copy_figures(drawn: Mapping[str, Sequence[Path]], folder: Path,
+                  on_figure: Callable[[str], None] | None) -> dict[str, list[Path]]:
+    folder.mkdir(parents=True, exist_ok=True)
+    out: dict[str, list[Path]] = {}
+    for kind, paths in drawn.items():
+        out[kind] = [Path(shutil.copyfile(p, folder / Path(p).name)) for p in paths]
+        if on_figure is not None:
+            on_figure(kind)
+    return out

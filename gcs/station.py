@@ -28,15 +28,15 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
 from flightdata.series import FlightEvent
 from gcs.errors import CommandRefused, FlightTimeout, MissionRejected
 from gcs.faults import FaultSpec
-from gcs.link import ACK_TIMEOUT_S, Link
-from gcs.mavlink import mavlink2
+from gcs.link import ACK_TIMEOUTS_S, Link
+from gcs.mavlink import MAVLinkMessage, mavlink2
 from gcs.mission import WireItem, home_item
 from gcs.records import EventLog, TlogWriter
 from gcs.table import FlightReport
@@ -75,7 +75,15 @@ TELEMETRY_HZ: dict[str, float] = {
 """Rates the ground station asks for (Hz of simulated time), by message name."""
 
 _PARAM_LIST_QUIET_S = 1.0  # s wall without PARAM_VALUE that ends a parameter download
-_MISSION_ITEM_TIMEOUT_S = 3.0  # s wall, wait for the next MISSION_REQUEST
+_PARAM_READ_ROUNDS = 12  # rounds of PARAM_REQUEST_READ for indices a download missed
+_MISSION_ITEM_TIMEOUT_S = 1.0  # s wall without a MISSION_REQUEST before we nudge the upload
+_MISSION_STALLS = 15  # nudges in a row without progress before an upload starts over
+_MISSION_UPLOADS = 3  # uploads started before giving up
+_STREAM_ROUNDS_S = (0.5, 0.5, 1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0)
+"""Wall seconds of each round of stream requests (12 rounds, ~18 s at most)."""
+_REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its PARAM_VALUE
+_DATE_REQUEST_S = 0.5  # s wall between TIMESYNC requests that date the mission start
+_STATUS_REQUEST_S = 1.0  # s wall between SYS_STATUS requests while waiting to be armable
 _FLOAT32_TOL = 1e-6  # relative: PARAM_VALUE is REAL32
 
 
@@ -146,26 +154,81 @@ class GroundStation(Link):
     def set_message_rate(self, name: str, rate_hz: float) -> bool:
         """SET_MESSAGE_INTERVAL for message ``name`` at ``rate_hz`` (simulated time).
 
+        A lost answer is made up for by reading the interval back (GET_MESSAGE_INTERVAL):
+        the rate in force is the proof.
+
         Returns
         -------
         bool
             False (and an event) when the vehicle refused; it keeps its own rate.
         """
         msg_id = getattr(_M, f"MAVLINK_MSG_ID_{name}")
+        interval_us = round(1e6 / rate_hz)
+        sysid, compid = self.target
+
+        def in_force() -> bool:
+            reply = self._take("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
+            return reply is not None and int(reply.interval_us) == interval_us
+
+        def read_back() -> None:
+            self._take_all("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
+            self.send(_M.MAVLink_command_long_message(
+                sysid, compid, _M.MAV_CMD_GET_MESSAGE_INTERVAL, 0, float(msg_id), 0, 0, 0, 0,
+                0, 0))
+
         try:
-            self.command(_M.MAV_CMD_SET_MESSAGE_INTERVAL, (msg_id, 1e6 / rate_hz),
-                         what=f"SET_MESSAGE_INTERVAL {name}")
+            self.command(_M.MAV_CMD_SET_MESSAGE_INTERVAL, (msg_id, float(interval_us)),
+                         what=f"SET_MESSAGE_INTERVAL {name}", applied=in_force,
+                         read_back=read_back)
         except CommandRefused as err:
             self.log("STREAM", f"{name} at {rate_hz:g} Hz refused ({err.reason})")
             return False
         return True
 
-    def request_streams(self, rates_hz: dict[str, float] | None = None) -> None:
-        """Ask for the telemetry the table needs (:data:`TELEMETRY_HZ`)."""
+    def request_streams(self, rates_hz: dict[str, float] | None = None) -> list[str]:
+        """Ask for the telemetry the table needs (:data:`TELEMETRY_HZ`), all at once.
+
+        Every stream not yet confirmed gets a SET_MESSAGE_INTERVAL and a
+        GET_MESSAGE_INTERVAL per round (rounds of :data:`_STREAM_ROUNDS_S`); a stream is
+        confirmed when the interval read back is the one asked for. The COMMAND_ACKs cannot
+        tell which stream they answer, so the read-back is the proof. A stream never
+        confirmed (refused, or a link too bad) keeps the vehicle's rate; the table is then
+        computed from fewer samples, and an event says so.
+
+        Returns
+        -------
+        list of str
+            The streams not confirmed.
+        """
         rates = TELEMETRY_HZ if rates_hz is None else rates_hz
-        for name, rate in rates.items():
-            self.set_message_rate(name, rate)
+        sysid, compid = self.target
+        wanted = {getattr(_M, f"MAVLINK_MSG_ID_{name}"): (name, round(1e6 / rate))
+                  for name, rate in rates.items()}
+        pending = dict(wanted)
+        self._take_all("MESSAGE_INTERVAL", lambda m: True)
+        for timeout_s in _STREAM_ROUNDS_S:
+            for msg_id, (_, interval_us) in pending.items():
+                for command, p1, p2 in ((_M.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, interval_us),
+                                        (_M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id, 0)):
+                    self.send(_M.MAVLink_command_long_message(
+                        sysid, compid, command, 0, float(p1), float(p2), 0, 0, 0, 0, 0))
+            deadline = time.monotonic() + timeout_s
+            while pending and time.monotonic() < deadline:
+                reply = self._wait_reply(["MESSAGE_INTERVAL"], lambda m: True, 0.05)
+                if reply is not None and int(reply.message_id) in pending:
+                    msg_id = int(reply.message_id)
+                    if int(reply.interval_us) == pending[msg_id][1]:
+                        del pending[msg_id]
+            self._take_all("COMMAND_ACK", lambda m: int(m.command) in (
+                _M.MAV_CMD_SET_MESSAGE_INTERVAL, _M.MAV_CMD_GET_MESSAGE_INTERVAL))
+            if not pending:
+                break
         self.log("STREAM", ", ".join(f"{n} {r:g} Hz" for n, r in rates.items()))
+        missing = [name for name, _ in pending.values()]
+        if missing:
+            self.log("STREAM", "not confirmed (refused, or every answer lost), kept at the "
+                     f"vehicle's rate: {', '.join(missing)}")
+        return missing
 
     def wait_home(self, timeout_s: float = 10.0) -> None:
         """Ask for HOME_POSITION until it arrives (the truth position needs it)."""
@@ -178,42 +241,64 @@ class GroundStation(Link):
             self.pump(0.2)
 
     def wait_armable(self, timeout_s: float = 30.0) -> bool:
-        """Wait until SYS_STATUS shows the PREARM_CHECK health bit; False on time-out."""
+        """Wait until SYS_STATUS shows the PREARM_CHECK health bit; False on time-out.
+
+        SYS_STATUS is asked for once per wall second meanwhile (REQUEST_MESSAGE, no answer
+        awaited): a paused simulation streams nothing, and a lossy link may lose the one
+        that came.
+        """
         bit = _M.MAV_SYS_STATUS_PREARM_CHECK
+        sysid, compid = self.target
         deadline = time.monotonic() + timeout_s
+        last_request = -math.inf
         while time.monotonic() < deadline:
             status = self._take("SYS_STATUS", lambda m: True)
             if status is not None:
                 self._take_all("SYS_STATUS", lambda m: True)
                 if int(status.onboard_control_sensors_health) & bit:
                     return True
+            if time.monotonic() - last_request >= _STATUS_REQUEST_S:
+                last_request = time.monotonic()
+                self.send(_M.MAVLink_command_long_message(
+                    sysid, compid, _M.MAV_CMD_REQUEST_MESSAGE, 0,
+                    float(_M.MAVLINK_MSG_ID_SYS_STATUS), 0, 0, 0, 0, 0, 0))
             self.pump(0.1)
         self.log("FLIGHT", f"vehicle not reporting ready to arm after {timeout_s:g} s")
         return False
 
     def arm(self) -> None:
-        """Arm (COMPONENT_ARM_DISARM p1 = 1)."""
-        self.command(_M.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,), what="arm")
+        """Arm (COMPONENT_ARM_DISARM p1 = 1); a HEARTBEAT showing it armed also confirms."""
+        self.command(_M.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,), what="arm",
+                     applied=lambda: self.analyzer.armed is True)
 
     def disarm(self, force: bool = False) -> None:
         """Disarm (p2 = 21196 forces it in flight)."""
         self.command(_M.MAV_CMD_COMPONENT_ARM_DISARM, (0.0, 21196.0 if force else 0.0),
-                     what="disarm")
+                     what="disarm", applied=lambda: self.analyzer.armed is False)
 
     def set_mode(self, custom_mode: int) -> None:
-        """DO_SET_MODE with an ArduCopter mode number."""
+        """DO_SET_MODE with an ArduCopter mode number; a HEARTBEAT in that mode confirms."""
         self.command(_M.MAV_CMD_DO_SET_MODE,
                      (float(_M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), float(custom_mode)),
-                     what=f"set mode {custom_mode}")
+                     what=f"set mode {custom_mode}",
+                     applied=lambda: self.analyzer.custom_mode == custom_mode)
 
     def start_mission(self) -> float:
         """MISSION_START; returns the vehicle time at which the mission started (s)."""
         self.command(_M.MAV_CMD_MISSION_START, (0.0, 0.0), what="mission start",
                      with_timesync=True)
-        deadline = time.monotonic() + 5.0
+        # The ACK is dated by the next clock value: the TIMESYNC answer sent with it, or the
+        # telemetry that follows. A paused vehicle streams nothing, so if that answer was
+        # lost, ask the time again until one comes back.
+        deadline = time.monotonic() + 10.0
+        last_request = time.monotonic()
         while self.analyzer.mission_start_s is None:
-            if time.monotonic() >= deadline:
+            now = time.monotonic()
+            if now >= deadline:
                 raise FlightTimeout("no telemetry after the mission start")
+            if now - last_request >= _DATE_REQUEST_S:
+                last_request = now
+                self.send(_M.MAVLink_timesync_message(0, time.time_ns()))
             self.pump(0.02)
         self._note_lag(self.analyzer.mission_start_s)
         return self.analyzer.mission_start_s
@@ -226,7 +311,8 @@ class GroundStation(Link):
     # ------------------------------------------------------------------ parameters
     def fetch_params(self, quiet_s: float = _PARAM_LIST_QUIET_S,
                      timeout_s: float = 20.0) -> dict[str, float]:
-        """PARAM_REQUEST_LIST; every PARAM_VALUE until all indices arrived (or a quiet spell)."""
+        """PARAM_REQUEST_LIST; every PARAM_VALUE until all indices arrived (or a quiet spell),
+        then PARAM_REQUEST_READ for each index that did not (a lossy link)."""
         sysid, compid = self.target
         self._take_all("PARAM_VALUE", lambda m: True)
         self.send(_M.MAVLink_param_request_list_message(sysid, compid))
@@ -237,24 +323,66 @@ class GroundStation(Link):
             msg = self._wait_reply(["PARAM_VALUE"], lambda m: True, 0.05)
             if msg is None:
                 if time.monotonic() - last > quiet_s:
-                    break
+                    if seen:
+                        break
+                    last = time.monotonic()  # the request (or every answer) was lost
+                    self.send(_M.MAVLink_param_request_list_message(sysid, compid))
                 continue
             last = time.monotonic()
-            name = mavlink_text(msg.param_id)
-            self.param_names[name] = float(msg.param_value)
-            self.param_count = int(msg.param_count)
-            seen[int(msg.param_index)] = name
+            self._note_param(msg, seen)
             if self.param_count and len(seen) >= self.param_count:
                 break
         if not self.param_names:
             raise FlightTimeout("no PARAM_VALUE in answer to PARAM_REQUEST_LIST")
+        asked = 0
+        for _ in range(_PARAM_READ_ROUNDS):
+            missing = [i for i in range(self.param_count or 0) if i not in seen]
+            if not missing:
+                break
+            asked += len(missing)
+            for index in missing:
+                self.send(_M.MAVLink_param_request_read_message(sysid, compid, b"", index))
+            round_end = time.monotonic() + ACK_TIMEOUTS_S[0]
+            while len(seen) < (self.param_count or 0) and time.monotonic() < round_end:
+                msg = self._wait_reply(["PARAM_VALUE"], lambda m: True, 0.05)
+                if msg is not None:
+                    self._note_param(msg, seen)
         self.log("PARAM", f"{len(self.param_names)} parameters"
                  + ("" if self.param_count in (None, len(seen)) else
-                    f" of {self.param_count} announced"))
+                    f" of {self.param_count} announced")
+                 + (f" ({asked} asked for again)" if asked else ""))
         return dict(self.param_names)
 
-    def set_param(self, name: str, value: float, *, attempts: int = 3) -> float:
-        """PARAM_SET and check the PARAM_VALUE echo.
+    def _note_param(self, msg: MAVLinkMessage, seen: dict[int, str]) -> None:
+        name = mavlink_text(msg.param_id)
+        self.param_names[name] = float(msg.param_value)
+        self.param_count = int(msg.param_count)
+        if 0 <= int(msg.param_index) < 0xFFFF:
+            seen[int(msg.param_index)] = name
+
+    def read_param(self, name: str) -> float | None:
+        """PARAM_REQUEST_READ by name (retried); None when the vehicle never answers."""
+        sysid, compid = self.target
+
+        def named(m: MAVLinkMessage) -> bool:
+            return mavlink_text(m.param_id) == name
+
+        for timeout_s in ACK_TIMEOUTS_S[:4]:
+            self._take_all("PARAM_VALUE", named)
+            self.send(_M.MAVLink_param_request_read_message(sysid, compid,
+                                                            name.encode("ascii"), -1))
+            msg = self._wait_reply(["PARAM_VALUE"], named, timeout_s)
+            if msg is not None:
+                self.param_names[name] = float(msg.param_value)
+                return float(msg.param_value)
+        return None
+
+    def set_param(self, name: str, value: float) -> float:
+        """PARAM_SET and check the PARAM_VALUE echo (the value read back).
+
+        Retried with back-off (:data:`gcs.link.ACK_TIMEOUTS_S`); each retry sends the
+        PARAM_SET again and a PARAM_REQUEST_READ, and either answer showing the new value
+        confirms it.
 
         Returns
         -------
@@ -266,36 +394,64 @@ class GroundStation(Link):
         CommandRefused
             The vehicle kept another value, or does not know ``name``.
         FlightTimeout
-            No echo after ``attempts`` tries.
+            No echo after every attempt.
         """
         sysid, compid = self.target
-        for _ in range(attempts):
+
+        def about_it(m: MAVLinkMessage) -> bool:
+            """The vehicle's words on this parameter: "NAME: ..." or "... parameter NAME"."""
+            text = mavlink_text(m.text)
+            return text.startswith(f"{name}:") or f"parameter {name}".lower() in text.lower()
+
+        def answer(m: MAVLinkMessage) -> bool:
+            if m.get_type() == "PARAM_VALUE":
+                return mavlink_text(m.param_id) == name
+            return about_it(m)
+
+        kept: float | None = None  # a value read back that is not ours yet
+        for attempt, timeout_s in enumerate(ACK_TIMEOUTS_S):
             self._take_all("PARAM_VALUE", lambda m: mavlink_text(m.param_id) == name)
             self._take_all("STATUSTEXT", lambda m: True)
             self.send(_M.MAVLink_param_set_message(sysid, compid, name.encode("ascii"),
                                                    float(value), _M.MAV_PARAM_TYPE_REAL32))
+            if attempt:
+                self.send(_M.MAVLink_param_request_read_message(sysid, compid,
+                                                                name.encode("ascii"), -1))
             self._sent_clock = self.analyzer.clock_s
-            echo = self._wait_reply(
-                ["PARAM_VALUE", "STATUSTEXT"],
-                lambda m: (m.get_type() == "PARAM_VALUE" and mavlink_text(m.param_id) == name)
-                or (m.get_type() == "STATUSTEXT" and f"parameter {name}".lower()
-                    in mavlink_text(m.text).lower()), ACK_TIMEOUT_S)
-            if echo is None:
-                continue
-            if echo.get_type() == "STATUSTEXT":
-                raise CommandRefused(f"parameter {name}: {mavlink_text(echo.text)}")
-            now = float(echo.param_value)
-            self.param_names[name] = now
-            if not same_float32(now, value):
-                reason = self._refusal_reason()
-                raise CommandRefused(f"parameter {name} = {value:g} refused, still {now:g}"
-                                     + (f": {reason}" if reason else ""))
-            return now
-        raise FlightTimeout(f"no PARAM_VALUE echo for {name} after {attempts} attempts")
+            deadline = time.monotonic() + timeout_s
+            while (left := deadline - time.monotonic()) > 0:
+                echo = self._wait_reply(["PARAM_VALUE", "STATUSTEXT"], answer, left)
+                if echo is None:
+                    break
+                if echo.get_type() == "STATUSTEXT":
+                    raise CommandRefused(f"parameter {name}: {mavlink_text(echo.text)}")
+                now = float(echo.param_value)
+                self.param_names[name] = now
+                if same_float32(now, value):
+                    return now
+                # the old value: the echo of a refusal (its reason follows at once), or a
+                # read-back (or a late answer) from before our PARAM_SET arrived
+                kept = now
+                reason = self._wait_reply(["STATUSTEXT"], about_it, _REASON_WAIT_S)
+                if reason is not None:
+                    raise CommandRefused(f"parameter {name} = {value:g} refused, still {now:g}"
+                                         f": {mavlink_text(reason.text)}")
+        if kept is not None:
+            raise CommandRefused(f"parameter {name} = {value:g} refused, still {kept:g}")
+        raise FlightTimeout(f"no PARAM_VALUE echo for {name} after {len(ACK_TIMEOUTS_S)} "
+                            "attempts")
 
     # ------------------------------------------------------------------ missions
-    def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 30.0) -> None:
+    def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0) -> None:
         """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0).
+
+        Over a lossy link: when no request comes for :data:`_MISSION_ITEM_TIMEOUT_S`, the
+        upload is nudged (MISSION_COUNT again before the first request; else the item after
+        the last one asked for, which the vehicle either wanted or answers by asking again
+        for the one it misses; after the last item, that item again, which a vehicle that
+        finished answers with its MISSION_ACK again); an upload the vehicle cancelled (it
+        timed out) or that made no progress for :data:`_MISSION_STALLS` nudges starts over,
+        up to :data:`_MISSION_UPLOADS` times.
 
         Raises
         ------
@@ -311,42 +467,75 @@ class GroundStation(Link):
             home = home_item(lat_e7 * 1e-7, lon_e7 * 1e-7, alt_mm * 1e-3)
         wire = [home, *items]
         count = len(wire)
-        self._take_all("MISSION_ACK", lambda m: True)
-        self._take_all("MISSION_REQUEST_INT", lambda m: True)
-        self._take_all("MISSION_REQUEST", lambda m: True)
-        self._take_all("STATUSTEXT", lambda m: True)
-        self.send(_M.MAVLink_mission_count_message(sysid, compid, count,
-                                                   _M.MAV_MISSION_TYPE_MISSION))
         self.log("MISSION", f"uploading {len(items)} items (+ home)")
         deadline = time.monotonic() + timeout_s
         last_seq = -1
-        while True:
+        for upload in range(_MISSION_UPLOADS):
+            if upload:
+                self.log("MISSION", f"upload stalled after item {last_seq}: starting over")
+            last_seq = self._upload_once(wire, deadline)
+            if last_seq == count:
+                self.log("MISSION", f"upload of {count - 1} items accepted")
+                return
+        raise FlightTimeout(f"mission upload stalled after item {last_seq} of {count - 1} "
+                            f"({_MISSION_UPLOADS} uploads)")
+
+    def _upload_once(self, wire: Sequence[WireItem], deadline: float) -> int:
+        """One upload; returns ``len(wire)`` when accepted, else the last seq asked for."""
+        sysid, compid = self.target
+        count = len(wire)
+        for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST", "STATUSTEXT"):
+            self._take_all(kind, lambda m: True)
+
+        def send_count() -> None:
+            self.send(_M.MAVLink_mission_count_message(sysid, compid, count,
+                                                       _M.MAV_MISSION_TYPE_MISSION))
+
+        def send_item(seq: int) -> None:
+            self.send(wire[seq].to_message(seq, sysid, compid, current=seq == 0))
+
+        send_count()
+        last_seq = -1
+        stalls = 0
+        while time.monotonic() < deadline and stalls < _MISSION_STALLS:
             reply = self._wait_reply(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
                                      lambda m: int(getattr(m, "mission_type", 0)) == 0,
                                      _MISSION_ITEM_TIMEOUT_S)
-            if reply is None or time.monotonic() > deadline:
-                raise FlightTimeout(f"mission upload stalled after item {last_seq} of "
-                                    f"{count - 1}")
+            if reply is None:
+                stalls += 1
+                if last_seq < 0:
+                    send_count()
+                else:
+                    send_item(min(last_seq + 1, count - 1))
+                continue
             if reply.get_type() == "MISSION_ACK":
                 result = int(reply.type)
                 if result == _M.MAV_MISSION_ACCEPTED:
-                    self.log("MISSION", f"upload of {count - 1} items accepted")
-                    return
-                name = _M.enums["MAV_MISSION_RESULT"][result].name.removeprefix(
-                    "MAV_MISSION_") if result in _M.enums["MAV_MISSION_RESULT"] else str(result)
-                reason = self._refusal_reason()
-                if last_seq == count - 1:
-                    where = " after the last item"  # the vehicle judged the whole mission
-                elif last_seq >= 0:
-                    where = f" at item {last_seq} ({wire[last_seq].describe()})"
-                else:
-                    where = ""
-                raise MissionRejected(f"{name}{where}" + (f": {reason}" if reason else ""))
+                    return count
+                if result == _M.MAV_MISSION_OPERATION_CANCELLED:
+                    return last_seq  # the vehicle timed out: start over
+                self._mission_rejected(wire, result, last_seq)
             seq = int(reply.seq)
             if not 0 <= seq < count:
                 continue
+            if seq > last_seq:
+                stalls = 0
             last_seq = seq
-            self.send(wire[seq].to_message(seq, sysid, compid, current=seq == 0))
+            send_item(seq)
+        return last_seq
+
+    def _mission_rejected(self, wire: Sequence[WireItem], result: int,
+                          last_seq: int) -> NoReturn:
+        name = _M.enums["MAV_MISSION_RESULT"][result].name.removeprefix(
+            "MAV_MISSION_") if result in _M.enums["MAV_MISSION_RESULT"] else str(result)
+        reason = self._refusal_reason()
+        if last_seq == len(wire) - 1:
+            where = " after the last item"  # the vehicle judged the whole mission
+        elif last_seq >= 0:
+            where = f" at item {last_seq} ({wire[last_seq].describe()})"
+        else:
+            where = ""
+        raise MissionRejected(f"{name}{where}" + (f": {reason}" if reason else ""))
 
     # ------------------------------------------------------------------ faults
     def lead_s(self) -> float:

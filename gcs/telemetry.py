@@ -14,14 +14,16 @@ Every vehicle message carrying ``time_boot_ms`` (simulated time), and every TIME
 (``tc1``, the vehicle's simulated time in ns when it handled the request), advances the clock;
 SIM_STATE (which has no time field) takes the clock of the message before it (the vehicle
 sends ATTITUDE ahead of SIM_STATE at each tick: keep ATTITUDE at least as fast as
-SIM_STATE). SERVO_OUTPUT_RAW's wrapping 32-bit ``time_usec`` is unwrapped against the clock.
-An event the vehicle reports between ticks (a STATUSTEXT, a COMMAND_ACK, a PARAM_VALUE) is
-dated with the first clock value that follows it: the vehicle answers in the tick whose
-telemetry comes right after, and a command's effect starts at that tick's time. A ground
-station that needs the exact time of a command sends a TIMESYNC request in the same datagram
-(the vehicle handles both in one go, answering the TIMESYNC with the time the command took
-effect, also while the simulation is paused); ``ftc-gcs fly`` does that for MISSION_START and
-every injection.
+SIM_STATE); a SIM_STATE that finds the clock where the previous one left it (every
+time-stamped message of its tick was lost) cannot be dated and is dropped.
+SERVO_OUTPUT_RAW's wrapping 32-bit ``time_usec`` is unwrapped against the clock. An event
+the vehicle reports between ticks (a STATUSTEXT, a COMMAND_ACK, a PARAM_VALUE) is dated with
+the first clock value that follows it: the vehicle answers in the tick whose telemetry comes
+right after, and a command's effect starts at that tick's time. A ground station that needs
+the exact time of a command sends a TIMESYNC request in the same datagram (the vehicle
+handles both in one go, answering the TIMESYNC with the time the command took effect, also
+while the simulation is paused); ``ftc-gcs fly`` does that for MISSION_START and every
+injection.
 """
 
 from __future__ import annotations
@@ -94,6 +96,8 @@ class TelemetryReader:
         self.airborne_alt_m = airborne_alt_m
         self._on_event = on_event
         self.vehicle: tuple[int, int] | None = None  # (sysid, compid)
+        self.packets = 0  # packets fed (both directions)
+        self.undated_truth = 0  # SIM_STATE samples dropped: no clock value of their own
         self.clock_s: float | None = None
         self._pending: list[_Pending] = []
         self._chunks: dict[int, list[str]] = {}
@@ -139,6 +143,7 @@ class TelemetryReader:
         kind = msg.get_type()
         if kind == "BAD_DATA":
             return
+        self.packets += 1
         src = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.vehicle is None and kind == "HEARTBEAT" and self._is_autopilot(msg):
             self.vehicle = src
@@ -201,6 +206,11 @@ class TelemetryReader:
 
     def _on_sim_state(self, msg: MAVLinkMessage) -> None:
         if self.clock_s is None:
+            return
+        if self._truth and self._truth[-1][0] == self.clock_s:
+            # the clock did not advance since the last SIM_STATE: every time-stamped
+            # message of this tick was lost, so the sample cannot be dated; dropped
+            self.undated_truth += 1
             return
         self._truth.append((self.clock_s, float(msg.roll), float(msg.pitch), float(msg.yaw),
                             float(msg.lat_int), float(msg.lon_int), float(msg.alt),

@@ -18,10 +18,11 @@ thesis-style figures as PNG and PDF (:mod:`flightdata.figures`).
 alarms (a detection that matches no injected fault, :func:`flightdata.metrics.score_detection`):
 the figures the fault-detection claims rest on.
 
-Bad input (unknown scenario, bad file, bad value) prints one line naming what was wrong and
-exits with status 2; a crash of the simulated vehicle exits with status 1. Ctrl-C ends a run
-early: what was flown so far is still recorded, drawn and summarised, and the exit status is
-130.
+Bad input (unknown scenario, bad file, bad value, an output that cannot be written) prints one
+line naming what was wrong and exits with status 2, before anything is flown; a crash of the
+simulated vehicle exits with status 1. Ctrl-C ends a run early: what was flown so far is still
+recorded, drawn and summarised, and the exit status is 130. Slow steps after a run (writing
+the recording, the figures) each say what they do on stderr (:mod:`flightdata.steps`).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from flightdata.config import ConfigError
+from flightdata.outputs import check_file_output, check_folder_output
 from sim.scenario import load_scenario, shipped_names
 
 
@@ -77,13 +79,27 @@ def _write_json(path: str, data: Any) -> None:
     Path(path).write_text(json.dumps(data, indent=2) + "\n")
 
 
+def _check_outputs(files: Sequence[tuple[str, str | None]],
+                   folders: Sequence[tuple[str, str | None]] = ()) -> None:
+    """Refuse unwritable outputs before flying (:mod:`flightdata.outputs`)."""
+    for option, path in files:
+        if path:
+            check_file_output(option, path)
+    for option, path in folders:
+        if path:
+            check_folder_output(option, path)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
+    from flightdata.steps import Steps
     from sim.progress import ProgressLine
     from sim.runner import fly, open_recording
 
     scenario = load_scenario(args.scenario)
     if args.seed is not None:
         scenario = scenario.with_seed(args.seed)
+    _check_outputs([("--json", args.json), ("--rrd", args.rrd)], [("--figures", args.figures)])
+    steps = Steps(sys.stderr, prog="ftc-scenario")
     progress = ProgressLine(sys.stderr, scenario.name, scenario.duration_s,
                             live=sys.stderr.isatty())
     recorder = None
@@ -99,20 +115,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         result = fly(scenario, on_tick=on_tick,
                      on_event=None if recorder is None else recorder.on_event,
                      interruptible=True)
-    except KeyboardInterrupt:  # before the first tick: nothing flown to report
-        progress.finish(note="interrupted")
-        raise
-    finally:
+    except BaseException as err:
+        if isinstance(err, KeyboardInterrupt):  # before the first tick: nothing flown
+            progress.finish(note="interrupted")
         if recorder is not None:
             recorder.close()
+        raise
     progress.finish(result.sim_s, result.wall_s, note="interrupted" if result.interrupted else "")
+    if recorder is not None:
+        what = f"writing the recording {args.rrd}" if args.rrd else "sending the recording"
+        with steps.step(what):
+            recorder.close()
     _print_run(result.metrics)
     if args.json:
         _write_json(args.json, result.metrics)
     if args.figures:
-        from flightdata.figures import save_figures
+        from flightdata.figures import FIGURES, FORMATS, save_figures
 
-        written = save_figures(result.log, args.figures, name=scenario.name)
+        formats = " and ".join(f.upper() for f in FORMATS)
+        with steps.step(f"writing figures ({len(FIGURES)} kinds, {formats}) in {args.figures}",
+                        total=len(FIGURES)) as step:
+            written = save_figures(result.log, args.figures, name=scenario.name,
+                                   on_figure=lambda _: step.advance())
         print(f"figures: {len(written)} kinds as PNG and PDF in {args.figures}")
     if args.rrd:
         print(f"recording: {args.rrd} (open it with: rerun {args.rrd})")
@@ -132,6 +156,7 @@ def cmd_list(_: argparse.Namespace) -> int:
 def cmd_thesis(args: argparse.Namespace) -> int:
     from sim.thesis_report import run_thesis
 
+    _check_outputs([("--json", args.json)], [("--out", args.out)])
     report = run_thesis(out_dir=Path(args.out) if args.out else None, seed=args.seed,
                         jobs=args.jobs, progress=sys.stderr)
     print(report.markdown)
@@ -144,6 +169,7 @@ def cmd_seeds(args: argparse.Namespace) -> int:
     from sim.batch import fly_many
 
     scenario = load_scenario(args.scenario)  # bad input fails here, before any flight
+    _check_outputs([("--json", args.json)])
     flown = fly_many([(args.scenario, seed) for seed in args.seeds], jobs=args.jobs,
                      progress=sys.stderr)
     print(f"scenario {scenario.name} over {len(flown)} seeds "

@@ -160,7 +160,8 @@ class VehicleProcess:
             self.vehicle.port, self.link,
             config=EndpointConfig(sysid=options.sysid, compid=options.compid,
                                   pwm_max=model.pwm_max, boot_unix_time_s=time.time(),
-                                  signing_key=options.signing_key),
+                                  signing_key=options.signing_key,
+                                  max_stream_rate_hz=1.0 / self.vehicle.tick_s),
             injector=self.vehicle, extra_params=[self.vehicle.sim_params])
         self.summary = RunSummary()
 
@@ -210,6 +211,7 @@ class VehicleProcess:
             lines += [f"{k + 1},{start - t0:.6f},{busy:.6f}"
                       for k, (start, busy) in enumerate(zip(s.tick_starts_s, s.tick_busy_s,
                                                             strict=True))]
+            path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text("\n".join(lines) + "\n")
 
     def run(self, should_stop: Callable[[], bool]) -> RunSummary:

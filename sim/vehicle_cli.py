@@ -27,8 +27,8 @@ key installed later over MAVLink (SETUP_SIGNING) lasts until the process ends; o
 the command line is there again after a restart.
 
 One line on stdout says where it listens; Ctrl-C or SIGTERM stops it cleanly (exit 0). A bad
-option or scenario prints one line and exits with status 2; an address that cannot be bound
-exits with status 1.
+option or scenario (or a ``--timing-log`` that cannot be written) prints one line and exits
+with status 2 before the vehicle starts; an address that cannot be bound exits with status 1.
 """
 
 from __future__ import annotations
@@ -178,6 +178,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the vehicle until signalled or ``--duration``; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    from flightdata.outputs import OutputError, check_file_output
+
+    try:
+        if args.timing_log is not None:
+            check_file_output("--timing-log", args.timing_log)
+    except OutputError as err:
+        parser.error(str(err))
     stop = [False]
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -226,7 +233,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         summary = process.run(lambda: stop[0])
     finally:
-        process.close()
+        try:
+            process.close()
+        except OSError as err:  # checked at start; the disk may still fill up or vanish
+            print(f"{PROG}: cannot write --timing-log {args.timing_log}: "
+                  f"{err.strerror or err}", file=sys.stderr)
+            return 1
     print(f"{PROG}: stopped at {summary.sim_s:.2f} s simulated, {summary.running_wall_s:.2f} s "
           f"running wall time ({summary.ratio:.2f}x; {summary.cpu_ratio:.1f}x per CPU second), "
           f"{summary.ticks} ticks, {summary.malformed} malformed datagrams"

@@ -157,8 +157,10 @@ class SimVehicle:
                                   on_target=self.judge.area.extend)
         self._judged_mission: tuple[NavItem, ...] | None = None
         self._was_armed = False
-        self._owned: dict[str, int] = {}  # fault slot (param name / motor) -> fault id
+        # fault slot (param name / motor) -> (fault id, the fault as the parameter asked)
+        self._owned: dict[str, tuple[int, Fault]] = {}
         self._quiet_ids: set[int] = set()  # faults injected here: their engine events are ours
+        self._silent_ids: set[int] = set()  # parameter-owned faults: own_fault says it all
         self._last_contact_s = -math.inf
         self.sim_params = SimParams(self, speedup=setup.speedup,
                                     start_paused=setup.start_paused)
@@ -257,6 +259,10 @@ class SimVehicle:
             self.port.post(Severity.DEBUG, f"SIM: {ev.description}")
 
     def _fault_event(self, ev: FaultEvent) -> None:
+        if ev.fault_id in self._silent_ids:
+            if ev.kind in ("cleared", "ended"):
+                self._silent_ids.discard(ev.fault_id)
+            return
         if ev.fault_id in self._quiet_ids:
             if ev.kind in ("cleared", "ended"):
                 self._quiet_ids.discard(ev.fault_id)
@@ -273,12 +279,14 @@ class SimVehicle:
         self.port.post(Severity.NOTICE, text)
 
     def owned_fault(self, slot: str) -> Fault | None:
-        """The fault parameter ``slot`` currently holds in the engine, if any."""
-        fault_id = self._owned.get(slot)
-        if fault_id is None:
+        """The fault parameter ``slot`` currently holds in the engine (as it was asked for),
+        if any."""
+        held = self._owned.get(slot)
+        if held is None:
             return None
-        return next((s.fault for s in self.world.faults.scheduled() if s.fault_id == fault_id),
-                    None)
+        fault_id, fault = held
+        alive = any(s.fault_id == fault_id for s in self.world.faults.scheduled())
+        return fault if alive else None
 
     def _truth(self) -> SimTruth:
         """Simulator truth for SIM_STATE (never shown to the autopilot)."""
@@ -385,7 +393,7 @@ class SimVehicle:
 
     def _clear_unit(self, what: str, match: Callable[[Fault], bool]) -> CommandResult:
         engine = self.world.faults
-        owned = set(self._owned.values())
+        owned = {fault_id for fault_id, _ in self._owned.values()}
         kept = 0
         cleared = 0
         for scheduled in engine.scheduled():
@@ -405,16 +413,38 @@ class SimVehicle:
 
     # ------------------------------------------------------------------ parameter-owned faults
     def own_fault(self, slot: str, fault: Fault | None) -> None:
-        """Replace the fault owned by parameter ``slot`` by ``fault`` (None: just remove it)."""
+        """Replace the fault owned by parameter ``slot`` by ``fault`` (None: just remove it).
+
+        One STATUSTEXT says what happened: ``SIM: set <fault>``, ``SIM: changed <old> ->
+        <new>`` or ``SIM: cleared <fault>``; asking again for the fault in force does (and
+        says) nothing.
+        """
         engine = self.world.faults
         t = self.world.time_s
-        old = self._owned.pop(slot, None)
-        if old is not None and any(s.fault_id == old for s in engine.scheduled()):
-            self._quiet_ids.add(old)
-            engine.clear(old, t)
+        old = self.owned_fault(slot)
+        if old == fault:
+            return
+        held = self._owned.pop(slot, None)
+        if held is not None and old is not None:
+            self._silent_ids.add(held[0])
+            engine.clear(held[0], t)
         if fault is not None:
             fault_id = engine.apply_now(fault, t)
-            self._quiet_ids.add(fault_id)
-            self._owned[slot] = fault_id
-            self.port.post(Severity.WARNING, f"SIM: {slot}: {fault.describe()}")
+            self._silent_ids.add(fault_id)
+            self._owned[slot] = (fault_id, fault)
+        if old is None and fault is not None:
+            self.port.post(Severity.WARNING, f"SIM: set {fault.describe()}")
+        elif old is not None and fault is None:
+            self.port.post(Severity.NOTICE, f"SIM: cleared {old.describe()}")
+        elif old is not None and fault is not None:
+            self.port.post(Severity.WARNING, f"SIM: changed {_changed(old, fault)}")
         self.port.invalidate()
+
+
+def _changed(old: Fault, new: Fault) -> str:
+    """``"motor 1: loe 30 % (step) -> loe 65 % (step)"``: the shared part said once."""
+    before, after = old.describe(), new.describe()
+    where, sep, what = before.partition(": ")
+    if sep and after.startswith(where + sep):
+        return f"{before} -> {after[len(where + sep):]}"
+    return f"{before} -> {after}"

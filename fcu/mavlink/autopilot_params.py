@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 from typing import Any, TypeVar
 
 from fcu.autopilot import AutopilotConfig
+from fcu.navigation.settings import NavigatorConfig
 from flightdata import vocabulary
 
 __all__ = ["AUTOPILOT_PARAMS", "ApParam", "find_param"]
@@ -188,7 +189,10 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
     _nav_param("LAND_SPEED", "land_creep_speed_m_s", 100.0, "cm/s",
                "Final landing descent speed", 1.0, 200.0),
     _nav_param("DISARM_DELAY", "idle_disarm_delay_s", 1.0, "s",
-               "Auto-disarm after arming without take-off (0 never)", 0.0, 127.0),
+               "Auto-disarm delay when armed on the ground without a take-off (0 never; "
+               f"auto-disarm after a landing: {NavigatorConfig().landed_disarm_delay_s:g} s, "
+               "not this parameter)",
+               0.0, 127.0),
 )
 
 

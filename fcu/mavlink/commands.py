@@ -19,14 +19,18 @@ Supported commands
 NAV_RETURN_TO_LAUNCH 20, NAV_LAND 21, NAV_TAKEOFF 22 (p7 altitude above home, m),
 DO_SET_MODE 176 (p1 with MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, p2 ArduCopter mode),
 DO_CHANGE_SPEED 178 (p1 0/1 ground, 2 climb, 3 descent speed; p2 m/s, -1 = unchanged),
-DO_SET_HOME 179 (p1 = 1: here; else p5..p7), DO_REPOSITION 192 (p4 yaw deg, position),
+DO_SET_HOME 179 (p1 = 1: here; else p5..p7, at most ``max_home_distance_m`` from the origin),
+DO_REPOSITION 192 (p4 yaw deg, position),
 DO_SET_MISSION_CURRENT 224 (p1 seq), PREFLIGHT_REBOOT_SHUTDOWN 246 (p1 = 1 reboot; 0 no-op),
 MISSION_START 300 (p1/p2 ignored: runs from the current item),
 COMPONENT_ARM_DISARM 400 (p1 1/0, p2 = 21196 forces),
 GET_HOME_POSITION 410, INJECT_FAILURE 420 (p1 unit, p2 type, p3 instance, p4 simulated time
 of the injection, s since boot, 0 = now),
-GET_MESSAGE_INTERVAL 510, SET_MESSAGE_INTERVAL 511 (p1 message id, p2 interval us: -1 stop,
-0 default), REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES 520.
+GET_MESSAGE_INTERVAL 510 (p1 message id, at most 65535: MESSAGE_INTERVAL's field),
+SET_MESSAGE_INTERVAL 511 (p1 message id, p2 interval us: -1 stop, 0 default; an interval
+shorter than one autopilot tick is accepted and clamped to one message per tick, as ArduPilot
+caps streams at its loop rate: GET_MESSAGE_INTERVAL reports the rate in force),
+REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES 520.
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ INT32_MAX = 0x7FFFFFFF
 _TYPEMASK_POS = 0b000_000_111
 _TYPEMASK_VEL = 0b000_111_000
 _TYPEMASK_YAW_IGNORE = 1024
+_MAX_INTERVAL_MSG_ID = 0xFFFF  # MESSAGE_INTERVAL.message_id is a uint16
 # DO_CHANGE_SPEED param1 -> port speed type (airspeed is taken as ground speed: no wind sensor)
 _SPEED_TYPES = ("ground", "ground", "climb", "descent")
 
@@ -63,6 +68,9 @@ class CommandLimits:
     max_alt_m: float = 10_000.0  # m, take-off altitude, |altitude| of targets
     max_local_m: float = 10_000.0  # m, |north|, |east|, |down| of local targets
     max_speed_m_s: float = 50.0  # m/s, DO_CHANGE_SPEED and velocity set-points
+    # m, horizontal distance of a new home from the NED origin (ArduCopter refuses a home
+    # farther than EKF_ORIGIN_MAX_DIST_M = 50 km from its EKF origin)
+    max_home_distance_m: float = 50_000.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -297,6 +305,11 @@ class CommandDispatcher:
         target = self._target_geo(r, self._port.snapshot())
         if isinstance(target, str):
             return _denied(f"Set home: {target}")
+        distance_m = math.hypot(float(target[0]), float(target[1]))
+        limit_m = self._limits.max_home_distance_m
+        if distance_m > limit_m:
+            return _denied(f"Set home: {distance_m / 1000:.0f} km from the origin (limit "
+                           f"{limit_m / 1000:g} km)")
         return _from_result(self._port.set_home(target))
 
     # ----------------------------------------------------------------------- mission, system
@@ -398,6 +411,9 @@ class CommandDispatcher:
         msg_id = _whole(r.params[0], 0, 0xFFFFFF)
         if msg_id is None:
             return _denied(f"Get interval: param1 = {r.params[0]} is not a message id")
+        if msg_id > _MAX_INTERVAL_MSG_ID:
+            return _denied(f"Get interval: message id {msg_id} above {_MAX_INTERVAL_MSG_ID} "
+                           "(MESSAGE_INTERVAL cannot carry it)")
         if not self._streams.has(msg_id):
             interval_us = 0  # MESSAGE_INTERVAL: 0 = not available
         else:

@@ -11,7 +11,9 @@ Driving API
         ...step the autopilot...
         endpoint.tick(time_s=sim_time_s, wall_time_s=time.monotonic())
 
-``tick`` reads every waiting datagram and answers it, hands vehicle events (STATUSTEXT,
+``tick`` reads the waiting datagrams and answers them (for at most ``receive_budget_s`` of
+wall time per call: under a flood the rest wait, in order, for the next tick, so the
+simulation and its telemetry keep their pace), hands vehicle events (STATUSTEXT,
 MISSION_ITEM_REACHED) on, runs the GCS-loss failsafe and mission time-outs, and sends the
 telemetry that is due. Call it from the thread that owns the vehicle (the port is not
 called from anywhere else), after each autopilot step, and **keep calling it at least ~10
@@ -40,6 +42,8 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import time
+from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -88,6 +92,7 @@ class EndpointConfig:
     pwm_max: float = 0.05  # motor command at full power (VehicleModel.pwm_max)
     heartbeat_wall_period_s: float = 1.0  # s, longest wall-clock gap between HEARTBEATs
     stream_rates_hz: Mapping[int, float] = field(default_factory=lambda: dict(DEFAULT_RATES_HZ))
+    max_stream_rate_hz: float = 100.0  # Hz simulated, the autopilot's loop rate (one per tick)
     mission: MissionConfig = field(default_factory=MissionConfig)
     limits: CommandLimits = field(default_factory=CommandLimits)
     flight_sw_version: tuple[int, int, int] = (4, 5, 0)  # ArduCopter protocol generation
@@ -97,6 +102,7 @@ class EndpointConfig:
     gcs_sysid: int = 255  # SYSID_MYGCS default
     signing_key: bytes | None = field(default=None, repr=False)  # MAVLink 2 signing key
     # at start (32 bytes; None: off); never shown in a repr
+    receive_budget_s: float = 0.003  # s wall, longest handling of received data per tick
 
     def __post_init__(self) -> None:
         if not 1 <= self.sysid <= 255:
@@ -105,6 +111,8 @@ class EndpointConfig:
             raise ValueError(f"compid = {self.compid!r}: must be in 1..255")
         if not self.pwm_max > 0:
             raise ValueError(f"pwm_max = {self.pwm_max!r}: must be > 0")
+        if not (math.isfinite(self.max_stream_rate_hz) and self.max_stream_rate_hz > 0):
+            raise ValueError(f"max_stream_rate_hz = {self.max_stream_rate_hz!r}: must be > 0")
         if self.gcs_failsafe_action not in {int(a) for a in FailsafeAction}:
             raise ValueError(f"gcs_failsafe_action = {self.gcs_failsafe_action!r}: must be one "
                              f"of {[int(a) for a in FailsafeAction]}")
@@ -115,6 +123,8 @@ class EndpointConfig:
             raise ValueError(f"gcs_sysid = {self.gcs_sysid!r}: must be in 1..255")
         if self.signing_key is not None:
             check_key(self.signing_key)
+        if not (math.isfinite(self.receive_budget_s) and self.receive_budget_s > 0):
+            raise ValueError(f"receive_budget_s = {self.receive_budget_s!r}: must be > 0 s")
 
 
 @dataclass
@@ -170,12 +180,15 @@ class MavlinkEndpoint:
         Fault-injection port for MAV_CMD_INJECT_FAILURE (None: UNSUPPORTED).
     extra_params : sequence of ParamProvider
         More parameters (e.g. the simulator's ``SIM_*``); names must be unique overall.
+    clock : callable
+        Wall clock for the receive budget, s (``time.perf_counter``; injectable for tests).
     """
 
     def __init__(self, port: VehiclePort, link: Link, *,
                  config: EndpointConfig | None = None,
                  injector: FailureInjector | None = None,
-                 extra_params: Sequence[ParamProvider] = ()) -> None:
+                 extra_params: Sequence[ParamProvider] = (),
+                 clock: Callable[[], float] = time.perf_counter) -> None:
         self._config = config = config if config is not None else EndpointConfig()
         self._port = port
         self._link = link
@@ -189,7 +202,8 @@ class MavlinkEndpoint:
         for provider in extra_params:
             entries += entries_from(provider)
         self._params = ParamService(ParamTable(entries), self._outbox)
-        self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s)
+        self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s,
+                                        config.max_stream_rate_hz)
         self._mission = MissionProtocol(self._outbox, port.snapshot, port.mission_set,
                                         config.mission)
         self._commands = CommandDispatcher(port, injector, self._streams, self._build_message,
@@ -200,6 +214,8 @@ class MavlinkEndpoint:
         self._last_tc1_ns = 0
         self._last_setpoint_status: tuple[float, str] = (-math.inf, "")
         self._last_snapshot: VehicleSnapshot | None = None
+        self._clock = clock
+        self._backlog: deque[tuple[bytes, Address]] = deque()  # received, not yet handled
 
     # ------------------------------------------------------------------ parameters
     def _own_params(self) -> list[ParamEntry]:
@@ -277,17 +293,25 @@ class MavlinkEndpoint:
         self._guard(lambda: self._send_due(time_s, wall_time_s))
 
     def poll(self, wall_time_s: float) -> int:
-        """Handle every datagram waiting on the link; returns how many."""
+        """Handle the datagrams waiting on the link for at most ``receive_budget_s``; the
+        rest wait, in order, for the next call. Returns how many were handled."""
         self._wall_s = wall_time_s
-        try:
-            datagrams = self._link.receive()
-        except Exception:
-            self.stats.handler_errors += 1
-            _log.exception("link receive failed")
-            return 0
-        for data, addr in datagrams:
+        if not self._backlog:
+            try:
+                self._backlog.extend(self._link.receive())
+            except Exception:
+                self.stats.handler_errors += 1
+                _log.exception("link receive failed")
+                return 0
+        start = self._clock()
+        handled = 0
+        while self._backlog:
+            data, addr = self._backlog.popleft()
             self.handle_bytes(data, addr, wall_time_s)
-        return len(datagrams)
+            handled += 1
+            if self._clock() - start >= self._config.receive_budget_s:
+                break
+        return handled
 
     def handle_bytes(self, data: bytes, addr: Address, wall_time_s: float | None = None) -> None:
         """Parse one datagram from ``addr`` and answer every message in it; never raises."""

@@ -14,7 +14,9 @@ the composition root keeps calling ``tick`` (it must, at least a few times per w
 
 Rates change through REQUEST_DATA_STREAM (ArduPilot stream groups below; rate 0 or
 start_stop 0 stops the group) and SET_MESSAGE_INTERVAL (per message; -1 stops, 0 restores the
-default). HEARTBEAT cannot be stopped.
+default). HEARTBEAT cannot be stopped. A stream is sent at most once per tick, so a rate above
+``max_rate_hz`` (the autopilot's loop rate) is clamped to it, as ArduPilot caps message rates
+at its main loop rate; :meth:`StreamScheduler.rate_hz` reports the rate in force.
 
 ArduPilot stream groups (GCS_MAVLink ap_message groups, restricted to what we send)
 -----------------------------------------------------------------------------------
@@ -85,7 +87,7 @@ STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
 """REQUEST_DATA_STREAM stream id -> message ids (MAV_DATA_STREAM_ALL = 0 means all)."""
 
 _HEARTBEAT = _M.MAVLINK_MSG_ID_HEARTBEAT
-MAX_RATE_HZ = 1000.0  # Hz; faster requests are clipped (one message per tick at most anyway)
+MAX_RATE_HZ = 100.0  # Hz, default cap: the autopilot's default loop rate (one per tick)
 
 
 class StreamScheduler:
@@ -97,14 +99,21 @@ class StreamScheduler:
         Message id -> rate, Hz of simulated time; these are the streams that exist.
     heartbeat_wall_period_s : float
         Longest wall-clock gap between two HEARTBEATs, s.
+    max_rate_hz : float
+        Fastest rate a stream can be set to, Hz of simulated time (the autopilot's loop
+        rate: one message per tick); faster requests are clamped to it.
     """
 
     def __init__(self, default_rates_hz: Mapping[int, float] = DEFAULT_RATES_HZ,
-                 heartbeat_wall_period_s: float = 1.0) -> None:
+                 heartbeat_wall_period_s: float = 1.0,
+                 max_rate_hz: float = MAX_RATE_HZ) -> None:
         if _HEARTBEAT not in default_rates_hz or not default_rates_hz[_HEARTBEAT] > 0:
             raise ValueError("default_rates_hz must give HEARTBEAT a rate > 0")
         if not heartbeat_wall_period_s > 0:
             raise ValueError(f"heartbeat_wall_period_s = {heartbeat_wall_period_s!r}: must be > 0")
+        if not (math.isfinite(max_rate_hz) and max_rate_hz > 0):
+            raise ValueError(f"max_rate_hz = {max_rate_hz!r}: must be a finite rate > 0 Hz")
+        self._max_rate_hz = float(max_rate_hz)
         self._defaults = dict(default_rates_hz)
         self._heartbeat_wall_period_s = heartbeat_wall_period_s
         self._rates_hz: dict[int, float] = {}
@@ -137,7 +146,8 @@ class StreamScheduler:
         return self._rates_hz[msg_id]
 
     def set_rate(self, msg_id: int, rate_hz: float | None) -> None:
-        """Stream ``msg_id`` at ``rate_hz`` (0 stops it, None restores the default).
+        """Stream ``msg_id`` at ``rate_hz`` (0 stops it, None restores the default), at most
+        ``max_rate_hz``.
 
         Raises
         ------
@@ -152,7 +162,7 @@ class StreamScheduler:
             raise ValueError(f"rate_hz = {rate_hz!r}: must be finite and >= 0")
         if msg_id == _HEARTBEAT and rate == 0.0:
             raise ValueError("HEARTBEAT cannot be stopped")
-        self._rates_hz[msg_id] = min(rate, MAX_RATE_HZ)
+        self._rates_hz[msg_id] = min(rate, self._max_rate_hz)
         self._next_s[msg_id] = -math.inf  # start (again) at the next tick
 
     def set_group_rate(self, stream_id: int, rate_hz: float) -> bool:

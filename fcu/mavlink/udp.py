@@ -8,6 +8,15 @@ and API port 14540 (MAVSDK ``udpin://0.0.0.0:14540``), plus every peer that has 
 valid MAVLink packet (ground stations answer to the address a packet came from). Replies go
 only to the peer that asked.
 
+Peers: the configured destinations (``--out``) are always sent to, first, and are never
+counted among the learned peers. Learned peers are first come, first served: up to
+``max_peers`` of them (16) keep their place as long as they keep talking; when the table is
+full a newcomer is refused (it still gets replies to what it asks, but no telemetry), with
+one logged notice per refused address, unless a learned peer has been silent for
+``peer_timeout_s`` (30 s of wall time), whose place it then takes. So a crowd of chattering
+clients can never push out a ground station that connected earlier (``udpout``) or starve a
+configured one.
+
 Nothing here blocks or raises: ICMP port-unreachable errors (a ground station not running
 yet surfaces as ConnectionRefusedError on Linux, ConnectionResetError on Windows) and other
 socket errors are counted and ignored.
@@ -16,16 +25,19 @@ socket errors are counted and ignored.
 from __future__ import annotations
 
 import errno
+import logging
 import socket
-from collections import OrderedDict
-from collections.abc import Iterable
+import time
+from collections.abc import Callable, Iterable
 
 from fcu.mavlink.link import Address
 
 __all__ = ["DEFAULT_PEERS", "UdpLink"]
 
 DEFAULT_PEERS: tuple[Address, ...] = (("127.0.0.1", 14550), ("127.0.0.1", 14540))
+_log = logging.getLogger(__name__)
 _MAX_DATAGRAM = 65535  # bytes
+_MAX_NOTICED = 4096  # refused addresses remembered so that each is logged once
 _SOFT_ERRNOS = {errno.ECONNREFUSED, errno.ECONNRESET, errno.EHOSTUNREACH, errno.ENETUNREACH,
                 errno.EMSGSIZE}
 
@@ -43,9 +55,14 @@ class UdpLink:
     default_peers : iterable of (host, port)
         Always sent to (telemetry), and never forgotten.
     max_peers : int
-        Most remembered peers besides the defaults; the least recently heard is dropped.
+        Most learned peers besides the defaults; newcomers beyond it are refused.
     max_datagrams_per_receive : int
         Bound on the datagrams :meth:`receive` returns per call (the rest wait).
+    peer_timeout_s : float
+        Wall seconds of silence after which a learned peer may give its place to a newcomer
+        (only when the table is full).
+    clock : callable
+        Monotonic wall clock, s (``time.monotonic``; injectable for tests).
 
     Notes
     -----
@@ -55,19 +72,26 @@ class UdpLink:
 
     def __init__(self, bind_host: str = "127.0.0.1", bind_port: int = 0,
                  default_peers: Iterable[Address] = DEFAULT_PEERS, max_peers: int = 16,
-                 max_datagrams_per_receive: int = 256) -> None:
+                 max_datagrams_per_receive: int = 256, peer_timeout_s: float = 30.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         if not 0 <= bind_port <= 65535:
             raise ValueError(f"bind_port = {bind_port!r}: must be in 0..65535")
         if max_peers < 1:
             raise ValueError(f"max_peers = {max_peers!r}: must be >= 1")
+        if not peer_timeout_s > 0:
+            raise ValueError(f"peer_timeout_s = {peer_timeout_s!r}: must be > 0 s")
         self._bind = (bind_host, bind_port)
         self._defaults = [(h, int(p)) for h, p in default_peers]
         self._max_peers = max_peers
         self._max_rx = max_datagrams_per_receive
-        self._peers: OrderedDict[Address, None] = OrderedDict()
+        self._peer_timeout_s = peer_timeout_s
+        self._clock = clock
+        self._peers: dict[Address, float] = {}  # learned peer -> wall time last heard, s
+        self._noticed: set[Address] = set()
         self._sock: socket.socket | None = None
         self.send_errors = 0
         self.receive_errors = 0
+        self.refused_peers = 0  # datagrams from peers refused a place (table full)
 
     # ------------------------------------------------------------------ lifecycle
     def open(self) -> None:
@@ -106,19 +130,37 @@ class UdpLink:
 
     @property
     def peers(self) -> list[Address]:
-        """Default peers, then learnt peers (most recent last)."""
-        learnt = [p for p in self._peers if p not in self._defaults]
-        return self._defaults + learnt
+        """Default peers, then learned peers (in the order they were admitted)."""
+        return self._defaults + list(self._peers)
 
     # ------------------------------------------------------------------ Link protocol
     def add_peer(self, peer: Address) -> None:
-        """Remember ``peer`` for broadcasts (bounded, least recently heard dropped)."""
+        """Note that ``peer`` was heard: admit it for broadcasts if there is room.
+
+        A full table admits it only in place of a learned peer silent for
+        ``peer_timeout_s``; otherwise it is refused (logged once per address).
+        """
         if peer in self._defaults:
             return
-        self._peers[peer] = None
-        self._peers.move_to_end(peer)
-        while len(self._peers) > self._max_peers:
-            self._peers.popitem(last=False)
+        now = self._clock()
+        if peer in self._peers or len(self._peers) < self._max_peers:
+            self._peers[peer] = now
+            return
+        quietest = min(self._peers, key=self._peers.__getitem__)
+        silent_s = now - self._peers[quietest]
+        if silent_s >= self._peer_timeout_s:
+            del self._peers[quietest]
+            self._peers[peer] = now
+            self._noticed.discard(peer)
+            _log.info("peer %s:%d silent for %.0f s gave its place to %s:%d", *quietest,
+                      silent_s, *peer)
+            return
+        self.refused_peers += 1
+        if peer not in self._noticed and len(self._noticed) < _MAX_NOTICED:
+            self._noticed.add(peer)
+            _log.warning("peer %s:%d refused: %d peers already (besides %d --out), none "
+                         "silent for %g s; it gets replies, not telemetry", *peer,
+                         self._max_peers, len(self._defaults), self._peer_timeout_s)
 
     def send(self, data: bytes, to: Address | None = None) -> None:
         """Send to ``to``, or to every peer; errors are counted, never raised."""

@@ -10,7 +10,10 @@ pre-arm bit) through :meth:`~fcu.navigation.navigator.Navigator.prearm_check`.
 
 Auto-disarm (:func:`auto_disarm_reason`) follows ``landed_disarm_delay_s`` after landing (or
 after arming on the ground in a mode that lands: LAND, RTL), and ``idle_disarm_delay_s``
-after arming without a take-off (0 disables it).
+after arming without a take-off (0 disables it). As in ArduCopter, the parameter
+``DISARM_DELAY`` (default 10 s) is the second one; the first is fixed (ArduCopter disarms as
+soon as its land detector has declared the landing, about a second after touchdown; here
+2 s) and its STATUSTEXT does not name the parameter.
 """
 
 from __future__ import annotations
@@ -101,6 +104,7 @@ def auto_disarm_reason(time_s: float, ground_since_s: float, landed_like: bool,
     if not landed_like and delay == 0.0:
         return None
     if time_s - ground_since_s >= delay - TIME_TOL_S:
-        why = "after landing" if landed_like else "no take-off"
-        return f"auto-disarm {why} ({delay:g} s on the ground)"
+        if landed_like:
+            return f"auto-disarm {delay:g} s after landing"
+        return f"auto-disarm: no take-off {delay:g} s after arming (DISARM_DELAY)"
     return None

@@ -210,6 +210,10 @@ def test_run_writes_recording_figures_and_a_final_progress_line(
     # stderr is not a terminal here: only the final line, no carriage-return rewrites
     assert "\r" not in err
     assert re.search(r"short  t =   8\.0 / 8\.0 s +[\d.]+x real time  AUTO", err)
+    # then one line per slow step, saying what it does
+    assert err.splitlines()[-2:] == [
+        f"ftc-scenario: writing the recording {rrd}...",
+        f"ftc-scenario: writing figures (5 kinds, PNG and PDF) in {figs}..."]
     t, _ = scalar_series(rrd, "/plots/pwm/1")
     assert len(t) == 800
     assert len(list(figs.glob("*.png"))) == 5 and len(list(figs.glob("*.pdf"))) == 5

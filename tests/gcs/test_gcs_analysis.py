@@ -87,10 +87,9 @@ def vn_of(t_s: float) -> float:
 def test_errors_and_effort_of_a_known_stream() -> None:
     s = Stream()
     s.boot()
-    # on the ground with a reference: not counted (the runner's "off the ground")
-    s.tick(0.00, north_m=0.0, ref_north_m=0.0, roll=0.0, ref_roll=0.0, alt_m=0.0,
-           servo_us=1100, vn_m_s=vn_of(0.0))
-    # without a reference: not counted (controller idle)
+    # without a reference yet: not counted (controller idle)
+    s.tick(0.00, north_m=0.0, ref_north_m=None, roll=0.0, ref_roll=0.0, servo_us=1100,
+           vn_m_s=vn_of(0.0))
     s.tick(0.01, north_m=north_of(0.01), ref_north_m=None, roll=0.0, ref_roll=0.0,
            servo_us=1100, vn_m_s=vn_of(0.01))
     errs = []
@@ -100,6 +99,9 @@ def test_errors_and_effort_of_a_known_stream() -> None:
         errs.append(err)
         s.tick(t, north_m=north_of(t), ref_north_m=north_of(t) + err, roll=0.01, ref_roll=0.03,
                vn_m_s=vn_of(t))
+    # on the ground with a reference: not counted (the runner's "off the ground")
+    s.tick(2.02, north_m=north_of(2.02), ref_north_m=north_of(2.02), roll=0.0, ref_roll=0.0,
+           alt_m=0.0, servo_us=1100, vn_m_s=vn_of(2.02))
     rep = s.analyzer.report()
     assert rep.samples == 200
     expected_rms = math.sqrt(np.mean(np.square(errs)))
@@ -115,6 +117,85 @@ def test_errors_and_effort_of_a_known_stream() -> None:
     # 1400 us = 0.4 of full scale = 0.02 PWM per motor: effort 0.08
     assert rep.control_effort == pytest.approx(0.08, rel=1e-9)
     assert rep.flight_s == pytest.approx(2.0)
+
+
+class LossyStream(Stream):
+    """A stream whose vehicle packets are each lost with probability ``loss`` (seeded)."""
+
+    def __init__(self, loss: float, seed: int) -> None:
+        super().__init__()
+        self.rng = np.random.default_rng(seed)
+        self.loss = loss
+        self.lossy = False
+
+    def v(self, msg: object) -> None:
+        if self.lossy and self.rng.random() < self.loss:
+            self.vehicle.seq = (self.vehicle.seq + 1) % 256  # sent, never received
+            return
+        super().v(msg)
+
+
+def fly_lossy(loss: float, seed: int, hover_s: float = 30.0) -> tuple[LossyStream, list[float]]:
+    """``hover_s`` of flight at 100 Hz with a known error, then 0.6 s on the ground."""
+    s = LossyStream(loss, seed)
+    s.boot()
+    s.lossy = True
+    errs = []
+    n = int(round(hover_s * 100))
+    for k in range(n):
+        t = k * 0.01
+        err = 0.004 if k % 2 else -0.002
+        errs.append(err)
+        s.tick(t, north_m=north_of(t), ref_north_m=north_of(t) + err, roll=0.01,
+               ref_roll=0.03, vn_m_s=vn_of(t))
+    for k in range(n, n + 60):  # landed, references still coming: not flown
+        t = k * 0.01
+        s.tick(t, north_m=north_of(hover_s), ref_north_m=north_of(hover_s), roll=0.0,
+               ref_roll=0.0, alt_m=0.0, vn_m_s=0.0)
+    return s, errs
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_thirty_percent_loss_still_counts_the_whole_flight_time(seed: int) -> None:
+    s, errs = fly_lossy(0.30, seed)
+    rep = s.analyzer.report()
+    # every sample whose truth, position and attitude reference all arrived: about
+    # 0.7^3 = 34 % of 3000; the time between them is bridged
+    assert 0.25 * 3000 < rep.samples < 0.45 * 3000
+    assert rep.flight_s == pytest.approx(30.0, rel=0.01)  # the real 30 s, not ~10 s
+    # the errors are those of a random subset of the samples: unbiased
+    assert rep.rms["x"] == pytest.approx(math.sqrt(np.mean(np.square(errs))), abs=6e-4)
+    assert rep.rms["roll"] == pytest.approx(math.degrees(0.02), rel=1e-4)
+
+
+def test_a_reference_that_stops_for_longer_than_a_gap_is_an_idle_controller() -> None:
+    s = Stream()
+    s.boot()
+    for k in range(300):  # 3 s airborne; the references stop for 1 s in the middle
+        t = k * 0.01
+        ref = None if 100 <= k < 200 else north_of(t)
+        s.tick(t, north_m=north_of(t), ref_north_m=ref, roll=0.0, ref_roll=0.0,
+               vn_m_s=vn_of(t))
+    rep = s.analyzer.report()
+    assert rep.samples == 200
+    assert rep.flight_s == pytest.approx(2.0)
+    series = s.analyzer.series()
+    assert np.isnan(series.ref_pos_ned[150]).all() and not series.flying[150]
+
+
+def test_series_bridges_lost_references_for_the_figures() -> None:
+    s, _ = fly_lossy(0.30, 7, hover_s=5.0)
+    series = s.analyzer.series()
+    airborne = -series.pos_ned[:, 2] > 0.1
+    # every airborne truth sample has a reference to plot (held exact or interpolated)
+    assert np.isfinite(series.ref_pos_ned[airborne]).all()
+    assert np.isfinite(series.ref_euler_rad[airborne]).all()
+    gap = np.isfinite(series.ref_pos_ned[:, 0]) & ~series.flying & airborne
+    assert gap.any()  # bridged samples are plotted but not scored
+    offset = series.ref_pos_ned[gap, 0] - np.array([north_of(t) for t in series.time_s[gap]])
+    # interpolated between references that are the truth plus -2 or +4 mm: within those
+    # bounds, up to the curvature of the 2 cm wiggle over a gap (0.8 m/s^2 * (0.1 s)^2 / 8)
+    assert offset.min() > -0.002 - 1e-3 and offset.max() < 0.004 + 1e-3
 
 
 def test_velocity_aided_position_beats_the_quantisation() -> None:

@@ -8,6 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 WALL_LIMIT_S = 60.0  # s: start-up of a Python process on a loaded two-core machine, and more
 
@@ -34,8 +36,83 @@ def test_no_vehicle_exits_3_with_one_line_within_the_timeout(tmp_path: Path) -> 
     assert lines[-1] == (f"ftc-gcs: vehicle not found: no HEARTBEAT from an autopilot on "
                          f"udpin:127.0.0.1:{port} within 2 s")
     assert elapsed < WALL_LIMIT_S
-    # the records exist even for a flight that never started
-    assert list(tmp_path.glob("*.events.log"))
+    # no flight: no table of nothing, and no records of nothing left behind
+    assert "flight:" not in proc.stdout and "records:" not in proc.stdout
+    assert list(tmp_path.iterdir()) == []
+    assert "Traceback" not in proc.stderr
+
+
+def test_no_vehicle_leaves_no_out_dir_it_created(tmp_path: Path) -> None:
+    out = tmp_path / "new" / "out"
+    proc = run_gcs("fly", "--connect", f"udpin:127.0.0.1:{free_udp_port()}",
+                   "--connect-timeout", "1", "--quiet", "--out-dir", str(out))
+    assert proc.returncode == 3, proc.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("url", "words"), [
+    ("bogus:foo", "port 'foo' is not a number"),
+    ("udpin:127.0.0.1:99999", "port 99999 not in 0..65535"),
+    ("udpout:127.0.0.1:0", "port 0 not in 1..65535"),
+    ("udpin:127.0.0.1", "HOST:PORT"),
+    ("carrier-pigeon:1:2", "'carrier-pigeon' is not one of"),
+])
+def test_a_bad_connection_string_is_one_line(tmp_path: Path, url: str, words: str) -> None:
+    proc = run_gcs("fly", "--connect", url, "--quiet", "--out-dir", str(tmp_path))
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"ftc-gcs: error: --connect {url!r}: ")
+    assert words in lines[0]
+    assert proc.stdout == "" and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("option", "path", "words"), [
+    ("--figures", "/proc/nope", "cannot write there"),
+    ("--report", "/proc/nope", "cannot write there"),
+    ("--json", "/proc/nope/f.json", "cannot write"),
+    ("--rrd", "/proc/nope.rrd", "cannot write"),
+    ("--tlog", "/proc/nope/f.tlog", "cannot write"),
+    ("--out-dir", "/proc/nope", "cannot write there"),
+])
+def test_unwritable_outputs_are_refused_before_connecting(tmp_path: Path, option: str,
+                                                          path: str, words: str) -> None:
+    proc = run_gcs("fly", "--connect", f"udpin:127.0.0.1:{free_udp_port()}",
+                   "--connect-timeout", "30", "--quiet", *(("--out-dir", str(tmp_path))
+                                                          if option != "--out-dir" else ()),
+                   option, path)
+    assert proc.returncode == 2, proc.stderr
+    (line,) = proc.stderr.strip().splitlines()
+    assert line.startswith(f"ftc-gcs: error: {option} {path}: ") and words in line, line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_report_of_a_file_that_is_not_a_tlog_fails(tmp_path: Path) -> None:
+    notalog = tmp_path / "notalog.toml"
+    notalog.write_text('[[items]]\ncommand = "takeoff"\nalt_m = 1.0\n' * 20)
+    proc = run_gcs("report", str(notalog))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stdout == ""
+    (line,) = proc.stderr.strip().splitlines()
+    assert line == f"ftc-gcs: error: {notalog}: not a .tlog (no MAVLink packets in it)"
+
+
+def test_report_of_a_tlog_without_a_vehicle_fails(tmp_path: Path) -> None:
+    from gcs.mavlink import mavlink2
+    from gcs.records import TlogWriter
+
+    path = tmp_path / "gcs_only.tlog"
+    mav = mavlink2.MAVLink(None, srcSystem=255, srcComponent=190)
+    writer = TlogWriter(path)
+    for _ in range(5):  # only a ground station's own heartbeats: nobody answered
+        writer.write(mavlink2.MAVLink_heartbeat_message(
+            mavlink2.MAV_TYPE_GCS, mavlink2.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3).pack(mav))
+    writer.close()
+    proc = run_gcs("report", str(path))
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert proc.stdout == ""
+    (line,) = proc.stderr.strip().splitlines()
+    assert line == (f"ftc-gcs: error: {path}: no flight in it (no HEARTBEAT from an "
+                    "autopilot among its 5 packets)")
 
 
 def test_bad_fault_flag_is_a_usage_error(tmp_path: Path) -> None:

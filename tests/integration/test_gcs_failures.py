@@ -75,6 +75,17 @@ def test_rejected_mission_item(tmp_path: Path) -> None:
     assert "take-off altitude" in line and "50" in line  # the vehicle's reason, whole
 
 
+def test_refused_parameter_is_one_line_with_the_vehicles_reason(tmp_path: Path) -> None:
+    proc = subprocess.run(
+        gcs_command("fly", "--spawn-vehicle", "--speedup", "10", "--param", "ATT_CTRL=7",
+                    "--quiet", "--tlog", str(tmp_path / "f.tlog")),
+        cwd=ROOT, capture_output=True, text=True, timeout=WALL_S, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 4, proc.stdout + proc.stderr
+    line = last_line(proc.stderr)
+    assert line.startswith("ftc-gcs: command refused: parameter ATT_CTRL = 7 refused, still ")
+    assert line.endswith(": ATT_CTRL: 7 outside 0..1")  # the vehicle's reason, whole
+
+
 def test_vehicle_killed_mid_flight_keeps_the_records(tmp_path: Path) -> None:
     port = free_udp_port()
     tlog = tmp_path / "f.tlog"
@@ -84,7 +95,8 @@ def test_vehicle_killed_mid_flight_keeps_the_records(tmp_path: Path) -> None:
     try:
         gcs = subprocess.Popen(
             gcs_command("fly", "--connect", f"udpin:127.0.0.1:{port}", "--faults", "table7.3",
-                        "--link-timeout", "3", "--quiet", "--tlog", str(tlog)),
+                        "--connect-timeout", f"{BOOT_S:g}", "--link-timeout", "3", "--quiet",
+                        "--tlog", str(tlog)),
             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
             stdin=subprocess.DEVNULL)
         deadline = time.monotonic() + WALL_S

@@ -6,7 +6,7 @@ import pytest
 
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.enums import FailureType, FailureUnit
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port import GeoPoint, StatusText
 from sim.vehicle_port import SimVehicle, VehicleSetup
 from sim.world import WorldConfig
 
@@ -38,3 +38,37 @@ def test_an_injection_without_a_time_or_in_the_past_acts_now(vehicle: SimVehicle
         vehicle.tick()
     assert vehicle.inject_failure(MOTOR, WRONG, 1, at_s=0.05).accepted  # already past
     assert vehicle.world.faults.true_loe(vehicle.time_s)[0] == pytest.approx(0.3)
+
+
+def texts_after(vehicle: SimVehicle, *changes: tuple[str, float]) -> list[str]:
+    """The STATUSTEXTs the vehicle says for these SIM_* changes (a few ticks later)."""
+    vehicle.port.drain_events()
+    for name, value in changes:
+        assert vehicle.sim_params.set_param(name, value).accepted
+    for _ in range(3):
+        vehicle.tick()
+    return [e.text for e in vehicle.port.drain_events() if isinstance(e, StatusText)]
+
+
+def test_each_sim_motor_change_is_said_once_as_it_happened(vehicle: SimVehicle) -> None:
+    assert texts_after(vehicle, ("SIM_MOT3_LOE", 0.2)) == ["SIM: set motor 3: loe 20 % (step)"]
+    # a second motor: nothing is said (or done) about the first
+    assert texts_after(vehicle, ("SIM_MOT1_LOE", 0.3)) == ["SIM: set motor 1: loe 30 % (step)"]
+    assert texts_after(vehicle, ("SIM_MOT1_LOE", 0.3)) == []  # the same value again
+    assert texts_after(vehicle, ("SIM_ENGINE_FAIL", 5)) == []  # SIM_ENGINE_MUL is still 1
+    assert texts_after(vehicle, ("SIM_ENGINE_MUL", 0.5)) == [
+        "SIM: changed motor 1: loe 30 % (step) -> loe 65 % (step)",
+        "SIM: changed motor 3: loe 20 % (step) -> loe 60 % (step)"]
+    assert texts_after(vehicle, ("SIM_ENGINE_FAIL", 0), ("SIM_MOT3_LOE", 0.0)) == [
+        "SIM: changed motor 1: loe 65 % (step) -> loe 30 % (step)",
+        "SIM: changed motor 3: loe 60 % (step) -> loe 20 % (step)",
+        "SIM: cleared motor 3: loe 20 % (step)"]
+    assert vehicle.world.faults.true_loe(vehicle.time_s) == pytest.approx([0.3, 0, 0, 0])
+
+
+def test_sensor_and_mass_parameters_say_what_they_did(vehicle: SimVehicle) -> None:
+    assert texts_after(vehicle, ("SIM_BARO_GLITCH", 0.1)) == ["SIM: set baro: bias 0.1"]
+    assert texts_after(vehicle, ("SIM_BARO_GLITCH", 0.2)) == [
+        "SIM: changed baro: bias 0.1 -> bias 0.2"]
+    assert texts_after(vehicle, ("SIM_BARO_GLITCH", 0.0)) == ["SIM: cleared baro: bias 0.2"]
+    assert texts_after(vehicle, ("SIM_MASS_DROP", 0.3)) == ["SIM: set airframe: loses 0.3 kg"]

@@ -8,6 +8,7 @@ import pytest
 
 from fcu.config import AutopilotConfig
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
+from fcu.navigation.settings import NavigatorConfig
 
 
 def _inside(lo: float, hi: float, current: float) -> float:
@@ -40,3 +41,13 @@ def test_crash_check_and_detector_parameters_reach_their_groups() -> None:
     assert report_only.crash.action == 0 and config.crash.action == 1
     strict = find_param("FD_SIGNIF").set(config, 49.0)  # type: ignore[union-attr]
     assert strict.detector.significance == 49.0
+
+
+def test_disarm_delay_is_arducopters_10_s_and_its_text_says_which_delay_it_is() -> None:
+    param = find_param("DISARM_DELAY")
+    assert param is not None
+    nav = NavigatorConfig()
+    assert param.get(AutopilotConfig()) == nav.idle_disarm_delay_s == 10.0  # ArduCopter's
+    assert "without a take-off" in param.description
+    # the other delay, after a landing, is not this parameter: the text says how long it is
+    assert f"after a landing: {nav.landed_disarm_delay_s:g} s" in param.description

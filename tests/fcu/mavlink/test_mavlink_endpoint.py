@@ -241,12 +241,14 @@ def test_udp_link_tolerates_unreachable_peers() -> None:
     assert got and got[0][0] == b"hello"
 
 
-def test_udp_link_peer_list_is_bounded() -> None:
+def test_udp_link_peer_list_is_bounded_first_come() -> None:
     link = UdpLink("127.0.0.1", 0, default_peers=[("127.0.0.1", 14550)], max_peers=3)
     for port in range(20000, 20010):
         link.add_peer(("127.0.0.1", port))
-    assert link.peers == [("127.0.0.1", 14550), ("127.0.0.1", 20007), ("127.0.0.1", 20008),
-                          ("127.0.0.1", 20009)]
+    # the first three keep their places; later ones are refused, the --out peer stays first
+    assert link.peers == [("127.0.0.1", 14550), ("127.0.0.1", 20000), ("127.0.0.1", 20001),
+                          ("127.0.0.1", 20002)]
+    assert link.refused_peers == 7
     link.close()
 
 

@@ -94,9 +94,9 @@ def test_the_check_is_a_pure_function_of_what_it_is_given() -> None:
 
 @pytest.mark.parametrize(("landed_like", "since_s", "expected"), [
     (True, 0.0, None),  # 1.99 s after landing: not yet (landed_disarm_delay_s = 2)
-    (True, -0.01, "auto-disarm after landing (2 s on the ground)"),
+    (True, -0.01, "auto-disarm 2 s after landing"),
     (False, -8.0, None),  # idle 9.99 s: not yet (idle_disarm_delay_s = 10)
-    (False, -8.01, "auto-disarm no take-off (10 s on the ground)"),
+    (False, -8.01, "auto-disarm: no take-off 10 s after arming (DISARM_DELAY)"),
 ])
 def test_auto_disarm_after_the_configured_delays(landed_like: bool, since_s: float,
                                                  expected: str | None) -> None:

@@ -1,0 +1,127 @@
+"""Checking, before any work, that the files and folders a command will write can be written.
+
+A run that ends in a traceback because its figures folder cannot be created wastes the run;
+the command-line tools call these first, so a bad output path is one line naming the option,
+the path and why, before anything is flown. The rule, the same for every output of every
+tool: missing folders are created (a file's folder, or the folder itself for ``--figures``,
+``--report``, ``--out-dir``...), an existing file is replaced when written, and whatever
+cannot be created or written (a read-only place, ``/proc``, a file where a folder is needed)
+is refused.
+
+The checks leave nothing behind: a probe file is created and removed, and the folders created
+for the probe are removed again (the command creates them for real when it writes).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+from flightdata.config import ConfigError
+
+__all__ = ["OutputError", "check_file_output", "check_folder_output"]
+
+
+class OutputError(ConfigError):
+    """An output path that cannot be written; the message names the option and the path."""
+
+
+def _reason(err: OSError) -> str:
+    return err.strerror or type(err).__name__
+
+
+def check_file_output(option: str, path: str | Path) -> Path:
+    """Check that the file ``path`` (given with ``option``) can be written.
+
+    Parameters
+    ----------
+    option : str
+        The command-line option, for the message (e.g. ``"--json"``).
+    path : str or Path
+        The file; its folder may be missing (it is created when the file is written).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OutputError
+        ``"<option> <path>: <why>"``: a folder, a place that cannot be written...
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise OutputError(f"{option} {p}: is a folder, not a file")
+    if p.exists():
+        try:
+            with open(p, "ab"):
+                pass  # opened for writing, nothing changed
+        except OSError as err:
+            raise OutputError(f"{option} {p}: cannot write: {_reason(err)}") from None
+        return p
+
+    def probe(folder: Path) -> None:
+        with open(folder / p.name, "xb"):
+            pass
+        (folder / p.name).unlink()
+
+    _in_folder(p.parent, probe, f"{option} {p}: cannot write")
+    return p
+
+
+def check_folder_output(option: str, path: str | Path) -> Path:
+    """Check that files can be written in the folder ``path`` (created later if missing).
+
+    Parameters
+    ----------
+    option : str
+        The command-line option, for the message (e.g. ``"--figures"``).
+    path : str or Path
+        The folder.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OutputError
+        ``"<option> <path>: <why>"``: a file, a folder that cannot be created or written.
+    """
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise OutputError(f"{option} {p}: is a file, not a folder")
+    _in_folder(p, _probe_folder, f"{option} {p}: cannot write there")
+    return p
+
+
+def _probe_folder(folder: Path) -> None:
+    with tempfile.TemporaryFile(dir=folder):
+        pass
+
+
+def _in_folder(folder: Path, probe: Callable[[Path], None], failure: str) -> None:
+    """Run ``probe(folder)`` with the missing part of ``folder`` created, then removed;
+    an OSError becomes ``OutputError(f"{failure}: {why}")``."""
+    missing: list[Path] = []
+    q = folder
+    while not q.exists() and q != q.parent:
+        missing.append(q)
+        q = q.parent
+    created: list[Path] = []
+    try:
+        for part in reversed(missing):
+            part.mkdir()
+            created.append(part)
+        probe(folder)
+    except OSError as err:
+        raise OutputError(f"{failure}: {_reason(err)}") from None
+    finally:
+        for part in reversed(created):
+            try:
+                part.rmdir()
+            except OSError:
+                pass
