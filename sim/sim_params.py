@@ -121,6 +121,9 @@ class SimParams:
                       lambda x: CommandResult.denied("read-only (set by --speedup at start)")),
             _SimParam(ParamSpec(name="SIM_FI_LOE", value=0.3, min_value=0.0, max_value=1.0,
                                 description="LOE of INJECT_FAILURE MOTOR WRONG/DRIFT")),
+            _SimParam(ParamSpec(name="SYS_FAILURE_EN", value=1, min_value=0, max_value=1,
+                                allowed=(0.0, 1.0), integer=True,
+                                description="MAV_CMD_INJECT_FAILURE accepted (1) or DENIED (0)")),
         ]
         for stem, (bias, rate) in FI_DEFAULTS.items():
             unit = FI_UNITS[stem]
@@ -134,6 +137,11 @@ class SimParams:
             ]
         self._params = {d.spec.name: d for d in defs}
         self._values = {d.spec.name: float(d.spec.value) for d in defs}
+
+    @property
+    def failure_injection_enabled(self) -> bool:
+        """SYS_FAILURE_EN is 1."""
+        return self._values["SYS_FAILURE_EN"] != 0.0
 
     @property
     def paused(self) -> bool:

@@ -38,9 +38,15 @@ SIM_SPEEDUP        read-only    simulated seconds per wall second (``--speedup``
 SIM_FI_LOE         0..1         LOE of an INJECT_FAILURE MOTOR WRONG (peak of DRIFT)
 SIM_FI_<S>_BIAS    sensor unit  bias of an INJECT_FAILURE <sensor> WRONG
 SIM_FI_<S>_DRIFT   unit/s       drift rate of an INJECT_FAILURE <sensor> DRIFT
+SYS_FAILURE_EN     0/1          INJECT_FAILURE accepted (1, default) or DENIED (0)
 =================  ===========  =========================================================
 
 with ``<S>`` one of GYR (rad/s), ACC (m/s^2), MAG (heading, rad), BAR (m), GPS (m).
+``SYS_FAILURE_EN`` is PX4's name for the gate (ArduPilot SITL has none: its injection is the
+``SIM_*`` parameters); MAVSDK's Failure plugin reads it only from a PX4 vehicle, so against
+this ArduCopter-style vehicle it just sends the command and reports DENIED when the gate is
+closed. It defaults to 1 because injecting faults is what this simulator is for (the ground
+station's fault schedules use the same command).
 
 MAV_CMD_INJECT_FAILURE (420) mapping onto :mod:`sim.world.faults`
 -----------------------------------------------------------
@@ -293,6 +299,9 @@ class SimVehicle:
         """MAV_CMD_INJECT_FAILURE onto the world's fault engine (module docstring table)."""
         self.port.invalidate()
         what = f"{_UNIT_NAMES.get(unit, str(unit))} {_TYPE_NAMES.get(failure_type, '?')}"
+        if not self.sim_params.failure_injection_enabled:
+            return CommandResult.denied(f"Inject failure: {what} refused: failure injection "
+                                        "disabled (SYS_FAILURE_EN = 0)")
         if unit == _MOTOR_UNIT:
             if instance not in (0, 1, 2, 3, 4):
                 return CommandResult.denied(

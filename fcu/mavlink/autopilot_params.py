@@ -7,7 +7,10 @@ whose configuration it exposes, as ArduPilot keeps a library's parameters with t
 ``POS_XY_*``/``POS_Z_*``, the PD gains ``ATT_PD_*``, the LQR weights ``LQR_*``, the DOB cut-off,
 the fault detector's threshold, persistence and significance (``FD_*``), the crash check's
 action (``FS_CRASH_CHECK``, as ArduCopter's), and the navigator's settings under their
-ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY`` s...).
+ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY`` s,
+``AUTO_OPTIONS`` bits 0 and 1 as ArduCopter's: arming in AUTO, take-off in AUTO without
+MISSION_START; default 0 as ArduCopter's, since MISSION_START, which MAVSDK and QGC send
+to start a mission, takes off without either bit).
 :class:`fcu.mavlink.autopilot_port.AutopilotPort` applies them: a change rebuilds the
 autopilot with the new configuration, so it is accepted only disarmed on the ground, except
 the parameters with ``live_speed`` (``WPNAV_SPEED``, ``WPNAV_SPEED_UP``, ``WPNAV_SPEED_DN``),
@@ -184,6 +187,11 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
                "Final landing descent speed", 1.0, 200.0),
     _nav_param("DISARM_DELAY", "idle_disarm_delay_s", 1.0, "s",
                "Auto-disarm after arming without take-off (0 never)", 0.0, 127.0),
+    ApParam("AUTO_OPTIONS", "AUTO mode options, bitmask: bit 0 (1) arming in AUTO allowed, "
+            "bit 1 (2) AUTO armed on the ground takes off without MISSION_START",
+            get=lambda c: float(c.navigator.auto_options),
+            set=lambda c, v: replace(c, navigator=_with(c.navigator, "auto_options", int(v))),
+            min_value=0, max_value=3, allowed=(0.0, 1.0, 2.0, 3.0), integer=True),
 )
 
 

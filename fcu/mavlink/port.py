@@ -363,7 +363,8 @@ class MissionItem:
 
 @dataclass(frozen=True, kw_only=True)
 class ParamSpec:
-    """Definition of one parameter exposed over MAVLink (sent as REAL32, C_CAST encoding).
+    """Definition of one parameter exposed over MAVLink (C_CAST encoding; typed REAL32, or
+    INT8/INT16/INT32 when ``integer``: :func:`fcu.mavlink.params.wire_type`).
 
     Attributes
     ----------

@@ -38,3 +38,15 @@ def test_an_injection_without_a_time_or_in_the_past_acts_now(vehicle: SimVehicle
         vehicle.tick()
     assert vehicle.inject_failure(MOTOR, WRONG, 1, at_s=0.05).accepted  # already past
     assert vehicle.world.faults.true_loe(vehicle.time_s)[0] == pytest.approx(0.3)
+
+
+def test_sys_failure_en_0_denies_injection_and_1_allows_it(vehicle: SimVehicle) -> None:
+    assert vehicle.sim_params.value("SYS_FAILURE_EN") == 1.0  # the default: injection on
+    assert vehicle.sim_params.set_param("SYS_FAILURE_EN", 0.0).accepted
+    refused = vehicle.inject_failure(MOTOR, WRONG, 1)
+    assert not refused.accepted and not refused.unsupported  # DENIED, not UNSUPPORTED
+    assert "SYS_FAILURE_EN = 0" in refused.reason
+    assert vehicle.world.faults.scheduled() == []
+    assert vehicle.sim_params.set_param("SYS_FAILURE_EN", 1.0).accepted
+    assert vehicle.inject_failure(MOTOR, WRONG, 1).accepted
+    assert vehicle.world.faults.true_loe(vehicle.time_s)[0] == pytest.approx(0.3)
