@@ -20,9 +20,11 @@ lifetime of the endpoint. A PARAM_SET is validated (known name, finite, whole nu
 required, inclusive range, allowed set, then the owner's own check) and always answered with
 a PARAM_VALUE carrying the value now in force; a refusal also sends a STATUSTEXT saying why.
 A PARAM_SET or PARAM_REQUEST_READ naming an unknown parameter (or an index out of range) gets
-no PARAM_VALUE, as from ArduPilot, so the client times out with its own error; one
-STATUSTEXT says so, at most once per name per :data:`UNKNOWN_QUIET_S` of wall time (a client
-retrying a read, as MAVSDK does six times, must not flood the pilot's messages).
+no PARAM_VALUE, as from ArduPilot, so the client times out with its own error. The
+STATUSTEXTs of the parameter protocol (an unknown name, a refused value) are said once: the
+same text again within :data:`REPEAT_QUIET_S` of wall time is not repeated (a client retrying,
+as MAVSDK does six times, must not flood the pilot's messages; a refused PARAM_SET is still
+echoed each time with the value in force).
 """
 
 from __future__ import annotations
@@ -38,12 +40,12 @@ from fcu.mavlink.enums import Severity
 from fcu.mavlink.link import Address, Outbox
 from fcu.mavlink.port import CommandResult, ParamProvider, ParamSpec
 
-__all__ = ["UNKNOWN_QUIET_S", "ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable",
+__all__ = ["REPEAT_QUIET_S", "ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable",
            "entries_from", "wire_type"]
 
 OnChange = Callable[[float], CommandResult]
-UNKNOWN_QUIET_S = 60.0  # s wall, least time between two STATUSTEXTs about one unknown name
-_UNKNOWN_MEMORY = 64  # unknown names remembered for the rate limit (oldest forgotten first)
+REPEAT_QUIET_S = 30.0  # s wall, least time between two identical parameter STATUSTEXTs
+_SAID_MEMORY = 64  # texts remembered for the rate limit (oldest forgotten first)
 _INT_TYPES = ((mavlink2.MAV_PARAM_TYPE_INT8, -2**7, 2**7 - 1),
               (mavlink2.MAV_PARAM_TYPE_INT16, -2**15, 2**15 - 1),
               (mavlink2.MAV_PARAM_TYPE_INT32, -2**31, 2**31 - 1))
@@ -230,8 +232,8 @@ class ParamService:
     table : ParamTable
     outbox : Outbox
     wall_clock : callable, optional
-        Monotonic wall-clock time, s (the rate limit of unknown-name STATUSTEXTs); without
-        one, each unknown name is reported once.
+        Monotonic wall-clock time, s (the rate limit of repeated STATUSTEXTs); without one,
+        each text is said once.
     """
 
     def __init__(self, table: ParamTable, outbox: Outbox,
@@ -239,7 +241,7 @@ class ParamService:
         self._table = table
         self._outbox = outbox
         self._wall_clock = wall_clock if wall_clock is not None else (lambda: 0.0)
-        self._unknown_said: dict[str, float] = {}  # name -> wall time of its STATUSTEXT
+        self._said: dict[str, float] = {}  # STATUSTEXT -> wall time it was last said
 
     @property
     def table(self) -> ParamTable:
@@ -253,16 +255,16 @@ class ParamService:
             name.encode("ascii"), self._table.value_at(index),
             wire_type(self._table.spec_at(index)), len(self._table), index)
 
-    def _unknown(self, key: str, text: str) -> None:
-        """One STATUSTEXT about ``key`` (an unknown name or index), rate-limited."""
+    def _say(self, text: str) -> None:
+        """STATUSTEXT ``text``, unless the same text was said less than REPEAT_QUIET_S ago."""
         now = self._wall_clock()
-        said = self._unknown_said.get(key)
-        if said is not None and now - said < UNKNOWN_QUIET_S:
+        said = self._said.get(text)
+        if said is not None and now - said < REPEAT_QUIET_S:
             return
-        self._unknown_said.pop(key, None)
-        self._unknown_said[key] = now
-        while len(self._unknown_said) > _UNKNOWN_MEMORY:
-            del self._unknown_said[next(iter(self._unknown_said))]
+        self._said.pop(text, None)
+        self._said[text] = now
+        while len(self._said) > _SAID_MEMORY:
+            del self._said[next(iter(self._said))]
         self._outbox.status(Severity.WARNING, text)
 
     def handle_request_list(self, to: Address) -> None:
@@ -277,14 +279,13 @@ class ParamService:
         count = len(self._table)
         if index_req >= 0:
             if index_req >= count:
-                self._unknown(f"#{index_req}",
-                              f"Param index {index_req} out of range 0..{count - 1}")
+                self._say(f"Param index {index_req} out of range 0..{count - 1}")
                 return
             self._outbox.send(self.value_message(index_req), to)
             return
         index = self._table.index_of(name)
         if index is None:
-            self._unknown(name, f"Unknown parameter {name}")
+            self._say(f"Unknown parameter {name}")
             return
         self._outbox.send(self.value_message(index), to)
 
@@ -295,11 +296,11 @@ class ParamService:
         name = _decode_name(msg.param_id)
         index = self._table.index_of(name)
         if index is None:
-            self._unknown(name, f"Unknown parameter {name}")
+            self._say(f"Unknown parameter {name}")
             return
         outcome = self._table.set(name, float(msg.param_value))
         if not outcome.accepted:
-            self._outbox.status(Severity.WARNING, outcome.reason)
+            self._say(outcome.reason)
         self._outbox.send(self.value_message(index))
 
     def all_specs(self) -> Sequence[ParamSpec]:
