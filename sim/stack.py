@@ -23,6 +23,7 @@ from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
 from fcu.navigation.navigator import Mode
 from sim.world import World, WorldConfig, WorldEvent
 from sim.world.fault_types import Fault
+from sim.world.samples import SensorSample
 
 
 def steps_per_tick(world: WorldConfig, autopilot: AutopilotConfig) -> int:
@@ -64,6 +65,8 @@ class SimulatedStack:
         PWM commanded at the last tick, held until the next.
     ticks : int
         Ticks since the boot tick.
+    samples : sequence of samples
+        The samples the autopilot received at the last tick (the world's batch).
     """
 
     def __init__(self, world: WorldConfig, autopilot: AutopilotConfig, seed: int,
@@ -76,6 +79,7 @@ class SimulatedStack:
         self.autopilot = Autopilot(autopilot)
         self.pwm = np.zeros(4)
         self.ticks = 0
+        self.samples: Sequence[SensorSample] = ()
         self._booted = False
 
     @property
@@ -91,7 +95,7 @@ class SimulatedStack:
 
     def tick(self) -> None:
         """``steps_per_tick`` plant steps holding the PWM, then one autopilot step."""
-        samples = self.world.step(self.pwm, self.steps_per_tick)
+        self.samples = samples = self.world.step(self.pwm, self.steps_per_tick)
         self.pwm = self.autopilot.step(self.world.time_s, samples)
         self.ticks += 1
 

@@ -214,6 +214,7 @@ class SimVehicle:
     def tick(self) -> None:
         """One autopilot tick (:meth:`sim.stack.SimulatedStack.tick`) and its events."""
         self.stack.tick()
+        self.port.observe(self.stack.samples)
         self._collect()
 
     def _collect(self) -> None:
@@ -291,7 +292,7 @@ class SimVehicle:
         truth = self.world.truth()
         return SimTruth(pos_ned=truth.pos_ned, vel_ned=truth.vel_ned,
                         quat_wxyz=truth.quat_wxyz, rate_frd=truth.rate_frd,
-                        accel_frd=truth.accel_frd)
+                        accel_frd=truth.accel_frd, wind_ned=truth.wind_ned)
 
     # ------------------------------------------------------------------ FailureInjector
     def inject_failure(self, unit: int, failure_type: int, instance: int,

@@ -17,14 +17,16 @@ disarmed on the ground; in flight it is refused with the reason, except ``WPNAV_
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
 from typing import Protocol
 
 import numpy as np
 
 from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
+from fcu.hal import SensorSampleLike
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
+from fcu.mavlink.autopilot_telemetry import AutopilotTelemetry
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,
@@ -109,6 +111,7 @@ class AutopilotPort:
         self._config = host.autopilot.config
         self._events: list[VehicleEvent] = []
         self._snap: VehicleSnapshot | None = None
+        self.telemetry = AutopilotTelemetry(host, origin)
 
     @property
     def autopilot(self) -> Autopilot:
@@ -127,6 +130,11 @@ class AutopilotPort:
             if ev.record is not None:
                 self.post_record(ev.record)
             self.post(_SEVERITY.get(ev.severity, Severity.INFO), ev.text)
+
+    def observe(self, samples: Iterable[SensorSampleLike]) -> None:
+        """After a tick: the samples the autopilot received (the extended telemetry's IMU,
+        barometer and vibration; kept unprocessed until a message needs them)."""
+        self.telemetry.observe(samples)
 
     def post(self, severity: int, text: str) -> None:
         """Queue a STATUSTEXT (the composition root's own messages go here too)."""
@@ -163,7 +171,8 @@ class AutopilotPort:
                                    euler_rad=np.zeros(3), rate_frd=np.zeros(3),
                                    origin=self.origin, home_pos_ned=nav.home_pos_ned,
                                    system_status=MavState.BOOT,
-                                   health=SensorHealth(ahrs=False, prearm=False))
+                                   health=SensorHealth(ahrs=False, prearm=False),
+                                   extended=self.telemetry)
         est = status.estimate
         healthy = bool(np.all(np.isfinite(est.pos_ned)) and np.all(np.isfinite(est.vel_ned))
                        and np.all(np.isfinite(est.euler_rad)))
@@ -201,7 +210,7 @@ class AutopilotPort:
             health=SensorHealth(gps=healthy, ahrs=healthy, motors=not detected,
                                 prearm=nav.prearm_check().ok),
             mission_seq=progress.current_seq, mission_state=int(progress.state),
-            failsafe_active=failsafe)
+            failsafe_active=failsafe, extended=self.telemetry)
 
     # ------------------------------------------------------------------ VehiclePort: commands
     def _nav(self, what: str, result: NavResult) -> CommandResult:

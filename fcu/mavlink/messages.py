@@ -413,9 +413,23 @@ _BUILDERS: dict[int, Builder] = {
 }
 
 
+def _builders() -> dict[int, Builder]:
+    """Every builder: this module's and :mod:`fcu.mavlink.messages_extended`'s (imported
+    here, not at the top: that module builds on this one's helpers)."""
+    if not _ALL_BUILDERS:
+        from fcu.mavlink.messages_extended import EXTENDED_BUILDERS
+
+        _ALL_BUILDERS.update(_BUILDERS)
+        _ALL_BUILDERS.update(EXTENDED_BUILDERS)
+    return _ALL_BUILDERS
+
+
+_ALL_BUILDERS: dict[int, Builder] = {}
+
+
 def can_build(msg_id: int) -> bool:
     """True when ``msg_id`` can be built from a snapshot (streamed or requested)."""
-    return msg_id in _BUILDERS
+    return msg_id in _builders()
 
 
 def build_stream(msg_id: int, snap: VehicleSnapshot,
@@ -427,7 +441,7 @@ def build_stream(msg_id: int, snap: VehicleSnapshot,
     KeyError
         When ``msg_id`` has no builder (see :func:`can_build`).
     """
-    built = _BUILDERS[msg_id](snap, ctx)
+    built = _builders()[msg_id](snap, ctx)
     if built is None:
         return []
     if isinstance(built, list):

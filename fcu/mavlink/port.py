@@ -51,6 +51,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from fcu.mavlink.enums import MavState
+from fcu.mavlink.extended import ExtendedTelemetry
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 from flightdata.records import Record
 
@@ -201,6 +202,9 @@ class SimTruth:
         True body rates, rad/s.
     accel_frd : ndarray, shape (3,)
         True specific force in the body frame, m/s^2 (what an ideal accelerometer reads).
+    wind_ned : ndarray, shape (3,), or None
+        True wind velocity at the vehicle (mean plus turbulence), NED, m/s (the velocity of
+        the air, not the direction it comes from); None when not simulated.
     """
 
     pos_ned: np.ndarray
@@ -208,6 +212,7 @@ class SimTruth:
     quat_wxyz: np.ndarray
     rate_frd: np.ndarray
     accel_frd: np.ndarray
+    wind_ned: np.ndarray | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -296,6 +301,10 @@ class VehicleSnapshot:
         :class:`MissionState`.
     failsafe_active : bool
         A vehicle failsafe (battery, detected fault, ...) is acting.
+    extended : ExtendedTelemetry or None
+        Computes the extended telemetry (IMU, pressure, vibration, EKF status, AHRS2,
+        navigation output) when one of those messages is built
+        (:mod:`fcu.mavlink.extended`); None: those messages are not sent.
     """
 
     time_s: float
@@ -319,6 +328,7 @@ class VehicleSnapshot:
     mission_seq: int = 0
     mission_state: int = MissionState.NO_MISSION
     failsafe_active: bool = False
+    extended: ExtendedTelemetry | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
