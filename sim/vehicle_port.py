@@ -33,6 +33,7 @@ SIM_MASS_DROP      kg           mass that has left the airframe (applied now; 0 
 SIM_WIND_SPD       m/s          mean wind speed
 SIM_WIND_DIR       deg          direction the mean wind blows from
 SIM_WIND_TURB      m/s          Dryden turbulence intensity W20 (0 = none)
+SIM_BATT_CAP_AH    Ah           capacity of the simulated pack (the charge used stays used)
 SIM_PAUSE          0/1          hold simulated time (the link stays up); 0 resumes
 SIM_SPEEDUP        read-only    simulated seconds per wall second (``--speedup``)
 SIM_FI_LOE         0..1         LOE of an INJECT_FAILURE MOTOR WRONG (peak of DRIFT)

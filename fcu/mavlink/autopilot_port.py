@@ -30,6 +30,7 @@ from fcu.mavlink.autopilot_telemetry import AutopilotTelemetry
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,
+    BatteryState,
     CommandResult,
     GeoPoint,
     MissionItem,
@@ -206,7 +207,8 @@ class AutopilotPort:
             rate_frd=est.rate_frd, origin=self.origin, home_pos_ned=nav.home_pos_ned,
             system_status=system_status, landed_state=int(nav.landed_state),
             position_target=position_target, attitude_target=attitude_target,
-            pwm=np.array(status.pwm), truth=self._truth(), loe=np.array(status.loe_estimate),
+            pwm=np.array(status.pwm), battery=_battery_state(ap), truth=self._truth(),
+            loe=np.array(status.loe_estimate),
             health=SensorHealth(gps=healthy, ahrs=healthy, motors=not detected,
                                 prearm=nav.prearm_check().ok),
             mission_seq=progress.current_seq, mission_state=int(progress.state),
@@ -374,12 +376,25 @@ class AutopilotPort:
         if keep_mode and old_nav.mode != nav.mode:
             nav.set_mode(int(old_nav.mode))
         ap.step(t, [])
+        if keep_mode:  # a parameter change, not a restart: the charge used still counts
+            ap.battery.take_over(self.host.autopilot.battery)
         ap.drain_events()  # the rebuild's own mode/mission lines: not news to the pilot
         self.host.autopilot = ap
         self._config = config
         self.host.pwm = np.array(ap.pwm)
         self._snap = None
         return ""
+
+
+def _battery_state(ap: Autopilot) -> BatteryState:
+    """The battery monitor's view (:mod:`fcu.monitoring.battery`); NaN until a reading."""
+    mon = ap.battery
+    remaining = mon.time_remaining_s
+    return BatteryState(voltage_v=mon.voltage_v, current_a=mon.current_a,
+                        remaining=mon.remaining, healthy=mon.level != "critical",
+                        low=mon.level != "ok", consumed_mah=mon.consumed_mah,
+                        consumed_j=mon.consumed_j,
+                        time_remaining_s=None if math.isnan(remaining) else remaining)
 
 
 def _to_nav_item(item: MissionItem) -> NavItem | CommandResult:

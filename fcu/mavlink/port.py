@@ -229,12 +229,24 @@ class BatteryState:
         State of charge in [0, 1]; None when unknown.
     healthy : bool
         False below the critical voltage or on a detected battery fault.
+    low : bool
+        The battery monitor's low level was reached (BATT_LOW_VOLT / BATT_LOW_MAH).
+    consumed_mah : float or None
+        Charge used since boot, mAh; None when not measured.
+    consumed_j : float or None
+        Energy used since boot, J; None when not measured.
+    time_remaining_s : float or None
+        Time to empty at the present current, s; None when unknown.
     """
 
     voltage_v: float = 12.6
     current_a: float | None = None
     remaining: float | None = 1.0
     healthy: bool = True
+    low: bool = False
+    consumed_mah: float | None = None
+    consumed_j: float | None = None
+    time_remaining_s: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
