@@ -35,8 +35,8 @@ What each message reports
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
-from typing import TYPE_CHECKING
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -99,25 +99,59 @@ class AutopilotTelemetry:
             self._fold()
 
     def _fold(self) -> None:
-        """Take in every pending sample (module docstring)."""
-        if not self._pending:
-            return
+        """Take in every pending sample, in order (module docstring)."""
+        run: list[Any] = []  # consecutive batches of arrays (the world's)
+        for batch in self._pending:
+            if getattr(batch, "sensor_names", None) is not None:
+                run.append(batch)
+                continue
+            self._fold_arrays(run)
+            run = []
+            self._fold_samples(batch)
+        self._fold_arrays(run)
+        self._pending.clear()
+
+    def _fold_samples(self, batch: Iterable[SensorSampleLike]) -> None:
+        """Any iterable of samples, one object at a time."""
         times: list[float] = []
         accels: list[np.ndarray] = []
-        for batch in self._pending:
-            for sample in batch:
-                name = sample.sensor
-                if name == "accel":
-                    times.append(float(sample.time_s))
-                    accels.append(np.asarray(sample.value, dtype=float))
-                elif name == "gyro":
-                    self._gyro = (float(sample.time_s), np.array(sample.value, dtype=float))
-                elif name == "baro":
-                    self._baro = (float(sample.time_s), float(np.asarray(sample.value)[0]))
-        self._pending.clear()
+        for sample in batch:
+            name = sample.sensor
+            if name == "accel":
+                times.append(float(sample.time_s))
+                accels.append(np.asarray(sample.value, dtype=float))
+            elif name == "gyro":
+                self._gyro = (float(sample.time_s), np.array(sample.value, dtype=float))
+            elif name == "baro":
+                self._baro = (float(sample.time_s), float(np.asarray(sample.value)[0]))
         if accels:
             self._accel = (times[-1], np.array(accels[-1]))
             self.vibration_monitor.update(np.array(times), np.array(accels))
+
+    def _fold_arrays(self, batches: list[Any]) -> None:
+        """Batches with ``sensor_names``, ``sensor_index`` (into them), ``time_s`` and
+        ``values`` (n, 3) arrays, as :class:`sim.world.samples.SampleBatch` offers them,
+        taken in at once, with no object per sample."""
+        if not batches:
+            return
+        index = np.concatenate([b.sensor_index for b in batches])
+        time_s = np.concatenate([b.time_s for b in batches])
+        values = np.concatenate([b.values for b in batches])
+        names: Sequence[str] = batches[0].sensor_names
+        for name in ("accel", "gyro", "baro"):
+            if name not in names:
+                continue
+            rows = np.flatnonzero(index == names.index(name))
+            if rows.size == 0:
+                continue
+            last = int(rows[-1])
+            if name == "accel":
+                self._accel = (float(time_s[last]), np.array(values[last, :3]))
+                self.vibration_monitor.update(time_s[rows], values[rows, :3])
+            elif name == "gyro":
+                self._gyro = (float(time_s[last]), np.array(values[last, :3]))
+            else:
+                self._baro = (float(time_s[last]), float(values[last, 0]))
 
     def _alt_amsl_m(self) -> float:
         status = self.host.autopilot.status

@@ -31,6 +31,7 @@ voltage and the current at ``monitor_rate_hz`` with Gaussian noise from its own 
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -46,8 +47,8 @@ LIPO_OCV_V = (  # (state of charge, open-circuit voltage of one cell in V), risi
     (0.00, 3.27), (0.05, 3.61), (0.10, 3.69), (0.15, 3.71), (0.20, 3.73), (0.30, 3.77),
     (0.40, 3.79), (0.50, 3.82), (0.60, 3.87), (0.70, 3.92), (0.80, 3.99), (0.90, 4.07),
     (1.00, 4.20))
-_SOC = np.array([p[0] for p in LIPO_OCV_V])
-_OCV = np.array([p[1] for p in LIPO_OCV_V])
+_SOC = [p[0] for p in LIPO_OCV_V]
+_OCV = [p[1] for p in LIPO_OCV_V]
 AIR_DENSITY_KG_M3 = 1.225  # kg/m^3, sea level (ISA)
 MAX_PENDING_SAMPLES = 1000  # samples kept for a caller that does not drain them
 
@@ -96,8 +97,12 @@ class BatteryState:
 
 
 def open_circuit_voltage(soc: float, cells: int) -> float:
-    """Resting pack voltage at state of charge ``soc`` (0..1), V."""
-    return cells * float(np.interp(min(max(soc, 0.0), 1.0), _SOC, _OCV))
+    """Resting pack voltage at state of charge ``soc`` (0..1), V (linear between the points
+    of :data:`LIPO_OCV_V`)."""
+    soc = min(max(soc, 0.0), 1.0)
+    k = min(max(bisect.bisect_right(_SOC, soc), 1), len(_SOC) - 1)
+    s0, s1, v0, v1 = _SOC[k - 1], _SOC[k], _OCV[k - 1], _OCV[k]
+    return cells * (v0 + (v1 - v0) * (soc - s0) / (s1 - s0))
 
 
 def terminal_voltage(open_circuit_v: float, power_w: float, resistance_ohm: float) -> float:
@@ -138,8 +143,8 @@ class Battery:
     def power_w(self, thrust_n: np.ndarray) -> float:
         """Electrical power the motors and avionics draw at ``thrust_n`` (N, per motor), W,
         the avionics counted at the open-circuit voltage."""
-        induced = sum(max(float(t), 0.0) ** 1.5 for t in thrust_n) * self._induced
-        return induced + self.config.idle_current_a * self.state.open_circuit_v
+        induced = sum(max(t, 0.0) ** 1.5 for t in np.asarray(thrust_n, dtype=float).tolist())
+        return induced * self._induced + self.config.idle_current_a * self.state.open_circuit_v
 
     def _state(self, power_w: float) -> BatteryState:
         cfg = self.config
@@ -153,7 +158,10 @@ class Battery:
         """Discharge over ``dt_s`` (s) ending at ``time_s`` (s) at motor thrusts ``thrust_n``
         (N); queue the power module's samples due by ``time_s``."""
         power_w = self.power_w(thrust_n)
-        self._consumed_ah += self._state(power_w).current_a * dt_s / 3600.0
+        v_start = terminal_voltage(self.state.open_circuit_v, power_w,
+                                   self.config.internal_resistance_ohm)
+        if v_start > 0.0:  # the step discharges at the current of its start
+            self._consumed_ah += power_w / v_start * dt_s / 3600.0
         self.state = self._state(power_w)
         cfg = self.config
         while self._next_sample_s <= time_s + 1e-9:

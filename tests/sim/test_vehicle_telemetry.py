@@ -13,6 +13,7 @@ import pytest
 
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import vehicle_autopilot_config
+from fcu.mavlink.autopilot_telemetry import AutopilotTelemetry
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.port import GeoPoint
 from flightdata.atmosphere import isa_pressure_pa
@@ -149,3 +150,22 @@ def test_battery_failsafe_lands_when_the_capacity_set_by_parameter_runs_low() ->
     assert v.world.truth().on_ground
     snap = v.port.snapshot()
     assert snap.battery.low and snap.failsafe_active
+
+
+def test_the_worlds_arrays_and_plain_samples_give_the_same_readings() -> None:
+    v = vehicle()
+    take_off(v, 0.5)
+    arrays = AutopilotTelemetry(v.stack, ORIGIN)
+    objects = AutopilotTelemetry(v.stack, ORIGIN)
+    for _ in range(150):
+        v.tick()
+        arrays.observe(v.stack.samples)  # the world's batch: folded as arrays
+        objects.observe(list(v.stack.samples))  # the same samples one object each
+    a, b = arrays.vibration(), objects.vibration()
+    assert a is not None and b is not None
+    assert np.array_equal(a.vibration_m_s2, b.vibration_m_s2) and a.time_s == b.time_s
+    imu_a, imu_b = arrays.imu(), objects.imu()
+    assert imu_a is not None and imu_b is not None
+    assert np.array_equal(imu_a.accel_frd, imu_b.accel_frd)
+    assert np.array_equal(imu_a.gyro_frd, imu_b.gyro_frd)
+    assert arrays.pressure() == objects.pressure()
