@@ -196,7 +196,7 @@ def test_mavsdk_reads_and_sets_typed_parameters(start_vehicle, gcs: Gcs) -> None
             since = gcs.mark()
             assert await param_error(p.get_param_float("NO_SUCH_PARAM")) == \
                 ParamResult.TIMEOUT
-            await asyncio.sleep(0.5)  # anything still in flight
+            gcs.wait_text("Unknown parameter NO_SUCH_PARAM", since)
             assert gcs.texts(since).count("Unknown parameter NO_SUCH_PARAM") == 1
             assert not [m for m in gcs.messages("PARAM_VALUE", since=since)
                         if m.param_id == "NO_SUCH_PARAM"]
@@ -264,6 +264,7 @@ def test_mavsdk_takes_off_flies_a_mission_from_the_ground_and_injects_failures(
                     await asyncio.sleep(0.2)
 
             await bounded(finished())
+            gcs.wait("MISSION_ITEM_REACHED", lambda m: m.seq == 5, since=since)  # logged too
             reached = [m.seq for m in gcs.messages("MISSION_ITEM_REACHED", since=since)]
             assert reached == [1, 2, 3, 4, 5]
             assert any(m.custom_mode == 3 for m in gcs.messages("HEARTBEAT", since=since))
