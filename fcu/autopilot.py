@@ -13,6 +13,7 @@ Per tick (``loop_rate_hz``, 100 Hz by default)::
     disturbance observer ("none" | "vbdob" | "abdob": eq. 6.27-6.30) --> torque - d_hat
     allocator ("attitude_first": inverse eq. 3.2) --> PWM u1..u4
     CrashCheck (attitude, impact, ground contact in flight; thrust loss) --> disarm
+    BatteryMonitor (power-module samples) --> charge used, low/critical failsafe
 
 Detections (:mod:`fcu.monitoring`) are :class:`flightdata.records.DetectionRecord` data, each
 carried by an :class:`AutopilotEvent` whose text is derived from the record. A motor declared
@@ -42,16 +43,17 @@ from fcu.control.position import PositionCommand, PositionController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
-from fcu.estimation.state import StateEstimate, group_samples
+from fcu.estimation.state import SampleBatch, StateEstimate, group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.hal import SensorSampleLike
+from fcu.monitoring.battery import BatteryMonitor
 from fcu.monitoring.crash_check import CrashCheck
 from fcu.monitoring.motor_faults import MotorFaultDetector
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.navigation.guidance import Reference
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
 from flightdata.records import DetectionRecord
-from flightdata.vocabulary import FTC_MODES, SENSORS
+from flightdata.vocabulary import BATTERY_SENSOR, FTC_MODES, SENSORS
 
 # AutopilotConfig is defined in fcu.config; named here too because it is the configuration
 # of this module's Autopilot
@@ -146,6 +148,8 @@ class Autopilot:
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
         self.crash_check = CrashCheck(cfg.crash)
         self.ftc_active = cfg.ftc == "active"
+        self.battery = BatteryMonitor(cfg.battery)
+        self._grouped_kinds = self._sensor_kinds | {BATTERY_SENSOR}
         self.reset()
 
     def reset(self) -> None:
@@ -156,6 +160,7 @@ class Autopilot:
         self.sensor_health.reset()
         self.detector.reset()
         self.crash_check.reset()
+        self.battery.reset()
         self._pwm = np.zeros(4)
         self._torque_applied = np.zeros(3)
         self._thrust_n = 0.0  # N, collective commanded at the last tick
@@ -178,7 +183,8 @@ class Autopilot:
     def step(self, time_s: float, samples: Iterable[SensorSampleLike]) -> np.ndarray:
         """One control tick at ``time_s``; returns PWM u1..u4 to hold until the next tick."""
         # one averaging of the tick's samples, shared by both estimators
-        batches = group_samples(samples, self._sensor_kinds)
+        batches = group_samples(samples, self._grouped_kinds)
+        self._battery_step(time_s, batches.pop(BATTERY_SENSOR, None))
         health = self.sensor_health
         excluded = health.excluded
         for estimator in self._estimators:
@@ -294,6 +300,19 @@ class Autopilot:
         if mode not in FTC_MODES:
             raise ValueError(f"ftc = {mode!r}: must be one of {', '.join(FTC_MODES)}")
         self.ftc_active = mode == "active"
+
+    def _battery_step(self, time_s: float, batch: SampleBatch | None) -> None:
+        """The battery monitor (:mod:`fcu.monitoring.battery`) on the power module's reading;
+        a rise of its level is announced and triggers the failsafe its action names."""
+        volts = amps = None
+        if batch is not None and batch.value.shape[0] >= 2:
+            volts, amps = float(batch.value[0]), float(batch.value[1])
+        event = self.battery.step(time_s, volts, amps)
+        if event is None:
+            return
+        self._events.append(AutopilotEvent(time_s, "battery", event.text, "critical"))
+        if event.action is not None:
+            self.navigator.trigger_failsafe("battery", event.action)
 
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""

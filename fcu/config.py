@@ -13,6 +13,7 @@ from fcu.control.attitude_lqr import LqrWeights
 from fcu.control.attitude_pd import AttitudePdGains
 from fcu.control.position import PositionGains
 from fcu.model import VehicleModel
+from fcu.monitoring.battery import BatteryMonitorConfig
 from fcu.monitoring.crash_check import CrashCheckConfig
 from fcu.monitoring.motor_faults import DetectorConfig
 from fcu.monitoring.sensor_health import SensorHealthConfig
@@ -46,6 +47,7 @@ class AutopilotConfig:
     detector: DetectorConfig = field(default_factory=DetectorConfig)
     sensors: SensorHealthConfig = field(default_factory=SensorHealthConfig)
     crash: CrashCheckConfig = field(default_factory=CrashCheckConfig)
+    battery: BatteryMonitorConfig = field(default_factory=BatteryMonitorConfig)
 
     def __post_init__(self) -> None:
         for key, choices in CONFIG_CHOICES.items():

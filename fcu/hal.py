@@ -14,7 +14,11 @@ sensor         value                                 unit
 ``mocap_pos``  position (NED, home origin)           m
 ``mocap_att``  roll, pitch, yaw (ZYX Euler)          rad
 ``baro``       altitude above home (up positive)     m
+``battery``    terminal voltage, current drawn       V, A
 =============  ====================================  =======
+
+(``battery`` is the power module's, read by the battery monitor only; it is not among
+:data:`flightdata.vocabulary.SENSORS`, the sensors the estimators and faults know.)
 """
 
 from __future__ import annotations

@@ -23,6 +23,10 @@ MOTORS: tuple[int, ...] = (1, 2, 3, 4)
 SENSORS: tuple[str, ...] = ("gyro", "accel", "mocap_pos", "mocap_att", "baro")
 """Sensor names, as on every sensor sample (fcu/hal.py)."""
 
+BATTERY_SENSOR = "battery"
+"""The power module's samples (terminal voltage V, current A): read by the battery monitor,
+not by the estimators, and not a fault target (so not among :data:`SENSORS`)."""
+
 SENSOR_AXES: Mapping[str, int] = MappingProxyType(
     {"gyro": 3, "accel": 3, "mocap_pos": 3, "mocap_att": 3, "baro": 1})
 """Number of elements of each sensor's value."""

@@ -11,6 +11,7 @@ A scenario is a TOML file (the shipped ones live in ``sim/scenarios/``)::
     [airframe]                       # optional: sim.world.airframe.Airframe fields (Table 7.1)
     [wind]                           # optional: sim.world.wind.WindConfig fields
     [sensors]                        # optional: sim.world.sensors.SensorConfig fields
+    [battery]                        # optional: sim.world.battery.BatteryConfig fields
     [autopilot]                      # fcu.autopilot.AutopilotConfig fields:
     attitude = "lqg"                 #   "pd" | "lqg"
     estimator = "ekf"                #   "ekf" | "tskf"
@@ -61,7 +62,7 @@ DEFAULT_WIND = WindConfig(mean_speed_m_s=0.3, mean_from_deg=270.0, turbulence="l
                           w20_m_s=1.5)
 
 _TOP_KEYS = ("name", "description", "duration_s", "seed", "world", "airframe", "wind",
-             "sensors", "autopilot", "mission", "faults")
+             "sensors", "battery", "autopilot", "mission", "faults")
 _FAULT_TYPES = {"actuator": "motor", "sensor": "sensor", "structural": "mass_loss_kg"}
 
 
@@ -135,13 +136,14 @@ def scenario_from_mapping(data: Mapping[str, Any], default_name: str = "scenario
     if unknown:
         raise ConfigError(f"unknown key {unknown[0]}: allowed keys are {', '.join(_TOP_KEYS)}")
     world_table = dict(data.get("world", {}))
-    require("airframe" not in world_table and "wind" not in world_table
-            and "sensors" not in world_table, "world", world_table,
-            "takes plant_rate_hz only; [airframe], [wind] and [sensors] are top-level tables")
+    require(not {"airframe", "wind", "sensors", "battery"} & set(world_table), "world",
+            world_table, "takes plant_rate_hz only; [airframe], [wind], [sensors] and "
+            "[battery] are top-level tables")
     world = from_mapping(WorldConfig, {
         **world_table,
         "airframe": data.get("airframe", {}),
         "sensors": data.get("sensors", {}),
+        "battery": data.get("battery", {}),
     }, prefix="")
     wind_table = data.get("wind")
     wind = DEFAULT_WIND if wind_table is None else from_mapping(WindConfig, wind_table, "wind.")

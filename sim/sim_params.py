@@ -112,6 +112,11 @@ class SimParams:
                                 min_value=0.0, max_value=30.0,
                                 description="Dryden turbulence W20, m/s (0 none)"),
                       self._turbulence),
+            _SimParam(ParamSpec(name="SIM_BATT_CAP_AH",
+                                value=self.vehicle.world.battery.capacity_ah, min_value=0.001,
+                                max_value=1000.0, description="Capacity of the simulated "
+                                "pack, Ah (the charge used so far stays used)"),
+                      self._battery_capacity),
             _SimParam(ParamSpec(name="SIM_PAUSE", value=1 if self.start_paused else 0,
                                 min_value=0, max_value=1, allowed=(0.0, 1.0), integer=True,
                                 description="Hold simulated time (1) or run (0)"),
@@ -121,6 +126,9 @@ class SimParams:
                       lambda x: CommandResult.denied("read-only (set by --speedup at start)")),
             _SimParam(ParamSpec(name="SIM_FI_LOE", value=0.3, min_value=0.0, max_value=1.0,
                                 description="LOE of INJECT_FAILURE MOTOR WRONG/DRIFT")),
+            _SimParam(ParamSpec(name="SYS_FAILURE_EN", value=1, min_value=0, max_value=1,
+                                allowed=(0.0, 1.0), integer=True,
+                                description="MAV_CMD_INJECT_FAILURE accepted (1) or DENIED (0)")),
         ]
         for stem, (bias, rate) in FI_DEFAULTS.items():
             unit = FI_UNITS[stem]
@@ -134,6 +142,11 @@ class SimParams:
             ]
         self._params = {d.spec.name: d for d in defs}
         self._values = {d.spec.name: float(d.spec.value) for d in defs}
+
+    @property
+    def failure_injection_enabled(self) -> bool:
+        """SYS_FAILURE_EN is 1."""
+        return self._values["SYS_FAILURE_EN"] != 0.0
 
     @property
     def paused(self) -> bool:
@@ -190,6 +203,11 @@ class SimParams:
     def _mass_drop(self, mass_kg: float) -> CommandResult:
         fault = None if mass_kg == 0.0 else StructuralFault(mass_loss_kg=mass_kg)
         self.vehicle.own_fault("SIM_MASS_DROP", fault)
+        return CommandResult.ok()
+
+    def _battery_capacity(self, capacity_ah: float) -> CommandResult:
+        self.vehicle.world.battery.set_capacity(capacity_ah)
+        self.vehicle.notice(f"SIM: battery capacity {capacity_ah:g} Ah")
         return CommandResult.ok()
 
     def _wind(self, **change: Any) -> CommandResult:

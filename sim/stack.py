@@ -6,6 +6,7 @@ MAVLink endpoint serviced between ticks::
 
     first_tick():  pwm = autopilot.step(0.0, [])                   # boot, before any plant step
     tick():        samples = world.step(pwm, steps_per_tick)       # plant at plant_rate_hz
+                   samples += world.battery.drain_samples()        # power module (10 Hz)
                    pwm     = autopilot.step(world.time_s, samples)  # autopilot at loop_rate_hz
 
 The PWM computed at a tick is held (zero-order hold) over the next ``steps_per_tick`` plant
@@ -15,6 +16,7 @@ into the world happen between ticks, so a run depends only on the tick at which 
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -23,6 +25,7 @@ from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
 from fcu.navigation.navigator import Mode
 from sim.world import World, WorldConfig, WorldEvent
 from sim.world.fault_types import ActuatorFault, Fault, SensorFault
+from sim.world.samples import SensorSample
 
 
 def steps_per_tick(world: WorldConfig, autopilot: AutopilotConfig) -> int:
@@ -64,6 +67,8 @@ class SimulatedStack:
         PWM commanded at the last tick, held until the next.
     ticks : int
         Ticks since the boot tick.
+    samples : sequence of samples
+        The samples the autopilot received at the last tick (the world's batch).
     """
 
     def __init__(self, world: WorldConfig, autopilot: AutopilotConfig, seed: int,
@@ -76,6 +81,7 @@ class SimulatedStack:
         self.autopilot = Autopilot(autopilot)
         self.pwm = np.zeros(4)
         self.ticks = 0
+        self.samples: Sequence[SensorSample] = ()
         self._booted = False
 
     @property
@@ -91,8 +97,10 @@ class SimulatedStack:
 
     def tick(self) -> None:
         """``steps_per_tick`` plant steps holding the PWM, then one autopilot step."""
-        samples = self.world.step(self.pwm, self.steps_per_tick)
-        self.pwm = self.autopilot.step(self.world.time_s, samples)
+        self.samples = samples = self.world.step(self.pwm, self.steps_per_tick)
+        power = self.world.battery.drain_samples()  # the power module's, beside the sensors'
+        self.pwm = self.autopilot.step(self.world.time_s,
+                                       itertools.chain(samples, power) if power else samples)
         self.ticks += 1
 
     def drain_events(self) -> tuple[list[AutopilotEvent], list[WorldEvent]]:

@@ -33,14 +33,21 @@ SIM_MASS_DROP      kg           mass that has left the airframe (applied now; 0 
 SIM_WIND_SPD       m/s          mean wind speed
 SIM_WIND_DIR       deg          direction the mean wind blows from
 SIM_WIND_TURB      m/s          Dryden turbulence intensity W20 (0 = none)
+SIM_BATT_CAP_AH    Ah           capacity of the simulated pack (the charge used stays used)
 SIM_PAUSE          0/1          hold simulated time (the link stays up); 0 resumes
 SIM_SPEEDUP        read-only    simulated seconds per wall second (``--speedup``)
 SIM_FI_LOE         0..1         LOE of an INJECT_FAILURE MOTOR WRONG (peak of DRIFT)
 SIM_FI_<S>_BIAS    sensor unit  bias of an INJECT_FAILURE <sensor> WRONG
 SIM_FI_<S>_DRIFT   unit/s       drift rate of an INJECT_FAILURE <sensor> DRIFT
+SYS_FAILURE_EN     0/1          INJECT_FAILURE accepted (1, default) or DENIED (0)
 =================  ===========  =========================================================
 
 with ``<S>`` one of GYR (rad/s), ACC (m/s^2), MAG (heading, rad), BAR (m), GPS (m).
+``SYS_FAILURE_EN`` is PX4's name for the gate (ArduPilot SITL has none: its injection is the
+``SIM_*`` parameters); MAVSDK's Failure plugin reads it only from a PX4 vehicle, so against
+this ArduCopter-style vehicle it just sends the command and reports DENIED when the gate is
+closed. It defaults to 1 because injecting faults is what this simulator is for (the ground
+station's fault schedules use the same command).
 
 MAV_CMD_INJECT_FAILURE (420) mapping onto :mod:`sim.world.faults`
 -----------------------------------------------------------
@@ -210,6 +217,7 @@ class SimVehicle:
     def tick(self) -> None:
         """One autopilot tick (:meth:`sim.stack.SimulatedStack.tick`) and its events."""
         self.stack.tick()
+        self.port.observe(self.stack.samples)
         self._collect()
 
     def _collect(self) -> None:
@@ -293,7 +301,7 @@ class SimVehicle:
         truth = self.world.truth()
         return SimTruth(pos_ned=truth.pos_ned, vel_ned=truth.vel_ned,
                         quat_wxyz=truth.quat_wxyz, rate_frd=truth.rate_frd,
-                        accel_frd=truth.accel_frd)
+                        accel_frd=truth.accel_frd, wind_ned=truth.wind_ned)
 
     # ------------------------------------------------------------------ FailureInjector
     def inject_failure(self, unit: int, failure_type: int, instance: int,
@@ -301,6 +309,9 @@ class SimVehicle:
         """MAV_CMD_INJECT_FAILURE onto the world's fault engine (module docstring table)."""
         self.port.invalidate()
         what = f"{_UNIT_NAMES.get(unit, str(unit))} {_TYPE_NAMES.get(failure_type, '?')}"
+        if not self.sim_params.failure_injection_enabled:
+            return CommandResult.denied(f"Inject failure: {what} refused: failure injection "
+                                        "disabled (SYS_FAILURE_EN = 0)")
         if unit == _MOTOR_UNIT:
             if instance not in (0, 1, 2, 3, 4):
                 return CommandResult.denied(

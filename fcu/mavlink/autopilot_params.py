@@ -7,7 +7,11 @@ whose configuration it exposes, as ArduPilot keeps a library's parameters with t
 ``POS_XY_*``/``POS_Z_*``, the PD gains ``ATT_PD_*``, the LQR weights ``LQR_*``, the DOB cut-off,
 the fault detector's threshold, persistence and significance (``FD_*``), the crash check's
 action (``FS_CRASH_CHECK``, as ArduCopter's), and the navigator's settings under their
-ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY`` s...).
+ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY`` s,
+the battery monitor's capacity, thresholds and failsafe actions (``BATT_*``,
+:mod:`fcu.monitoring.battery`), ``AUTO_OPTIONS`` bits 0 and 1 as ArduCopter's: arming in
+AUTO, take-off in AUTO without MISSION_START; default 0 as ArduCopter's, since
+MISSION_START, which MAVSDK and QGC send to start a mission, takes off without either bit).
 :class:`fcu.mavlink.autopilot_port.AutopilotPort` applies them: a change rebuilds the
 autopilot with the new configuration, so it is accepted only disarmed on the ground, except
 the parameters with ``live_speed`` (``WPNAV_SPEED``, ``WPNAV_SPEED_UP``, ``WPNAV_SPEED_DN``),
@@ -193,6 +197,27 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
                f"auto-disarm after a landing: {NavigatorConfig().landed_disarm_delay_s:g} s, "
                "not this parameter)",
                0.0, 127.0),
+    _group_param("BATT_CAPACITY", "battery", "capacity_mah", "mAh",
+                 "Battery capacity (remaining charge, BATT_LOW_MAH)", 1.0, 1e6),
+    _group_param("BATT_LOW_VOLT", "battery", "low_volt_v", "V",
+                 "Battery low below this for BATT_LOW_TIMER (0 off)", 0.0, 100.0),
+    _group_param("BATT_LOW_MAH", "battery", "low_mah", "mAh",
+                 "Battery low when less charge remains (0 off)", 0.0, 1e6),
+    _group_param("BATT_CRT_VOLT", "battery", "critical_volt_v", "V",
+                 "Battery critical below this for BATT_LOW_TIMER (0 off)", 0.0, 100.0),
+    _group_param("BATT_CRT_MAH", "battery", "critical_mah", "mAh",
+                 "Battery critical when less charge remains (0 off)", 0.0, 1e6),
+    _group_param("BATT_FS_LOW_ACT", "battery", "low_action", "0 warn, 1 LAND, 2 RTL",
+                 "Battery low failsafe action", 0, 2, integer=True),
+    _group_param("BATT_FS_CRT_ACT", "battery", "critical_action", "0 warn, 1 LAND, 2 RTL",
+                 "Battery critical failsafe action", 0, 2, integer=True),
+    _group_param("BATT_LOW_TIMER", "battery", "low_timer_s", "s",
+                 "Voltage below a threshold this long before the failsafe", 0.0, 120.0),
+    ApParam("AUTO_OPTIONS", "AUTO mode options, bitmask: bit 0 (1) arming in AUTO allowed, "
+            "bit 1 (2) AUTO armed on the ground takes off without MISSION_START",
+            get=lambda c: float(c.navigator.auto_options),
+            set=lambda c, v: replace(c, navigator=_with(c.navigator, "auto_options", int(v))),
+            min_value=0, max_value=3, allowed=(0.0, 1.0, 2.0, 3.0), integer=True),
 )
 
 

@@ -17,17 +17,20 @@ disarmed on the ground; in flight it is refused with the reason, except ``WPNAV_
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
 from typing import Protocol
 
 import numpy as np
 
 from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
+from fcu.hal import SensorSampleLike
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
+from fcu.mavlink.autopilot_telemetry import AutopilotTelemetry
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,
+    BatteryState,
     CommandResult,
     GeoPoint,
     MissionItem,
@@ -109,6 +112,7 @@ class AutopilotPort:
         self._config = host.autopilot.config
         self._events: list[VehicleEvent] = []
         self._snap: VehicleSnapshot | None = None
+        self.telemetry = AutopilotTelemetry(host, origin)
 
     @property
     def autopilot(self) -> Autopilot:
@@ -127,6 +131,11 @@ class AutopilotPort:
             if ev.record is not None:
                 self.post_record(ev.record)
             self.post(_SEVERITY.get(ev.severity, Severity.INFO), ev.text)
+
+    def observe(self, samples: Iterable[SensorSampleLike]) -> None:
+        """After a tick: the samples the autopilot received (the extended telemetry's IMU,
+        barometer and vibration; kept unprocessed until a message needs them)."""
+        self.telemetry.observe(samples)
 
     def post(self, severity: int, text: str) -> None:
         """Queue a STATUSTEXT (the composition root's own messages go here too)."""
@@ -163,7 +172,8 @@ class AutopilotPort:
                                    euler_rad=np.zeros(3), rate_frd=np.zeros(3),
                                    origin=self.origin, home_pos_ned=nav.home_pos_ned,
                                    system_status=MavState.BOOT,
-                                   health=SensorHealth(ahrs=False, prearm=False))
+                                   health=SensorHealth(ahrs=False, prearm=False),
+                                   extended=self.telemetry)
         est = status.estimate
         healthy = bool(np.all(np.isfinite(est.pos_ned)) and np.all(np.isfinite(est.vel_ned))
                        and np.all(np.isfinite(est.euler_rad)))
@@ -197,11 +207,12 @@ class AutopilotPort:
             rate_frd=est.rate_frd, origin=self.origin, home_pos_ned=nav.home_pos_ned,
             system_status=system_status, landed_state=int(nav.landed_state),
             position_target=position_target, attitude_target=attitude_target,
-            pwm=np.array(status.pwm), truth=self._truth(), loe=np.array(status.loe_estimate),
+            pwm=np.array(status.pwm), battery=_battery_state(ap), truth=self._truth(),
+            loe=np.array(status.loe_estimate),
             health=SensorHealth(gps=healthy, ahrs=healthy, motors=not detected,
                                 prearm=nav.prearm_check().ok),
             mission_seq=progress.current_seq, mission_state=int(progress.state),
-            failsafe_active=failsafe)
+            failsafe_active=failsafe, extended=self.telemetry)
 
     # ------------------------------------------------------------------ VehiclePort: commands
     def _nav(self, what: str, result: NavResult) -> CommandResult:
@@ -371,12 +382,25 @@ class AutopilotPort:
         if keep_mode and old_nav.mode != nav.mode:
             nav.set_mode(int(old_nav.mode))
         ap.step(t, [])
+        if keep_mode:  # a parameter change, not a restart: the charge used still counts
+            ap.battery.take_over(self.host.autopilot.battery)
         ap.drain_events()  # the rebuild's own mode/mission lines: not news to the pilot
         self.host.autopilot = ap
         self._config = config
         self.host.pwm = np.array(ap.pwm)
         self._snap = None
         return ""
+
+
+def _battery_state(ap: Autopilot) -> BatteryState:
+    """The battery monitor's view (:mod:`fcu.monitoring.battery`); NaN until a reading."""
+    mon = ap.battery
+    remaining = mon.time_remaining_s
+    return BatteryState(voltage_v=mon.voltage_v, current_a=mon.current_a,
+                        remaining=mon.remaining, healthy=mon.level != "critical",
+                        low=mon.level != "ok", consumed_mah=mon.consumed_mah,
+                        consumed_j=mon.consumed_j,
+                        time_remaining_s=None if math.isnan(remaining) else remaining)
 
 
 def _to_nav_item(item: MissionItem) -> NavItem | CommandResult:

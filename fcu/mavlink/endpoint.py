@@ -201,7 +201,7 @@ class MavlinkEndpoint:
         entries += entries_from(port)
         for provider in extra_params:
             entries += entries_from(provider)
-        self._params = ParamService(ParamTable(entries), self._outbox)
+        self._params = ParamService(ParamTable(entries), self._outbox, lambda: self._wall_s)
         self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s,
                                         config.max_stream_rate_hz)
         self._mission = MissionProtocol(self._outbox, port.snapshot, port.mission_set,

@@ -290,20 +290,29 @@ def servo_output_raw(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMes
 
 
 def battery_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
-    """BATTERY_STATUS: pack voltage in cell 0 (cells unknown), remaining %, charge state."""
+    """BATTERY_STATUS: pack voltage in cell 0 (cells unknown, as ArduPilot without cell
+    monitoring), current, charge (mAh) and energy (hJ) used, remaining %, time to empty,
+    charge state (CRITICAL, LOW from the monitor's levels or under 20 %, else OK)."""
     bat = snap.battery
     voltages = [clamp_int(bat.voltage_v * 1e3, 0, UINT16_MAX - 1, UINT16_MAX)]
     voltages += [UINT16_MAX] * 9
     current_ca, remaining = _battery_ints(snap)
     if not bat.healthy:
         charge = _M.MAV_BATTERY_CHARGE_STATE_CRITICAL
-    elif 0 <= remaining < 20:
+    elif bat.low or 0 <= remaining < 20:
         charge = _M.MAV_BATTERY_CHARGE_STATE_LOW
     else:
         charge = _M.MAV_BATTERY_CHARGE_STATE_OK
+    consumed_mah = -1 if bat.consumed_mah is None else clamp_int(bat.consumed_mah, 0,
+                                                                  INT32_MAX, -1)
+    consumed_hj = -1 if bat.consumed_j is None else clamp_int(bat.consumed_j / 100.0, 0,
+                                                               INT32_MAX, -1)
+    time_left_s = 0 if bat.time_remaining_s is None else clamp_int(bat.time_remaining_s, 0,
+                                                                    INT32_MAX, 0)
     return _M.MAVLink_battery_status_message(
         0, _M.MAV_BATTERY_FUNCTION_ALL, _M.MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
-        current_ca, -1, -1, remaining, 0, charge, [0, 0, 0, 0], 0, 0)
+        current_ca, consumed_mah, consumed_hj, remaining, time_left_s, charge, [0, 0, 0, 0],
+        0, 0)
 
 
 def home_position(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
@@ -413,9 +422,23 @@ _BUILDERS: dict[int, Builder] = {
 }
 
 
+def _builders() -> dict[int, Builder]:
+    """Every builder: this module's and :mod:`fcu.mavlink.messages_extended`'s (imported
+    here, not at the top: that module builds on this one's helpers)."""
+    if not _ALL_BUILDERS:
+        from fcu.mavlink.messages_extended import EXTENDED_BUILDERS
+
+        _ALL_BUILDERS.update(_BUILDERS)
+        _ALL_BUILDERS.update(EXTENDED_BUILDERS)
+    return _ALL_BUILDERS
+
+
+_ALL_BUILDERS: dict[int, Builder] = {}
+
+
 def can_build(msg_id: int) -> bool:
     """True when ``msg_id`` can be built from a snapshot (streamed or requested)."""
-    return msg_id in _BUILDERS
+    return msg_id in _builders()
 
 
 def build_stream(msg_id: int, snap: VehicleSnapshot,
@@ -427,7 +450,7 @@ def build_stream(msg_id: int, snap: VehicleSnapshot,
     KeyError
         When ``msg_id`` has no builder (see :func:`can_build`).
     """
-    built = _BUILDERS[msg_id](snap, ctx)
+    built = _builders()[msg_id](snap, ctx)
     if built is None:
         return []
     if isinstance(built, list):

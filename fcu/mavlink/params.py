@@ -1,16 +1,30 @@
 """Parameter table and the MAVLink parameter protocol (PARAM_REQUEST_LIST/READ, PARAM_SET).
 
-Encoding: every parameter travels as MAV_PARAM_TYPE_REAL32 with C_CAST semantics (the float
-value *is* the value, also for integers; AUTOPILOT_VERSION advertises
-PARAM_ENCODE_C_CAST). Values are stored rounded to float32 so that what a ground station
-reads back is exactly what the vehicle holds.
+Encoding, as ArduPilot's: PARAM_VALUE.param_type is the parameter's type (:func:`wire_type`:
+REAL32 for a float parameter; for a whole-number one, ``ParamSpec.integer``, the smallest of
+INT8, INT16 and INT32 that holds its range, as ArduPilot declares each parameter AP_Int8,
+AP_Int16 or AP_Int32) and param_value carries the value cast to float (C_CAST: the float
+*is* the value, also for integers; AUTOPILOT_VERSION advertises PARAM_ENCODE_C_CAST, and
+MAVSDK decodes an ArduPilot vehicle's parameters this way, so ``get_param_int`` works on the
+integer ones). Values are stored rounded to float32 so that what a ground station reads back
+is exactly what the vehicle holds.
+
+PARAM_SET's param_type is ignored, as ArduPilot ignores it: the float value is taken as the
+value whatever type the sender named (pymavlink tools send REAL32 for everything, MAVSDK the
+type it read), then validated; the echo carries the parameter's own type. A sender that
+insists on a type (MAVSDK's ``set_param_float`` on an integer parameter) sees its own type
+mismatch and gives up, as it does against ArduPilot.
 
 Indices are the position in the name-sorted table: contiguous 0..count-1 and stable for the
 lifetime of the endpoint. A PARAM_SET is validated (known name, finite, whole number where
 required, inclusive range, allowed set, then the owner's own check) and always answered with
 a PARAM_VALUE carrying the value now in force; a refusal also sends a STATUSTEXT saying why.
-A PARAM_SET or PARAM_REQUEST_READ naming an unknown parameter gets a STATUSTEXT only (there
-is no value to echo).
+A PARAM_SET or PARAM_REQUEST_READ naming an unknown parameter (or an index out of range) gets
+no PARAM_VALUE, as from ArduPilot, so the client times out with its own error. The
+STATUSTEXTs of the parameter protocol (an unknown name, a refused value) are said once: the
+same text again within :data:`REPEAT_QUIET_S` of wall time is not repeated (a client retrying,
+as MAVSDK does six times, must not flood the pilot's messages; a refused PARAM_SET is still
+echoed each time with the value in force).
 """
 
 from __future__ import annotations
@@ -26,14 +40,39 @@ from fcu.mavlink.enums import Severity
 from fcu.mavlink.link import Address, Outbox
 from fcu.mavlink.port import CommandResult, ParamProvider, ParamSpec
 
-__all__ = ["ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable", "entries_from"]
+__all__ = ["REPEAT_QUIET_S", "ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable",
+           "entries_from", "wire_type"]
 
 OnChange = Callable[[float], CommandResult]
+REPEAT_QUIET_S = 30.0  # s wall, least time between two identical parameter STATUSTEXTs
+_SAID_MEMORY = 64  # texts remembered for the rate limit (oldest forgotten first)
+_INT_TYPES = ((mavlink2.MAV_PARAM_TYPE_INT8, -2**7, 2**7 - 1),
+              (mavlink2.MAV_PARAM_TYPE_INT16, -2**15, 2**15 - 1),
+              (mavlink2.MAV_PARAM_TYPE_INT32, -2**31, 2**31 - 1))
 
 
 def to_float32(value: float) -> float:
     """``value`` rounded to the nearest float32 (what REAL32 can carry)."""
     return float(np.float32(value))
+
+
+def _int_bounds(spec: ParamSpec) -> tuple[float, float]:
+    """Smallest and largest value an integer parameter can take."""
+    if spec.allowed is not None:
+        return min(spec.allowed), max(spec.allowed)
+    return spec.min_value, spec.max_value
+
+
+def wire_type(spec: ParamSpec) -> int:
+    """MAV_PARAM_TYPE of ``spec`` on the wire (module docstring): REAL32 for a float
+    parameter, the smallest of INT8/INT16/INT32 holding an integer parameter's range."""
+    if not spec.integer:
+        return int(mavlink2.MAV_PARAM_TYPE_REAL32)
+    lo, hi = _int_bounds(spec)
+    for param_type, type_lo, type_hi in _INT_TYPES:
+        if type_lo <= lo and hi <= type_hi:
+            return int(param_type)
+    return int(mavlink2.MAV_PARAM_TYPE_INT32)  # the range is clipped to INT32 by check()
 
 
 @dataclass(frozen=True, slots=True)
@@ -139,6 +178,8 @@ class ParamTable:
         value = to_float32(value)
         if spec.integer and value != round(value):
             return f"{name}: {value:g} is not a whole number"
+        if spec.integer and not _INT_TYPES[-1][1] <= value <= _INT_TYPES[-1][2]:
+            return f"{name}: {value:g} outside the INT32 range"
         if not spec.min_value <= value <= spec.max_value:
             return f"{name}: {value:g} outside {spec.min_value:g}..{spec.max_value:g}"
         if spec.allowed is not None and value not in {to_float32(a) for a in spec.allowed}:
@@ -190,11 +231,17 @@ class ParamService:
     ----------
     table : ParamTable
     outbox : Outbox
+    wall_clock : callable, optional
+        Monotonic wall-clock time, s (the rate limit of repeated STATUSTEXTs); without one,
+        each text is said once.
     """
 
-    def __init__(self, table: ParamTable, outbox: Outbox) -> None:
+    def __init__(self, table: ParamTable, outbox: Outbox,
+                 wall_clock: Callable[[], float] | None = None) -> None:
         self._table = table
         self._outbox = outbox
+        self._wall_clock = wall_clock if wall_clock is not None else (lambda: 0.0)
+        self._said: dict[str, float] = {}  # STATUSTEXT -> wall time it was last said
 
     @property
     def table(self) -> ParamTable:
@@ -206,7 +253,19 @@ class ParamService:
         name = self._table.spec_at(index).name
         return mavlink2.MAVLink_param_value_message(
             name.encode("ascii"), self._table.value_at(index),
-            mavlink2.MAV_PARAM_TYPE_REAL32, len(self._table), index)
+            wire_type(self._table.spec_at(index)), len(self._table), index)
+
+    def _say(self, text: str) -> None:
+        """STATUSTEXT ``text``, unless the same text was said less than REPEAT_QUIET_S ago."""
+        now = self._wall_clock()
+        said = self._said.get(text)
+        if said is not None and now - said < REPEAT_QUIET_S:
+            return
+        self._said.pop(text, None)
+        self._said[text] = now
+        while len(self._said) > _SAID_MEMORY:
+            del self._said[next(iter(self._said))]
+        self._outbox.status(Severity.WARNING, text)
 
     def handle_request_list(self, to: Address) -> None:
         """PARAM_REQUEST_LIST: every parameter, indices 0..count-1, to the requester."""
@@ -220,27 +279,28 @@ class ParamService:
         count = len(self._table)
         if index_req >= 0:
             if index_req >= count:
-                self._outbox.status(Severity.WARNING,
-                                    f"Param index {index_req} out of range 0..{count - 1}")
+                self._say(f"Param index {index_req} out of range 0..{count - 1}")
                 return
             self._outbox.send(self.value_message(index_req), to)
             return
         index = self._table.index_of(name)
         if index is None:
-            self._outbox.status(Severity.WARNING, f"Unknown parameter {name}")
+            self._say(f"Unknown parameter {name}")
             return
         self._outbox.send(self.value_message(index), to)
 
     def handle_set(self, msg: MAVLinkMessage) -> None:
-        """PARAM_SET: validate, apply, and always echo the value in force to every peer."""
+        """PARAM_SET: validate, apply, and always echo the value in force to every peer.
+
+        ``param_type`` is ignored (module docstring): ``param_value`` is the value."""
         name = _decode_name(msg.param_id)
         index = self._table.index_of(name)
         if index is None:
-            self._outbox.status(Severity.WARNING, f"Unknown parameter {name}")
+            self._say(f"Unknown parameter {name}")
             return
         outcome = self._table.set(name, float(msg.param_value))
         if not outcome.accepted:
-            self._outbox.status(Severity.WARNING, outcome.reason)
+            self._say(outcome.reason)
         self._outbox.send(self.value_message(index))
 
     def all_specs(self) -> Sequence[ParamSpec]:

@@ -51,6 +51,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from fcu.mavlink.enums import MavState
+from fcu.mavlink.extended import ExtendedTelemetry
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 from flightdata.records import Record
 
@@ -201,6 +202,9 @@ class SimTruth:
         True body rates, rad/s.
     accel_frd : ndarray, shape (3,)
         True specific force in the body frame, m/s^2 (what an ideal accelerometer reads).
+    wind_ned : ndarray, shape (3,), or None
+        True wind velocity at the vehicle (mean plus turbulence), NED, m/s (the velocity of
+        the air, not the direction it comes from); None when not simulated.
     """
 
     pos_ned: np.ndarray
@@ -208,6 +212,7 @@ class SimTruth:
     quat_wxyz: np.ndarray
     rate_frd: np.ndarray
     accel_frd: np.ndarray
+    wind_ned: np.ndarray | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -224,12 +229,24 @@ class BatteryState:
         State of charge in [0, 1]; None when unknown.
     healthy : bool
         False below the critical voltage or on a detected battery fault.
+    low : bool
+        The battery monitor's low level was reached (BATT_LOW_VOLT / BATT_LOW_MAH).
+    consumed_mah : float or None
+        Charge used since boot, mAh; None when not measured.
+    consumed_j : float or None
+        Energy used since boot, J; None when not measured.
+    time_remaining_s : float or None
+        Time to empty at the present current, s; None when unknown.
     """
 
     voltage_v: float = 12.6
     current_a: float | None = None
     remaining: float | None = 1.0
     healthy: bool = True
+    low: bool = False
+    consumed_mah: float | None = None
+    consumed_j: float | None = None
+    time_remaining_s: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -296,6 +313,10 @@ class VehicleSnapshot:
         :class:`MissionState`.
     failsafe_active : bool
         A vehicle failsafe (battery, detected fault, ...) is acting.
+    extended : ExtendedTelemetry or None
+        Computes the extended telemetry (IMU, pressure, vibration, EKF status, AHRS2,
+        navigation output) when one of those messages is built
+        (:mod:`fcu.mavlink.extended`); None: those messages are not sent.
     """
 
     time_s: float
@@ -319,6 +340,7 @@ class VehicleSnapshot:
     mission_seq: int = 0
     mission_state: int = MissionState.NO_MISSION
     failsafe_active: bool = False
+    extended: ExtendedTelemetry | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -363,7 +385,8 @@ class MissionItem:
 
 @dataclass(frozen=True, kw_only=True)
 class ParamSpec:
-    """Definition of one parameter exposed over MAVLink (sent as REAL32, C_CAST encoding).
+    """Definition of one parameter exposed over MAVLink (C_CAST encoding; typed REAL32, or
+    INT8/INT16/INT32 when ``integer``: :func:`fcu.mavlink.params.wire_type`).
 
     Attributes
     ----------

@@ -18,20 +18,25 @@ default). HEARTBEAT cannot be stopped. A stream is sent at most once per tick, s
 ``max_rate_hz`` (the autopilot's loop rate) is clamped to it, as ArduPilot caps message rates
 at its main loop rate; :meth:`StreamScheduler.rate_hz` reports the rate in force.
 
-ArduPilot stream groups (GCS_MAVLink ap_message groups, restricted to what we send)
------------------------------------------------------------------------------------
+ArduPilot stream groups (ArduCopter's GCS_Mavlink.cpp STREAM_*_msgs, restricted to what we
+send, plus our own messages where they fit)
+-----------------------------------------------------------------------------------------
 ==================  ===================================================================
-RAW_SENSORS 1       (none: no raw IMU messages are sent)
-EXTENDED_STATUS 2   SYS_STATUS, GPS_RAW_INT, MISSION_CURRENT, EXTENDED_SYS_STATE,
-                    POSITION_TARGET_LOCAL_NED
-RC_CHANNELS 3       SERVO_OUTPUT_RAW
+RAW_SENSORS 1       RAW_IMU, SCALED_IMU (the one IMU scaled: ArduCopter's slot for a
+                    second IMU, SCALED_IMU2), SCALED_PRESSURE
+EXTENDED_STATUS 2   SYS_STATUS, GPS_RAW_INT, MISSION_CURRENT, NAV_CONTROLLER_OUTPUT,
+                    EXTENDED_SYS_STATE, POSITION_TARGET_LOCAL_NED
+RC_CHANNELS 3       SERVO_OUTPUT_RAW, RC_CHANNELS
 POSITION 6          GLOBAL_POSITION_INT, LOCAL_POSITION_NED
-EXTRA1 10           ATTITUDE, ATTITUDE_QUATERNION, ATTITUDE_TARGET, SIM_STATE
+EXTRA1 10           ATTITUDE, ATTITUDE_QUATERNION, ATTITUDE_TARGET, SIM_STATE, AHRS2
 EXTRA2 11           VFR_HUD
-EXTRA3 12           SYSTEM_TIME, BATTERY_STATUS, NAMED_VALUE_FLOAT (LOE1..LOE4)
+EXTRA3 12           SYSTEM_TIME, WIND, BATTERY_STATUS, EKF_STATUS_REPORT, VIBRATION,
+                    NAMED_VALUE_FLOAT (LOE1..LOE4)
 ALL 0               every group
 ==================  ===================================================================
 HOME_POSITION belongs to no group (SET_MESSAGE_INTERVAL and REQUEST_MESSAGE only).
+The extended messages (RAW_IMU ... VIBRATION, :mod:`fcu.mavlink.messages_extended`) are
+computed when they are due, so their cost follows these rates.
 """
 
 from __future__ import annotations
@@ -64,25 +69,39 @@ DEFAULT_RATES_HZ: Mapping[int, float] = {
     _M.MAVLINK_MSG_ID_ATTITUDE_TARGET: 10.0,
     _M.MAVLINK_MSG_ID_SIM_STATE: 10.0,
     _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: 2.0,
+    _M.MAVLINK_MSG_ID_RAW_IMU: 2.0,
+    _M.MAVLINK_MSG_ID_SCALED_IMU: 2.0,
+    _M.MAVLINK_MSG_ID_SCALED_PRESSURE: 2.0,
+    _M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: 2.0,
+    _M.MAVLINK_MSG_ID_RC_CHANNELS: 2.0,
+    _M.MAVLINK_MSG_ID_AHRS2: 4.0,
+    _M.MAVLINK_MSG_ID_WIND: 1.0,
+    _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
+    _M.MAVLINK_MSG_ID_VIBRATION: 1.0,
 }
 """Default stream rates, Hz of simulated time, by message id."""
 
 STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
-    _M.MAV_DATA_STREAM_RAW_SENSORS: (),
+    _M.MAV_DATA_STREAM_RAW_SENSORS: (
+        _M.MAVLINK_MSG_ID_RAW_IMU, _M.MAVLINK_MSG_ID_SCALED_IMU,
+        _M.MAVLINK_MSG_ID_SCALED_PRESSURE),
     _M.MAV_DATA_STREAM_EXTENDED_STATUS: (
         _M.MAVLINK_MSG_ID_SYS_STATUS, _M.MAVLINK_MSG_ID_GPS_RAW_INT,
-        _M.MAVLINK_MSG_ID_MISSION_CURRENT, _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE,
-        _M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED),
-    _M.MAV_DATA_STREAM_RC_CHANNELS: (_M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,),
+        _M.MAVLINK_MSG_ID_MISSION_CURRENT, _M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT,
+        _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, _M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED),
+    _M.MAV_DATA_STREAM_RC_CHANNELS: (
+        _M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, _M.MAVLINK_MSG_ID_RC_CHANNELS),
     _M.MAV_DATA_STREAM_POSITION: (
         _M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, _M.MAVLINK_MSG_ID_LOCAL_POSITION_NED),
     _M.MAV_DATA_STREAM_EXTRA1: (
         _M.MAVLINK_MSG_ID_ATTITUDE, _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION,
-        _M.MAVLINK_MSG_ID_ATTITUDE_TARGET, _M.MAVLINK_MSG_ID_SIM_STATE),
+        _M.MAVLINK_MSG_ID_ATTITUDE_TARGET, _M.MAVLINK_MSG_ID_SIM_STATE,
+        _M.MAVLINK_MSG_ID_AHRS2),
     _M.MAV_DATA_STREAM_EXTRA2: (_M.MAVLINK_MSG_ID_VFR_HUD,),
     _M.MAV_DATA_STREAM_EXTRA3: (
-        _M.MAVLINK_MSG_ID_SYSTEM_TIME, _M.MAVLINK_MSG_ID_BATTERY_STATUS,
-        _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT),
+        _M.MAVLINK_MSG_ID_SYSTEM_TIME, _M.MAVLINK_MSG_ID_WIND,
+        _M.MAVLINK_MSG_ID_BATTERY_STATUS, _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT,
+        _M.MAVLINK_MSG_ID_VIBRATION, _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT),
 }
 """REQUEST_DATA_STREAM stream id -> message ids (MAV_DATA_STREAM_ALL = 0 means all)."""
 

@@ -4,8 +4,10 @@ Pre-arm checks, in order (:func:`prearm_check`): a state estimate exists, no fai
 active, the estimator is healthy, there is a position fix, nothing the autopilot's health
 monitor reported blocks it (a motor detected failed), the vehicle looks on the ground
 (:func:`fcu.navigation.landing.looks_on_ground`), the mode allows arming
-(``armable_modes``). :meth:`fcu.navigation.navigator.Navigator.arm` refuses with the first
-failing check's reason unless forced; telemetry reports the same verdict (SYS_STATUS
+(``armable_modes``; AUTO when AUTO_OPTIONS bit 0 is set, and then only with a mission whose
+next NAV item is a take-off, as ArduCopter's "Auto mode not armable").
+:meth:`fcu.navigation.navigator.Navigator.arm` refuses with the first failing check's reason
+unless forced; telemetry reports the same verdict (SYS_STATUS
 pre-arm bit) through :meth:`~fcu.navigation.navigator.Navigator.prearm_check`.
 
 Auto-disarm (:func:`auto_disarm_reason`) follows ``landed_disarm_delay_s`` after landing (or
@@ -41,7 +43,8 @@ class PrearmCheck:
 def prearm_check(*, has_estimate: bool, failsafe_sources: Collection[str],
                  estimator_healthy: bool, on_ground: bool, est_pos_ned: np.ndarray,
                  est_vel_ned: np.ndarray, mode: Mode, config: NavigatorConfig,
-                 position_fix: bool = True, blockers: Collection[str] = ()) -> PrearmCheck:
+                 position_fix: bool = True, blockers: Collection[str] = (),
+                 auto_start_problem: str = "") -> PrearmCheck:
     """The pre-arm checks of the module docstring, first failure first.
 
     Parameters
@@ -64,6 +67,8 @@ def prearm_check(*, has_estimate: bool, failsafe_sources: Collection[str],
         Position measurements are trusted.
     blockers : collection of str
         Reasons from the autopilot's health monitor that forbid arming.
+    auto_start_problem : str
+        Why the loaded mission cannot start from the ground ("" when it can; read in AUTO).
     """
     if not has_estimate:
         return PrearmCheck(False, "no state estimate yet")
@@ -78,9 +83,13 @@ def prearm_check(*, has_estimate: bool, failsafe_sources: Collection[str],
     if not on_ground:
         return PrearmCheck(False, f"not on the ground (altitude {-est_pos_ned[2]:.2f} m, "
                            f"vertical speed {est_vel_ned[2]:.2f} m/s)")
-    if int(mode) not in config.armable_modes:
+    if not config.allows_arming_in(mode):
         allowed = ", ".join(mode_name(m) for m in config.armable_modes)
-        return PrearmCheck(False, f"mode {mode.name} does not allow arming (use {allowed})")
+        hint = "; AUTO_OPTIONS bit 0 allows AUTO" if mode == Mode.AUTO else ""
+        return PrearmCheck(False, f"mode {mode.name} does not allow arming (use {allowed}"
+                           f"{hint})")
+    if mode == Mode.AUTO and auto_start_problem:
+        return PrearmCheck(False, f"AUTO: {auto_start_problem}")
     return PrearmCheck(True)
 
 

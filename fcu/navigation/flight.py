@@ -95,6 +95,25 @@ class FlightLegs:
         return self._leg.kind if self._flying and self._leg is not None else ""
 
     @property
+    def leg_endpoints(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where the current leg started and where it ends (m, NED), or None when not flying
+        or holding the altitude only: a landing ends on the ground below its start, a hold
+        at its hold point. NAV_CONTROLLER_OUTPUT's distance and cross-track error."""
+        leg = self._leg
+        if not self._flying or leg is None or leg.trajectory is None:
+            return None
+        traj = leg.trajectory
+        start = traj.evaluate(traj.start_time_s).pos_ned
+        if leg.target_pos_ned is not None:
+            end = leg.target_pos_ned
+        elif leg.kind == "land":
+            end = np.array([start[0], start[1], 0.0])
+        else:
+            end_s = traj.end_time_s  # a hold never ends: it stays where it started
+            end = traj.evaluate(end_s if math.isfinite(end_s) else traj.start_time_s).pos_ned
+        return np.array(start, dtype=float), np.array(end, dtype=float)
+
+    @property
     def home_pos_ned(self) -> np.ndarray:
         """Home position, NED, m (a copy)."""
         return self._home_pos_ned.copy()

@@ -229,6 +229,19 @@ class MissionExecution(FlightLegs):
                     seq=mission.current_index + 1)
         self._start_item(mission.current_index, t)
 
+    def _ground_start_problem(self) -> str:
+        """Why the mission cannot start from the ground now ("" when it can): as ArduCopter
+        ("Auto: Missing Takeoff Cmd"), the next NAV item must be a take-off."""
+        mission = self._mission
+        if not mission.items:
+            return "no mission loaded"
+        index = 0 if mission.complete else mission.current_index
+        nav = mission.first_nav_index(index)
+        if nav is not None and mission.items[nav].command == "takeoff":
+            return ""
+        what = "none" if nav is None else f"item {nav + 1} is {mission.items[nav].describe()}"
+        return f"on the ground the next NAV item must be NAV_TAKEOFF ({what})"
+
     def mission_progress(self) -> MissionProgress:
         """Current seq, total, state and items reached (for MISSION_CURRENT/ITEM_REACHED)."""
         return self._mission.progress(self._mission_running())

@@ -48,7 +48,7 @@ from fcu.navigation.modes import (
     Mode,
     mode_name,
 )
-from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
+from fcu.navigation.settings import AUTO_TAKEOFF_WITHOUT_START, TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 from flightdata.mission import MissionItem
 
@@ -272,6 +272,10 @@ class Navigator(MissionExecution):
             return self._refuse(what, "no position fix")
         if mode == Mode.AUTO and not self._mission.items:
             return self._refuse(what, "no mission loaded")
+        if mode == Mode.AUTO and self._armed and not self._flying:
+            problem = self._ground_start_problem()
+            if problem:
+                return self._refuse(what, problem)
         self._enter_mode(mode, "")
         return self._ok()
 
@@ -286,8 +290,18 @@ class Navigator(MissionExecution):
         if not (self._armed and self._flying):
             if self._armed and MODE_TABLE[mode].lands:
                 self._ground_since_s = t
+            self._auto_takeoff_without_start(t)
             return
         self._start_mode_behaviour(t)
+
+    def _auto_takeoff_without_start(self, t: float) -> None:
+        """Armed on the ground in AUTO: with AUTO_OPTIONS bit 1 the mission (its take-off)
+        starts at once; without it, MISSION_START starts it (ArduCopter's throttle raise)."""
+        if self._mode == Mode.AUTO and self._armed and not self._flying and \
+                not self._mission.active and \
+                self.config.auto_options & AUTO_TAKEOFF_WITHOUT_START and \
+                not self._ground_start_problem():
+            self._resume_mission(t)
 
     def _start_mode_behaviour(self, t: float) -> None:
         """Start what the current mode does in flight, from the current reference."""
@@ -325,7 +339,9 @@ class Navigator(MissionExecution):
                             on_ground=self._looks_on_ground(), est_pos_ned=self._est_pos_ned,
                             est_vel_ned=self._est_vel_ned, mode=self._mode, config=self.config,
                             position_fix=self._position_fix,
-                            blockers=tuple(self._blockers.values()))
+                            blockers=tuple(self._blockers.values()),
+                            auto_start_problem=self._ground_start_problem()
+                            if self._mode == Mode.AUTO else "")
 
     def arm(self, force: bool = False) -> CommandResult:
         """Arm (COMPONENT_ARM_DISARM p1=1; ``force`` for p2=21196 skips the checks).
@@ -347,6 +363,8 @@ class Navigator(MissionExecution):
             # Force-armed in the air: fly the current mode from where the vehicle is.
             self._flying = True
             self._start_mode_behaviour(t)
+        else:
+            self._auto_takeoff_without_start(t)
         return self._ok()
 
     def disarm(self, force: bool = False) -> CommandResult:
@@ -480,22 +498,22 @@ class Navigator(MissionExecution):
         """MISSION_START: switch to AUTO (if needed) and run from the current item.
 
         Refused without a mission, when disarmed, and on the ground unless the next NAV
-        item is a take-off. A complete mission restarts from item 1.
+        item is a take-off. A complete mission restarts from item 1. On the ground it is
+        what starts the take-off of an AUTO mission (ArduCopter's MISSION_START sets
+        "auto-armed", the throttle raise a pilot would give; AUTO_OPTIONS bit 1 makes AUTO
+        take off without it).
         """
         mission = self._mission
         if not mission.items:
             return self._refuse("mission start", "no mission loaded")
         if not self._armed:
             return self._refuse("mission start", "not armed")
+        if not self._flying:
+            problem = self._ground_start_problem()
+            if problem:
+                return self._refuse("mission start", problem)
         if mission.complete:
             mission.reset_progress()
-        if not self._flying:
-            nav = mission.first_nav_index(mission.current_index)
-            if nav is None or mission.items[nav].command != "takeoff":
-                what = "none" if nav is None else \
-                    f"item {nav + 1} is {mission.items[nav].describe()}"
-                return self._refuse("mission start", "on the ground the next NAV item must "
-                                    f"be NAV_TAKEOFF ({what})")
         if self._mode != Mode.AUTO:
             result = self.set_mode(Mode.AUTO)
             if not result.accepted:

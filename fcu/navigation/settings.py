@@ -5,10 +5,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from fcu.navigation.guidance import SpeedLimits
-from fcu.navigation.modes import SUPPORTED_MODE_NUMBERS
+from fcu.navigation.modes import SUPPORTED_MODE_NUMBERS, Mode
 from flightdata.config import finite, require
 
 TIME_TOL_S = 1e-6  # s, slack when comparing step times with planned times (float sums)
+AUTO_ALLOW_ARMING = 1  # AUTO_OPTIONS bit 0: arming in AUTO is allowed
+AUTO_TAKEOFF_WITHOUT_START = 2  # AUTO_OPTIONS bit 1: AUTO on the ground takes off by itself
+AUTO_OPTIONS_MAX = AUTO_ALLOW_ARMING | AUTO_TAKEOFF_WITHOUT_START
 
 @dataclass(frozen=True, kw_only=True)
 class NavigatorConfig:
@@ -36,6 +39,9 @@ class NavigatorConfig:
     armable_modes: tuple[int, ...] = (0, 2, 4, 5)  # STABILIZE, ALT_HOLD, GUIDED, LOITER
     position_timeout_s: float = 3.0  # s holding attitude and height without a position fix
     # before landing [FS_POS_TIMEOUT]
+    auto_options: int = 0  # bitmask [AUTO_OPTIONS]: bit 0 arming in AUTO allowed, bit 1 AUTO
+    # armed on the ground takes off without MISSION_START (ArduCopter's "without raising the
+    # throttle": there is no throttle stick here, MISSION_START is the only other trigger)
 
     def __post_init__(self) -> None:
         supported = SUPPORTED_MODE_NUMBERS
@@ -57,8 +63,17 @@ class NavigatorConfig:
                 "home_pos_ned", self.home_pos_ned, "must be three finite numbers (m, NED)")
         require(all(m in supported for m in self.armable_modes), "armable_modes",
                 self.armable_modes, f"must be mode numbers among {sorted(supported)}")
+        require(isinstance(self.auto_options, int) and not isinstance(self.auto_options, bool)
+                and 0 <= self.auto_options <= AUTO_OPTIONS_MAX, "auto_options",
+                self.auto_options, f"must be a bitmask in 0..{AUTO_OPTIONS_MAX}")
         require(self.rtl_alt_m <= self.max_alt_m, "rtl_alt_m", self.rtl_alt_m,
                 f"must be <= max_alt_m ({self.max_alt_m})")
+
+    def allows_arming_in(self, mode: int) -> bool:
+        """Arming is allowed in ``mode`` (``armable_modes``; AUTO with AUTO_OPTIONS bit 0)."""
+        if int(mode) in self.armable_modes:
+            return True
+        return int(mode) == int(Mode.AUTO) and bool(self.auto_options & AUTO_ALLOW_ARMING)
 
     def speed_limits(self) -> SpeedLimits:
         """The guidance limits these settings describe."""

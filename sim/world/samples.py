@@ -5,8 +5,9 @@ structured array (:data:`SAMPLE_RECORD`), in the order they were taken (by plant
 :data:`sim.world.fault_types.SENSOR_NAMES` order). It is a sequence of :class:`SensorSample`
 objects made on demand, so anything that iterates over samples and reads ``.sensor``,
 ``.time_s`` and ``.value`` (the autopilot's ``fcu.hal.SensorSampleLike``) works unchanged;
-code that wants no object per sample reads :attr:`SampleBatch.sensor_index`,
-:attr:`SampleBatch.time_s` and :attr:`SampleBatch.values` instead.
+code that wants no object per sample reads :attr:`SampleBatch.sensor_index` (into
+:attr:`SampleBatch.sensor_names`), :attr:`SampleBatch.time_s` and :attr:`SampleBatch.values`
+instead.
 """
 
 from __future__ import annotations
@@ -48,6 +49,8 @@ class SampleBatch(Sequence[SensorSample]):
     """
 
     __slots__ = ("records",)
+    sensor_names: tuple[str, ...] = SENSOR_NAMES
+    """The names :attr:`sensor_index` indexes (for readers of the arrays)."""
 
     def __init__(self, records: np.ndarray) -> None:
         if records.dtype != SAMPLE_RECORD or records.ndim != 1:

@@ -13,6 +13,9 @@ Per plant step ``k`` (time ``t_k = k dt``)::
     f_b   = specific_force(x, wind, m)                  # every accel_every steps
     samples += sensors.sample(k + 1, t_{k+1}, x, f_b)   # those due at t_{k+1}, then faults
 
+and once per :meth:`World.step` call the battery discharges at the motors' thrust
+(:mod:`sim.world.battery`).
+
 Two ways to take a step, one state
 ----------------------------------
 That loop, written with the parts' Python methods, is the reference (``World._step_python``).
@@ -42,6 +45,7 @@ import numpy as np
 
 from flightdata.config import finite, require
 from sim.world.airframe import Airframe
+from sim.world.battery import Battery, BatteryConfig
 from sim.world.dynamics import (
     POS_NED,
     QUAT_WXYZ,
@@ -68,6 +72,7 @@ class WorldConfig:
     airframe: Airframe = field(default_factory=Airframe)
     wind: WindConfig = field(default_factory=WindConfig)
     sensors: SensorConfig = field(default_factory=SensorConfig)
+    battery: BatteryConfig = field(default_factory=BatteryConfig)
 
     def __post_init__(self) -> None:
         require(finite(self.plant_rate_hz) and 500.0 <= self.plant_rate_hz <= 20000.0,
@@ -131,6 +136,9 @@ class World:
     wind : DrydenWind
         Replaced by :meth:`set_wind`.
     sensors : SensorSuite
+    battery : Battery
+        The flight battery, stepped once per :meth:`step` call; its power-module samples
+        are drained separately (``battery.drain_samples()``), beside the sensor batch.
     faults : FaultEngine
         Schedule, apply and clear faults here (between steps).
     kernel_state : numpy.ndarray
@@ -163,7 +171,9 @@ class World:
         self._build_random_parts()
 
     def _build_random_parts(self) -> None:
-        wind_ss, sensor_ss, fault_ss = np.random.SeedSequence(self.seed).spawn(3)
+        # a fourth child for the battery: the first three are those of spawn(3), as before
+        wind_ss, sensor_ss, fault_ss, battery_ss = np.random.SeedSequence(self.seed).spawn(4)
+        self.battery = Battery(self.config.battery, np.random.default_rng(battery_ss))
         self.faults = FaultEngine(np.random.default_rng(fault_ss), self.config.airframe.pwm_max,
                                   self.config.airframe.mass)
         self.wind = DrydenWind(self.config.wind, self.dt_s, np.random.default_rng(wind_ss))
@@ -228,6 +238,7 @@ class World:
         else:
             m = self._steps_compiled(pwm, n_steps, m)
         self._samples_used = m
+        self.battery.step(self.time_s, n_steps * self.dt_s, self.plant.state[THRUST_N])
         return SampleBatch.wrap(self._samples_read_only[first:m])
 
     def _steps_compiled(self, pwm: np.ndarray, n_steps: int, m: int) -> int:

@@ -30,7 +30,10 @@ EXPECTED_PARAMS = {
     "SIM_ENGINE_FAIL", "SIM_ENGINE_MUL", "SIM_MOT1_LOE", "SIM_MOT4_LOE", "SIM_BARO_GLITCH",
     "SIM_BARO_DRIFT", "SIM_BARO_FREEZE", "SIM_MASS_DROP", "SIM_WIND_SPD", "SIM_WIND_DIR",
     "SIM_WIND_TURB", "SIM_SPEEDUP", "SIM_PAUSE", "SIM_FI_LOE", "SIM_FI_BAR_BIAS",
+    "SYS_FAILURE_EN", "AUTO_OPTIONS",
 }
+PARAM_TYPES = {M.MAV_PARAM_TYPE_REAL32, M.MAV_PARAM_TYPE_INT8, M.MAV_PARAM_TYPE_INT16,
+               M.MAV_PARAM_TYPE_INT32}  # as ArduPilot types its parameters
 
 
 @pytest.fixture(scope="module")
@@ -145,7 +148,7 @@ def test_parameter_list_is_complete_and_contiguous(ground: tuple[VehicleProcess,
         for m in gcs.messages("PARAM_VALUE", since=since):
             counts.add(int(m.param_count))
             assert seen.setdefault(int(m.param_index), m.param_id) == m.param_id
-            assert m.param_type == M.MAV_PARAM_TYPE_REAL32
+            assert m.param_type in PARAM_TYPES, (m.param_id, m.param_type)
             assert math.isfinite(m.param_value), m.param_id
         if counts and len(seen) >= max(counts):
             break

@@ -275,6 +275,42 @@ class Gcs:
             entries = self.log[since:]
         return [e.msg for e in entries if kinds is None or e.msg.get_type() in kinds]
 
+    def texts(self, since: int = 0) -> list[str]:
+        """STATUSTEXTs received (from log index ``since``), chunks joined: a text longer than
+        50 characters arrives as chunks sharing an id, the last one shorter than 50."""
+        out: list[str] = []
+        partial: dict[int, list[str]] = {}
+        for msg in self.messages("STATUSTEXT", since):
+            if msg.id == 0:
+                out.append(msg.text)
+                continue
+            chunks = partial.setdefault(msg.id, [])
+            chunks.append(msg.text)
+            if len(msg.text) < 50:
+                out.append("".join(partial.pop(msg.id)))
+        return out
+
+    def wait_text(self, part: str, since: int, timeout_s: float = ANSWER_S) -> str:
+        """The first STATUSTEXT (chunks joined) after log index ``since`` containing ``part``.
+
+        Raises
+        ------
+        TimeoutError
+            None arrived within ``timeout_s`` wall seconds.
+        """
+        deadline = time.monotonic() + timeout_s
+        while True:
+            found = [text for text in self.texts(since) if part in text]
+            if found:
+                return found[0]
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise TimeoutError(f"no STATUSTEXT with {part!r} within {timeout_s} s")
+            if self._thread is None:
+                self.pump(min(left, 0.1))
+            else:
+                time.sleep(min(left, 0.02))
+
     def mark(self) -> int:
         """Index of the next message to arrive (for :meth:`messages` / :meth:`wait`)."""
         with self._lock:

@@ -72,3 +72,15 @@ def test_sensor_and_mass_parameters_say_what_they_did(vehicle: SimVehicle) -> No
         "SIM: changed baro: bias 0.1 -> bias 0.2"]
     assert texts_after(vehicle, ("SIM_BARO_GLITCH", 0.0)) == ["SIM: cleared baro: bias 0.2"]
     assert texts_after(vehicle, ("SIM_MASS_DROP", 0.3)) == ["SIM: set airframe: loses 0.3 kg"]
+
+
+def test_sys_failure_en_0_denies_injection_and_1_allows_it(vehicle: SimVehicle) -> None:
+    assert vehicle.sim_params.value("SYS_FAILURE_EN") == 1.0  # the default: injection on
+    assert vehicle.sim_params.set_param("SYS_FAILURE_EN", 0.0).accepted
+    refused = vehicle.inject_failure(MOTOR, WRONG, 1)
+    assert not refused.accepted and not refused.unsupported  # DENIED, not UNSUPPORTED
+    assert "SYS_FAILURE_EN = 0" in refused.reason
+    assert vehicle.world.faults.scheduled() == []
+    assert vehicle.sim_params.set_param("SYS_FAILURE_EN", 1.0).accepted
+    assert vehicle.inject_failure(MOTOR, WRONG, 1).accepted
+    assert vehicle.world.faults.true_loe(vehicle.time_s)[0] == pytest.approx(0.3)

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import pytest
 from mavlink_testkit import Gcs, started
 
 from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.params import ParamEntry, ParamTable
+from fcu.mavlink.params import ParamEntry, ParamTable, wire_type
 from fcu.mavlink.port import CommandResult, ParamSpec
 
 M = mavlink2
@@ -52,6 +54,26 @@ def test_table_stores_float32() -> None:
     assert outcome.accepted and outcome.value == float(np.float32(0.1))
 
 
+@pytest.mark.parametrize("spec, wire", [
+    (ParamSpec(name="F", value=0.5), M.MAV_PARAM_TYPE_REAL32),
+    (ParamSpec(name="B", value=1, min_value=-128, max_value=127, integer=True),
+     M.MAV_PARAM_TYPE_INT8),
+    (ParamSpec(name="S", value=1, min_value=0, max_value=255, integer=True),
+     M.MAV_PARAM_TYPE_INT16),
+    (ParamSpec(name="E", value=1, allowed=(0, 40000), integer=True), M.MAV_PARAM_TYPE_INT32),
+    (ParamSpec(name="U", value=1, integer=True), M.MAV_PARAM_TYPE_INT32),
+])
+def test_wire_type_is_the_smallest_integer_type_holding_the_range(spec: ParamSpec,
+                                                                   wire: int) -> None:
+    assert wire_type(spec) == wire
+
+
+def test_an_unbounded_integer_is_kept_within_int32() -> None:
+    t = ParamTable([ParamEntry(ParamSpec(name="U", value=1, integer=True))])
+    assert "INT32" in t.set("U", 2.0**31).reason
+    assert t.set("U", -(2.0**31)).accepted
+
+
 def test_duplicate_names_and_long_names_are_refused() -> None:
     spec = ParamSpec(name="X", value=0.0)
     with pytest.raises(ValueError, match="twice"):
@@ -73,7 +95,13 @@ def test_param_list_is_complete_and_contiguous() -> None:
     assert {v.param_count for v in values} == {len(expected)}
     assert {v.param_id: v.param_index for v in values} == \
         {name: i for i, name in enumerate(expected)}
-    assert all(v.param_type == M.MAV_PARAM_TYPE_REAL32 for v in values)
+    specs = {name: vehicle.endpoint.params.spec_at(i) for i, name in enumerate(expected)}
+    types = {v.param_id: v.param_type for v in values}
+    # typed as ArduPilot types them: integers INT8/16/32 (C_CAST value), floats REAL32
+    assert {name for name, t in types.items() if t == M.MAV_PARAM_TYPE_REAL32} == \
+        {name for name, spec in specs.items() if not spec.integer}
+    assert types["FS_GCS_ENABLE"] == M.MAV_PARAM_TYPE_INT8  # 0..5
+    assert types["SYSID_MYGCS"] == M.MAV_PARAM_TYPE_INT16  # 1..255: beyond INT8
     names = {v.param_id for v in values}
     assert {"SYSID_THISMAV", "SYSID_MYGCS", "FS_GCS_ENABLE", "FS_GCS_TIMEOUT",
             "WPNAV_SPEED"} <= names
@@ -152,6 +180,55 @@ def test_param_set_unknown_name_gets_a_statustext() -> None:
             vehicle.stop()
     assert text is not None and "Unknown parameter" in text.text
     assert echoes == []
+
+
+def test_repeated_unknown_reads_get_one_statustext_and_no_value() -> None:
+    # MAVSDK retries a read six times before its own time-out: one line for the pilot
+    log: list = []
+
+    def until(done: Callable[[Any], bool]) -> Callable[[Any], bool]:
+        def record(msg: Any) -> bool:
+            log.append(msg)
+            return done(msg)
+        return record
+
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            for _ in range(6):
+                gcs.mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)
+            gcs.mav.param_request_read_send(1, 1, b"FS_GCS_TIMEOUT", -1)  # answered after them
+            known = gcs.recv(["PARAM_VALUE", "STATUSTEXT"], condition=until(
+                lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == "FS_GCS_TIMEOUT"))
+            gcs.mav.param_request_read_send(1, 1, b"OTHER_UNKNOWN", -1)
+            other = gcs.recv(["PARAM_VALUE", "STATUSTEXT"], condition=until(
+                lambda m: m.get_type() == "STATUSTEXT" and "OTHER_UNKNOWN" in m.text))
+            log += gcs.collect(["STATUSTEXT", "PARAM_VALUE"], 0.5)
+        finally:
+            vehicle.stop()
+    assert known is not None and other is not None  # another unknown name is still reported
+    texts = [m.text for m in log if m.get_type() == "STATUSTEXT"]
+    assert texts.count("Unknown parameter NO_SUCH_PARAM") == 1
+    assert not [m for m in log if m.get_type() == "PARAM_VALUE"
+                and m.param_id in ("NO_SUCH_PARAM", "OTHER_UNKNOWN")]
+
+
+def test_param_set_ignores_the_type_field_and_echoes_the_parameter_type() -> None:
+    # ArduPilot ignores PARAM_SET.param_type: REAL32 sent for an INT8 parameter is applied
+    with Gcs() as gcs:
+        vehicle = started(gcs)
+        try:
+            gcs.mav.param_set_send(1, 1, b"FS_GCS_ENABLE", 1.0, M.MAV_PARAM_TYPE_REAL32)
+            echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "FS_GCS_ENABLE")
+            gcs.mav.param_set_send(1, 1, b"FS_GCS_TIMEOUT", 7.0, M.MAV_PARAM_TYPE_INT8)
+            echo_float = gcs.recv("PARAM_VALUE",
+                                  condition=lambda m: m.param_id == "FS_GCS_TIMEOUT")
+        finally:
+            vehicle.stop()
+    assert echo is not None and (echo.param_value, echo.param_type) == (1.0,
+                                                                        M.MAV_PARAM_TYPE_INT8)
+    assert echo_float is not None and (echo_float.param_value, echo_float.param_type) == \
+        (7.0, M.MAV_PARAM_TYPE_REAL32)
 
 
 def test_param_set_int_type_is_c_cast() -> None:
