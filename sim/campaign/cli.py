@@ -32,10 +32,15 @@ import sys
 import webbrowser
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, NoReturn
 
 from flightdata.config import ConfigError
-from sim.campaign.expand import expand, largest_fault_count
+from sim.campaign.expand import RunSpec, expand, largest_fault_count
 from sim.campaign.spec import load_campaign, shipped_campaigns
+
+if TYPE_CHECKING:
+    from sim.campaign.engine import Summary
+    from sim.campaign.store import ResultStore
 
 EXIT_ERRORS = 1
 EXIT_UNFLOWN = 3
@@ -51,7 +56,6 @@ def cmd_list(_: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from sim.campaign.engine import fly_runs, open_client, progress_stream
     from sim.campaign.rows import columns
     from sim.campaign.store import ResultStore, finished_runs, write_manifest
 
@@ -59,6 +63,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     runs = expand(campaign)  # every bad value fails here, before anything is started
     n_faults = largest_fault_count(runs)
     out = Path(args.out)
+    summary = None
     with ResultStore(out, columns(campaign.metrics, n_faults)) as store:
         write_manifest(out, campaign, runs, n_faults)
         done = finished_runs(out, retry_errors=args.retry_errors)
@@ -66,42 +71,50 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"campaign {campaign.name}: {len(runs)} runs, {len(runs) - len(todo)} already "
               f"in {out}, {len(todo)} to fly")
         if todo:
-            try:
-                with open_client(workers=args.workers, scheduler=args.scheduler) as client:
-                    where = (f"the scheduler at {args.scheduler}" if args.scheduler else
-                             f"a local cluster of {len(client.scheduler_info()['workers'])} "
-                             "workers")
-                    print(f"flying on {where}", flush=True)
-                    summary = fly_runs(client, campaign.name, todo, store, n_faults,
-                                       progress=progress_stream())
-            except OSError as exc:
-                print(f"ftc-campaign: cannot reach the Dask scheduler at {args.scheduler}: "
-                      f"{exc}", file=sys.stderr)
+            summary = _fly(args, campaign.name, todo, store, n_faults)
+            if summary is None:
                 return EXIT_UNFLOWN
-            rate = 60.0 * summary.flown / summary.wall_s if summary.wall_s > 0 else 0.0
-            print(f"flown {summary.flown} runs in {summary.wall_s:.1f} s ({rate:.1f} runs/min)"
-                  f", {summary.errors} raised")
-    rows_done = len(finished_runs(out) & {r.run_id for r in runs})
+    ids = {r.run_id for r in runs}
+    rows_done = len(finished_runs(out) & ids)
     print(f"{rows_done} of {len(runs)} runs done; results in {out / 'runs'}")
     status = 0
-    if todo and summary.interrupted:
+    if summary is not None and summary.interrupted:
         print(f"ftc-campaign: interrupted; run the same command again to fly the remaining "
               f"{len(runs) - rows_done}", file=sys.stderr)
         status = EXIT_INTERRUPTED
-    elif todo and summary.unflown:
+    elif summary is not None and summary.unflown:
         print(f"ftc-campaign: {summary.unflown} runs not flown ({summary.first_failure}); run "
               "the same command again to fly them", file=sys.stderr)
         status = EXIT_UNFLOWN
     if args.report:
         _report(out, args.open)
-    if status:
-        return status
-    errors = _errors(out, {r.run_id for r in runs})
-    if errors:
+    errors = _errors(out, ids)
+    if status == 0 and errors:
         print(f"ftc-campaign: {errors} runs raised; their rows hold the error "
               f"(ftc-campaign report {out} lists them)", file=sys.stderr)
-        return EXIT_ERRORS
-    return 0
+        status = EXIT_ERRORS
+    return status
+
+
+def _fly(args: argparse.Namespace, name: str, todo: list[RunSpec], store: ResultStore,
+         n_faults: int) -> Summary | None:
+    """Fly ``todo`` on the cluster the arguments name; None when it cannot be reached."""
+    from sim.campaign.engine import SchedulerUnreachable, fly_runs, open_client, progress_stream
+
+    try:
+        with open_client(workers=args.workers, scheduler=args.scheduler) as client:
+            workers = len(client.scheduler_info()["workers"])
+            where = (f"the scheduler at {args.scheduler} ({workers} workers now)"
+                     if args.scheduler else f"a local cluster of {workers} workers")
+            print(f"flying on {where}", flush=True)
+            summary = fly_runs(client, name, todo, store, n_faults, progress=progress_stream())
+    except SchedulerUnreachable as exc:
+        print(f"ftc-campaign: {exc}", file=sys.stderr)
+        return None
+    rate = 60.0 * summary.flown / summary.wall_s if summary.wall_s > 0 else 0.0
+    print(f"flown {summary.flown} runs in {summary.wall_s:.1f} s ({rate:.1f} runs/min), "
+          f"{summary.errors} raised")
+    return summary
 
 
 def _errors(out: Path, ids: set[str]) -> int:
@@ -145,7 +158,7 @@ def _workers(text: str) -> int:
     except ValueError:
         value = 0
     if not 1 <= value <= 1024:
-        raise argparse.ArgumentTypeError(f"--workers {text!r}: must be an integer in 1..1024")
+        raise argparse.ArgumentTypeError(f"{text!r}: must be an integer in 1..1024")
     return value
 
 
@@ -156,14 +169,26 @@ def _scheduler(text: str) -> str:
     match = _ADDRESS.match(text)
     if match is None or not 1 <= int(match.group(3)) <= 65535:
         raise argparse.ArgumentTypeError(
-            f"--scheduler {text!r}: must be a Dask scheduler address tcp://HOST:PORT "
+            f"{text!r}: must be a Dask scheduler address tcp://HOST:PORT "
             "(or tls://HOST:PORT), port 1..65535")
     return text
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``ftc-campaign: ...``), status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"ftc-campaign: {message} (ftc-campaign {self._sub_name()}--help "
+                  "for usage)\n")
+
+    def _sub_name(self) -> str:
+        words = self.prog.split()[1:]
+        return " ".join(words) + " " if words else ""
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="ftc-campaign", description=__doc__.split("\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="ftc-campaign", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     lst = sub.add_parser("list", help="name the shipped campaigns")
     lst.set_defaults(func=cmd_list)
     run = sub.add_parser("run", help="fly a campaign's missing runs (Dask)")

@@ -39,6 +39,10 @@ CONNECT_TIMEOUT_S = 30.0  # s to reach an existing scheduler before giving up
 _BAR_WIDTH = 40
 
 
+class SchedulerUnreachable(ConnectionError):
+    """The scheduler named by ``--scheduler`` did not answer."""
+
+
 @dataclass
 class Summary:
     """What one ``fly_runs`` did.
@@ -83,7 +87,7 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
 
     Raises
     ------
-    OSError
+    SchedulerUnreachable
         The scheduler could not be reached within :data:`CONNECT_TIMEOUT_S`.
     """
     cluster: LocalCluster | None = None
@@ -93,7 +97,11 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
                                silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
-        client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+        try:
+            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+        except OSError as exc:
+            raise SchedulerUnreachable(f"cannot reach the Dask scheduler at {scheduler}: "
+                                       f"{exc}") from None
     try:
         if warm_up:
             client.register_plugin(WarmUp())

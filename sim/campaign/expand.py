@@ -32,7 +32,7 @@ from typing import Any
 
 from flightdata.config import ConfigError, load_toml, require
 from flightdata.vocabulary import ACTUATOR_FAULT_KINDS, SENSOR_FAULT_KINDS
-from sim.campaign.axes import AXIS_COLUMNS, INDOOR_WIND, NO_FAULT
+from sim.campaign.axes import AXES, AXIS_COLUMNS, INDOOR_WIND, NO_FAULT
 from sim.campaign.spec import Campaign
 from sim.scenario import DEFAULT_WIND, Scenario, scenario_from_mapping, scenario_path
 from sim.world.fault_types import ActuatorFault, Fault, SensorFault, StructuralFault
@@ -105,6 +105,9 @@ def _fault_table(template: Mapping[str, Any] | None,
     kind = axes.get("kind", table.get("kind", "mass_loss" if "mass_loss_kg" in table else None))
     require(kind is not None, "fault.kind", None,
             "the campaign's fault needs a kind: give [fault] kind or a fault.kind axis")
+    problem = AXES["fault.kind"].check(kind)
+    require(problem is None, "fault.kind", kind, problem or "")
+    assert isinstance(kind, str)
     if kind == NO_FAULT:
         return None
     if kind in ACTUATOR_FAULT_KINDS:

@@ -134,7 +134,7 @@ def _box_figure(labels: Sequence[str], data: Sequence[Sequence[float]], x_label:
         return None
     fig = new_figure(8.0, 1.4 + 0.38 * len(kept))
     ax: Axes = fig.subplots()
-    ax.boxplot([d for _, d in kept], vert=False, widths=0.6, showfliers=True)
+    ax.boxplot([d for _, d in kept], orientation="horizontal", widths=0.6)
     ax.set_yticks(range(1, len(kept) + 1), [f"{lab} (n={len(d)})" for lab, d in kept],
                   fontsize=8)
     ax.invert_yaxis()
