@@ -64,9 +64,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     n_faults = largest_fault_count(runs)
     out = Path(args.out)
     summary = None
-    with ResultStore(out, columns(campaign.metrics, n_faults)) as store:
+    cols = columns(campaign.metrics, n_faults)
+    with ResultStore(out, cols) as store:
         write_manifest(out, campaign, runs, n_faults)
-        done = finished_runs(out, retry_errors=args.retry_errors)
+        done = finished_runs(out, retry_errors=args.retry_errors,
+                             required=[name for name, _ in cols])
         todo = [r for r in runs if r.run_id not in done]
         print(f"campaign {campaign.name}: {len(runs)} runs, {len(runs) - len(todo)} already "
               f"in {out}, {len(todo)} to fly")

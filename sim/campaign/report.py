@@ -144,9 +144,9 @@ def _detection(page: _Page, manifest: Mapping[str, Any], groups: Sequence[Group]
     for g in groups:
         ok = ok_rows(g.rows)
         lat = spread(v for r in ok for v in fault_latencies(r, n_faults))
-        started = sum(r["faults_started"] for r in ok)
-        detected = sum(r["faults_detected"] for r in ok)
-        false = [r["false_alarms"] for r in ok]
+        started = sum(r.get("faults_started") or 0 for r in ok)
+        detected = sum(r.get("faults_detected") or 0 for r in ok)
+        false = [r.get("false_alarms") or 0 for r in ok]
         cells.append([g.label, str(started), str(detected), fmt(lat.median, 2),
                       fmt(lat.p90, 2), fmt(lat.max, 2), str(sum(false)),
                       f"{sum(1 for f in false if f)} of {len(ok)}"])
@@ -167,8 +167,8 @@ def _estimate(page: _Page, manifest: Mapping[str, Any], groups: Sequence[Group])
     cells = []
     for g in groups:
         ok = ok_rows(g.rows)
-        settled = spread(r["loe_settled_error_max"] for r in ok)
-        final = spread(r["loe_final_error_max"] for r in ok)
+        settled = spread(r.get("loe_settled_error_max") for r in ok)
+        final = spread(r.get("loe_final_error_max") for r in ok)
         cells.append([g.label, fmt(settled.median, 3), fmt(settled.p90, 3),
                       fmt(settled.max, 3), fmt(final.median, 3), fmt(final.max, 3)])
     page.table(("configuration", "settled median", "settled p90", "settled max",

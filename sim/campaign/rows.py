@@ -25,8 +25,8 @@ group           columns (units)
                 at the end, over motors), ``loe_settled_error_max`` and
                 ``loe_settled_error_m1`` .. ``_m4`` (the largest while flying, 3 s after each
                 change: :func:`flightdata.metrics.loe_settled_error`)
-``timing``      ``sim_s`` (s simulated), ``wall_s`` (s of wall clock on the worker),
-                ``worker`` (host:pid)
+``timing``      ``sim_s`` (s simulated), ``wall_s`` (s of wall clock of the flight),
+                ``cpu_s`` (s of CPU time of the run on its worker), ``worker`` (host:pid)
 ==============  ===========================================================================
 """
 
@@ -64,7 +64,7 @@ _GROUP_COLUMNS: dict[str, tuple[tuple[str, type], ...]] = {
                   ("fault_latency_s", float)),
     "estimate": (("loe_final_error_max", float), ("loe_settled_error_max", float),
                  *((f"loe_settled_error_m{m}", float) for m in range(1, 5))),
-    "timing": (("sim_s", float), ("wall_s", float), ("worker", str)),
+    "timing": (("sim_s", float), ("wall_s", float), ("cpu_s", float), ("worker", str)),
 }
 
 

@@ -97,10 +97,14 @@ def read_rows(out_dir: Path) -> list[dict[str, Any]]:
     return sorted(rows.values(), key=lambda r: (r.get("index", 0), r["run_id"]))
 
 
-def finished_runs(out_dir: Path, *, retry_errors: bool = False) -> set[str]:
-    """Ids of the runs with a row (without the failed ones when ``retry_errors``)."""
+def finished_runs(out_dir: Path, *, retry_errors: bool = False,
+                  required: Sequence[str] = ()) -> set[str]:
+    """Ids of the runs with a row holding every ``required`` column (a row written before
+    the campaign kept more metrics does not count), without the failed ones when
+    ``retry_errors``."""
     return {r["run_id"] for r in read_rows(out_dir)
-            if not (retry_errors and r.get("status") == "error")}
+            if all(c in r for c in required)
+            and not (retry_errors and r.get("status") == "error")}
 
 
 class ResultStore:

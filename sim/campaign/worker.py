@@ -17,6 +17,7 @@ import os
 import signal
 import socket
 import threading
+import time
 import traceback
 from collections.abc import Mapping
 from typing import Any
@@ -34,7 +35,7 @@ def worker_name() -> str:
 def fly_run(scenario: Mapping[str, Any], n_faults: int,
             own_fault: int | None) -> dict[str, Any]:
     """Fly one run; its metric columns (:func:`sim.campaign.rows.metric_columns`) plus
-    ``status``, ``error`` and ``worker``.
+    ``status``, ``error``, ``cpu_s`` (this process's CPU seconds for the run) and ``worker``.
 
     Parameters
     ----------
@@ -49,6 +50,7 @@ def fly_run(scenario: Mapping[str, Any], n_faults: int,
     from sim.runner import fly
     from sim.scenario import scenario_from_mapping
 
+    cpu_start = time.process_time()
     try:
         result = fly(scenario_from_mapping(scenario))
         row = metric_columns(result.metrics, n_faults, own_fault)
@@ -57,6 +59,7 @@ def fly_run(scenario: Mapping[str, Any], n_faults: int,
         text = "".join(traceback.format_exception(exc)).strip()
         row = {"status": "error",
                "error": f"{type(exc).__name__}: {exc}\n{text[-ERROR_TEXT_CHARS:]}"}
+    row["cpu_s"] = time.process_time() - cpu_start
     row["worker"] = worker_name()
     return row
 

@@ -2,8 +2,9 @@
 ``ftc-scenario``, on a separately started scheduler and workers, interrupted and resumed;
 a run that raises is recorded with its error.
 
-Every comparison of rows leaves out the two columns that cannot repeat (``wall_s``, the wall
-clock of the run, and ``worker``, the process that flew it) and compares the rest exactly.
+Every comparison of rows leaves out the columns that cannot repeat (``wall_s`` and ``cpu_s``,
+the wall clock and CPU time of the run, and ``worker``, the process that flew it) and compares
+the rest exactly.
 Waits are bounded (generous: two shared cores) and nothing is timed.
 """
 
@@ -32,7 +33,7 @@ from sim.scenario_cli import main as scenario_main
 pytestmark = pytest.mark.slow
 
 BIN = Path(sys.executable).parent
-VOLATILE = ("wall_s", "worker")
+VOLATILE = ("wall_s", "cpu_s", "worker")
 READY_S = 300.0  # s, bound on any wait for a process or a row (two loaded cores)
 SMOKE_RUNS = 12
 

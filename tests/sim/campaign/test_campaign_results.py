@@ -15,7 +15,7 @@ from flightdata.metrics import detection_rows
 from flightdata.records import DetectionRecord, FaultRecord
 from sim.campaign.report import write_report
 from sim.campaign.rows import METRIC_GROUPS, columns, metric_columns
-from sim.campaign.store import RUNS_DIR, ResultStore, read_rows
+from sim.campaign.store import RUNS_DIR, ResultStore, finished_runs, read_rows
 
 
 def _metrics() -> dict[str, Any]:
@@ -164,3 +164,11 @@ def test_report_tables_envelope_and_active_against_passive(tmp_path: Path) -> No
 def test_report_of_a_directory_without_a_campaign_is_one_line(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="holds no campaign"):
         write_report(tmp_path)
+
+
+def test_rows_without_the_kept_columns_do_not_count_as_finished(tmp_path: Path) -> None:
+    with ResultStore(tmp_path, columns(("outcome",), 0)) as store:
+        store.add({"run_id": "a", "index": 0, "status": "ok", "outcome": "landed"})
+    every = [name for name, _ in columns(METRIC_GROUPS, 0)]
+    assert finished_runs(tmp_path) == {"a"}
+    assert finished_runs(tmp_path, required=every) == set()
