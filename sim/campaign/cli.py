@@ -101,7 +101,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 def _fly(args: argparse.Namespace, name: str, todo: list[RunSpec], store: ResultStore,
          n_faults: int) -> Summary | None:
     """Fly ``todo`` on the cluster the arguments name; None when it cannot be reached."""
-    from sim.campaign.engine import SchedulerUnreachable, fly_runs, open_client, progress_stream
+    from sim.campaign.engine import (
+        SchedulerUnreachable,
+        dashboard_link,
+        fly_runs,
+        open_client,
+        progress_stream,
+    )
 
     try:
         with open_client(workers=args.workers, scheduler=args.scheduler) as client:
@@ -109,7 +115,11 @@ def _fly(args: argparse.Namespace, name: str, todo: list[RunSpec], store: Result
             where = (f"the scheduler at {args.scheduler} ({workers} workers now)"
                      if args.scheduler else f"a local cluster of {workers} workers")
             print(f"flying on {where}", flush=True)
-            summary = fly_runs(client, name, todo, store, n_faults, progress=progress_stream())
+            progress = progress_stream()
+            link = dashboard_link(client) if progress is not None else None
+            if link is not None:
+                print(f"dashboard: {link}", file=progress)
+            summary = fly_runs(client, name, todo, store, n_faults, progress=progress)
     except SchedulerUnreachable as exc:
         print(f"ftc-campaign: {exc}", file=sys.stderr)
         return None

@@ -20,6 +20,7 @@ Ctrl-C cancels what is left; what finished is kept.
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import os
 import sys
@@ -93,7 +94,8 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
     cluster: LocalCluster | None = None
     if scheduler is None:
         cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                               processes=True, host="127.0.0.1", dashboard_address=None,
+                               processes=True, host="127.0.0.1",
+                               dashboard_address="127.0.0.1:0",
                                silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
@@ -154,8 +156,7 @@ def fly_runs(client: Client, campaign: str, runs: Sequence[RunSpec], store: Resu
             else:
                 summary.unflown += 1
                 if summary.first_failure is None:
-                    exc = future.exception()
-                    summary.first_failure = f"{type(exc).__name__}: {exc}"
+                    summary.first_failure = _failure(future)
             future.release()
             bar.draw(summary.flown + summary.unflown, summary.errors)
     except KeyboardInterrupt:
@@ -170,6 +171,27 @@ def fly_runs(client: Client, campaign: str, runs: Sequence[RunSpec], store: Resu
         bar.finish()
         summary.wall_s = time.perf_counter() - start
     return summary
+
+
+def _failure(future: Any) -> str:
+    """What a task that did not finish died of, in one line."""
+    try:
+        exc = future.exception()
+    except BaseException as cancelled:  # a cancelled future raises instead of returning
+        exc = cancelled
+    return f"{type(exc).__name__}: {exc}".splitlines()[0]
+
+
+def dashboard_link(client: Client) -> str | None:
+    """The scheduler's dashboard address when it serves one: a scheduler in this process
+    (a local cluster) draws it only with bokeh installed; another says so itself."""
+    if isinstance(client.cluster, LocalCluster) and importlib.util.find_spec("bokeh") is None:
+        return None
+    try:
+        served = "dashboard" in client.scheduler_info().get("services", {})
+    except Exception:  # an old or restricted scheduler: no link, no harm
+        return None
+    return str(client.dashboard_link) if served else None
 
 
 class _Bar:

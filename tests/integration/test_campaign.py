@@ -179,6 +179,27 @@ def test_interrupted_campaign_flies_only_the_missing_runs_when_run_again(
     assert flown(after) == flown(read_rows(smoke_local))
 
 
+def test_a_worker_lost_mid_campaign_costs_no_run(smoke_local: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    proc = subprocess.Popen([str(BIN / "ftc-campaign"), "run", "smoke", "--out", str(out),
+                             "--workers", "2"], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        wait_for("a first row on disk", lambda: (out / "runs").is_dir() and read_rows(out))
+        workers = [p for p in psutil.Process(proc.pid).children(recursive=True)
+                   if "spawn_main" in " ".join(p.cmdline())]
+        assert len(workers) == 2
+        workers[0].kill()  # SIGKILL: the worker and the run it was flying are lost
+        text, _ = proc.communicate(timeout=2 * READY_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(60)
+    # the scheduler gives the lost run to a worker again (the nanny restarts the dead one)
+    assert proc.returncode == 0, text
+    assert flown(read_rows(out)) == flown(read_rows(smoke_local))
+
+
 def test_a_run_that_raises_is_recorded_and_the_campaign_goes_on(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # 5 kg cannot leave a 1.4 kg airframe: the fault engine refuses it when the run starts
