@@ -46,8 +46,8 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["FIGURES", "FORMATS", "FigureKind", "attitude_series", "figure", "figure_kinds",
-           "loe_figure", "make_figures", "position_series", "pwm_figure", "rpy_figure",
-           "save_figures", "trajectory_figure", "xyz_figure"]
+           "loe_figure", "make_figures", "new_figure", "position_series", "pwm_figure",
+           "rpy_figure", "save_figure", "save_figures", "trajectory_figure", "xyz_figure"]
 
 #: Output formats of :func:`save_figures`.
 FORMATS = ("png", "pdf")
@@ -86,8 +86,9 @@ def figure(kind: str, caption: str) -> Callable[[_Maker], _Maker]:
     return register
 
 
-def _new_figure(width_in: float, height_in: float) -> Figure:
-    """An empty figure on an Agg canvas (matplotlib imported here, not with the module)."""
+def new_figure(width_in: float, height_in: float) -> Figure:
+    """An empty figure on an Agg canvas (matplotlib imported here, not with the module);
+    width and height in inches. Every figure of the project is drawn on one of these."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -143,7 +144,7 @@ def trajectory_figure(series: FlightSeries, name: str | None = None) -> Figure:
     that the 3-D panel (east, north, altitude) is right-handed and the top view reads as a
     map. The reference is drawn over the flying samples only.
     """
-    fig = _new_figure(11.0, 4.8)
+    fig = new_figure(11.0, 4.8)
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
     top = fig.add_subplot(1, 2, 2)
     ref = series.ref_pos_ned[series.flying]
@@ -185,7 +186,7 @@ def _tracking_figure(series: FlightSeries,
                      data: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
                      labels: _TrackingLabels, name: str | None) -> Figure:
     """Three panels of (reference, truth) over their errors, fault onsets marked."""
-    fig = _new_figure(12.0, 5.6)
+    fig = new_figure(12.0, 5.6)
     axes = fig.subplots(2, 3, sharex=True)
     t = series.time_s
     faults = series.fault_onsets_s()
@@ -221,7 +222,7 @@ def rpy_figure(series: FlightSeries, name: str | None = None) -> Figure:
 @figure("pwm", "motor PWM (Fig. 7.9)")
 def pwm_figure(series: FlightSeries, name: str | None = None) -> Figure:
     """Figure 7.9: the PWM commanded to motors 1..4 (unit duty), one panel each."""
-    fig = _new_figure(8.0, 7.0)
+    fig = new_figure(8.0, 7.0)
     axes = fig.subplots(4, 1, sharex=True)
     faults = series.fault_onsets_s()
     for j, ax in enumerate(axes):
@@ -243,7 +244,7 @@ def loe_figure(series: FlightSeries, name: str | None = None) -> Figure:
     Injected: the LOE in force on the truth samples (NaN, a gap, for lock or hard-over);
     estimated: at its own times (no line without an estimate).
     """
-    fig = _new_figure(10.0, 6.0)
+    fig = new_figure(10.0, 6.0)
     axes = fig.subplots(2, 2, sharex=True, sharey=True)
     faults = series.fault_onsets_s()
     for j, ax in enumerate(axes.flat):
@@ -301,17 +302,26 @@ def save_figures(series: FlightSeries, out_dir: str | Path, *, name: str | None 
         Kind -> the paths written, in ``formats`` order.
     """
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     paths: dict[str, list[Path]] = {}
     for kind, entry in FIGURES.items():
-        fig = entry.draw(series, name)
-        paths[kind] = []
-        for fmt in formats:
-            path = out / f"{prefix}{kind}.{fmt}"
-            fig.savefig(path, dpi=dpi, metadata=_metadata(fmt))
-            paths[kind].append(path)
+        paths[kind] = save_figure(entry.draw(series, name), out / f"{prefix}{kind}",
+                                  formats=formats, dpi=dpi)
         if on_figure is not None:
             on_figure(kind)
+    return paths
+
+
+def save_figure(fig: Figure, stem: str | Path, *, formats: Sequence[str] = FORMATS,
+                dpi: float = 100.0) -> list[Path]:
+    """Write ``fig`` as ``{stem}.{format}`` for each format (the folder is created), as
+    reproducible files (no creation date); returns the paths in ``formats`` order."""
+    stem = Path(stem)
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for fmt in formats:
+        path = stem.with_name(f"{stem.name}.{fmt}")
+        fig.savefig(path, dpi=dpi, metadata=_metadata(fmt))
+        paths.append(path)
     return paths
 
 

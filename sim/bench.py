@@ -19,6 +19,11 @@
                                    tick period from the vehicle's ``--timing-log``, its
                                    deviation from 10 ms (p50, p99, max) and the busy time
                                    (``--realtime``: the vehicle runs at SCHED_FIFO priority)
+    ftc-bench campaign [--repeat N] [--campaign NAME|FILE]
+                                   a campaign (default ``smoke``) flown by ftc-campaign's
+                                   engine on local Dask clusters of 1 and 2 workers:
+                                   runs per minute, the scaling, and the per-run overhead over
+                                   the bare flight time (:mod:`sim.campaign.bench`)
     ftc-bench [all]                plant, then stack
 
 Each figure is the median of ``--repeat`` runs (machines are shared and noisy), with the
@@ -291,15 +296,17 @@ def _report_vehicle_jitter(seconds: float, realtime: bool) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
     parser.add_argument("what", choices=("plant", "stack", "vehicle-speedup", "vehicle-jitter",
-                                         "all"), nargs="?", default="all")
+                                         "campaign", "all"), nargs="?", default="all")
     parser.add_argument("--repeat", type=int, default=None, help="timed runs (default 5; "
-                        "vehicle-speedup: 3)")
+                        "vehicle-speedup and campaign: 3)")
     parser.add_argument("--speedup", type=float, default=20.0,
                         help="vehicle-speedup: the vehicle's --speedup (default 20)")
     parser.add_argument("--seconds", type=float, default=30.0,
                         help="vehicle-jitter: simulated = wall seconds flown (default 30)")
     parser.add_argument("--realtime", action="store_true",
                         help="vehicle-*: run the vehicle with --realtime (SCHED_FIFO)")
+    parser.add_argument("--campaign", default="smoke",
+                        help="campaign: the campaign flown (default smoke)")
     args = parser.parse_args(argv)
     if args.repeat is not None and args.repeat < 1:
         parser.error(f"--repeat {args.repeat}: must be >= 1")
@@ -312,6 +319,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.what == "vehicle-jitter":
         _report_vehicle_jitter(args.seconds, args.realtime)
+        return 0
+    if args.what == "campaign":
+        from flightdata.config import ConfigError
+        from sim.campaign.bench import report as report_campaign
+
+        try:
+            report_campaign(args.campaign, args.repeat or 3)
+        except ConfigError as exc:
+            parser.error(str(exc))
         return 0
     args.repeat = args.repeat or 5
     if args.what in ("plant", "all"):

@@ -182,6 +182,23 @@ def shipped_names() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
+def scenario_path(name_or_path: str | Path) -> Path:
+    """The file of a shipped scenario name, or ``name_or_path`` itself when it is a path.
+
+    Raises
+    ------
+    ConfigError
+        An unknown name (the message lists the known ones).
+    """
+    text = str(name_or_path)
+    if text.endswith(".toml") or "/" in text or Path(text).exists():
+        return Path(text)
+    if text not in shipped_names():
+        raise ConfigError(f"unknown scenario {text!r}: known scenarios are "
+                          f"{', '.join(shipped_names())} (or give a .toml file)")
+    return Path(str(resources.files("sim") / "scenarios" / f"{text}.toml"))
+
+
 def load_scenario(name_or_path: str | Path) -> Scenario:
     """Load a shipped scenario by name, or a scenario file by path.
 
@@ -191,18 +208,9 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         Unknown name (the message lists the known ones), missing file, bad TOML or a bad
         value (the message names the file and the key).
     """
-    text = str(name_or_path)
-    if text.endswith(".toml") or "/" in text or Path(text).exists():
-        path = Path(text)
-        default = path.stem
-    else:
-        if text not in shipped_names():
-            raise ConfigError(f"unknown scenario {text!r}: known scenarios are "
-                              f"{', '.join(shipped_names())} (or give a .toml file)")
-        path = Path(str(resources.files("sim") / "scenarios" / f"{text}.toml"))
-        default = text
+    path = scenario_path(name_or_path)
     data = load_toml(path)
     try:
-        return scenario_from_mapping(data, default_name=default)
+        return scenario_from_mapping(data, default_name=path.stem)
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None

@@ -25,6 +25,8 @@ ALLOWED: dict[str, tuple[str, ...]] = {
     "sim/world": ("sim.world", "flightdata"),
     # the composition roots wire the world to the autopilot
     "sim": ("sim", "fcu", "flightdata"),
+    # campaigns compose headless runs: scenarios in, rows out; the autopilot only through them
+    "sim/campaign": ("sim", "flightdata"),
 }
 
 
