@@ -21,7 +21,8 @@ Modules, one job each:
 - :mod:`~fcu.mavlink.endpoint`: ``MavlinkEndpoint``, what a composition root drives.
 """
 
-from fcu.mavlink.endpoint import EndpointConfig, EndpointStats, MavlinkEndpoint
+from fcu.mavlink.endpoint import MavlinkEndpoint
+from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import FailureType, FailureUnit, MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,

@@ -19,14 +19,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
-from typing import Protocol
 
 import numpy as np
 
 from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
 from fcu.hal import SensorSampleLike
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
-from fcu.mavlink.autopilot_telemetry import AutopilotTelemetry
+from fcu.mavlink.autopilot_telemetry import AutopilotHost, AutopilotTelemetry
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,
@@ -51,7 +50,7 @@ from flightdata.mission import MAV_CMD_BY_COMMAND, SPEED_TYPE_BY_MAV_PARAM
 from flightdata.mission import MissionItem as NavItem
 from flightdata.records import Record
 
-__all__ = ["BRAKE_ARMABLE", "AutopilotHost", "AutopilotPort", "vehicle_autopilot_config"]
+__all__ = ["BRAKE_ARMABLE", "AutopilotPort", "vehicle_autopilot_config"]
 
 BRAKE_ARMABLE = int(Mode.BRAKE)
 """MAVSDK switches to BRAKE before arming when the vehicle sits in AUTO, RTL or LAND."""
@@ -67,18 +66,6 @@ def vehicle_autopilot_config(config: AutopilotConfig) -> AutopilotConfig:
         return config
     return replace(config, navigator=replace(
         nav, armable_modes=(*nav.armable_modes, BRAKE_ARMABLE)))
-
-
-class AutopilotHost(Protocol):
-    """What holds the autopilot between ticks (e.g. :class:`sim.stack.SimulatedStack`)."""
-
-    autopilot: Autopilot  # replaced when a parameter change rebuilds the autopilot
-    pwm: np.ndarray  # PWM held until the next tick, (4,)
-
-    @property
-    def time_s(self) -> float:
-        """Simulated time of the last tick, s."""
-        ...
 
 
 class AutopilotPort:

@@ -36,10 +36,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
+from fcu.autopilot import Autopilot
 from fcu.estimation.state import EULER, POS, VEL, YAW_INDEX, StateEstimate
 from fcu.hal import SensorSampleLike
 from fcu.mavlink.codec import mavlink2
@@ -55,9 +56,6 @@ from fcu.mavlink.port import GeoPoint
 from fcu.monitoring.vibration import VibrationMonitor
 from flightdata.atmosphere import isa_pressure_pa, isa_temperature_c
 
-if TYPE_CHECKING:
-    from fcu.mavlink.autopilot_port import AutopilotHost
-
 __all__ = ["ATTITUDE_SIGMA_RAD", "MAX_PENDING_TICKS", "POSITION_SIGMA_M", "VELOCITY_SIGMA_M_S",
            "AutopilotTelemetry"]
 
@@ -68,6 +66,18 @@ VELOCITY_SIGMA_M_S = 0.5  # m/s, velocity one sigma below which it is good
 POSITION_SIGMA_M = 0.5  # m, position one sigma below which it is good
 _HORIZONTAL_FLAGS = (_M.EKF_POS_HORIZ_REL | _M.EKF_POS_HORIZ_ABS | _M.EKF_PRED_POS_HORIZ_REL
                      | _M.EKF_PRED_POS_HORIZ_ABS)
+
+
+class AutopilotHost(Protocol):
+    """What holds the autopilot between ticks (e.g. :class:`sim.stack.SimulatedStack`)."""
+
+    autopilot: Autopilot  # replaced when a parameter change rebuilds the autopilot
+    pwm: np.ndarray  # PWM held until the next tick, (4,)
+
+    @property
+    def time_s(self) -> float:
+        """Simulated time of the last tick, s."""
+        ...
 
 
 class AutopilotTelemetry:

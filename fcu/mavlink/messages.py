@@ -41,9 +41,9 @@ __all__ = [
     "AUTOPILOT_CAPABILITIES",
     "STATUSTEXT_CHUNK_LEN",
     "TelemetryContext",
+    "BUILDERS",
+    "Builder",
     "autopilot_version",
-    "build_stream",
-    "can_build",
     "command_ack",
     "pwm_to_us",
     "statustext_chunks",
@@ -400,7 +400,7 @@ def named_value_floats(snap: VehicleSnapshot, ctx: TelemetryContext) -> list[MAV
 Builder = Callable[[VehicleSnapshot, TelemetryContext],
                    MAVLinkMessage | list[MAVLinkMessage] | None]
 
-_BUILDERS: dict[int, Builder] = {
+BUILDERS: dict[int, Builder] = {
     _M.MAVLINK_MSG_ID_HEARTBEAT: heartbeat,
     _M.MAVLINK_MSG_ID_SYS_STATUS: sys_status,
     _M.MAVLINK_MSG_ID_GPS_RAW_INT: gps_raw_int,
@@ -420,42 +420,6 @@ _BUILDERS: dict[int, Builder] = {
     _M.MAVLINK_MSG_ID_SIM_STATE: sim_state,
     _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: named_value_floats,
 }
-
-
-def _builders() -> dict[int, Builder]:
-    """Every builder: this module's and :mod:`fcu.mavlink.messages_extended`'s (imported
-    here, not at the top: that module builds on this one's helpers)."""
-    if not _ALL_BUILDERS:
-        from fcu.mavlink.messages_extended import EXTENDED_BUILDERS
-
-        _ALL_BUILDERS.update(_BUILDERS)
-        _ALL_BUILDERS.update(EXTENDED_BUILDERS)
-    return _ALL_BUILDERS
-
-
-_ALL_BUILDERS: dict[int, Builder] = {}
-
-
-def can_build(msg_id: int) -> bool:
-    """True when ``msg_id`` can be built from a snapshot (streamed or requested)."""
-    return msg_id in _builders()
-
-
-def build_stream(msg_id: int, snap: VehicleSnapshot,
-                 ctx: TelemetryContext) -> list[MAVLinkMessage]:
-    """The message(s) of stream ``msg_id`` now (empty when there is nothing to report).
-
-    Raises
-    ------
-    KeyError
-        When ``msg_id`` has no builder (see :func:`can_build`).
-    """
-    built = _builders()[msg_id](snap, ctx)
-    if built is None:
-        return []
-    if isinstance(built, list):
-        return built
-    return [built]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -18,7 +18,8 @@ import numpy as np
 from pymavlink import mavutil
 
 from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
+from fcu.mavlink.endpoint import MavlinkEndpoint
+from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.port import (
     AttitudeTarget,

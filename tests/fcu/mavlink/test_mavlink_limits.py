@@ -15,7 +15,8 @@ from mavlink_testkit import ORIGIN, FakeVehicle, MemoryGcs, MemoryLink, memory_e
 
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.commands import CommandLimits
-from fcu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
+from fcu.mavlink.endpoint import MavlinkEndpoint
+from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.geo import ned_to_geo
 
 M = mavlink2

@@ -12,6 +12,7 @@ from mavlink_testkit import ORIGIN, FakeVehicle
 from numpy.testing import assert_allclose
 
 from fcu.mavlink import messages as build
+from fcu.mavlink import streamed
 from fcu.mavlink.codec import Codec, mavlink2
 from fcu.mavlink.enums import MavState
 from fcu.mavlink.geo import metres_per_degree
@@ -40,7 +41,7 @@ def snap(**changes: Any) -> VehicleSnapshot:
 
 
 def one(msg_id: int, s: VehicleSnapshot, ctx: build.TelemetryContext | None = None) -> Any:
-    msgs = build.build_stream(msg_id, s, ctx or build.TelemetryContext())
+    msgs = streamed.build_stream(msg_id, s, ctx or build.TelemetryContext())
     assert len(msgs) == 1
     return wire(msgs[0])
 
@@ -137,7 +138,7 @@ def test_vfr_hud_and_battery() -> None:
 
 
 def test_home_position_only_when_home_is_set() -> None:
-    assert build.build_stream(M.MAVLINK_MSG_ID_HOME_POSITION, snap(home_pos_ned=None),
+    assert streamed.build_stream(M.MAVLINK_MSG_ID_HOME_POSITION, snap(home_pos_ned=None),
                               build.TelemetryContext()) == []
     home = one(M.MAVLINK_MSG_ID_HOME_POSITION, snap(home_pos_ned=np.array([0.0, 0.0, 0.0])))
     assert home.latitude == round(ORIGIN.lat_deg * 1e7)
@@ -154,7 +155,7 @@ def test_mission_current_total_and_state() -> None:
 
 
 def test_named_value_floats_carry_loe_per_motor() -> None:
-    msgs = [wire(m) for m in build.build_stream(
+    msgs = [wire(m) for m in streamed.build_stream(
         M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT, snap(loe=np.array([0.0, 0.5, 1.0, 0.25])),
         build.TelemetryContext())]
     assert [(m.name, m.value) for m in msgs] == [("LOE1", 0.0), ("LOE2", 0.5), ("LOE3", 1.0),
@@ -174,7 +175,7 @@ def test_nan_everywhere_still_packs() -> None:
              battery=BatteryState(voltage_v=math.nan, remaining=math.nan,
                                   current_a=math.nan))
     for msg_id in DEFAULT_RATES_HZ:
-        for msg in build.build_stream(msg_id, s, build.TelemetryContext()):
+        for msg in streamed.build_stream(msg_id, s, build.TelemetryContext()):
             wire(msg)
 
 

@@ -22,7 +22,7 @@ from mavlink_testkit import (
 from numpy.testing import assert_allclose
 
 from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.endpoint import EndpointConfig
+from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.geo import geo_to_ned, ned_to_geo
 from fcu.mavlink.mission import MissionConfig, WireItem, to_mission_item, validate_item
 from fcu.mavlink.port import GeoPoint, MissionState

@@ -12,7 +12,8 @@ import pytest
 from mavlink_testkit import GCS_ADDR, MemoryGcs, MemoryLink, memory_endpoint
 
 from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.endpoint import EndpointConfig, MavlinkEndpoint
+from fcu.mavlink.endpoint import MavlinkEndpoint
+from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.signing import MAX_STREAMS, REPORT_NAME, MessageSigning, SigningStats
 from fcu.navigation.modes import Mode
 from flightdata.signing import MAX_TIMESTAMP, timestamp_from_unix

@@ -11,6 +11,7 @@ import pytest
 from test_mavlink_messages import one, snap
 
 from fcu.mavlink import messages as build
+from fcu.mavlink import streamed
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.extended import (
     EkfReport,
@@ -161,8 +162,8 @@ def test_nothing_to_report_sends_nothing() -> None:
                    M.MAVLINK_MSG_ID_SCALED_PRESSURE, M.MAVLINK_MSG_ID_VIBRATION,
                    M.MAVLINK_MSG_ID_EKF_STATUS_REPORT, M.MAVLINK_MSG_ID_AHRS2,
                    M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, M.MAVLINK_MSG_ID_WIND):
-        assert build.build_stream(msg_id, empty, build.TelemetryContext()) == []
-        assert build.build_stream(msg_id, snap(extended=None, truth=None),
+        assert streamed.build_stream(msg_id, empty, build.TelemetryContext()) == []
+        assert streamed.build_stream(msg_id, snap(extended=None, truth=None),
                                   build.TelemetryContext()) == []
 
 
@@ -190,4 +191,4 @@ def test_the_new_messages_stream_in_arducopters_groups() -> None:
     for stream, members in groups.items():
         assert members <= set(STREAM_GROUPS[stream])
         for msg_id in members:
-            assert DEFAULT_RATES_HZ[msg_id] > 0 and build.can_build(msg_id)
+            assert DEFAULT_RATES_HZ[msg_id] > 0 and streamed.can_build(msg_id)
