@@ -15,7 +15,8 @@ Each line: the axis's key in a campaign file -> its result column (type): its va
 - ``fault.profile`` -> ``fault_profile`` (str): the time profile of a loss of effectiveness;
 - ``wind`` -> ``wind`` (str): ``"indoor"`` (the scenarios' default air,
   :data:`sim.scenario.DEFAULT_WIND`) or a MIL-F-8785C intensity ``"none"``, ``"light"``,
-  ``"moderate"``, ``"severe"`` (with the base scenario's mean wind);
+  ``"moderate"``, ``"severe"`` (with the base scenario's mean wind); a base scenario's own
+  ``[wind]`` with ``w20_m_s`` reads ``"custom"`` in the column;
 - ``autopilot.attitude``, ``.estimator``, ``.dob``, ``.ftc``, ``.height_source`` ->
   ``attitude``, ``estimator``, ``dob``, ``ftc``, ``height_source`` (str): the names of
   :data:`flightdata.vocabulary.CONFIG_CHOICES`.

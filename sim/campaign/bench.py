@@ -15,7 +15,8 @@ into the part spent outside the flight on the worker (scheduling, transfer, rows
 against the flights' own wall time on the workers) and the rest (the flights themselves
 running slower side by side on shared cores), and the share of a CPU each flight had (its CPU
 time over its wall time: on a machine shared with other work, scaling is bounded by the CPU
-left over). Figures only; no test times anything.
+left over; the runs per minute per CPU had, doubled, estimate the scaling on two free
+CPUs). Figures only; no test times anything.
 """
 
 from __future__ import annotations
@@ -37,8 +38,8 @@ from sim.campaign.store import ResultStore, read_rows
 WORKER_COUNTS = (1, 2)
 
 
-def _bare(runs: list[RunSpec]) -> list[float]:
-    """Wall seconds of each run flown alone in this process (after a warm-up)."""
+def _bare(runs: list[RunSpec]) -> list[tuple[float, float]]:
+    """(wall s, CPU s) of each run flown alone in this process, after a warm-up."""
     from sim.campaign.worker import WarmUp
     from sim.runner import fly
     from sim.scenario import scenario_from_mapping
@@ -47,9 +48,9 @@ def _bare(runs: list[RunSpec]) -> list[float]:
     out = []
     for run in runs:
         scenario = scenario_from_mapping(run.scenario)
-        start = time.perf_counter()
+        wall0, cpu0 = time.perf_counter(), time.process_time()
         fly(scenario)
-        out.append(time.perf_counter() - start)
+        out.append((time.perf_counter() - wall0, time.process_time() - cpu0))
     return out
 
 
@@ -78,10 +79,13 @@ def report(campaign_name: str = "smoke", repeat: int = 3) -> None:
     print(f"campaign {campaign.name}: {n} runs of {sim_s:.0f} s simulated; load average "
           f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs at the start")
     bare = _bare(runs)
-    bare_per_run = sum(bare) / n
-    print(f"  bare flights, one after another in one process: {sum(bare):.1f} s for all, "
-          f"{bare_per_run:.2f} s per run (median {statistics.median(bare):.2f} s)")
+    bare_per_run = sum(w for w, _ in bare) / n
+    print(f"  bare flights, one after another in one process: {n * bare_per_run:.1f} s for "
+          f"all, {bare_per_run:.2f} s per run (median "
+          f"{statistics.median(w for w, _ in bare):.2f} s), "
+          f"{100.0 * sum(c for _, c in bare) / (n * bare_per_run):.0f} % of a CPU")
     throughput: dict[int, float] = {}
+    per_cpu: dict[int, float] = {}
     for workers in WORKER_COUNTS:
         start = time.perf_counter()
         with open_client(workers=workers) as client:
@@ -93,6 +97,7 @@ def report(campaign_name: str = "smoke", repeat: int = 3) -> None:
         on_workers = statistics.median(f for _, f, _ in measured) / n
         cpu_share = statistics.median(c / f for _, f, c in measured)
         throughput[workers] = statistics.median(rates)
+        per_cpu[workers] = throughput[workers] / (workers * cpu_share)
         overhead = workers * wall / n - bare_per_run
         outside = workers * wall / n - on_workers
         print(f"  {workers} worker{'s' if workers > 1 else ' '}: cluster start and warm-up "
@@ -102,6 +107,9 @@ def report(campaign_name: str = "smoke", repeat: int = 3) -> None:
               f"({100.0 * overhead / bare_per_run:+.0f} %), of which outside the flight "
               f"{outside:+.2f} s, flights slower side by side {on_workers - bare_per_run:+.2f} s")
         print(f"    each flight had {100.0 * cpu_share:.0f} % of a CPU (its CPU time over its "
-              "wall time; below 100 % the cores were shared with other work)")
+              "wall time; below 100 % the cores were shared with other work): "
+              f"{per_cpu[workers]:.1f} runs per minute per CPU actually had")
     if len(throughput) == 2:
-        print(f"  scaling, 2 workers against 1: {throughput[2] / throughput[1]:.2f}x")
+        print(f"  scaling, 2 workers against 1: {throughput[2] / throughput[1]:.2f}x measured; "
+              f"{2.0 * per_cpu[2] / per_cpu[1]:.2f}x expected with two free CPUs (an estimate: "
+              "the runs per minute per CPU had, doubled)")

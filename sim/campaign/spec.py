@@ -33,7 +33,9 @@ A campaign is a TOML file (the shipped ones live in ``sim/campaigns/``)::
     # fault.motor = {choice = [1, 3]}  # one of the values
 
 The axes and their values are those of :mod:`sim.campaign.axes`. An axis is swept by the grid
-or by the samples, not both. Every problem is one :class:`~flightdata.config.ConfigError`
+or by the samples, not both; an axis that does not apply to a run's fault kind (a motor for a
+sensor fault) is ignored for that run, and runs that come out the same are flown once
+(:mod:`sim.campaign.expand`). Every problem is one :class:`~flightdata.config.ConfigError`
 line naming the file, the key, the value and what is allowed, as for scenarios.
 """
 

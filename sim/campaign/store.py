@@ -12,7 +12,8 @@ Rows go to disk at most ``flush_s`` after a run finishes (at once for the first)
 campaign ends or is interrupted; at the end of a run of the command the parts written with
 the current columns are merged into one. A run id appears once in the results: when parts
 disagree (a run flown again with ``--retry-errors``), the later part wins. Read everything
-back with :func:`read_rows`, or with any Parquet reader (``pandas.read_parquet(DIR/runs)``).
+back with :func:`read_rows`, or with any Parquet reader
+(``pyarrow.parquet.read_table(DIR/runs)``, ``pandas.read_parquet``).
 
 One ``ftc-campaign run`` writes to a directory at a time (a lock file, ``DIR/.lock``).
 """
@@ -171,7 +172,7 @@ class ResultStore:
     def _write(self, rows: Iterable[Mapping[str, Any]]) -> Path:
         name = f"part-{time.time_ns():020d}-{os.getpid()}.parquet"
         path = self.out_dir / RUNS_DIR / name
-        tmp = path.with_suffix(".tmp")
+        tmp = path.with_name(f".{name}.tmp")  # hidden: Parquet readers skip dot files
         pq.write_table(pa.Table.from_pylist(list(rows), schema=self.schema), tmp)
         os.replace(tmp, path)
         return path
