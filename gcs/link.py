@@ -60,11 +60,10 @@ from gcs.mavlink import (
 from gcs.records import EventLog, TlogWriter
 from gcs.telemetry import mavlink_text
 
-__all__ = ["ACK_TIMEOUTS_S", "ACK_TIMEOUT_S", "Link"]
+__all__ = ["ACK_TIMEOUTS_S", "Link"]
 
 _M = mavlink2
 _HEARTBEAT_PERIOD_S = 0.5  # s wall, GCS heartbeat (ArduPilot FS_GCS_TIMEOUT default is 5 s)
-ACK_TIMEOUT_S = 1.0  # s wall, the first attempt's wait for an answer
 ACK_TIMEOUTS_S = (1.0, 1.5, 2.0, 2.5, 3.0, 3.0, 3.0, 3.0)
 """Wall seconds each attempt of a command waits for its answer (8 attempts, ~19 s)."""
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its ACK
@@ -200,7 +199,8 @@ class Link:
 
     # ------------------------------------------------------------------ sending
     def send(self, msg: MAVLinkMessage, *, with_timesync: bool = False) -> None:
-        """Pack, send and record one message (any thread).
+        """Pack, send and record one message (the caller's thread; the heartbeat thread
+        has :meth:`send_heartbeat`).
 
         Parameters
         ----------

@@ -256,8 +256,14 @@ def test_report_command_rebuilds_the_views_from_the_tlog(
     rrd, figs, rep = tmp_path / "again.rrd", tmp_path / "figs", tmp_path / "rep"
     assert main(["report", str(flight["tlog"]), "--rrd", str(rrd), "--figures", str(figs),
                  "--report", str(rep)]) == 0
-    out = capsys.readouterr().out
+    out, err = capsys.readouterr()
     assert f"recording: {rrd}" in out and f"report: {rep / 'report.md'}" in out
+    # each slow step said what it was doing (stderr is not a terminal: plain lines)
+    assert err.splitlines() == [
+        f"ftc-gcs: reading {flight['tlog']}...",
+        f"ftc-gcs: writing the recording {rrd}...",
+        f"ftc-gcs: writing figures (5 kinds, PNG and PDF) in {figs}...",
+        f"ftc-gcs: writing the report in {rep} (copying its figures: 5 kinds, PNG and PDF)..."]
     _, again = scalar_series(rrd, "/plots/error/z")
     _, first = scalar_series(flight["rrd"], "/plots/error/z")
     np.testing.assert_array_equal(again, first)
