@@ -56,6 +56,12 @@ def barrier(gcs: Gcs) -> int:
     return gcs.mark()
 
 
+def no_idle_disarm(gcs: Gcs) -> None:
+    """DISARM_DELAY 0: armed on the ground, the vehicle waits for the take-off however long
+    a loaded machine takes to send it (10 s simulated is 1 s wall at 10x)."""
+    assert gcs.param_set("DISARM_DELAY", 0.0).param_value == 0.0
+
+
 def wind_ned(m) -> np.ndarray:
     """The air's velocity (NED, m/s) from a WIND message (direction it comes from)."""
     d = math.radians(m.direction)
@@ -156,6 +162,7 @@ def test_in_flight_pressure_battery_estimators_and_guidance(start_vehicle, gcs: 
                                 if m.get_type() == "SCALED_PRESSURE")
     v_ground = statistics.fmean(m.voltages[0] for m in ground
                                 if m.get_type() == "BATTERY_STATUS")
+    no_idle_disarm(gcs)
     assert gcs.set_mode(GUIDED).result == ACCEPTED
     assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
     assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.5).result == ACCEPTED
@@ -207,6 +214,7 @@ def test_battery_failsafe_lands_with_a_tiny_capacity_set_by_parameter(start_vehi
     for name, value in (("BATT_CAPACITY", 60.0), ("BATT_LOW_MAH", 40.0),
                         ("BATT_FS_LOW_ACT", 1.0)):
         assert gcs.param_set(name, value).param_value == value
+    no_idle_disarm(gcs)
     assert gcs.set_mode(GUIDED).result == ACCEPTED
     assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
     since = gcs.mark()

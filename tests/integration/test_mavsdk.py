@@ -105,6 +105,12 @@ async def ready(drone: Drone) -> None:
             health.is_armable) == (True,) * 7
 
 
+async def no_idle_disarm(drone: Drone) -> None:
+    """DISARM_DELAY 0: armed on the ground, the vehicle waits for MAVSDK's next command
+    however long a loaded machine takes to send it (10 s simulated is 1 s wall at 10x)."""
+    await bounded(drone.param.set_param_float("DISARM_DELAY", 0.0))
+
+
 def run(scenario: Callable[[], Awaitable[None]], limit_s: float) -> None:
     asyncio.run(asyncio.wait_for(scenario(), limit_s))
 
@@ -225,6 +231,7 @@ def test_mavsdk_takes_off_flies_a_mission_from_the_ground_and_injects_failures(
             await ready(drone)
             home = await first(drone.telemetry.subscribe_home(), lambda h: True)
             assert (home.latitude_deg, home.longitude_deg) == pytest.approx(CMAC, abs=1e-6)
+            await no_idle_disarm(drone)
 
             # flight 1: arm, take off (GUIDED), land
             await bounded(drone.action.set_takeoff_altitude(1.0))
@@ -306,6 +313,7 @@ def test_mavsdk_cannot_start_a_mission_without_take_off_from_the_ground(
     async def scenario() -> None:
         async with connected(udp_port) as drone:
             await ready(drone)
+            await no_idle_disarm(drone)
             lat, lon = CMAC
             items = [global_item(0, M.MAV_CMD_NAV_WAYPOINT, lat, lon, 0.0),
                      global_item(1, M.MAV_CMD_NAV_WAYPOINT, lat + NORTH_DEG, lon, 1.0,
