@@ -41,7 +41,8 @@ _BAR_WIDTH = 40
 
 
 class SchedulerUnreachable(ConnectionError):
-    """The scheduler named by ``--scheduler`` did not answer."""
+    """The scheduler named by ``--scheduler`` did not answer, or its workers cannot load
+    this project."""
 
 
 @dataclass
@@ -89,7 +90,8 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
     Raises
     ------
     SchedulerUnreachable
-        The scheduler could not be reached within :data:`CONNECT_TIMEOUT_S`.
+        The scheduler could not be reached within :data:`CONNECT_TIMEOUT_S`, or its workers
+        cannot load the project.
     """
     cluster: LocalCluster | None = None
     if scheduler is None:
@@ -106,7 +108,13 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
                                        f"{exc}") from None
     try:
         if warm_up:
-            client.register_plugin(WarmUp())
+            try:
+                client.register_plugin(WarmUp())
+            except Exception as exc:  # raised on a worker: its Python lacks the project
+                raise SchedulerUnreachable(
+                    f"the workers of {scheduler or 'the local cluster'} cannot load this "
+                    f"project ({type(exc).__name__}: {exc}); install it in their Python"
+                ) from None
         yield client
     finally:
         client.close()

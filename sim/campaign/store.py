@@ -76,7 +76,7 @@ def read_manifest(out_dir: Path) -> dict[str, Any]:
     path = out_dir / MANIFEST
     try:
         data: dict[str, Any] = json.loads(path.read_text())
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):
         raise ConfigError(f"{out_dir}: holds no campaign ({MANIFEST} is missing); "
                           "run one there first with ftc-campaign run CAMPAIGN --out "
                           f"{out_dir}") from None
@@ -135,8 +135,12 @@ class ResultStore:
         self._lock: IO[str] | None = None
 
     def __enter__(self) -> ResultStore:
-        (self.out_dir / RUNS_DIR).mkdir(parents=True, exist_ok=True)
-        lock = (self.out_dir / LOCK_FILE).open("w")
+        try:
+            (self.out_dir / RUNS_DIR).mkdir(parents=True, exist_ok=True)
+            lock = (self.out_dir / LOCK_FILE).open("w")
+        except OSError as exc:
+            raise ConfigError(f"{self.out_dir}: cannot hold results ({exc.strerror}); "
+                              "--out must be a directory this user can write") from None
         try:
             fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
