@@ -103,9 +103,6 @@ class AutopilotStatus:
     motors_lost: tuple[int, ...] = ()  # motors 1..4 declared lost
 
 
-FTC_USE_SUSPECTED = True
-
-
 class Autopilot:
     """Estimators, navigator, controllers and allocation run at ``loop_rate_hz``.
 
@@ -276,17 +273,20 @@ class Autopilot:
         return records
 
     def _ftc_effectiveness(self) -> np.ndarray:
-        """Active FTC: per motor, ``1 - LOE`` of the motors the detector has declared (its
-        estimate, mass change removed, :mod:`fcu.monitoring.motor_faults`), 1 for the others.
+        """Active FTC: per motor, ``1 - LOE`` of the motors the detector has declared or
+        suspects now (its estimate, mass change removed, :mod:`fcu.monitoring.motor_faults`),
+        1 for the others.
 
-        Only declared motors are reconfigured: an undeclared motor's estimate is noise about
-        zero (turbulence moves it by a few per cent), and feeding it to the mixer would
-        shake healthy motors for nothing.
+        Other motors are left nominal: their estimate is noise about zero (turbulence moves
+        it by a few per cent), and feeding it to the mixer would shake healthy motors for
+        nothing. The suspected one is included so that reconfiguration starts before the
+        declaration's persistence has run (40 % step: 4.2 cm of height lost, 5.3 cm with
+        declared motors only).
         """
         e = np.ones(4)
         loe = self.detector.evidence.loe
         motors = set(self.detector.active)
-        if FTC_USE_SUSPECTED and self.detector.suspected is not None:
+        if self.detector.suspected is not None:
             motors.add(self.detector.suspected)
         for motor in motors:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)

@@ -56,6 +56,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from flightdata import vocabulary
+from flightdata.arguments import positive_float
 from flightdata.outputs import OutputError, check_file_output, check_folder_output
 from flightdata.signing import key_from_text
 from flightdata.steps import Steps
@@ -91,16 +92,6 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(EXIT_USAGE)
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
-    return value
-
-
 def _param(text: str) -> tuple[str, float]:
     name, sep, value = text.partition("=")
     try:
@@ -128,7 +119,7 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                           "udpout:HOST:PORT to reach a vehicle's --bind)")
         link.add_argument("--spawn-vehicle", action="store_true",
                           help="start 'python -m sim' on loopback and fly it")
-    link.add_argument("--speedup", type=_positive, default=10.0,
+    link.add_argument("--speedup", type=positive_float, default=10.0,
                       help="spawned vehicle: simulated s per wall s (default 10)")
     link.add_argument("--seed", type=int, default=None, help="spawned vehicle: seed")
     link.add_argument("--scenario", default=None, metavar="NAME|FILE",
@@ -178,15 +169,15 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                      "the viewer/server at URL (rerun+http://HOST:PORT/proxy)")
     _add_view_options(rec)
     lim = p.add_argument_group("time limits")
-    lim.add_argument("--connect-timeout", type=_positive, default=None, metavar="S",
+    lim.add_argument("--connect-timeout", type=positive_float, default=None, metavar="S",
                      help=f"wall s to wait for the vehicle's first HEARTBEAT (default "
                      f"{DEFAULT_CONNECT_TIMEOUT_S:g}: a vehicle started at the same time "
                      "needs its start-up)")
-    lim.add_argument("--link-timeout", type=_positive, default=5.0, metavar="S",
+    lim.add_argument("--link-timeout", type=positive_float, default=5.0, metavar="S",
                      help="wall s of silence in flight before giving up (default 5)")
-    lim.add_argument("--max-flight-s", type=_positive, default=120.0, metavar="S",
+    lim.add_argument("--max-flight-s", type=positive_float, default=120.0, metavar="S",
                      help="simulated s after the mission start (default 120)")
-    lim.add_argument("--timeout", type=_positive, default=900.0, metavar="S",
+    lim.add_argument("--timeout", type=positive_float, default=900.0, metavar="S",
                      help="wall s for the whole flight (default 900)")
 
 

@@ -109,21 +109,8 @@ class InjectionTiming:
 
 
 class GroundStation(ParameterClient):
-    """A ground station on one link to one vehicle (see the module docstring).
-
-    Parameters
-    ----------
-    conn : pymavlink.mavutil.mavfile
-        An open MAVLink 2 connection (:func:`gcs.mavlink.open_link`).
-    url : str
-        What ``conn`` was opened with (for messages).
-    tlog : TlogWriter or None
-        Where every packet is recorded.
-    events : EventLog or None
-        Where events are written.
-    signing_key : bytes or None
-        MAVLink 2 signing key (32 bytes); None: unsigned.
-    """
+    """A ground station on one link to one vehicle (see the module docstring); arguments as
+    :class:`gcs.link.Link`."""
 
     def __init__(self, conn: Any, url: str, *, tlog: TlogWriter | None = None,
                  events: EventLog | None = None, signing_key: bytes | None = None) -> None:

@@ -43,6 +43,8 @@ from pathlib import Path
 from types import FrameType
 from typing import NoReturn
 
+from flightdata.arguments import positive_float
+
 PROG = "ftc-vehicle"
 
 
@@ -98,16 +100,6 @@ def _home(text: str) -> tuple[float, float, float]:
     return lat, lon, alt
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
-    return value
-
-
 def _signing_key(text: str) -> bytes:
     from flightdata.signing import key_from_text
 
@@ -138,7 +130,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scenario whose world and autopilot to fly (default baseline)")
     p.add_argument("--seed", type=_int_in(0, 2**63 - 1), default=None,
                    help="seed of every random stream (default: the scenario's)")
-    p.add_argument("--speedup", type=_positive, default=1.0,
+    p.add_argument("--speedup", type=positive_float, default=1.0,
                    help="simulated seconds per wall second (default 1, at most 1000)")
     p.add_argument("--bind", type=_bind, default=None, metavar="HOST:PORT",
                    help="local UDP address (default 127.0.0.1:14555 + 10 N for --instance N; "
@@ -158,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--home", type=_home, default=None, metavar="LAT,LON,ALT",
                    help="home at boot, degrees and metres AMSL (default ArduPilot's CMAC "
                    "-35.363261,149.165230,584)")
-    p.add_argument("--duration", "--max-sim-s", dest="duration", type=_positive, default=None,
+    p.add_argument("--duration", "--max-sim-s", dest="duration", type=positive_float, default=None,
                    metavar="S", help="stop after S simulated seconds")
     p.add_argument("--with-faults", action="store_true",
                    help="schedule the scenario's faults (simulated time)")
