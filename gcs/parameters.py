@@ -167,8 +167,12 @@ class ParameterClient(Link):
                 echo = self._wait_reply(["PARAM_VALUE", "STATUSTEXT"], answer, left)
                 if echo is None:
                     break
-                if echo.get_type() == "STATUSTEXT":
-                    raise CommandRefused(f"parameter {name}: {mavlink_text(echo.text)}")
+                if echo.get_type() == "STATUSTEXT":  # the reason came before the echo
+                    late = self._wait_reply(["PARAM_VALUE"], lambda m: mavlink_text(
+                        m.param_id) == name, _REASON_WAIT_S)
+                    still = "" if late is None else f", still {float(late.param_value):g}"
+                    raise CommandRefused(f"parameter {name} = {value:g} refused{still}: "
+                                         f"{mavlink_text(echo.text)}")
                 now = float(echo.param_value)
                 self.param_names[name] = now
                 if same_float32(now, value):
