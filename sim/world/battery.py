@@ -131,24 +131,42 @@ class Battery:
         self._consumed_ah = (1.0 - config.initial_soc) * config.capacity_ah
         self._next_sample_s = 0.0
         self._pending: list[SensorSample] = []
-        self.state = self._state(0.0)
+        self._load_w = 0.0  # W, the power drawn over the latest step
+        self._open_circuit_v = open_circuit_voltage(self._soc(), config.cells)  # V, now
+        self._state_now: BatteryState | None = None  # built when read
+
+    @property
+    def state(self) -> BatteryState:
+        """The pack now (truth), at the end of the latest step."""
+        if self._state_now is None:
+            self._state_now = self._state(self._load_w)
+        return self._state_now
 
     def set_capacity(self, capacity_ah: float) -> None:
         """A different pack of ``capacity_ah`` (Ah > 0) with the charge used so far."""
         if not (math.isfinite(capacity_ah) and capacity_ah > 0.0):
             raise ValueError(f"capacity_ah = {capacity_ah!r}: must be a finite capacity > 0 Ah")
+        state = self.state
         self.capacity_ah = float(capacity_ah)
-        self.state = self._state(self.state.current_a * self.state.voltage_v)
+        self._load_w = state.current_a * state.voltage_v
+        self._open_circuit_v = open_circuit_voltage(self._soc(), self.config.cells)
+        self._state_now = None
 
     def power_w(self, thrust_n: np.ndarray) -> float:
         """Electrical power the motors and avionics draw at ``thrust_n`` (N, per motor), W,
         the avionics counted at the open-circuit voltage."""
-        induced = sum(max(t, 0.0) ** 1.5 for t in np.asarray(thrust_n, dtype=float).tolist())
-        return induced * self._induced + self.config.idle_current_a * self.state.open_circuit_v
+        induced = 0.0
+        for t in np.asarray(thrust_n, dtype=float).tolist():
+            if t > 0.0:
+                induced += t ** 1.5
+        return induced * self._induced + self.config.idle_current_a * self._open_circuit_v
+
+    def _soc(self) -> float:
+        return max(1.0 - self._consumed_ah / self.capacity_ah, 0.0)
 
     def _state(self, power_w: float) -> BatteryState:
         cfg = self.config
-        soc = max(1.0 - self._consumed_ah / self.capacity_ah, 0.0)
+        soc = self._soc()
         v_oc = open_circuit_voltage(soc, cfg.cells)
         v = terminal_voltage(v_oc, power_w, cfg.internal_resistance_ohm)
         current = power_w / v if v > 0.0 else 0.0
@@ -158,16 +176,19 @@ class Battery:
         """Discharge over ``dt_s`` (s) ending at ``time_s`` (s) at motor thrusts ``thrust_n``
         (N); queue the power module's samples due by ``time_s``."""
         power_w = self.power_w(thrust_n)
-        v_start = terminal_voltage(self.state.open_circuit_v, power_w,
+        v_start = terminal_voltage(self._open_circuit_v, power_w,
                                    self.config.internal_resistance_ohm)
         if v_start > 0.0:  # the step discharges at the current of its start
             self._consumed_ah += power_w / v_start * dt_s / 3600.0
-        self.state = self._state(power_w)
+        self._load_w = power_w
+        self._open_circuit_v = open_circuit_voltage(self._soc(), self.config.cells)
+        self._state_now = None
         cfg = self.config
         while self._next_sample_s <= time_s + 1e-9:
             noise = self._rng.normal(size=2)
-            value = np.array([self.state.voltage_v + cfg.voltage_sigma_v * noise[0],
-                              self.state.current_a + cfg.current_sigma_a * noise[1]])
+            state = self.state
+            value = np.array([state.voltage_v + cfg.voltage_sigma_v * noise[0],
+                              state.current_a + cfg.current_sigma_a * noise[1]])
             self._pending.append(SensorSample(BATTERY_SENSOR, time_s, value))
             self._next_sample_s += 1.0 / cfg.monitor_rate_hz
         if len(self._pending) > MAX_PENDING_SAMPLES:  # nobody drains them: keep the latest
