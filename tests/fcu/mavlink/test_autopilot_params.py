@@ -51,3 +51,14 @@ def test_disarm_delay_is_arducopters_10_s_and_its_text_says_which_delay_it_is() 
     assert "without a take-off" in param.description
     # the other delay, after a landing, is not this parameter: the text says how long it is
     assert f"after a landing: {nav.landed_disarm_delay_s:g} s" in param.description
+
+
+@pytest.mark.parametrize("param", [p for p in AUTOPILOT_PARAMS
+                                   if p.name.startswith(("POS_", "ATT_PD_"))],
+                         ids=lambda p: p.name)
+def test_position_and_pd_gains_have_a_range_around_their_defaults(param) -> None:
+    # A gain of 1e9 would slam the motors from one saturation to the other: the range must
+    # refuse it yet leave room to tune (at least 4x the default).
+    default = param.get(AutopilotConfig())
+    assert param.min_value == 0.0
+    assert 4.0 * default <= param.max_value <= 100.0 * max(default, 1.0)
