@@ -180,6 +180,7 @@ class _Injector:
     def __call__(self, clock_s: float) -> None:
         if self._start_s is None:
             return
+        self._gs.resend_lost_injections(clock_s)
         lead = self._gs.lead_s()
         while self._queue and clock_s >= self._start_s + self._queue[0].at_s - lead:
             fault = self._queue.pop(0)

@@ -108,6 +108,33 @@ class InjectionTiming:
         return None if self.achieved_s is None else self.achieved_s - self.target_s
 
 
+@dataclass
+class _InFlight:
+    """An injection sent and not yet seen taking effect."""
+
+    fault: FaultSpec
+    target_s: float  # s, vehicle time it is meant for
+    sent_s: float  # s, vehicle clock when it first left
+    scheduled: bool  # on the vehicle's clock (no lag to learn from)
+    by_param: bool  # it travels as a PARAM_SET, effective on arrival
+    last_sent_s: float  # s, vehicle clock when it last left
+    received: bool = False  # the vehicle echoed its PARAM_SET
+    attempts: int = 1
+
+    def param_name(self) -> str | None:
+        """The parameter it sets when it travels as a PARAM_SET (else None)."""
+        if not self.by_param:
+            return None
+        return self.fault.param or f"SIM_MOT{self.fault.motor}_LOE"
+
+    def param_value(self) -> float:
+        return self.fault.value if self.fault.param is not None else self.fault.loe
+
+
+_RESEND_AFTER_S = 0.5  # s of vehicle time without an echo (at least 3 link lags) to resend
+_MAX_SENDS = 5  # a PARAM_SET injection is sent this many times at most
+
+
 class GroundStation(ParameterClient):
     """A ground station on one link to one vehicle (see the module docstring); arguments as
     :class:`gcs.link.Link`."""
@@ -116,8 +143,7 @@ class GroundStation(ParameterClient):
                  events: EventLog | None = None, signing_key: bytes | None = None) -> None:
         super().__init__(conn, url, tlog=tlog, events=events, signing_key=signing_key)
         self.injection_timing: list[InjectionTiming] = []
-        # fault, target, sent at, scheduled on the vehicle's clock (no lag to learn from)
-        self._inflight: list[tuple[FaultSpec, float, float, bool]] = []
+        self._inflight: list[_InFlight] = []
         self._lag_samples_s: list[float] = []
 
     def _note_event(self, event: FlightEvent) -> None:
@@ -406,48 +432,76 @@ class GroundStation(ParameterClient):
             ``param``: PARAM_SET SIM_MOTn_LOE = loe now (ArduPilot-SITL style, effective
             when it arrives), with a TIMESYNC request in the same datagram dating it; send
             it :meth:`lead_s` ahead. Parameter faults (SIM_BARO_GLITCH...) are always a
-            PARAM_SET of the second kind.
+            PARAM_SET of the second kind; one whose echo does not come back is sent again
+            (:meth:`resend_lost_injections`).
         """
         sysid, compid = self.target
         clock = self.analyzer.clock_s if self.analyzer.clock_s is not None else math.nan
         scheduled = via == "command" and fault.motor is not None and fault.loe > 0
-        self._inflight.append((fault, target_s, clock, scheduled))
+        flight = _InFlight(fault, target_s, clock, scheduled,
+                           by_param=fault.param is not None or via == "param", last_sent_s=clock)
+        self._inflight.append(flight)
         start = self.analyzer.mission_start_s
         rel = f" (mission +{target_s - start:.3f} s)" if start is not None else ""
         self.log("INJECT", f"{'scheduling' if scheduled else 'sending'} {fault.describe()} "
                  f"for t = {target_s:.3f} s{rel}"
                  + ("" if scheduled else f", lead {self.lead_s():.3f} s"))
 
-        def param_set(name: str, value: float) -> None:
-            self.send(_M.MAVLink_param_set_message(sysid, compid, name.encode("ascii"),
-                                                   float(value), _M.MAV_PARAM_TYPE_REAL32),
-                      with_timesync=True)
-
-        if fault.param is not None:
-            param_set(fault.param, fault.value)
-        elif scheduled:
+        if scheduled:
             self.set_param("SIM_FI_LOE", fault.loe)
             self.command(_M.MAV_CMD_INJECT_FAILURE,
                          (101.0, 4.0, float(fault.motor or 0), float(target_s)),
                          what=f"INJECT_FAILURE motor {fault.motor}")
-        elif via == "command":  # a clear (loe 0): effective when it arrives
+        elif not flight.by_param:  # a clear (loe 0): effective when it arrives
             self.send(_M.MAVLink_command_long_message(
                 sysid, compid, _M.MAV_CMD_INJECT_FAILURE, 0, 101.0, 0.0,
                 float(fault.motor or 0), 0.0, 0.0, 0.0, 0.0), with_timesync=True)
         else:
-            param_set(f"SIM_MOT{fault.motor}_LOE", fault.loe)
+            self._send_param_injection(flight)
+
+    def _send_param_injection(self, flight: _InFlight) -> None:
+        """PARAM_SET of an injection, with a TIMESYNC request in the same datagram dating it."""
+        name = flight.param_name()
+        assert name is not None
+        sysid, compid = self.target
+        self.send(_M.MAVLink_param_set_message(sysid, compid, name.encode("ascii"),
+                                               float(flight.param_value()),
+                                               _M.MAV_PARAM_TYPE_REAL32), with_timesync=True)
+
+    def resend_lost_injections(self, clock_s: float) -> None:
+        """Send again each PARAM_SET injection whose echo has not come back
+        ``_RESEND_AFTER_S`` (or three link lags) of vehicle time after it left, up to
+        ``_MAX_SENDS`` times: on a lossy link a lost PARAM_SET would be a lost fault. A
+        repeat is harmless (the vehicle keeps a parameter fault it already holds)."""
+        wait_s = max(_RESEND_AFTER_S, 3.0 * self.lead_s())
+        for flight in self._inflight:
+            name = flight.param_name()
+            if name is None or flight.received:
+                continue
+            echoed = self.analyzer.params.get(name)
+            if echoed is not None and same_float32(echoed, flight.param_value()):
+                flight.received = True
+            elif clock_s - flight.last_sent_s > wait_s and flight.attempts < _MAX_SENDS:
+                flight.attempts += 1
+                flight.last_sent_s = clock_s
+                self.log("INJECT", f"no echo of {name} = {flight.param_value():g} after "
+                         f"{wait_s:.2f} s: sending it again (attempt {flight.attempts})")
+                self._send_param_injection(flight)
 
     def _match_injection(self, event: FlightEvent) -> None:
         """An INJECT event from the analyzer: pair it with the oldest in-flight motor fault."""
-        for i, (fault, target, sent, scheduled) in enumerate(self._inflight):
+        for i, flight in enumerate(self._inflight):
+            fault = flight.fault
             if fault.motor is not None and f"motor {fault.motor} " in event.text:
                 del self._inflight[i]
                 achieved = event.time_s
-                timing = InjectionTiming(fault, target, sent, achieved)
+                timing = InjectionTiming(fault, flight.target_s, flight.sent_s, achieved)
                 self.injection_timing.append(timing)
                 if achieved is not None:
-                    if not scheduled:  # the link's delay, to send the next one ahead of time
-                        self._lag_samples_s.append(max(0.0, achieved - sent))
+                    # the link's delay, to send the next one ahead of time (a resent one
+                    # says nothing of it)
+                    if not flight.scheduled and flight.attempts == 1:
+                        self._lag_samples_s.append(max(0.0, achieved - flight.sent_s))
                     self.log("INJECT", f"motor {fault.motor} took effect at t = "
                              f"{achieved:.3f} s, timing error {timing.error_s:+.3f} s")
                 return
@@ -455,20 +509,19 @@ class GroundStation(ParameterClient):
     def confirm_param_faults(self) -> None:
         """Pair parameter faults (SIM_BARO_GLITCH...) with their PARAM_VALUE echoes."""
         still = []
-        for fault, target, sent, scheduled in self._inflight:
-            if fault.param is None:
-                still.append((fault, target, sent, scheduled))
-                continue
-            value = self.analyzer.params.get(fault.param)
+        for flight in self._inflight:
+            fault = flight.fault
+            value = None if fault.param is None else self.analyzer.params.get(fault.param)
             if value is not None and same_float32(value, fault.value):
-                self.injection_timing.append(InjectionTiming(fault, target, sent, None))
+                self.injection_timing.append(
+                    InjectionTiming(fault, flight.target_s, flight.sent_s, None))
             else:
-                still.append((fault, target, sent, scheduled))
+                still.append(flight)
         self._inflight = still
 
     def pending_injections(self) -> list[FaultSpec]:
         """Faults sent but not yet confirmed."""
-        return [f for f, _, _, _ in self._inflight]
+        return [flight.fault for flight in self._inflight]
 
     # ------------------------------------------------------------------ results
     def report(self) -> FlightReport:

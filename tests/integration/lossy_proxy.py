@@ -51,12 +51,19 @@ class LossyProxy:
         Probability that any one datagram is dropped, each way (0..1).
     seed : int
         Seed of the two drop decision streams.
+    drop_first : bytes or None
+        Also drop the first ``drop_times`` datagrams to the vehicle that contain these bytes
+        (a parameter's name: that PARAM_SET is lost for certain), whatever ``loss`` says.
+    drop_times : int
     """
 
-    def __init__(self, loss: float, seed: int) -> None:
+    def __init__(self, loss: float, seed: int, drop_first: bytes | None = None,
+                 drop_times: int = 1) -> None:
         if not 0.0 <= loss < 1.0:
             raise ValueError(f"loss = {loss!r}: must be in [0, 1)")
         self.loss = loss
+        self._drop_first = drop_first
+        self.targeted_left = drop_times if drop_first is not None else 0
         self._rng_down = random.Random(f"{seed}-to-gcs")
         self._rng_up = random.Random(f"{seed}-to-vehicle")
         self.to_gcs = Direction()
@@ -126,6 +133,10 @@ class LossyProxy:
                 self._relay(data, self._gcs_side, self._gcs, self._rng_down, self.to_gcs)
             else:
                 self._gcs = addr
+                if self.targeted_left and self._drop_first in data:
+                    self.targeted_left -= 1
+                    self.to_vehicle.dropped += 1
+                    continue
                 self._relay(data, self._vehicle_side, self._vehicle, self._rng_up,
                             self.to_vehicle)
 

@@ -86,3 +86,33 @@ def test_total_loss_of_a_motor_is_a_crash(tmp_path: Path) -> None:
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert proc.stderr.strip().splitlines()[-1].startswith("ftc-gcs: crash: outcome: crashed at ")
     assert "CRASHED" in proc.stdout  # the table of what was flown is still printed
+
+
+def test_a_lost_parameter_injection_is_sent_again(tmp_path: Path) -> None:
+    # the first two PARAM_SETs of SIM_MOT2_LOE never reach the vehicle: without a resend the
+    # fault would never be injected and the vehicle would hover healthy
+    from lossy_proxy import LossyProxy
+    from vehicle_harness import VehicleProcess
+
+    mission = tmp_path / "hover.toml"
+    mission.write_text('[[items]]\ncommand = "takeoff"\nalt_m = 0.6\n'
+                       '[[items]]\ncommand = "waypoint"\npos_ned = [0, 0, -0.6]\nhold_s = 10\n'
+                       '[[items]]\ncommand = "land"\n')
+    with LossyProxy(0.0, 1, drop_first=b"SIM_MOT2_LOE", drop_times=2) as proxy:
+        vehicle = VehicleProcess(["--speedup", "10", "--seed", "2", "--start-paused",
+                                  "--out", f"127.0.0.1:{proxy.vehicle_port}"])
+        try:
+            proc = subprocess.run(
+                [sys.executable, "-m", "gcs", "fly", "--connect",
+                 f"udpout:127.0.0.1:{proxy.gcs_port}", "--mission", str(mission),
+                 "--inject-via", "param", "--fault", "2:0.25@6", "--quiet",
+                 "--tlog", str(tmp_path / "f.tlog"), "--json", str(tmp_path / "f.json")],
+                cwd=ROOT, capture_output=True, text=True, timeout=WALL_S,
+                stdin=subprocess.DEVNULL)
+        finally:
+            vehicle.stop()
+    assert proc.returncode == 0, proc.stdout + proc.stderr[-3000:]
+    assert proxy.targeted_left == 0  # both were dropped
+    events = (tmp_path / "f.events.log").read_text()
+    assert events.count("sending it again") == 2, events
+    assert "fault started: motor 2: loe 25 %" in events
