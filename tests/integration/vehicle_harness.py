@@ -432,3 +432,24 @@ def mission_item(seq: int, command: int, *, params: Sequence[float] = (0, 0, 0, 
     return M.MAVLink_mission_item_int_message(*target, seq, frame, command, current, 1, *p,
                                               round(x * scale), round(y * scale), z,
                                               M.MAV_MISSION_TYPE_MISSION)
+
+
+def write_hover_mission(path: Path, alt_m: float = 0.6) -> Path:
+    """Write an ``ftc-gcs`` mission file to ``path``: climb at 0.3 m/s to ``alt_m`` (m), hold
+    4 s, land; about 15 s of simulated time for the default height."""
+    path.write_text(f"""\
+[[items]]
+command = "change_speed"
+speed_type = "climb"
+speed_m_s = 0.3
+[[items]]
+command = "takeoff"
+alt_m = {alt_m}
+[[items]]
+command = "waypoint"
+pos_ned = [0.0, 0.0, {-alt_m}]
+hold_s = 4.0
+[[items]]
+command = "land"
+""")
+    return path
