@@ -315,17 +315,6 @@ def shipped_campaigns() -> list[str]:
     return shipped.shipped_names("campaigns")
 
 
-def campaign_path(name_or_path: str | Path) -> Path:
-    """The file of a shipped campaign name, or ``name_or_path`` itself when it is a path.
-
-    Raises
-    ------
-    ConfigError
-        An unknown name (the message lists the shipped ones).
-    """
-    return shipped.shipped_path("campaigns", "campaign", name_or_path)
-
-
 def load_campaign(name_or_path: str | Path) -> Campaign:
     """Load a shipped campaign by name, or a campaign file by path.
 
