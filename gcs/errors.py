@@ -18,6 +18,8 @@ code   error                when
 
 from __future__ import annotations
 
+from flightdata.arguments import EXIT_INTERRUPTED, EXIT_USAGE
+
 __all__ = [
     "EXIT_INTERRUPTED",
     "EXIT_OK",
@@ -32,8 +34,6 @@ __all__ = [
 ]
 
 EXIT_OK = 0
-EXIT_USAGE = 2
-EXIT_INTERRUPTED = 130
 
 
 class FlightError(Exception):

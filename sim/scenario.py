@@ -40,14 +40,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from fcu.autopilot import AutopilotConfig
 from fcu.model import VehicleModel
-from flightdata.config import ConfigError, finite, from_mapping, load_toml, require
+from flightdata.config import ConfigError, finite, from_mapping, require
 from flightdata.mission import MissionItem, thesis_mission
+from sim import shipped
 from sim.world import WorldConfig
 from sim.world.airframe import Airframe
 from sim.world.fault_types import Fault, fault_from_mapping
@@ -178,8 +178,7 @@ def nominal_model(airframe: Airframe) -> VehicleModel:
 
 def shipped_names() -> list[str]:
     """Names of the scenarios shipped in ``sim/scenarios``."""
-    folder = resources.files("sim") / "scenarios"
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+    return shipped.shipped_names("scenarios")
 
 
 def scenario_path(name_or_path: str | Path) -> Path:
@@ -190,13 +189,7 @@ def scenario_path(name_or_path: str | Path) -> Path:
     ConfigError
         An unknown name (the message lists the known ones).
     """
-    text = str(name_or_path)
-    if text.endswith(".toml") or "/" in text or Path(text).exists():
-        return Path(text)
-    if text not in shipped_names():
-        raise ConfigError(f"unknown scenario {text!r}: known scenarios are "
-                          f"{', '.join(shipped_names())} (or give a .toml file)")
-    return Path(str(resources.files("sim") / "scenarios" / f"{text}.toml"))
+    return shipped.shipped_path("scenarios", "scenario", name_or_path)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
@@ -208,9 +201,6 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         Unknown name (the message lists the known ones), missing file, bad TOML or a bad
         value (the message names the file and the key).
     """
-    path = scenario_path(name_or_path)
-    data = load_toml(path)
-    try:
-        return scenario_from_mapping(data, default_name=path.stem)
-    except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
+    return shipped.load_shipped(
+        "scenarios", "scenario", name_or_path,
+        lambda data, path: scenario_from_mapping(data, default_name=path.stem))

@@ -34,7 +34,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from flightdata.config import ConfigError
+from flightdata.arguments import run_subcommand
 from flightdata.outputs import check_file_output, check_folder_output
 from sim.scenario import load_scenario, shipped_names
 
@@ -286,15 +286,7 @@ def _seed_range(text: str) -> list[int]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.func(args))
-    except ConfigError as exc:
-        print(f"ftc-scenario: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("ftc-scenario: interrupted", file=sys.stderr)
-        return 130
+    return run_subcommand("ftc-scenario", build_parser().parse_args(argv))
 
 
 if __name__ == "__main__":

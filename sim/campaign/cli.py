@@ -34,7 +34,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
-from flightdata.config import ConfigError
+from flightdata.arguments import EXIT_INTERRUPTED, EXIT_USAGE, run_subcommand
 from sim.campaign.expand import RunSpec, expand, largest_fault_count
 from sim.campaign.spec import load_campaign, shipped_campaigns
 
@@ -44,7 +44,6 @@ if TYPE_CHECKING:
 
 EXIT_ERRORS = 1
 EXIT_UNFLOWN = 3
-EXIT_INTERRUPTED = 130
 
 
 def cmd_list(_: argparse.Namespace) -> int:
@@ -231,15 +230,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if getattr(args, "open", False) and args.command == "run" and not args.report:
         print("ftc-campaign: --open opens the report: give --report too", file=sys.stderr)
-        return 2
-    try:
-        return int(args.func(args))
-    except ConfigError as exc:
-        print(f"ftc-campaign: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("ftc-campaign: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return EXIT_USAGE
+    return run_subcommand("ftc-campaign", args)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ the campaign's rows allow it:
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +66,12 @@ class _Page:
     def add(self, *lines: str) -> None:
         self.lines += lines
 
+    def section(self, title: str, intro: str = "") -> None:
+        """A ``##`` heading, and under it the paragraph ``intro`` when there is one."""
+        self.add(f"## {title}", "")
+        if intro:
+            self.add(intro, "")
+
     def table(self, header: Sequence[str], rows: Sequence[Sequence[str]], align: str) -> None:
         self.lines += [*table_lines(header, rows, align), ""]
 
@@ -93,8 +99,15 @@ def _header(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row]) -> No
                    [[f"`{a.name}`", _values(runs, a.column)] for a in swept], "ll")
 
 
+def _per_configuration(groups: Sequence[Group],
+                       cells: Callable[[list[Row]], list[str]]) -> list[list[str]]:
+    """Table rows, one per configuration: its label, then ``cells`` of its runs that flew
+    without error."""
+    return [[g.label, *cells(ok_rows(g.rows))] for g in groups]
+
+
 def _outcomes(page: _Page, groups: Sequence[Group]) -> None:
-    page.add("## Outcomes", "")
+    page.section("Outcomes")
     cells = []
     for g in groups:
         counts = outcome_counts(g.rows)
@@ -114,7 +127,7 @@ def _envelope(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row],
     x_label = "loss of effectiveness (%)" if loe else "fault magnitude"
     unit = " (%)" if loe else ""
     scale = 100.0 if loe else 1.0
-    page.add("## Survival envelope", "")
+    page.section("Survival envelope")
     if y is not None:
         y_label = "fault start (s)" if y == "fault_start_s" else "motor"
         page.figure(figures.envelope_figure(groups, "fault_magnitude", y, x_label, y_label,
@@ -137,21 +150,21 @@ def _detection(page: _Page, manifest: Mapping[str, Any], groups: Sequence[Group]
     if "detection" not in manifest["metrics"]:
         return
     n_faults = int(manifest["n_faults"])
-    page.add("## Detection latency and false alarms", "",
-             "Latency: from a fault's start to its first detection (simulated s); a false "
-             "alarm is a fault detection that no injected fault explains.", "")
-    cells = []
-    for g in groups:
-        ok = ok_rows(g.rows)
+    page.section("Detection latency and false alarms",
+                 "Latency: from a fault's start to its first detection (simulated s); a false "
+                 "alarm is a fault detection that no injected fault explains.")
+
+    def cells(ok: list[Row]) -> list[str]:
         lat = spread(v for r in ok for v in fault_latencies(r, n_faults))
         started = sum(r.get("faults_started") or 0 for r in ok)
         detected = sum(r.get("faults_detected") or 0 for r in ok)
         false = [r.get("false_alarms") or 0 for r in ok]
-        cells.append([g.label, str(started), str(detected), fmt(lat.median, 2),
-                      fmt(lat.p90, 2), fmt(lat.max, 2), str(sum(false)),
-                      f"{sum(1 for f in false if f)} of {len(ok)}"])
+        return [str(started), str(detected), fmt(lat.median, 2), fmt(lat.p90, 2),
+                fmt(lat.max, 2), str(sum(false)), f"{sum(1 for f in false if f)} of {len(ok)}"]
+
     page.table(("configuration", "faults started", "detected", "median (s)", "p90 (s)",
-                "max (s)", "false alarms", "runs with one"), cells, "lrrrrrrr")
+                "max (s)", "false alarms", "runs with one"), _per_configuration(groups, cells),
+               "lrrrrrrr")
     page.figure(figures.latency_figure(groups, n_faults), "latency",
                 "detection latency per configuration")
     page.figure(figures.false_alarm_figure(groups), "false_alarms",
@@ -161,18 +174,18 @@ def _detection(page: _Page, manifest: Mapping[str, Any], groups: Sequence[Group]
 def _estimate(page: _Page, manifest: Mapping[str, Any], groups: Sequence[Group]) -> None:
     if "estimate" not in manifest["metrics"]:
         return
-    page.add("## Estimate error", "",
-             "The largest |estimated - injected| loss of effectiveness over the motors while "
-             "flying, 3 s after each change (settled), and at the end of the run.", "")
-    cells = []
-    for g in groups:
-        ok = ok_rows(g.rows)
+    page.section("Estimate error",
+                 "The largest |estimated - injected| loss of effectiveness over the motors while "
+                 "flying, 3 s after each change (settled), and at the end of the run.")
+
+    def cells(ok: list[Row]) -> list[str]:
         settled = spread(r.get("loe_settled_error_max") for r in ok)
         final = spread(r.get("loe_final_error_max") for r in ok)
-        cells.append([g.label, fmt(settled.median, 3), fmt(settled.p90, 3),
-                      fmt(settled.max, 3), fmt(final.median, 3), fmt(final.max, 3)])
+        return [fmt(settled.median, 3), fmt(settled.p90, 3), fmt(settled.max, 3),
+                fmt(final.median, 3), fmt(final.max, 3)]
+
     page.table(("configuration", "settled median", "settled p90", "settled max",
-                "final median", "final max"), cells, "lrrrrr")
+                "final median", "final max"), _per_configuration(groups, cells), "lrrrrr")
     page.figure(figures.estimate_error_figure(groups), "estimate_error",
                 "estimate error per configuration")
 
@@ -181,9 +194,8 @@ def _active_passive(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row
     paired = pairs(rows, "ftc", "passive", "active", AXIS_COLUMNS)
     if not paired:
         return
-    page.add("## Active against passive FTC", "",
-             f"{len(paired)} runs were flown both ways (every other axis and the seed equal).",
-             "")
+    page.section("Active against passive FTC",
+                 f"{len(paired)} runs were flown both ways (every other axis and the seed equal).")
     passive = [p for p, _ in paired]
     active = [a for _, a in paired]
     cells = [["survived", _pct(share(passive, survived)), _pct(share(active, survived))]]
@@ -207,9 +219,9 @@ def _errors(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row]) -> No
     if not failed:
         return
     columns = [AXES[name].column for name in manifest["swept"]]
-    page.add("## Runs that raised", "",
-             "Each is recorded with its error; `ftc-campaign run ... --retry-errors` flies "
-             "them again, `ftc-campaign export` writes their scenario files.", "")
+    page.section("Runs that raised",
+                 "Each is recorded with its error; `ftc-campaign run ... --retry-errors` flies "
+                 "them again, `ftc-campaign export` writes their scenario files.")
     page.table(("run", *columns, "error"),
                [[f"`{r['run_id']}`", *(str(r.get(c)) for c in columns),
                  str(r["error"]).splitlines()[0].replace("|", "\\|")] for r in failed],

@@ -44,13 +44,13 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from flightdata.config import ConfigError, finite, load_toml, require
+from flightdata.config import ConfigError, finite, require
+from sim import shipped
 from sim.campaign.axes import AXES, Axis
 from sim.campaign.rows import METRIC_GROUPS
 
@@ -312,25 +312,7 @@ def campaign_from_mapping(data: Mapping[str, Any], *, default_name: str = "campa
 
 def shipped_campaigns() -> list[str]:
     """Names of the campaigns shipped in ``sim/campaigns``."""
-    folder = resources.files("sim") / "campaigns"
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
-
-
-def campaign_path(name_or_path: str | Path) -> Path:
-    """The file of a shipped campaign name, or ``name_or_path`` itself when it is a path.
-
-    Raises
-    ------
-    ConfigError
-        An unknown name (the message lists the shipped ones).
-    """
-    text = str(name_or_path)
-    if text.endswith(".toml") or "/" in text or Path(text).exists():
-        return Path(text)
-    if text not in shipped_campaigns():
-        raise ConfigError(f"unknown campaign {text!r}: shipped campaigns are "
-                          f"{', '.join(shipped_campaigns())} (or give a .toml file)")
-    return Path(str(resources.files("sim") / "campaigns" / f"{text}.toml"))
+    return shipped.shipped_names("campaigns")
 
 
 def load_campaign(name_or_path: str | Path) -> Campaign:
@@ -342,9 +324,6 @@ def load_campaign(name_or_path: str | Path) -> Campaign:
         Unknown name, missing file, bad TOML or a bad value; the message names the file and
         the key.
     """
-    path = campaign_path(name_or_path)
-    data = load_toml(path)
-    try:
-        return campaign_from_mapping(data, default_name=path.stem, source=path)
-    except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
+    return shipped.load_shipped(
+        "campaigns", "campaign", name_or_path,
+        lambda data, path: campaign_from_mapping(data, default_name=path.stem, source=path))

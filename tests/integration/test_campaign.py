@@ -147,20 +147,29 @@ def test_same_rows_through_a_separate_scheduler_and_two_workers(smoke_local: Pat
     assert {int(r["worker"].rsplit(":", 1)[1]) for r in rows} <= worker_pids
 
 
-def test_interrupted_campaign_flies_only_the_missing_runs_when_run_again(
-        smoke_local: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out = tmp_path / "out"
+@contextmanager
+def smoke_campaign_started(out: Path) -> Iterator[subprocess.Popen[str]]:
+    """``ftc-campaign run smoke --out OUT --workers 2`` in a process of its own (stdout and
+    stderr as one text), handed over once a first row is on disk; killed on the way out if it
+    is still running."""
     proc = subprocess.Popen([str(BIN / "ftc-campaign"), "run", "smoke", "--out", str(out),
                              "--workers", "2"], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:
         wait_for("a first row on disk", lambda: (out / "runs").is_dir() and read_rows(out))
-        proc.send_signal(signal.SIGINT)  # Ctrl-C
-        text, _ = proc.communicate(timeout=READY_S)
+        yield proc
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait(60)
+
+
+def test_interrupted_campaign_flies_only_the_missing_runs_when_run_again(
+        smoke_local: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out"
+    with smoke_campaign_started(out) as proc:
+        proc.send_signal(signal.SIGINT)  # Ctrl-C
+        text, _ = proc.communicate(timeout=READY_S)
     assert proc.returncode == 130, text
     assert "interrupted; run the same command again" in text
     before = {r["run_id"]: r for r in read_rows(out)}
@@ -181,20 +190,12 @@ def test_interrupted_campaign_flies_only_the_missing_runs_when_run_again(
 
 def test_a_worker_lost_mid_campaign_costs_no_run(smoke_local: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
-    proc = subprocess.Popen([str(BIN / "ftc-campaign"), "run", "smoke", "--out", str(out),
-                             "--workers", "2"], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
-    try:
-        wait_for("a first row on disk", lambda: (out / "runs").is_dir() and read_rows(out))
+    with smoke_campaign_started(out) as proc:
         workers = [p for p in psutil.Process(proc.pid).children(recursive=True)
                    if "spawn_main" in " ".join(p.cmdline())]
         assert len(workers) == 2
         workers[0].kill()  # SIGKILL: the worker and the run it was flying are lost
         text, _ = proc.communicate(timeout=2 * READY_S)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait(60)
     # the scheduler gives the lost run to a worker again (the nanny restarts the dead one)
     assert proc.returncode == 0, text
     assert flown(read_rows(out)) == flown(read_rows(smoke_local))

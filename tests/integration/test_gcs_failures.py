@@ -6,7 +6,6 @@ the vehicle killed mid-flight (the .tlog and event log up to that moment stay re
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 import time
@@ -14,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from pymavlink import mavutil
+from vehicle_harness import free_port
 
 from gcs.analysis import analyze_tlog
 from gcs.mission import thesis_mission
@@ -27,12 +27,6 @@ BOOT_S = 60.0  # s: a vehicle's start-up (imports, numba cache, LQR design)
 pytestmark = pytest.mark.slow
 
 
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def gcs_command(*args: str) -> list[str]:
     return [sys.executable, "-m", "gcs", *args]
 
@@ -42,7 +36,7 @@ def last_line(text: str) -> str:
 
 
 def test_refused_arm(tmp_path: Path) -> None:
-    port = free_udp_port()
+    port = free_port()
     with SpawnedVehicle(VehicleSpec(speedup=10, seed=1), port,
                         log_path=tmp_path / "vehicle.log"):
         # someone left the vehicle in AUTO on the ground: ArduCopter does not arm in AUTO
@@ -87,7 +81,7 @@ def test_refused_parameter_is_one_line_with_the_vehicles_reason(tmp_path: Path) 
 
 
 def test_vehicle_killed_mid_flight_keeps_the_records(tmp_path: Path) -> None:
-    port = free_udp_port()
+    port = free_port()
     tlog = tmp_path / "f.tlog"
     events = tmp_path / "f.events.log"
     vehicle = SpawnedVehicle(VehicleSpec(speedup=10, seed=1), port,

@@ -6,12 +6,12 @@ connection time-out. The ``vehicle`` marker's ``signing_key`` signs the fixture'
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from vehicle_harness import free_port, write_hover_mission
 
 from flightdata.signing import key_from_text
 from gcs.mavlink import is_signed, read_tlog
@@ -21,34 +21,12 @@ ROOT = Path(__file__).resolve().parents[2]
 WALL_S = 300.0  # s: one short flight on a loaded two-core machine
 PASSPHRASE = "quadftc-gcs-signing"
 KEY = key_from_text(PASSPHRASE)
-HOVER_TOML = """\
-[[items]]
-command = "change_speed"
-speed_type = "climb"
-speed_m_s = 0.3
-[[items]]
-command = "takeoff"
-alt_m = 0.6
-[[items]]
-command = "waypoint"
-pos_ned = [0.0, 0.0, -0.6]
-hold_s = 4.0
-[[items]]
-command = "land"
-"""  # climb to 0.6 m, hold, land: about 15 s of simulated time
 
 pytestmark = pytest.mark.slow
 
 
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def gcs_fly(port: int, tmp_path: Path, *args: str) -> subprocess.CompletedProcess[str]:
-    mission = tmp_path / "hover.toml"
-    mission.write_text(HOVER_TOML)
+    mission = write_hover_mission(tmp_path / "hover.toml")  # about 15 s simulated
     return subprocess.run(
         [sys.executable, "-m", "gcs", "fly", "--connect", f"udpin:127.0.0.1:{port}",
          "--mission", str(mission), "--max-flight-s", "60", "--connect-timeout", "120",
@@ -61,7 +39,7 @@ def last_line(text: str) -> str:
 
 
 def test_a_short_mission_flown_signed_end_to_end(tmp_path: Path) -> None:
-    port = free_udp_port()
+    port = free_port()
     vehicle = SpawnedVehicle(VehicleSpec(speedup=10, seed=3, signing_key=KEY), port,
                              log_path=tmp_path / "vehicle.log").start()
     try:
@@ -81,7 +59,7 @@ def test_a_short_mission_flown_signed_end_to_end(tmp_path: Path) -> None:
 
 
 def test_mismatched_keys_end_in_one_line(tmp_path: Path) -> None:
-    port = free_udp_port()
+    port = free_port()
     with SpawnedVehicle(VehicleSpec(speedup=10, seed=3, signing_key=KEY), port,
                         log_path=tmp_path / "vehicle.log"):
         wrong = gcs_fly(port, tmp_path, "--signing-key", "not-the-passphrase")
@@ -98,7 +76,7 @@ def test_mismatched_keys_end_in_one_line(tmp_path: Path) -> None:
 
 
 def test_a_key_against_a_vehicle_without_one(tmp_path: Path) -> None:
-    port = free_udp_port()
+    port = free_port()
     with SpawnedVehicle(VehicleSpec(speedup=10, seed=3), port,
                         log_path=tmp_path / "vehicle.log"):
         proc = gcs_fly(port, tmp_path, "--signing-key", PASSPHRASE)

@@ -14,27 +14,12 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from vehicle_harness import VehicleProcess
+from vehicle_harness import VehicleProcess, write_hover_mission
 
 from gcs.mavlink import read_tlog
 
 ROOT = Path(__file__).resolve().parents[2]
 WALL_S = 600.0  # s: two short flights side by side on a loaded two-core machine
-HOVER_TOML = """\
-[[items]]
-command = "change_speed"
-speed_type = "climb"
-speed_m_s = 0.3
-[[items]]
-command = "takeoff"
-alt_m = {alt_m}
-[[items]]
-command = "waypoint"
-pos_ned = [0.0, 0.0, -{alt_m}]
-hold_s = 4.0
-[[items]]
-command = "land"
-"""  # climb, hold, land: about 15 s of simulated time
 ALT_M = (0.6, 1.0)  # m: instance 0 and instance 1 hover at different heights
 
 pytestmark = pytest.mark.slow
@@ -64,8 +49,7 @@ def test_two_instances_flown_at_once(tmp_path: Path) -> None:
         assert "instance 1" in lines[1]
         flights = []
         for n, alt_m in enumerate(ALT_M):
-            mission = tmp_path / f"hover{n}.toml"
-            mission.write_text(HOVER_TOML.format(alt_m=alt_m))
+            mission = write_hover_mission(tmp_path / f"hover{n}.toml", alt_m)
             flights.append(subprocess.Popen(
                 [sys.executable, "-m", "gcs", "fly", "--connect",
                  f"udpin:127.0.0.1:{14550 + 10 * n}", "--mission", str(mission),

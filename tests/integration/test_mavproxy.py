@@ -74,6 +74,12 @@ class MavProxy:
         self.proc.stdin.flush()
         return since
 
+    def answers(self, line: str, *patterns: str) -> None:
+        """Type ``line`` and wait for each of ``patterns`` (regexes) in what follows it."""
+        since = self.send(line)
+        for pattern in patterns:
+            self.expect(pattern, since)
+
     def close(self) -> bool:
         """EOF on the shell ends MAVProxy (its exit status is always 1); True if it did.
 
@@ -102,36 +108,26 @@ def test_mavproxy_shows_modes_arms_and_reads_parameters(start_vehicle, tmp_path:
         assert count > 50
         assert "FTP: request timed out" not in mp.output  # NAKed: parameters came at once
 
-        since = mp.send("mode GUIDED")
-        mp.expect(r"DO_SET_MODE: ACCEPTED", since)
-        mp.expect(r"GUIDED>", since)
-        since = mp.send("mode ACRO")  # an ArduCopter mode this vehicle does not fly
-        mp.expect(r"DO_SET_MODE: DENIED", since)
-        mp.expect(r"AP: Mode ACRO refused", since)
-        since = mp.send("arm throttle")
-        mp.expect(r"COMPONENT_ARM_DISARM: ACCEPTED", since)
-        mp.expect(r"ARMED", since)
+        mp.answers("mode GUIDED", r"DO_SET_MODE: ACCEPTED", r"GUIDED>")
+        mp.answers("mode ACRO",  # an ArduCopter mode this vehicle does not fly
+                   r"DO_SET_MODE: DENIED", r"AP: Mode ACRO refused")
+        mp.answers("arm throttle", r"COMPONENT_ARM_DISARM: ACCEPTED", r"ARMED")
 
-        since = mp.send("param show ATT_CTRL")
-        mp.expect(r"ATT_CTRL\s+1(\.0)?\b", since)
-        since = mp.send("param show SIM_ENGINE_*")
-        mp.expect(r"SIM_ENGINE_FAIL\s+0(\.0)?\b", since)
-        mp.expect(r"SIM_ENGINE_MUL\s+1(\.0)?\b", since)
-        since = mp.send("param set ATT_CTRL 0")  # armed: refused, value unchanged
-        mp.expect(r"AP: ATT_CTRL: change it disarmed on the ground", since)
-        # MAVProxy retries a PARAM_SET until the echo matches, three times, then gives up
-        mp.expect(r"Failed to set ATT_CTRL to 0 \(invalid returned value 1", since)
-        since = mp.send("param show ATT_CTRL")
-        mp.expect(r"ATT_CTRL\s+1(\.0)?\b", since)
+        mp.answers("param show ATT_CTRL", r"ATT_CTRL\s+1(\.0)?\b")
+        mp.answers("param show SIM_ENGINE_*",
+                   r"SIM_ENGINE_FAIL\s+0(\.0)?\b", r"SIM_ENGINE_MUL\s+1(\.0)?\b")
+        mp.answers("param set ATT_CTRL 0",  # armed: refused, value unchanged
+                   r"AP: ATT_CTRL: change it disarmed on the ground",
+                   # MAVProxy retries a PARAM_SET until the echo matches, three times, then
+                   # gives up
+                   r"Failed to set ATT_CTRL to 0 \(invalid returned value 1")
+        mp.answers("param show ATT_CTRL", r"ATT_CTRL\s+1(\.0)?\b")
 
-        since = mp.send("disarm")
-        mp.expect(r"DISARMED", since)
-        since = mp.send("mode LOITER")
-        mp.expect(r"LOITER>", since)
-        since = mp.send("param set WPNAV_SPEED 75")  # disarmed on the ground: accepted
-        mp.expect(r"AP: WPNAV_SPEED = 75: autopilot rebuilt", since)
-        since = mp.send("param show WPNAV_SPEED")
-        mp.expect(r"WPNAV_SPEED\s+75(\.0)?\b", since)
+        mp.answers("disarm", r"DISARMED")
+        mp.answers("mode LOITER", r"LOITER>")
+        mp.answers("param set WPNAV_SPEED 75",  # disarmed on the ground: accepted
+                   r"AP: WPNAV_SPEED = 75: autopilot rebuilt")
+        mp.answers("param show WPNAV_SPEED", r"WPNAV_SPEED\s+75(\.0)?\b")
     finally:
         ended = mp.close()
     assert ended, mp.output[-3000:]

@@ -268,6 +268,14 @@ class Gcs:
         self._thread = threading.Thread(target=loop, daemon=True)
         self._thread.start()
 
+    def _receive_for(self, left_s: float) -> None:
+        """Let a little of the ``left_s`` wall seconds pass while messages come in: received
+        here, or by the reader thread when it runs."""
+        if self._thread is None:
+            self.pump(min(left_s, 0.1))
+        else:
+            time.sleep(min(left_s, 0.02))
+
     def messages(self, kind: str | Iterable[str] | None = None, since: int = 0) -> list[Message]:
         """Messages received so far (from log index ``since``), optionally of some types."""
         kinds = {kind} if isinstance(kind, str) else set(kind) if kind is not None else None
@@ -306,10 +314,7 @@ class Gcs:
             left = deadline - time.monotonic()
             if left <= 0:
                 raise TimeoutError(f"no STATUSTEXT with {part!r} within {timeout_s} s")
-            if self._thread is None:
-                self.pump(min(left, 0.1))
-            else:
-                time.sleep(min(left, 0.02))
+            self._receive_for(left)
 
     def mark(self) -> int:
         """Index of the next message to arrive (for :meth:`messages` / :meth:`wait`)."""
@@ -339,20 +344,14 @@ class Gcs:
             left = deadline - time.monotonic()
             if left <= 0:
                 raise TimeoutError(f"no {sorted(kinds)} within {timeout_s} s")
-            if self._thread is None:
-                self.pump(min(left, 0.1))
-            else:
-                time.sleep(min(left, 0.02))
+            self._receive_for(left)
 
     def collect(self, duration_s: float) -> list[Message]:
         """Everything received during the next ``duration_s`` wall seconds."""
         start = self.mark()
         deadline = time.monotonic() + duration_s
         while (left := deadline - time.monotonic()) > 0:
-            if self._thread is None:
-                self.pump(min(left, 0.1))
-            else:
-                time.sleep(min(left, 0.02))
+            self._receive_for(left)
         return self.messages(since=start)
 
     def wait_heartbeat(self, timeout_s: float = STARTUP_S) -> Message:
@@ -432,3 +431,24 @@ def mission_item(seq: int, command: int, *, params: Sequence[float] = (0, 0, 0, 
     return M.MAVLink_mission_item_int_message(*target, seq, frame, command, current, 1, *p,
                                               round(x * scale), round(y * scale), z,
                                               M.MAV_MISSION_TYPE_MISSION)
+
+
+def write_hover_mission(path: Path, alt_m: float = 0.6) -> Path:
+    """Write an ``ftc-gcs`` mission file to ``path``: climb at 0.3 m/s to ``alt_m`` (m), hold
+    4 s, land; about 15 s of simulated time for the default height."""
+    path.write_text(f"""\
+[[items]]
+command = "change_speed"
+speed_type = "climb"
+speed_m_s = 0.3
+[[items]]
+command = "takeoff"
+alt_m = {alt_m}
+[[items]]
+command = "waypoint"
+pos_ned = [0.0, 0.0, {-alt_m}]
+hold_s = 4.0
+[[items]]
+command = "land"
+""")
+    return path

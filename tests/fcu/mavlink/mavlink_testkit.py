@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -513,6 +514,18 @@ def started(gcs: Gcs, **kwargs: Any) -> VehicleThread:
         vehicle.stop()
         raise
     return vehicle
+
+
+@contextmanager
+def linked(**kwargs: Any) -> Iterator[tuple[Gcs, VehicleThread]]:
+    """A ground station and a vehicle sending to it (:func:`started` with ``kwargs``); the
+    vehicle is stopped and the station closed on the way out."""
+    with Gcs() as gcs:
+        vehicle = started(gcs, **kwargs)
+        try:
+            yield gcs, vehicle
+        finally:
+            vehicle.stop()
 
 
 GCS_ADDR = ("127.0.0.1", 50000)  # a made-up peer address for in-memory tests

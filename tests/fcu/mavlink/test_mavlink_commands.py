@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from mavlink_testkit import ORIGIN, WAIT_S, Gcs, VehicleThread, started
+from mavlink_testkit import ORIGIN, WAIT_S, Gcs, VehicleThread, linked, started
 from numpy.testing import assert_allclose
 
 from fcu.mavlink.codec import mavlink2
@@ -22,12 +22,8 @@ ACCEPTED, DENIED, UNSUPPORTED = M.MAV_RESULT_ACCEPTED, M.MAV_RESULT_DENIED, M.MA
 
 @pytest.fixture
 def fly() -> Iterator[tuple[Gcs, VehicleThread]]:
-    with Gcs() as gcs:
-        vehicle = started(gcs, speedup=5.0)
-        try:
-            yield gcs, vehicle
-        finally:
-            vehicle.stop()
+    with linked(speedup=5.0) as pair:
+        yield pair
 
 
 def calls(vehicle: VehicleThread, name: str) -> list[tuple[Any, ...]]:

@@ -15,8 +15,8 @@ from mavlink_testkit import (
     Item,
     VehicleThread,
     download,
+    linked,
     memory_endpoint,
-    started,
     upload,
 )
 from numpy.testing import assert_allclose
@@ -55,12 +55,8 @@ def square() -> list[Item]:
 
 @pytest.fixture
 def link() -> Iterator[tuple[Gcs, VehicleThread]]:
-    with Gcs() as gcs:
-        vehicle = started(gcs, speedup=5.0, config=FAST)
-        try:
-            yield gcs, vehicle
-        finally:
-            vehicle.stop()
+    with linked(speedup=5.0, config=FAST) as pair:
+        yield pair
 
 
 # ------------------------------------------------------------------------ validation (unit)

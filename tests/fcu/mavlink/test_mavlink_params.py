@@ -3,18 +3,26 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
 import pytest
-from mavlink_testkit import Gcs, started
+from mavlink_testkit import Gcs, VehicleThread, linked
 
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.params import ParamEntry, ParamTable, wire_type
 from fcu.mavlink.port import CommandResult, ParamSpec
 
 M = mavlink2
+Link = tuple[Gcs, VehicleThread]
+
+
+@pytest.fixture
+def link() -> Iterator[Link]:
+    """A ground station and a vehicle with the default parameters, sending to it."""
+    with linked() as pair:
+        yield pair
 
 
 def table() -> ParamTable:
@@ -82,15 +90,11 @@ def test_duplicate_names_and_long_names_are_refused() -> None:
         ParamSpec(name="A" * 17, value=0.0)
 
 
-def test_param_list_is_complete_and_contiguous() -> None:
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            gcs.mav.param_request_list_send(1, 0)
-            values = gcs.collect("PARAM_VALUE", 1.5)
-            expected = vehicle.endpoint.params.names
-        finally:
-            vehicle.stop()
+def test_param_list_is_complete_and_contiguous(link: Link) -> None:
+    gcs, vehicle = link
+    gcs.mav.param_request_list_send(1, 0)
+    values = gcs.collect("PARAM_VALUE", 1.5)
+    expected = vehicle.endpoint.params.names
     assert sorted(v.param_index for v in values) == list(range(len(expected)))
     assert {v.param_count for v in values} == {len(expected)}
     assert {v.param_id: v.param_index for v in values} == \
@@ -109,80 +113,61 @@ def test_param_list_is_complete_and_contiguous() -> None:
     assert by_name["FS_GCS_TIMEOUT"] == 5.0 and by_name["SYSID_MYGCS"] == 255
 
 
-def test_param_read_by_name_and_index() -> None:
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            gcs.mav.param_request_read_send(1, 1, b"FS_GCS_TIMEOUT", -1)
-            by_name = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "FS_GCS_TIMEOUT")
-            index = vehicle.endpoint.params.index_of("WPNAV_SPEED")
-            gcs.mav.param_request_read_send(1, 1, b"", index)
-            by_index = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_index == index)
-            gcs.mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)
-            text = gcs.recv("STATUSTEXT", condition=lambda m: "NO_SUCH_PARAM" in m.text)
-        finally:
-            vehicle.stop()
+def test_param_read_by_name_and_index(link: Link) -> None:
+    gcs, vehicle = link
+    gcs.mav.param_request_read_send(1, 1, b"FS_GCS_TIMEOUT", -1)
+    by_name = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "FS_GCS_TIMEOUT")
+    index = vehicle.endpoint.params.index_of("WPNAV_SPEED")
+    gcs.mav.param_request_read_send(1, 1, b"", index)
+    by_index = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_index == index)
+    gcs.mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)
+    text = gcs.recv("STATUSTEXT", condition=lambda m: "NO_SUCH_PARAM" in m.text)
     assert by_name is not None and by_name.param_value == 5.0
     assert by_index is not None and by_index.param_id == "WPNAV_SPEED"
     assert text is not None
 
 
-def test_param_set_accepted_is_applied_and_echoed() -> None:
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            gcs.mav.param_set_send(1, 1, b"WPNAV_SPEED", 7.5, M.MAV_PARAM_TYPE_REAL32)
-            echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "WPNAV_SPEED")
-        finally:
-            vehicle.stop()
+def test_param_set_accepted_is_applied_and_echoed(link: Link) -> None:
+    gcs, vehicle = link
+    gcs.mav.param_set_send(1, 1, b"WPNAV_SPEED", 7.5, M.MAV_PARAM_TYPE_REAL32)
+    echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "WPNAV_SPEED")
     assert echo is not None and echo.param_value == 7.5
     assert vehicle.vehicle.param_values["WPNAV_SPEED"] == 7.5
 
 
 @pytest.mark.parametrize("value, why", [(math.nan, "finite"), (math.inf, "finite"),
                                         (1000.0, "outside")])
-def test_param_set_invalid_echoes_the_old_value_with_a_reason(value: float, why: str) -> None:
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            gcs.mav.param_set_send(1, 1, b"FS_GCS_TIMEOUT", value, M.MAV_PARAM_TYPE_REAL32)
-            got = gcs.gather({"PARAM_VALUE": lambda m: m.param_id == "FS_GCS_TIMEOUT",
-                              "STATUSTEXT": lambda m: "FS_GCS_TIMEOUT" in m.text})
-        finally:
-            vehicle.stop()
+def test_param_set_invalid_echoes_the_old_value_with_a_reason(value: float, why: str,
+                                                             link: Link) -> None:
+    gcs, _ = link
+    gcs.mav.param_set_send(1, 1, b"FS_GCS_TIMEOUT", value, M.MAV_PARAM_TYPE_REAL32)
+    got = gcs.gather({"PARAM_VALUE": lambda m: m.param_id == "FS_GCS_TIMEOUT",
+                      "STATUSTEXT": lambda m: "FS_GCS_TIMEOUT" in m.text})
     assert got["PARAM_VALUE"].param_value == 5.0  # the unchanged value is echoed
     assert why in got["STATUSTEXT"].text
 
 
-def test_param_set_refused_by_the_vehicle() -> None:
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            with vehicle.lock:
-                vehicle.vehicle.armed = True
-            gcs.mav.param_set_send(1, 1, b"WPNAV_SPEED", 18.0, M.MAV_PARAM_TYPE_REAL32)
-            got = gcs.gather({"PARAM_VALUE": lambda m: m.param_id == "WPNAV_SPEED",
-                              "STATUSTEXT": lambda m: "WPNAV_SPEED" in m.text})
-        finally:
-            vehicle.stop()
+def test_param_set_refused_by_the_vehicle(link: Link) -> None:
+    gcs, vehicle = link
+    with vehicle.lock:
+        vehicle.vehicle.armed = True
+    gcs.mav.param_set_send(1, 1, b"WPNAV_SPEED", 18.0, M.MAV_PARAM_TYPE_REAL32)
+    got = gcs.gather({"PARAM_VALUE": lambda m: m.param_id == "WPNAV_SPEED",
+                      "STATUSTEXT": lambda m: "WPNAV_SPEED" in m.text})
     assert got["PARAM_VALUE"].param_value == 5.0
     assert "disarmed" in got["STATUSTEXT"].text
 
 
-def test_param_set_unknown_name_gets_a_statustext() -> None:
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            gcs.mav.param_set_send(1, 1, b"NOT_A_PARAM", 1.0, M.MAV_PARAM_TYPE_REAL32)
-            text = gcs.recv("STATUSTEXT", condition=lambda m: "NOT_A_PARAM" in m.text)
-            echoes = gcs.collect("PARAM_VALUE", 0.5)
-        finally:
-            vehicle.stop()
+def test_param_set_unknown_name_gets_a_statustext(link: Link) -> None:
+    gcs, _ = link
+    gcs.mav.param_set_send(1, 1, b"NOT_A_PARAM", 1.0, M.MAV_PARAM_TYPE_REAL32)
+    text = gcs.recv("STATUSTEXT", condition=lambda m: "NOT_A_PARAM" in m.text)
+    echoes = gcs.collect("PARAM_VALUE", 0.5)
     assert text is not None and "Unknown parameter" in text.text
     assert echoes == []
 
 
-def test_repeated_unknown_reads_get_one_statustext_and_no_value() -> None:
+def test_repeated_unknown_reads_get_one_statustext_and_no_value(link: Link) -> None:
     # MAVSDK retries a read six times before its own time-out: one line for the pilot
     log: list = []
 
@@ -192,20 +177,16 @@ def test_repeated_unknown_reads_get_one_statustext_and_no_value() -> None:
             return done(msg)
         return record
 
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            for _ in range(6):
-                gcs.mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)
-            gcs.mav.param_request_read_send(1, 1, b"FS_GCS_TIMEOUT", -1)  # answered after them
-            known = gcs.recv(["PARAM_VALUE", "STATUSTEXT"], condition=until(
-                lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == "FS_GCS_TIMEOUT"))
-            gcs.mav.param_request_read_send(1, 1, b"OTHER_UNKNOWN", -1)
-            other = gcs.recv(["PARAM_VALUE", "STATUSTEXT"], condition=until(
-                lambda m: m.get_type() == "STATUSTEXT" and "OTHER_UNKNOWN" in m.text))
-            log += gcs.collect(["STATUSTEXT", "PARAM_VALUE"], 0.5)
-        finally:
-            vehicle.stop()
+    gcs, _ = link
+    for _ in range(6):
+        gcs.mav.param_request_read_send(1, 1, b"NO_SUCH_PARAM", -1)
+    gcs.mav.param_request_read_send(1, 1, b"FS_GCS_TIMEOUT", -1)  # answered after them
+    known = gcs.recv(["PARAM_VALUE", "STATUSTEXT"], condition=until(
+        lambda m: m.get_type() == "PARAM_VALUE" and m.param_id == "FS_GCS_TIMEOUT"))
+    gcs.mav.param_request_read_send(1, 1, b"OTHER_UNKNOWN", -1)
+    other = gcs.recv(["PARAM_VALUE", "STATUSTEXT"], condition=until(
+        lambda m: m.get_type() == "STATUSTEXT" and "OTHER_UNKNOWN" in m.text))
+    log += gcs.collect(["STATUSTEXT", "PARAM_VALUE"], 0.5)
     assert known is not None and other is not None  # another unknown name is still reported
     texts = [m.text for m in log if m.get_type() == "STATUSTEXT"]
     assert texts.count("Unknown parameter NO_SUCH_PARAM") == 1
@@ -213,32 +194,24 @@ def test_repeated_unknown_reads_get_one_statustext_and_no_value() -> None:
                 and m.param_id in ("NO_SUCH_PARAM", "OTHER_UNKNOWN")]
 
 
-def test_param_set_ignores_the_type_field_and_echoes_the_parameter_type() -> None:
+def test_param_set_ignores_the_type_field_and_echoes_the_parameter_type(link: Link) -> None:
     # ArduPilot ignores PARAM_SET.param_type: REAL32 sent for an INT8 parameter is applied
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            gcs.mav.param_set_send(1, 1, b"FS_GCS_ENABLE", 1.0, M.MAV_PARAM_TYPE_REAL32)
-            echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "FS_GCS_ENABLE")
-            gcs.mav.param_set_send(1, 1, b"FS_GCS_TIMEOUT", 7.0, M.MAV_PARAM_TYPE_INT8)
-            echo_float = gcs.recv("PARAM_VALUE",
-                                  condition=lambda m: m.param_id == "FS_GCS_TIMEOUT")
-        finally:
-            vehicle.stop()
+    gcs, _ = link
+    gcs.mav.param_set_send(1, 1, b"FS_GCS_ENABLE", 1.0, M.MAV_PARAM_TYPE_REAL32)
+    echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "FS_GCS_ENABLE")
+    gcs.mav.param_set_send(1, 1, b"FS_GCS_TIMEOUT", 7.0, M.MAV_PARAM_TYPE_INT8)
+    echo_float = gcs.recv("PARAM_VALUE",
+                          condition=lambda m: m.param_id == "FS_GCS_TIMEOUT")
     assert echo is not None and (echo.param_value, echo.param_type) == (1.0,
                                                                         M.MAV_PARAM_TYPE_INT8)
     assert echo_float is not None and (echo_float.param_value, echo_float.param_type) == \
         (7.0, M.MAV_PARAM_TYPE_REAL32)
 
 
-def test_param_set_int_type_is_c_cast() -> None:
+def test_param_set_int_type_is_c_cast(link: Link) -> None:
     # A GCS that believes SYSID_MYGCS is INT32 still sends the value as a float (C_CAST).
-    with Gcs() as gcs:
-        vehicle = started(gcs)
-        try:
-            gcs.mav.param_set_send(1, 1, b"SYSID_MYGCS", 200.0, M.MAV_PARAM_TYPE_INT32)
-            echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "SYSID_MYGCS")
-        finally:
-            vehicle.stop()
+    gcs, vehicle = link
+    gcs.mav.param_set_send(1, 1, b"SYSID_MYGCS", 200.0, M.MAV_PARAM_TYPE_INT32)
+    echo = gcs.recv("PARAM_VALUE", condition=lambda m: m.param_id == "SYSID_MYGCS")
     assert echo is not None and echo.param_value == 200.0
     assert vehicle.endpoint.params.get("SYSID_MYGCS") == 200.0
