@@ -92,12 +92,9 @@ def test_a_lost_parameter_injection_is_sent_again(tmp_path: Path) -> None:
     # the first two PARAM_SETs of SIM_MOT2_LOE never reach the vehicle: without a resend the
     # fault would never be injected and the vehicle would hover healthy
     from lossy_proxy import LossyProxy
-    from vehicle_harness import VehicleProcess
+    from vehicle_harness import VehicleProcess, write_hover_mission
 
-    mission = tmp_path / "hover.toml"
-    mission.write_text('[[items]]\ncommand = "takeoff"\nalt_m = 0.6\n'
-                       '[[items]]\ncommand = "waypoint"\npos_ned = [0, 0, -0.6]\nhold_s = 10\n'
-                       '[[items]]\ncommand = "land"\n')
+    mission = write_hover_mission(tmp_path / "hover.toml")  # climb 2 s, hold 4 s, land
     with LossyProxy(0.0, 1, drop_first=b"SIM_MOT2_LOE", drop_times=2) as proxy:
         vehicle = VehicleProcess(["--speedup", "10", "--seed", "2", "--start-paused",
                                   "--out", f"127.0.0.1:{proxy.vehicle_port}"])
@@ -105,7 +102,7 @@ def test_a_lost_parameter_injection_is_sent_again(tmp_path: Path) -> None:
             proc = subprocess.run(
                 [sys.executable, "-m", "gcs", "fly", "--connect",
                  f"udpout:127.0.0.1:{proxy.gcs_port}", "--mission", str(mission),
-                 "--inject-via", "param", "--fault", "2:0.25@6", "--quiet",
+                 "--inject-via", "param", "--fault", "2:0.25@3", "--quiet",
                  "--tlog", str(tmp_path / "f.tlog"), "--json", str(tmp_path / "f.json")],
                 cwd=ROOT, capture_output=True, text=True, timeout=WALL_S,
                 stdin=subprocess.DEVNULL)
