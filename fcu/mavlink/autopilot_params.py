@@ -83,7 +83,7 @@ def _axes(values: tuple[float, float, float], value: float, axes: tuple[int, ...
 
 
 def _gain_param(name: str, group: str, attr: str, axes: tuple[int, ...], unit: str,
-                description: str, lo: float = 0.0, hi: float = 1e9) -> ApParam:
+                description: str, lo: float, hi: float) -> ApParam:
     return ApParam(
         name, f"{description}, {unit}",
         get=lambda c: float(getattr(getattr(c, group), attr)[axes[0]]),
@@ -121,6 +121,35 @@ def _group_param(name: str, group: str, attr: str, unit: str, description: str, 
                    if integer else None)
 
 
+# The gains and weights: name, configuration group, field, axes (0 north/roll, 1 east/pitch,
+# 2 down/yaw), unit, description, range. The position and PD gains range from 0 to a few
+# times their defaults (a gain of 1e9 slams the motors between saturations); the LQR weights
+# only matter relative to each other, so any positive value is a design.
+_GAINS: tuple[tuple[str, str, str, tuple[int, ...], str, str, float, float], ...] = (
+    ("POS_XY_KP", "position", "kp", (0, 1), "1/s^2", "Horizontal position P gain", 0.0, 40.0),
+    ("POS_XY_KD", "position", "kd", (0, 1), "1/s", "Horizontal position D gain", 0.0, 30.0),
+    ("POS_XY_KI", "position", "ki", (0, 1), "1/s^3", "Horizontal position I gain", 0.0, 15.0),
+    ("POS_Z_KP", "position", "kp", (2,), "1/s^2", "Vertical position P gain", 0.0, 40.0),
+    ("POS_Z_KD", "position", "kd", (2,), "1/s", "Vertical position D gain", 0.0, 30.0),
+    ("POS_Z_KI", "position", "ki", (2,), "1/s^3", "Vertical position I gain", 0.0, 15.0),
+    ("ATT_PD_RP_KP", "pd", "kp", (0, 1), "1/s^2", "PD roll/pitch angle gain", 0.0, 500.0),
+    ("ATT_PD_RP_KD", "pd", "kd", (0, 1), "1/s", "PD roll/pitch rate gain", 0.0, 80.0),
+    ("ATT_PD_Y_KP", "pd", "kp", (2,), "1/s^2", "PD yaw angle gain", 0.0, 100.0),
+    ("ATT_PD_Y_KD", "pd", "kd", (2,), "1/s", "PD yaw rate gain", 0.0, 40.0),
+    ("LQR_QINT_RP", "lqr", "q_integral", (0, 1), "1/(rad*s)^2",
+      "LQR roll/pitch integral weight", 1e-9, 1e9),
+    ("LQR_QANG_RP", "lqr", "q_angle", (0, 1), "1/rad^2", "LQR roll/pitch angle weight", 1e-9, 1e9),
+    ("LQR_QRATE_RP", "lqr", "q_rate", (0, 1), "1/(rad/s)^2",
+      "LQR roll/pitch rate weight", 1e-9, 1e9),
+    ("LQR_R_RP", "lqr", "r_torque", (0, 1), "1/(N*m)^2",
+      "LQR roll/pitch torque weight", 1e-9, 1e9),
+    ("LQR_QINT_Y", "lqr", "q_integral", (2,), "1/(rad*s)^2", "LQR yaw integral weight", 1e-9, 1e9),
+    ("LQR_QANG_Y", "lqr", "q_angle", (2,), "1/rad^2", "LQR yaw angle weight", 1e-9, 1e9),
+    ("LQR_QRATE_Y", "lqr", "q_rate", (2,), "1/(rad/s)^2", "LQR yaw rate weight", 1e-9, 1e9),
+    ("LQR_R_Y", "lqr", "r_torque", (2,), "1/(N*m)^2", "LQR yaw torque weight", 1e-9, 1e9),
+)
+
+
 AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
     _enum_param("attitude",
                 "Attitude controller: 0 PD (eq. 5.6), 1 LQG (LQR + integral, eq. 5.10)"),
@@ -142,40 +171,7 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
     _top_param("DOB_CUTOFF", "dob_cutoff_rad_s", "rad/s", "DOB Q-filter cut-off", 0.01, 1e3),
     _top_param("ATT_REF_BW", "attitude_ref_bandwidth_rad_s", "rad/s",
                "Attitude reference filter bandwidth", 0.01, 1e3),
-    _gain_param("POS_XY_KP", "position", "kp", (0, 1), "1/s^2", "Horizontal position P gain",
-                0.0, 40.0),
-    _gain_param("POS_XY_KD", "position", "kd", (0, 1), "1/s", "Horizontal position D gain",
-                0.0, 30.0),
-    _gain_param("POS_XY_KI", "position", "ki", (0, 1), "1/s^3", "Horizontal position I gain",
-                0.0, 15.0),
-    _gain_param("POS_Z_KP", "position", "kp", (2,), "1/s^2", "Vertical position P gain",
-                0.0, 40.0),
-    _gain_param("POS_Z_KD", "position", "kd", (2,), "1/s", "Vertical position D gain",
-                0.0, 30.0),
-    _gain_param("POS_Z_KI", "position", "ki", (2,), "1/s^3", "Vertical position I gain",
-                0.0, 15.0),
-    _gain_param("ATT_PD_RP_KP", "pd", "kp", (0, 1), "1/s^2", "PD roll/pitch angle gain",
-                0.0, 500.0),
-    _gain_param("ATT_PD_RP_KD", "pd", "kd", (0, 1), "1/s", "PD roll/pitch rate gain",
-                0.0, 80.0),
-    _gain_param("ATT_PD_Y_KP", "pd", "kp", (2,), "1/s^2", "PD yaw angle gain",
-                0.0, 100.0),
-    _gain_param("ATT_PD_Y_KD", "pd", "kd", (2,), "1/s", "PD yaw rate gain",
-                0.0, 40.0),
-    _gain_param("LQR_QINT_RP", "lqr", "q_integral", (0, 1), "1/(rad*s)^2",
-                "LQR roll/pitch integral weight", 1e-9),
-    _gain_param("LQR_QANG_RP", "lqr", "q_angle", (0, 1), "1/rad^2",
-                "LQR roll/pitch angle weight", 1e-9),
-    _gain_param("LQR_QRATE_RP", "lqr", "q_rate", (0, 1), "1/(rad/s)^2",
-                "LQR roll/pitch rate weight", 1e-9),
-    _gain_param("LQR_R_RP", "lqr", "r_torque", (0, 1), "1/(N*m)^2",
-                "LQR roll/pitch torque weight", 1e-9),
-    _gain_param("LQR_QINT_Y", "lqr", "q_integral", (2,), "1/(rad*s)^2",
-                "LQR yaw integral weight", 1e-9),
-    _gain_param("LQR_QANG_Y", "lqr", "q_angle", (2,), "1/rad^2", "LQR yaw angle weight", 1e-9),
-    _gain_param("LQR_QRATE_Y", "lqr", "q_rate", (2,), "1/(rad/s)^2", "LQR yaw rate weight",
-                1e-9),
-    _gain_param("LQR_R_Y", "lqr", "r_torque", (2,), "1/(N*m)^2", "LQR yaw torque weight", 1e-9),
+    *(_gain_param(*gain) for gain in _GAINS),
     _group_param("FD_THRESH", "detector", "threshold", "fraction",
                  "Fault detector: LOE above which a motor is suspected", 0.01, 0.99),
     _group_param("FD_PERSIST", "detector", "persistence_s", "s",
