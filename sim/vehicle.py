@@ -33,10 +33,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fcu.mavlink import EndpointConfig, GeoPoint, MavlinkEndpoint, UdpLink
 from fcu.mavlink.autopilot_port import vehicle_autopilot_config
+from fcu.mavlink.endpoint import MavlinkEndpoint
+from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.link import Address
-from fcu.mavlink.udp import DEFAULT_PEERS
+from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.udp import DEFAULT_PEERS, UdpLink
 from sim.scenario import Scenario
 from sim.stack import warm_up
 from sim.vehicle_port import SimVehicle, VehicleSetup

@@ -185,7 +185,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
 
-    from fcu.mavlink import GeoPoint
+    from fcu.mavlink.port import GeoPoint
     from flightdata.config import ConfigError
     from sim.scenario import load_scenario
     from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess, instance_addresses

@@ -18,59 +18,8 @@ Modules, one job each:
 - :mod:`~fcu.mavlink.signing`: MAVLink 2 signing (SETUP_SIGNING, signed output, checks of
   what arrives, the SIGN_REJ count).
 - :mod:`~fcu.mavlink.link`, :mod:`~fcu.mavlink.udp`: transport.
-- :mod:`~fcu.mavlink.endpoint`: ``MavlinkEndpoint``, what a composition root drives.
+- :mod:`~fcu.mavlink.endpoint`: ``MavlinkEndpoint``, what a composition root drives, with
+  its :mod:`~fcu.mavlink.endpoint_config`.
+
+Each name is imported from the module that defines it; the package re-exports nothing.
 """
-
-from fcu.mavlink.endpoint import MavlinkEndpoint
-from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
-from fcu.mavlink.enums import FailureType, FailureUnit, MavState, Severity
-from fcu.mavlink.port import (
-    AttitudeTarget,
-    BatteryState,
-    CommandResult,
-    FailureInjector,
-    GeoPoint,
-    LandedState,
-    MissionItem,
-    MissionItemReached,
-    MissionState,
-    ParamProvider,
-    ParamSpec,
-    PositionTarget,
-    SensorHealth,
-    SimTruth,
-    StatusText,
-    VehicleEvent,
-    VehiclePort,
-    VehicleSnapshot,
-)
-from fcu.mavlink.udp import UdpLink
-
-__all__ = [
-    "AttitudeTarget",
-    "BatteryState",
-    "CommandResult",
-    "EndpointConfig",
-    "EndpointStats",
-    "FailureInjector",
-    "FailureType",
-    "FailureUnit",
-    "GeoPoint",
-    "LandedState",
-    "MavState",
-    "MavlinkEndpoint",
-    "MissionItem",
-    "MissionItemReached",
-    "MissionState",
-    "ParamProvider",
-    "ParamSpec",
-    "PositionTarget",
-    "SensorHealth",
-    "Severity",
-    "SimTruth",
-    "StatusText",
-    "UdpLink",
-    "VehicleEvent",
-    "VehiclePort",
-    "VehicleSnapshot",
-]
