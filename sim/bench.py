@@ -293,10 +293,79 @@ def _report_vehicle_jitter(seconds: float, realtime: bool) -> None:
     print(f"  vehicle: {run.vehicle_line}")
 
 
+# A bare pymavlink process: the floor of any process that speaks MAVLink with pymavlink's
+# codec (interpreter start, the dialect's import, one datagram).
+_BARE_HEARTBEAT_SENDER = """\
+import socket, sys
+from pymavlink.dialects.v20 import ardupilotmega as mav
+codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+heartbeat = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_GENERIC,
+                                          0, 0, mav.MAV_STATE_STANDBY, 3)
+sock.sendto(heartbeat.pack(codec), ("127.0.0.1", int(sys.argv[1])))
+"""
+
+
+def _first_heartbeat_s(command: Callable[[int], list[str]], timeout_s: float = 60.0) -> float:
+    """Wall seconds from launching ``command(port)`` to the first HEARTBEAT parsed (pymavlink)
+    on a loopback UDP socket at ``port``; the process is then stopped (SIGTERM)."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        parser = mav.MAVLink(None)
+        parser.robust_parsing = True
+        start_s = time.perf_counter()
+        proc = subprocess.Popen(command(sock.getsockname()[1]), stdout=subprocess.DEVNULL,
+                                stdin=subprocess.DEVNULL)
+        try:
+            while time.perf_counter() - start_s < timeout_s:
+                if not select.select([sock], [], [], 0.5)[0]:
+                    if proc.poll() not in (None, 0):
+                        raise RuntimeError(f"{command(0)[0]} exited with {proc.returncode}")
+                    continue
+                msgs = parser.parse_buffer(sock.recv(65535)) or []
+                if any(msg.get_type() == "HEARTBEAT" for msg in msgs):
+                    return time.perf_counter() - start_s
+            raise RuntimeError(f"no HEARTBEAT within {timeout_s:g} s")
+        finally:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+            proc.wait(30)
+
+
+def _vehicle_command(port: int) -> list[str]:
+    script = Path(sys.executable).with_name("ftc-vehicle")
+    launcher = [str(script)] if script.exists() else [sys.executable, "-m", "sim"]
+    return launcher + ["--bind", "127.0.0.1:0", "--out", f"127.0.0.1:{port}"]
+
+
+def _report_startup(repeat: int) -> None:
+    """Median time to the first HEARTBEAT of ``ftc-vehicle`` and of a bare pymavlink sender,
+    launched alternately (so both see the same machine load), and their ratio."""
+    _first_heartbeat_s(_vehicle_command)  # warm-up: design and numba caches, page cache
+    vehicle: list[float] = []
+    bare: list[float] = []
+    for _ in range(repeat):
+        vehicle.append(_first_heartbeat_s(_vehicle_command))
+        bare.append(_first_heartbeat_s(
+            lambda port: [sys.executable, "-c", _BARE_HEARTBEAT_SENDER, str(port)]))
+    print(f"startup: launch of ftc-vehicle to its first HEARTBEAT seen by a pymavlink client "
+          f"(loopback), {repeat} runs")
+    print(f"  ftc-vehicle: median {statistics.median(vehicle):.2f} s  min {min(vehicle):.2f} s"
+          f"  max {max(vehicle):.2f} s")
+    print("  reference, a bare pymavlink process sending one HEARTBEAT (interpreter, dialect "
+          "import, one datagram), in the same runs:")
+    print(f"  bare sender: median {statistics.median(bare):.2f} s  min {min(bare):.2f} s  "
+          f"max {max(bare):.2f} s")
+    print(f"  ratio of the medians: {statistics.median(vehicle) / statistics.median(bare):.1f}x")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
     parser.add_argument("what", choices=("plant", "stack", "vehicle-speedup", "vehicle-jitter",
-                                         "campaign", "all"), nargs="?", default="all")
+                                         "startup", "campaign", "all"), nargs="?",
+                        default="all")
     parser.add_argument("--repeat", type=int, default=None, help="timed runs (default 5; "
                         "vehicle-speedup and campaign: 3)")
     parser.add_argument("--speedup", type=float, default=20.0,
@@ -319,6 +388,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.what == "vehicle-jitter":
         _report_vehicle_jitter(args.seconds, args.realtime)
+        return 0
+    if args.what == "startup":
+        _report_startup(args.repeat or 5)
         return 0
     if args.what == "campaign":
         from flightdata.config import ConfigError
