@@ -166,8 +166,9 @@ class VehicleProcess:
         self.summary = RunSummary()
 
     def open(self) -> Address:
-        """Bind the socket, warm up (numba code loaded by a throwaway copy of the vehicle)
-        and run the boot tick; returns the bound address.
+        """Bind the socket, run the boot tick, send the first HEARTBEAT, then warm up (numba
+        code loaded by a throwaway copy of the vehicle, the endpoint answering meanwhile);
+        returns the bound address.
 
         Raises
         ------
@@ -175,9 +176,13 @@ class VehicleProcess:
             The address cannot be bound.
         """
         self.link.open()
-        setup = self.vehicle.setup
-        warm_up(setup.world, setup.autopilot, setup.seed)
         self.vehicle.first_tick()
+        vehicle, endpoint = self.vehicle, self.endpoint
+        endpoint.tick(time_s=vehicle.time_s, wall_time_s=time.monotonic())  # first HEARTBEAT
+        setup = vehicle.setup
+        warm_up(setup.world, setup.autopilot, setup.seed,
+                between_ticks=lambda: endpoint.tick(time_s=vehicle.time_s,
+                                                    wall_time_s=time.monotonic()))
         gc.collect()
         gc.freeze()  # start-up objects are never collected: shorter collections in flight
         return self.link.local_address
