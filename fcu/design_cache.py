@@ -56,6 +56,8 @@ class CachedDesign(Protocol):
 
     def cache_key(self, *args: Any) -> str: ...
 
+    def cache_clear(self) -> None: ...
+
 
 def cache_dir() -> Path | None:
     """The cache directory now (see the module docstring); None when turned off."""
@@ -130,7 +132,8 @@ def cached_design(design: _F) -> _F:
     """Decorate a pure design function returning a tuple of numpy arrays (module docstring).
 
     The wrapper returns read-only arrays, shared by every caller in the process; its
-    ``design`` attribute is the undecorated function and ``cache_key(*args)`` the key.
+    ``design`` attribute is the undecorated function, ``cache_key(*args)`` the key and
+    ``cache_clear()`` forgets this process's designs (the disk cache is kept).
     """
     name = f"{design.__module__}.{design.__qualname__}"
 
@@ -168,6 +171,7 @@ def cached_design(design: _F) -> _F:
 
     wrapper.design = design  # type: ignore[attr-defined]
     wrapper.cache_key = cache_key  # type: ignore[attr-defined]
+    wrapper.cache_clear = memo.clear  # type: ignore[attr-defined]
     return wrapper  # type: ignore[return-value]
 
 

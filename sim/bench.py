@@ -10,15 +10,25 @@
                                    flight: plant + wind + sensors + EKF + TSKF + LQG + AbDOB
     ftc-bench vehicle-speedup [--repeat N] [--speedup X] [--realtime]
                                    the vehicle process (``python -m sim``) at ``--speedup``
-                                   (default 20) flying the thesis mission for 60 s simulated,
-                                   a pymavlink client reading every message: simulated time /
-                                   wall time, seen by the client from the telemetry's clock
+                                   (default 20), then unthrottled (``--speedup max``), flying
+                                   the thesis mission for 60 s simulated, a pymavlink client
+                                   reading every message: simulated time / wall time, seen by
+                                   the client from the telemetry's clock, and the messages
+                                   per simulated second (the same at both: simulated-time
+                                   rates)
     ftc-bench vehicle-jitter [--seconds S] [--realtime]
                                    the vehicle process in real time (--speedup 1) flying the
                                    thesis mission with a client connected: the control-loop
                                    tick period from the vehicle's ``--timing-log``, its
                                    deviation from 10 ms (p50, p99, max) and the busy time
                                    (``--realtime``: the vehicle runs at SCHED_FIFO priority)
+    ftc-bench startup [--repeat N]  launch of ``ftc-vehicle`` to the first HEARTBEAT a pymavlink
+                                   client sees (loopback), beside a bare pymavlink process
+                                   sending one HEARTBEAT (interpreter + dialect import), run
+                                   alternately, and the ratio; then the start-up overhead of
+                                   ``ftc-scenario run lqg_abdob_loe``: launch to exit minus
+                                   the flight's own wall time (start-up designs and numba
+                                   kernels come from their caches: a warm-up run fills them)
     ftc-bench campaign [--repeat N] [--campaign NAME|FILE]
                                    a campaign (default ``smoke``) flown by ftc-campaign's
                                    engine on local Dask clusters of 1 and 2 workers:
@@ -34,6 +44,8 @@ compiled (or loaded from the cache) before timing starts.
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import re
 import select
 import signal
@@ -54,6 +66,7 @@ from sim.world import World, WorldConfig
 from sim.world.airframe import Airframe
 
 SIM_SECONDS = 60.0
+STACK_SCENARIO = "lqg_abdob_loe"  # the 60 s thesis flight of the stack and start-up figures
 
 
 def _plant_once() -> tuple[float, float]:
@@ -133,7 +146,7 @@ def _numpy_rk4_once() -> tuple[float, float]:
 def _stack_once() -> tuple[float, float]:
     from sim.runner import fly
 
-    scenario = replace(load_scenario("lqg_abdob_loe"), duration_s=SIM_SECONDS)
+    scenario = replace(load_scenario(STACK_SCENARIO), duration_s=SIM_SECONDS)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     fly(scenario)
     return time.perf_counter() - wall0, time.process_time() - cpu0
@@ -196,7 +209,7 @@ def _fly_vehicle(speedup: float, sim_s: float, timing_log: Path | None = None,
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
     sock.bind(("127.0.0.1", 0))
     args = [sys.executable, "-m", "sim", "--bind", "127.0.0.1:0", "--out",
-            f"127.0.0.1:{sock.getsockname()[1]}", "--speedup", f"{speedup:g}", "--duration",
+            f"127.0.0.1:{sock.getsockname()[1]}", "--speedup", _speedup_text(speedup), "--duration",
             f"{sim_s:g}", "--load-mission", "--start-paused"]
     if timing_log is not None:
         args += ["--timing-log", str(timing_log)]
@@ -256,19 +269,26 @@ def _fly_vehicle(speedup: float, sim_s: float, timing_log: Path | None = None,
                        vehicle_line=summary[-1] if summary else "")
 
 
+def _speedup_text(speedup: float) -> str:
+    """The vehicle's ``--speedup`` argument for ``speedup`` (inf: ``max``, unthrottled)."""
+    return "max" if math.isinf(speedup) else f"{speedup:g}"
+
+
 def _report_vehicle_speedup(speedup: float, repeat: int, realtime: bool) -> None:
     extra = ["--realtime"] if realtime else []
-    runs = [_fly_vehicle(speedup, SIM_SECONDS, extra=extra) for _ in range(repeat)]
-    ratios = [r.ratio for r in runs]
-    rates = [r.messages / r.wall_s for r in runs]
-    print(f"vehicle process at --speedup {speedup:g}{' --realtime' if realtime else ''}, "
-          f"thesis mission, {SIM_SECONDS:.0f} s "
-          f"simulated, pymavlink client reading all telemetry, {repeat} runs")
-    print(f"  simulated / wall time (client): median {statistics.median(ratios):.1f}x  "
-          f"min {min(ratios):.1f}x  max {max(ratios):.1f}x")
-    print(f"  messages received: median {statistics.median(rates):.0f}/s (wall)")
-    for run in runs:
-        print(f"  vehicle: {run.vehicle_line}")
+    for chosen in (speedup, math.inf):
+        runs = [_fly_vehicle(chosen, SIM_SECONDS, extra=extra) for _ in range(repeat)]
+        ratios = [r.ratio for r in runs]
+        rates = [r.messages / r.wall_s for r in runs]
+        print(f"vehicle process at --speedup {_speedup_text(chosen)}"
+              f"{' --realtime' if realtime else ''}, thesis mission, {SIM_SECONDS:.0f} s "
+              f"simulated, pymavlink client reading all telemetry, {repeat} runs")
+        print(f"  simulated / wall time (client): median {statistics.median(ratios):.1f}x  "
+              f"min {min(ratios):.1f}x  max {max(ratios):.1f}x")
+        print(f"  messages received: median {statistics.median(rates):.0f}/s (wall), "
+              f"{statistics.median(r.messages / r.sim_s for r in runs):.0f} per simulated s")
+        for run in runs:
+            print(f"  vehicle: {run.vehicle_line}")
 
 
 def _report_vehicle_jitter(seconds: float, realtime: bool) -> None:
@@ -334,15 +354,33 @@ def _first_heartbeat_s(command: Callable[[int], list[str]], timeout_s: float = 6
             proc.wait(30)
 
 
+def _script(name: str, module: str) -> list[str]:
+    """How to launch this install's console script ``name`` (else ``python -m module``)."""
+    script = Path(sys.executable).with_name(name)
+    return [str(script)] if script.exists() else [sys.executable, "-m", module]
+
+
 def _vehicle_command(port: int) -> list[str]:
-    script = Path(sys.executable).with_name("ftc-vehicle")
-    launcher = [str(script)] if script.exists() else [sys.executable, "-m", "sim"]
-    return launcher + ["--bind", "127.0.0.1:0", "--out", f"127.0.0.1:{port}"]
+    return _script("ftc-vehicle", "sim") + ["--bind", "127.0.0.1:0", "--out", f"127.0.0.1:{port}"]
+
+
+def _scenario_overhead_s(name: str) -> tuple[float, float]:
+    """``ftc-scenario run name``: (launch to exit, the flight's own wall time), s."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.json"
+        start_s = time.perf_counter()
+        subprocess.run(_script("ftc-scenario", "sim.scenario_cli")
+                       + ["run", name, "--json", str(out)], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        total_s = time.perf_counter() - start_s
+        flight_s = float(json.loads(out.read_text())["wall_s"])
+    return total_s, flight_s
 
 
 def _report_startup(repeat: int) -> None:
     """Median time to the first HEARTBEAT of ``ftc-vehicle`` and of a bare pymavlink sender,
-    launched alternately (so both see the same machine load), and their ratio."""
+    launched alternately (so both see the same machine load), and their ratio; then the
+    start-up overhead of ``ftc-scenario run``."""
     _first_heartbeat_s(_vehicle_command)  # warm-up: design and numba caches, page cache
     vehicle: list[float] = []
     bare: list[float] = []
@@ -359,7 +397,14 @@ def _report_startup(repeat: int) -> None:
     print(f"  bare sender: median {statistics.median(bare):.2f} s  min {min(bare):.2f} s  "
           f"max {max(bare):.2f} s")
     print(f"  ratio of the medians: {statistics.median(vehicle) / statistics.median(bare):.1f}x")
-
+    runs = [_scenario_overhead_s(STACK_SCENARIO) for _ in range(repeat)]
+    overhead = [total - flight for total, flight in runs]
+    print(f"ftc-scenario run {STACK_SCENARIO} ({SIM_SECONDS:.0f} s flight), {repeat} runs: "
+          f"launch to exit median {statistics.median(t for t, _ in runs):.2f} s, the flight "
+          f"itself {statistics.median(f for _, f in runs):.2f} s")
+    print(f"  start-up overhead (launch to exit minus the flight): median "
+          f"{statistics.median(overhead):.2f} s  min {min(overhead):.2f} s  "
+          f"max {max(overhead):.2f} s")
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
