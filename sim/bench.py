@@ -50,6 +50,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import select
 import signal
@@ -386,9 +387,21 @@ sock.sendto(heartbeat.pack(codec), ("127.0.0.1", int(sys.argv[1])))
 """
 
 
-def _first_heartbeat_s(command: Callable[[int], list[str]], timeout_s: float = 60.0) -> float:
-    """Wall seconds from launching ``command(port)`` to the first HEARTBEAT parsed (pymavlink)
-    on a loopback UDP socket at ``port``; the process is then stopped (SIGTERM)."""
+def _cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) process ``pid`` has used so far (Linux /proc; else NaN)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+    except OSError:
+        return math.nan
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+
+
+def _first_heartbeat_s(command: Callable[[int], list[str]],
+                       timeout_s: float = 60.0) -> tuple[float, float]:
+    """Wall and CPU seconds from launching ``command(port)`` to the first HEARTBEAT parsed
+    (pymavlink) on a loopback UDP socket at ``port``; the process is then stopped (SIGTERM).
+    The CPU time is the process's own, read as the HEARTBEAT arrives: unlike the wall time
+    it hardly depends on the machine's load."""
     from pymavlink.dialects.v20 import ardupilotmega as mav
 
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
@@ -406,7 +419,7 @@ def _first_heartbeat_s(command: Callable[[int], list[str]], timeout_s: float = 6
                     continue
                 msgs = parser.parse_buffer(sock.recv(65535)) or []
                 if any(msg.get_type() == "HEARTBEAT" for msg in msgs):
-                    return time.perf_counter() - start_s
+                    return time.perf_counter() - start_s, _cpu_s(proc.pid)
             raise RuntimeError(f"no HEARTBEAT within {timeout_s:g} s")
         finally:
             if proc.poll() is None:
@@ -437,26 +450,35 @@ def _scenario_overhead_s(name: str) -> tuple[float, float]:
     return total_s, flight_s
 
 
+def _median(runs: Sequence[tuple[float, float]], column: int) -> float:
+    return statistics.median(run[column] for run in runs)
+
+
+def _spread(runs: Sequence[tuple[float, float]]) -> str:
+    """Median, min and max of the wall times, median of the CPU times, of ``runs``."""
+    return (f"wall median {_median(runs, 0):.2f} s  min {min(r[0] for r in runs):.2f} s  "
+            f"max {max(r[0] for r in runs):.2f} s;  CPU median {_median(runs, 1):.2f} s")
+
+
 def _report_startup(repeat: int) -> None:
     """Median time to the first HEARTBEAT of ``ftc-vehicle`` and of a bare pymavlink sender,
     launched alternately (so both see the same machine load), and their ratio; then the
     start-up overhead of ``ftc-scenario run``."""
     _first_heartbeat_s(_vehicle_command)  # warm-up: design and numba caches, page cache
-    vehicle: list[float] = []
-    bare: list[float] = []
+    vehicle: list[tuple[float, float]] = []
+    bare: list[tuple[float, float]] = []
     for _ in range(repeat):
         vehicle.append(_first_heartbeat_s(_vehicle_command))
         bare.append(_first_heartbeat_s(
             lambda port: [sys.executable, "-c", _BARE_HEARTBEAT_SENDER, str(port)]))
     print(f"startup: launch of ftc-vehicle to its first HEARTBEAT seen by a pymavlink client "
-          f"(loopback), {repeat} runs")
-    print(f"  ftc-vehicle: median {statistics.median(vehicle):.2f} s  min {min(vehicle):.2f} s"
-          f"  max {max(vehicle):.2f} s")
+          f"(loopback), {repeat} runs; wall time, and the process's CPU time by then")
+    print("  ftc-vehicle: " + _spread(vehicle))
     print("  reference, a bare pymavlink process sending one HEARTBEAT (interpreter, dialect "
           "import, one datagram), in the same runs:")
-    print(f"  bare sender: median {statistics.median(bare):.2f} s  min {min(bare):.2f} s  "
-          f"max {max(bare):.2f} s")
-    print(f"  ratio of the medians: {statistics.median(vehicle) / statistics.median(bare):.1f}x")
+    print("  bare sender: " + _spread(bare))
+    print(f"  ratio of the medians: {_median(vehicle, 0) / _median(bare, 0):.1f}x (wall)  "
+          f"{_median(vehicle, 1) / _median(bare, 1):.1f}x (CPU)")
     runs = [_scenario_overhead_s(STACK_SCENARIO) for _ in range(repeat)]
     overhead = [total - flight for total, flight in runs]
     print(f"ftc-scenario run {STACK_SCENARIO} ({SIM_SECONDS:.0f} s flight), {repeat} runs: "
