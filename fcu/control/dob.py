@@ -188,9 +188,10 @@ class _DiscreteDob:
             raise AssertionError("torque channel must be strictly proper after ZOH")
         # steady-state map for a constant measurement: x = (I - A)^-1 B y
         self._xm_per_meas = np.linalg.solve(np.eye(self._am.shape[0]) - self._am, self._bm)
-        # contiguous copies for the compiled per-tick update
+        # contiguous, writable copies for the compiled per-tick update (the cached design's
+        # arrays are read-only: numba would compile and load a second, read-only signature)
         self._k_am, self._k_bm, self._k_at, self._k_bt, self._k_cm, self._k_dm, self._k_ct = (
-            np.ascontiguousarray(m, dtype=float) for m in (
+            np.array(m, dtype=float, order="C") for m in (
                 self._am, self._bm, self._at, self._bt, self._cm, self._dm, self._ct))
         self._xm = np.zeros(self._am.shape[0])
         self._xt = np.zeros(self._at.shape[0])
