@@ -7,18 +7,32 @@
                                    equations alone (no numba, no wind, no sensors) and the
                                    ratio of the two medians
     ftc-bench stack [--repeat N]   real-time factor of the full stack over a 60 s thesis
-                                   flight: plant + wind + sensors + EKF + TSKF + LQG + AbDOB
+                                   flight: plant + wind + sensors + EKF + TSKF + LQG + AbDOB;
+                                   beside it, in the same runs, RotorPy's simulator (SE3
+                                   controller, 100 Hz, 60 s; the optional ``bench`` extra)
+                                   when installed, else the plain-numpy RK4 plant, named in
+                                   the printout, and the ratio of the two medians
     ftc-bench vehicle-speedup [--repeat N] [--speedup X] [--realtime]
                                    the vehicle process (``python -m sim``) at ``--speedup``
-                                   (default 20) flying the thesis mission for 60 s simulated,
-                                   a pymavlink client reading every message: simulated time /
-                                   wall time, seen by the client from the telemetry's clock
+                                   (default 20), then unthrottled (``--speedup max``), flying
+                                   the thesis mission for 60 s simulated, a pymavlink client
+                                   reading every message: simulated time / wall time, seen by
+                                   the client from the telemetry's clock, and the messages
+                                   per simulated second (the same at both: simulated-time
+                                   rates)
     ftc-bench vehicle-jitter [--seconds S] [--realtime]
                                    the vehicle process in real time (--speedup 1) flying the
                                    thesis mission with a client connected: the control-loop
                                    tick period from the vehicle's ``--timing-log``, its
                                    deviation from 10 ms (p50, p99, max) and the busy time
                                    (``--realtime``: the vehicle runs at SCHED_FIFO priority)
+    ftc-bench startup [--repeat N]  launch of ``ftc-vehicle`` to the first HEARTBEAT a pymavlink
+                                   client sees (loopback), beside a bare pymavlink process
+                                   sending one HEARTBEAT (interpreter + dialect import), run
+                                   alternately, and the ratio; then the start-up overhead of
+                                   ``ftc-scenario run lqg_abdob_loe``: launch to exit minus
+                                   the flight's own wall time (start-up designs and numba
+                                   kernels come from their caches: a warm-up run fills them)
     ftc-bench campaign [--repeat N] [--campaign NAME|FILE]
                                    a campaign (default ``smoke``) flown by ftc-campaign's
                                    engine on local Dask clusters of 1 and 2 workers:
@@ -34,6 +48,9 @@ compiled (or loaded from the cache) before timing starts.
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import os
 import re
 import select
 import signal
@@ -54,6 +71,7 @@ from sim.world import World, WorldConfig
 from sim.world.airframe import Airframe
 
 SIM_SECONDS = 60.0
+STACK_SCENARIO = "lqg_abdob_loe"  # the 60 s thesis flight of the stack and start-up figures
 
 
 def _plant_once() -> tuple[float, float]:
@@ -133,10 +151,66 @@ def _numpy_rk4_once() -> tuple[float, float]:
 def _stack_once() -> tuple[float, float]:
     from sim.runner import fly
 
-    scenario = replace(load_scenario("lqg_abdob_loe"), duration_s=SIM_SECONDS)
+    scenario = replace(load_scenario(STACK_SCENARIO), duration_s=SIM_SECONDS)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     fly(scenario)
     return time.perf_counter() - wall0, time.process_time() - cpu0
+
+
+def _rotorpy_reference() -> tuple[str, Callable[[], tuple[float, float]]] | None:
+    """RotorPy's ``simulate`` over the same 60 s at 100 Hz, if RotorPy is installed (the
+    ``bench`` extra): its Multirotor (hummingbird parameters) flown by its SE3 controller
+    round a 1 m circle, with its IMU and motion-capture models; Dryden wind when its Dryden
+    model imports (it needs torch), else its sinusoidal wind."""
+    try:
+        from importlib.metadata import version
+
+        from rotorpy.controllers.quadrotor_control import SE3Control
+        from rotorpy.estimators.nullestimator import NullEstimator
+        from rotorpy.sensors.external_mocap import MotionCapture
+        from rotorpy.sensors.imu import Imu
+        from rotorpy.simulate import simulate
+        from rotorpy.trajectories.circular_traj import ThreeDCircularTraj
+        from rotorpy.vehicles.hummingbird_params import quad_params
+        from rotorpy.vehicles.multirotor import Multirotor
+        from rotorpy.world import World as RotorpyWorld
+    except ImportError:
+        return None
+    rate_hz = 100.0
+    try:
+        from rotorpy.wind.dryden_winds import DrydenGust
+
+        def wind() -> object:
+            return DrydenGust(dt=1.0 / rate_hz, sig_wind=np.array([0.75, 0.75, 0.3]))
+        wind_text = "Dryden wind"
+    except ImportError:
+        from rotorpy.wind.default_winds import SinusoidWind
+
+        def wind() -> object:
+            return SinusoidWind(amplitudes=np.array([1.0, 1.0, 0.2]),
+                                frequencies=np.array([0.5, 0.3, 0.7]))
+        wind_text = "sinusoidal wind (its Dryden model needs torch, not installed)"
+
+    def once() -> tuple[float, float]:
+        np.random.seed(1)  # noqa: NPY002  (RotorPy draws its sensor noise from numpy's global generator)
+        vehicle = Multirotor(quad_params)
+        mocap = MotionCapture(sampling_rate=rate_hz, with_artifacts=False, mocap_params={
+            "pos_noise_density": np.full(3, 0.0005), "vel_noise_density": np.full(3, 0.001),
+            "att_noise_density": np.full(3, 0.0005), "rate_noise_density": np.full(3, 0.0005),
+            "vel_artifact_max": 5, "vel_artifact_prob": 0.001, "rate_artifact_max": 1,
+            "rate_artifact_prob": 0.0002})
+        args = (RotorpyWorld.empty((-5.0, 5.0, -5.0, 5.0, -5.0, 5.0)), vehicle.initial_state,
+                vehicle, SE3Control(quad_params),
+                ThreeDCircularTraj(radius=np.array([1.0, 1.0, 0.0]),
+                                   freq=np.array([0.1, 0.1, 0.0])),
+                wind(), Imu(p_BS=np.zeros(3), R_BS=np.eye(3), sampling_rate=rate_hz), mocap,
+                NullEstimator(), SIM_SECONDS, 1.0 / rate_hz, 0.25, False)
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        simulate(*args, terminate=False)
+        return time.perf_counter() - wall0, time.process_time() - cpu0
+
+    return (f"RotorPy {version('rotorpy')} simulate(): Multirotor + SE3 controller, 100 Hz, "
+            f"IMU and mocap models, {wind_text}", once)
 
 
 def _report(label: str, once: Callable[[], tuple[float, float]], repeat: int,
@@ -196,7 +270,7 @@ def _fly_vehicle(speedup: float, sim_s: float, timing_log: Path | None = None,
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
     sock.bind(("127.0.0.1", 0))
     args = [sys.executable, "-m", "sim", "--bind", "127.0.0.1:0", "--out",
-            f"127.0.0.1:{sock.getsockname()[1]}", "--speedup", f"{speedup:g}", "--duration",
+            f"127.0.0.1:{sock.getsockname()[1]}", "--speedup", _speedup_text(speedup), "--duration",
             f"{sim_s:g}", "--load-mission", "--start-paused"]
     if timing_log is not None:
         args += ["--timing-log", str(timing_log)]
@@ -256,19 +330,26 @@ def _fly_vehicle(speedup: float, sim_s: float, timing_log: Path | None = None,
                        vehicle_line=summary[-1] if summary else "")
 
 
+def _speedup_text(speedup: float) -> str:
+    """The vehicle's ``--speedup`` argument for ``speedup`` (inf: ``max``, unthrottled)."""
+    return "max" if math.isinf(speedup) else f"{speedup:g}"
+
+
 def _report_vehicle_speedup(speedup: float, repeat: int, realtime: bool) -> None:
     extra = ["--realtime"] if realtime else []
-    runs = [_fly_vehicle(speedup, SIM_SECONDS, extra=extra) for _ in range(repeat)]
-    ratios = [r.ratio for r in runs]
-    rates = [r.messages / r.wall_s for r in runs]
-    print(f"vehicle process at --speedup {speedup:g}{' --realtime' if realtime else ''}, "
-          f"thesis mission, {SIM_SECONDS:.0f} s "
-          f"simulated, pymavlink client reading all telemetry, {repeat} runs")
-    print(f"  simulated / wall time (client): median {statistics.median(ratios):.1f}x  "
-          f"min {min(ratios):.1f}x  max {max(ratios):.1f}x")
-    print(f"  messages received: median {statistics.median(rates):.0f}/s (wall)")
-    for run in runs:
-        print(f"  vehicle: {run.vehicle_line}")
+    for chosen in (speedup, math.inf):
+        runs = [_fly_vehicle(chosen, SIM_SECONDS, extra=extra) for _ in range(repeat)]
+        ratios = [r.ratio for r in runs]
+        rates = [r.messages / r.wall_s for r in runs]
+        print(f"vehicle process at --speedup {_speedup_text(chosen)}"
+              f"{' --realtime' if realtime else ''}, thesis mission, {SIM_SECONDS:.0f} s "
+              f"simulated, pymavlink client reading all telemetry, {repeat} runs")
+        print(f"  simulated / wall time (client): median {statistics.median(ratios):.1f}x  "
+              f"min {min(ratios):.1f}x  max {max(ratios):.1f}x")
+        print(f"  messages received: median {statistics.median(rates):.0f}/s (wall), "
+              f"{statistics.median(r.messages / r.sim_s for r in runs):.0f} per simulated s")
+        for run in runs:
+            print(f"  vehicle: {run.vehicle_line}")
 
 
 def _report_vehicle_jitter(seconds: float, realtime: bool) -> None:
@@ -293,10 +374,125 @@ def _report_vehicle_jitter(seconds: float, realtime: bool) -> None:
     print(f"  vehicle: {run.vehicle_line}")
 
 
+# A bare pymavlink process: the floor of any process that speaks MAVLink with pymavlink's
+# codec (interpreter start, the dialect's import, one datagram).
+_BARE_HEARTBEAT_SENDER = """\
+import socket, sys
+from pymavlink.dialects.v20 import ardupilotmega as mav
+codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+heartbeat = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_GENERIC,
+                                          0, 0, mav.MAV_STATE_STANDBY, 3)
+sock.sendto(heartbeat.pack(codec), ("127.0.0.1", int(sys.argv[1])))
+"""
+
+
+def _cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) process ``pid`` has used so far (Linux /proc; else NaN)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+    except OSError:
+        return math.nan
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+
+
+def _first_heartbeat_s(command: Callable[[int], list[str]],
+                       timeout_s: float = 60.0) -> tuple[float, float]:
+    """Wall and CPU seconds from launching ``command(port)`` to the first HEARTBEAT parsed
+    (pymavlink) on a loopback UDP socket at ``port``; the process is then stopped (SIGTERM).
+    The CPU time is the process's own, read as the HEARTBEAT arrives: unlike the wall time
+    it hardly depends on the machine's load."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        parser = mav.MAVLink(None)
+        parser.robust_parsing = True
+        start_s = time.perf_counter()
+        proc = subprocess.Popen(command(sock.getsockname()[1]), stdout=subprocess.DEVNULL,
+                                stdin=subprocess.DEVNULL)
+        try:
+            while time.perf_counter() - start_s < timeout_s:
+                if not select.select([sock], [], [], 0.5)[0]:
+                    if proc.poll() not in (None, 0):
+                        raise RuntimeError(f"{command(0)[0]} exited with {proc.returncode}")
+                    continue
+                msgs = parser.parse_buffer(sock.recv(65535)) or []
+                if any(msg.get_type() == "HEARTBEAT" for msg in msgs):
+                    return time.perf_counter() - start_s, _cpu_s(proc.pid)
+            raise RuntimeError(f"no HEARTBEAT within {timeout_s:g} s")
+        finally:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+            proc.wait(30)
+
+
+def _script(name: str, module: str) -> list[str]:
+    """How to launch this install's console script ``name`` (else ``python -m module``)."""
+    script = Path(sys.executable).with_name(name)
+    return [str(script)] if script.exists() else [sys.executable, "-m", module]
+
+
+def _vehicle_command(port: int) -> list[str]:
+    return _script("ftc-vehicle", "sim") + ["--bind", "127.0.0.1:0", "--out", f"127.0.0.1:{port}"]
+
+
+def _scenario_overhead_s(name: str) -> tuple[float, float]:
+    """``ftc-scenario run name``: (launch to exit, the flight's own wall time), s."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.json"
+        start_s = time.perf_counter()
+        subprocess.run(_script("ftc-scenario", "sim.scenario_cli")
+                       + ["run", name, "--json", str(out)], check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        total_s = time.perf_counter() - start_s
+        flight_s = float(json.loads(out.read_text())["wall_s"])
+    return total_s, flight_s
+
+
+def _median(runs: Sequence[tuple[float, float]], column: int) -> float:
+    return statistics.median(run[column] for run in runs)
+
+
+def _spread(runs: Sequence[tuple[float, float]]) -> str:
+    """Median, min and max of the wall times, median of the CPU times, of ``runs``."""
+    return (f"wall median {_median(runs, 0):.2f} s  min {min(r[0] for r in runs):.2f} s  "
+            f"max {max(r[0] for r in runs):.2f} s;  CPU median {_median(runs, 1):.2f} s")
+
+
+def _report_startup(repeat: int) -> None:
+    """Median time to the first HEARTBEAT of ``ftc-vehicle`` and of a bare pymavlink sender,
+    launched alternately (so both see the same machine load), and their ratio; then the
+    start-up overhead of ``ftc-scenario run``."""
+    _first_heartbeat_s(_vehicle_command)  # warm-up: design and numba caches, page cache
+    vehicle: list[tuple[float, float]] = []
+    bare: list[tuple[float, float]] = []
+    for _ in range(repeat):
+        vehicle.append(_first_heartbeat_s(_vehicle_command))
+        bare.append(_first_heartbeat_s(
+            lambda port: [sys.executable, "-c", _BARE_HEARTBEAT_SENDER, str(port)]))
+    print(f"startup: launch of ftc-vehicle to its first HEARTBEAT seen by a pymavlink client "
+          f"(loopback), {repeat} runs; wall time, and the process's CPU time by then")
+    print("  ftc-vehicle: " + _spread(vehicle))
+    print("  reference, a bare pymavlink process sending one HEARTBEAT (interpreter, dialect "
+          "import, one datagram), in the same runs:")
+    print("  bare sender: " + _spread(bare))
+    print(f"  ratio of the medians: {_median(vehicle, 0) / _median(bare, 0):.1f}x (wall)  "
+          f"{_median(vehicle, 1) / _median(bare, 1):.1f}x (CPU)")
+    runs = [_scenario_overhead_s(STACK_SCENARIO) for _ in range(repeat)]
+    overhead = [total - flight for total, flight in runs]
+    print(f"ftc-scenario run {STACK_SCENARIO} ({SIM_SECONDS:.0f} s flight), {repeat} runs: "
+          f"launch to exit median {statistics.median(t for t, _ in runs):.2f} s, the flight "
+          f"itself {statistics.median(f for _, f in runs):.2f} s")
+    print(f"  start-up overhead (launch to exit minus the flight): median "
+          f"{statistics.median(overhead):.2f} s  min {min(overhead):.2f} s  "
+          f"max {max(overhead):.2f} s")
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
     parser.add_argument("what", choices=("plant", "stack", "vehicle-speedup", "vehicle-jitter",
-                                         "campaign", "all"), nargs="?", default="all")
+                                         "startup", "campaign", "all"), nargs="?",
+                        default="all")
     parser.add_argument("--repeat", type=int, default=None, help="timed runs (default 5; "
                         "vehicle-speedup and campaign: 3)")
     parser.add_argument("--speedup", type=float, default=20.0,
@@ -320,6 +516,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.what == "vehicle-jitter":
         _report_vehicle_jitter(args.seconds, args.realtime)
         return 0
+    if args.what == "startup":
+        _report_startup(args.repeat or 5)
+        return 0
     if args.what == "campaign":
         from flightdata.config import ConfigError
         from sim.campaign.bench import report as report_campaign
@@ -335,8 +534,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 args.repeat, ("plain-numpy RK4 of the plant alone (no numba, no wind, no "
                               "sensors), 500 Hz hover", _numpy_rk4_once))
     if args.what in ("stack", "all"):
+        reference = _rotorpy_reference() or (
+            "plain-numpy RK4 of the plant alone, 500 Hz hover (RotorPy is not installed: "
+            "pip install -e '.[bench]')", _numpy_rk4_once)
         _report("full stack (plant 500 Hz, EKF + TSKF + LQG + AbDOB at 100 Hz, wind, sensors,"
-                " Table 7.3 faults)", _stack_once, args.repeat)
+                " Table 7.3 faults)", _stack_once, args.repeat, reference)
     return 0
 
 

@@ -122,7 +122,8 @@ class SimParams:
                                 description="Hold simulated time (1) or run (0)"),
                       lambda x: CommandResult.ok()),
             _SimParam(ParamSpec(name="SIM_SPEEDUP", value=self.speedup, min_value=0.0,
-                                description="Simulated s per wall s (read-only, --speedup)"),
+                                description="Simulated s per wall s (read-only, --speedup; "
+                                "0 = unthrottled)"),
                       lambda x: CommandResult.denied("read-only (set by --speedup at start)")),
             _SimParam(ParamSpec(name="SIM_FI_LOE", value=0.3, min_value=0.0, max_value=1.0,
                                 description="LOE of INJECT_FAILURE MOTOR WRONG/DRIFT")),

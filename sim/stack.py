@@ -17,7 +17,7 @@ into the world happen between ticks, so a run depends only on the tick at which 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -112,7 +112,8 @@ _WARM_UP_FAULTS = (ActuatorFault(motor=1, kind="loe", loe=0.05, start_s=0.0),
                    SensorFault(sensor="baro", kind="bias", magnitude=0.001, start_s=0.0))
 
 
-def warm_up(world: WorldConfig, autopilot: AutopilotConfig, seed: int, ticks: int = 50) -> None:
+def warm_up(world: WorldConfig, autopilot: AutopilotConfig, seed: int, ticks: int = 50,
+            between_ticks: Callable[[], object] | None = None) -> None:
     """Fly a throwaway stack for ``ticks`` ticks (boot, arm, take-off).
 
     The plant, sensors and estimators are numba code whose first call loads (or compiles)
@@ -120,7 +121,8 @@ def warm_up(world: WorldConfig, autopilot: AutopilotConfig, seed: int, ticks: in
     a real-time run. The copy has its own world and autopilot, so the real ones are
     untouched (determinism is kept). It flies with a small actuator and a sensor fault, so
     that the fault kernels are loaded (or, on a fresh machine, compiled: seconds) here too and
-    not at the first fault of the real flight.
+    not at the first fault of the real flight. ``between_ticks`` is called after each tick
+    (the vehicle process answers its ground stations meanwhile).
     """
     stack = SimulatedStack(world, autopilot, seed, faults=_WARM_UP_FAULTS)
     stack.first_tick()
@@ -130,5 +132,7 @@ def warm_up(world: WorldConfig, autopilot: AutopilotConfig, seed: int, ticks: in
     nav.takeoff(1.0)
     for _ in range(ticks):
         stack.tick()
+        if between_ticks is not None:
+            between_ticks()
     stack.world.truth()
     stack.drain_events()

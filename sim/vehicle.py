@@ -17,7 +17,10 @@ ground station do the same over MAVLink before simulated time starts).
 Pacing: tick ``k`` is due ``k`` wall periods after an anchor. A vehicle that falls behind
 (a slow machine, a stall) runs ticks back to back to catch up, and gives up a backlog longer
 than :data:`MAX_LAG_S` by moving the anchor (simulated time then lags; it never skips a
-tick). While waiting, paused (``SIM_PAUSE``) or behind, the endpoint is serviced at least
+tick). Unthrottled (``speedup`` infinite, ``--speedup max``) every tick is due at once: the
+ticks run back to back, the endpoint serviced after each, so telemetry keeps its simulated-time
+rates and only the wall-clock parts (HEARTBEAT floor, GCS failsafe) see time differently. While
+waiting, paused (``SIM_PAUSE``) or behind, the endpoint is serviced at least
 every :data:`SERVICE_PERIOD_S` of wall time, so the HEARTBEAT floor, command answers and the
 wall-clock GCS failsafe keep working. SIGINT/SIGTERM end the loop at the next tick boundary;
 the socket is closed and the summary (and the optional timing log) written.
@@ -81,7 +84,7 @@ class VehicleOptions:
     """Everything the ``ftc-vehicle`` command line chooses."""
 
     scenario: Scenario  # world and autopilot configuration, seed (faults/mission optional)
-    speedup: float = 1.0  # simulated s per wall s
+    speedup: float = 1.0  # simulated s per wall s; math.inf = unthrottled (as fast as it can)
     sysid: int = 1  # MAVLink system id
     compid: int = 1  # MAVLink component id (1 = MAV_COMP_ID_AUTOPILOT1)
     bind: Address = DEFAULT_BIND  # local UDP address; port 0 picks a free one
@@ -97,8 +100,9 @@ class VehicleOptions:
     # (32 bytes; None: unsigned); never shown in a repr
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.speedup) and 0.0 < self.speedup <= 1000.0):
-            raise ValueError(f"speedup = {self.speedup!r}: must be in (0, 1000]")
+        if not (0.0 < self.speedup <= 1000.0 or self.speedup == math.inf):
+            raise ValueError(f"speedup = {self.speedup!r}: must be in (0, 1000] or inf "
+                             "(unthrottled)")
         if not 1 <= self.sysid <= 255:
             raise ValueError(f"sysid = {self.sysid!r}: must be in 1..255")
         if not 1 <= self.compid <= 255:
@@ -168,8 +172,9 @@ class VehicleProcess:
         self.summary = RunSummary()
 
     def open(self) -> Address:
-        """Bind the socket, warm up (numba code loaded by a throwaway copy of the vehicle)
-        and run the boot tick; returns the bound address.
+        """Bind the socket, run the boot tick, send the first HEARTBEAT, then warm up (numba
+        code loaded by a throwaway copy of the vehicle, the endpoint answering meanwhile);
+        returns the bound address.
 
         Raises
         ------
@@ -177,9 +182,13 @@ class VehicleProcess:
             The address cannot be bound.
         """
         self.link.open()
-        setup = self.vehicle.setup
-        warm_up(setup.world, setup.autopilot, setup.seed)
         self.vehicle.first_tick()
+        vehicle, endpoint = self.vehicle, self.endpoint
+        endpoint.tick(time_s=vehicle.time_s, wall_time_s=time.monotonic())  # first HEARTBEAT
+        setup = vehicle.setup
+        warm_up(setup.world, setup.autopilot, setup.seed,
+                between_ticks=lambda: endpoint.tick(time_s=vehicle.time_s,
+                                                    wall_time_s=time.monotonic()))
         gc.collect()
         gc.freeze()  # start-up objects are never collected: shorter collections in flight
         return self.link.local_address
@@ -251,7 +260,7 @@ class VehicleProcess:
                 continue
             if wait_s > 0.0:
                 sleep(wait_s)
-            elif -wait_s > MAX_LAG_S:
+            elif -wait_s > MAX_LAG_S and period_s > 0.0:  # unthrottled: no schedule to keep
                 anchor_s, n = now - period_s, 0  # give the backlog up
                 summary.reanchors += 1
             start_s = clock()

@@ -2,7 +2,7 @@
 
 Usage::
 
-    ftc-vehicle [--scenario NAME|FILE.toml] [--seed N] [--speedup X]
+    ftc-vehicle [--scenario NAME|FILE.toml] [--seed N] [--speedup X|max]
                 [--bind HOST:PORT] [--out HOST:PORT ...] [--instance N] [--sysid N]
                 [--compid N] [--signing-key KEY] [--home LAT,LON,ALT] [--duration S]
                 [--with-faults] [--load-mission] [--start-paused] [--timing-log PATH]
@@ -13,7 +13,8 @@ autopilot configuration (default ``baseline``) but no mission and no faults unle
 waits for a ground station: MAVLink 2 over UDP, listening on ``--bind`` (default
 127.0.0.1:14555) and sending telemetry to every ``--out`` (default 127.0.0.1:14550 and
 127.0.0.1:14540; ``--out none`` for none) and to whoever writes to it. It runs in real time,
-or ``--speedup`` times faster; the same seed flies the same trajectory at any speed-up.
+or ``--speedup`` times faster, or as fast as it can (``--speedup max``: no pacing, telemetry
+still at simulated-time rates); the same seed flies the same trajectory at any speed-up.
 
 ``--instance N`` (0..9) moves those default ports as ArduPilot SITL's ``-I N`` does, by 10 N:
 it listens on 14555 + 10 N and sends to 14550 + 10 N, and to the API port 14540 + N (PX4
@@ -85,6 +86,10 @@ def _out(text: str) -> tuple[str, int] | None:
     return _address(text, allow_port_zero=False)
 
 
+def _speedup(text: str) -> float:
+    return math.inf if text == "max" else positive_float(text)
+
+
 def _home(text: str) -> tuple[float, float, float]:
     parts = text.split(",")
     try:
@@ -130,8 +135,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scenario whose world and autopilot to fly (default baseline)")
     p.add_argument("--seed", type=_int_in(0, 2**63 - 1), default=None,
                    help="seed of every random stream (default: the scenario's)")
-    p.add_argument("--speedup", type=positive_float, default=1.0,
-                   help="simulated seconds per wall second (default 1, at most 1000)")
+    p.add_argument("--speedup", type=_speedup, default=1.0, metavar="X|max",
+                   help="simulated seconds per wall second (default 1, at most 1000); max: "
+                   "unthrottled, as fast as the CPU allows, telemetry still at simulated-time "
+                   "rates")
     p.add_argument("--bind", type=_bind, default=None, metavar="HOST:PORT",
                    help="local UDP address (default 127.0.0.1:14555 + 10 N for --instance N; "
                    "port 0 = any free)")
@@ -217,7 +224,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     outs_text = ", ".join(f"{h}:{p}" for h, p in outs) or "none"
     print(f"{PROG}: listening on udp {host}:{port} as sysid {args.sysid} compid "
           f"{args.compid}; telemetry to {outs_text}; scenario {scenario.name} seed "
-          f"{scenario.seed}; speed-up {args.speedup:g}x"
+          f"{scenario.seed}; speed-up "
+          f"{'max (unthrottled)' if math.isinf(args.speedup) else f'{args.speedup:g}x'}"
           + (f"; instance {args.instance}" if args.instance else "")
           + ("; MAVLink 2 signing on" if args.signing_key is not None else "")
           + ("; paused (set SIM_PAUSE 0 to start)" if args.start_paused else "")

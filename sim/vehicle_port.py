@@ -35,7 +35,7 @@ SIM_WIND_DIR       deg          direction the mean wind blows from
 SIM_WIND_TURB      m/s          Dryden turbulence intensity W20 (0 = none)
 SIM_BATT_CAP_AH    Ah           capacity of the simulated pack (the charge used stays used)
 SIM_PAUSE          0/1          hold simulated time (the link stays up); 0 resumes
-SIM_SPEEDUP        read-only    simulated seconds per wall second (``--speedup``)
+SIM_SPEEDUP        read-only    simulated seconds per wall second (``--speedup``; 0: max)
 SIM_FI_LOE         0..1         LOE of an INJECT_FAILURE MOTOR WRONG (peak of DRIFT)
 SIM_FI_<S>_BIAS    sensor unit  bias of an INJECT_FAILURE <sensor> WRONG
 SIM_FI_<S>_DRIFT   unit/s       drift rate of an INJECT_FAILURE <sensor> DRIFT
@@ -105,7 +105,7 @@ class VehicleSetup:
     autopilot: AutopilotConfig
     seed: int  # -, seed of every random stream of the world
     origin: GeoPoint  # home at boot: geodetic position of the NED origin
-    speedup: float = 1.0  # simulated s per wall s (reported as SIM_SPEEDUP)
+    speedup: float = 1.0  # simulated s per wall s, math.inf = unthrottled (SIM_SPEEDUP 0)
     faults: tuple[Fault, ...] = ()  # scheduled in simulated time at boot
     mission: tuple[NavItem, ...] = ()  # loaded at boot (not started)
     start_paused: bool = False  # SIM_PAUSE = 1 at boot
@@ -169,7 +169,8 @@ class SimVehicle:
         self._quiet_ids: set[int] = set()  # faults injected here: their engine events are ours
         self._silent_ids: set[int] = set()  # parameter-owned faults: own_fault says it all
         self._last_contact_s = -math.inf
-        self.sim_params = SimParams(self, speedup=setup.speedup,
+        self.sim_params = SimParams(self, speedup=setup.speedup if math.isfinite(setup.speedup)
+                                    else 0.0,
                                     start_paused=setup.start_paused)
 
     # ------------------------------------------------------------------ stepping

@@ -8,13 +8,12 @@ Gains come from a discrete design per axis at start-up (:func:`design_axis_lqr`,
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass, field
 
-import control
 import numpy as np
 
 from fcu.control.attitude import LeadFilteredLaw, check_axes
+from fcu.design_cache import cached_design
 from fcu.floats import clip, wrap_pi
 from fcu.model import VehicleModel
 
@@ -97,7 +96,19 @@ def design_axis_lqr(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, float
     eq. 5.8 for the sampled loop itself. A continuous ``lqr`` design would ignore the hold,
     which at 100 Hz costs ``wc dt / 2`` of phase (about 3 deg at a 10 rad/s crossover) that
     the motors have already spent; the discrete one is exact for the sampled plant.
+
+    Made once per configuration and kept (:mod:`fcu.design_cache`); the arrays are read-only.
     """
+    return AxisLqrDesign(*_axis_lqr_arrays(float(inertia_kgm2), float(dt_s),
+                                           tuple(float(q) for q in q_diag), float(r_torque)))
+
+
+@cached_design
+def _axis_lqr_arrays(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, ...],
+                     r_torque: float) -> tuple[np.ndarray, ...]:
+    """:func:`design_axis_lqr`'s arrays, in :class:`AxisLqrDesign`'s order."""
+    import control
+
     # eq. 5.10 per axis, states [e, e_dot], input torque deviation (N*m)
     plant = control.ss([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0 / inertia_kgm2]], np.eye(2),
                        np.zeros((2, 1)))
@@ -109,20 +120,7 @@ def design_axis_lqr(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, float
     q = np.diag(np.asarray(q_diag, dtype=float))
     r = np.array([[float(r_torque)]])
     gain, riccati, poles = control.dlqr(a, b, q, r)
-    return AxisLqrDesign(a=a, b=b, q=q, r=r, gain=np.asarray(gain),
-                         riccati=np.asarray(riccati), closed_loop_poles=np.asarray(poles))
-
-
-# made once per process and configuration, as the lead's design (fcu.control.motor_lead)
-@functools.lru_cache(maxsize=32)
-def _shared_axis_lqr(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, float, float],
-                     r_torque: float) -> AxisLqrDesign:
-    """:func:`design_axis_lqr`, made once per configuration (read-only arrays)."""
-    design = design_axis_lqr(inertia_kgm2, dt_s, q_diag, r_torque)
-    for arr in (design.a, design.b, design.q, design.r, design.gain, design.riccati,
-                design.closed_loop_poles):
-        arr.setflags(write=False)
-    return design
+    return a, b, q, r, np.asarray(gain), np.asarray(riccati), np.asarray(poles)
 
 
 @dataclass
@@ -155,9 +153,9 @@ class AttitudeLQR(LeadFilteredLaw):
         w = self.weights
         super().__init__(model, dt_s, w.motor_lead_rad_s)
         self.designs: tuple[AxisLqrDesign, ...] = tuple(
-            _shared_axis_lqr(float(model.inertia[i]), self.dt_s,
-                             (float(w.q_integral[i]), float(w.q_angle[i]),
-                              float(w.q_rate[i])), float(w.r_torque[i]))
+            design_axis_lqr(float(model.inertia[i]), self.dt_s,
+                            (float(w.q_integral[i]), float(w.q_angle[i]),
+                             float(w.q_rate[i])), float(w.r_torque[i]))
             for i in range(3))
         self._inertia = model.inertia_diag
         self._k = np.vstack([d.gain for d in self.designs])  # (3, 3)

@@ -7,14 +7,13 @@ of the guidance, into the (angle, rate, acceleration) references the attitude la
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
 from fcu.control.attitude import check_period
+from fcu.design_cache import cached_design
 from fcu.floats import floats, wrap_pi
 
 
@@ -37,14 +36,15 @@ class AttitudeReference:
     acc: np.ndarray
 
 
-# made once per process and configuration, as the lead's design (fcu.control.motor_lead)
-@functools.lru_cache(maxsize=16)
-def _reference_filter_design(dt_s: float, wf: float, zf: float
-                             ) -> tuple[control.StateSpace, control.StateSpace]:
-    """:class:`AttitudeReferenceFilter`'s continuous model and its ZOH discretisation."""
+@cached_design  # made once per configuration and kept (fcu.design_cache)
+def _reference_filter_design(dt_s: float, wf: float, zf: float) -> tuple[np.ndarray, ...]:
+    """:class:`AttitudeReferenceFilter`'s ZOH discretisation: A (2, 2) and B (2, 1)."""
+    import control
+
     continuous = control.ss([[0.0, 1.0], [-wf * wf, -2.0 * zf * wf]], [[0.0], [wf * wf]],
                             np.eye(2), np.zeros((2, 1)))
-    return continuous, control.c2d(continuous, dt_s, method="zoh")
+    discrete = control.c2d(continuous, dt_s, method="zoh")
+    return np.asarray(discrete.A), np.asarray(discrete.B)
 
 
 class AttitudeReferenceFilter:
@@ -86,9 +86,8 @@ class AttitudeReferenceFilter:
         self.damping = float(damping)
         wf, zf = self.bandwidth_rad_s, self.damping
         # states [theta_f, theta_f'], input theta_r - (wrapped offset handled in step)
-        self.continuous, self.discrete = _reference_filter_design(self.dt_s, wf, zf)
-        self._a = np.asarray(self.discrete.A)
-        self._b = np.asarray(self.discrete.B)[:, 0]
+        self._a, b = _reference_filter_design(self.dt_s, wf, zf)
+        self._b = b[:, 0]
         self._a_f, self._b_f = self._a.tolist(), self._b.tolist()
         self._angle: list[float] | None = None  # theta_f per axis, rad (unwrapped)
         self._rate = [0.0, 0.0, 0.0]  # theta_f', rad/s

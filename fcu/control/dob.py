@@ -54,13 +54,17 @@ with the real lag is checked in tests/fcu/control/test_disturbance_observer.py f
 
 from __future__ import annotations
 
-import control
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numba import njit
-from scipy.linalg import block_diag
 
+from fcu.design_cache import cached_design
 from fcu.floats import floats, wrap_pi
 from fcu.model import VehicleModel
+
+if TYPE_CHECKING:
+    import control
 
 
 class NoDob:
@@ -79,6 +83,9 @@ class NoDob:
 
 def _block_system(systems: list[control.StateSpace]) -> control.StateSpace:
     """Block-diagonal (one input and one output per axis) connection of SISO systems."""
+    import control
+    from scipy.linalg import block_diag
+
     return control.ss(block_diag(*[np.asarray(g.A) for g in systems]),
                       block_diag(*[np.asarray(g.B) for g in systems]),
                       block_diag(*[np.asarray(g.C) for g in systems]),
@@ -104,24 +111,39 @@ def dob_update(am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np.ndarray,
     return xm_next, xt_next, d_hat
 
 
-_Design = tuple[list[tuple[control.TransferFunction, control.TransferFunction]],
-                control.StateSpace, control.StateSpace]
-_DESIGNS: dict[tuple[object, ...], _Design] = {}  # made by _discretise, see _DiscreteDob
-_MAX_DESIGNS = 32
+_Channel = tuple["control.TransferFunction", "control.TransferFunction"]
 
 
-def _discretise(channels: list[tuple[control.TransferFunction, control.TransferFunction]],
-                dt_s: float, motor_bandwidth_rad_s: float | None) -> _Design:
-    """The channels (with the motor model in the torque path) and both discretisations."""
+def _channels(kind: str, inertia_kgm2: tuple[float, ...], cutoff_rad_s: float,
+              motor_bandwidth_rad_s: float | None) -> list[_Channel]:
+    """Per axis (measurement filter, torque filter) of observer ``kind``, continuous, with the
+    motor model in the torque path."""
+    import control
+
+    observer = _KINDS[kind]
+    channels = [observer._channel(inertia, cutoff_rad_s) for inertia in inertia_kgm2]
     if motor_bandwidth_rad_s is not None:
         motor = control.tf([motor_bandwidth_rad_s], [1.0, motor_bandwidth_rad_s])
         channels = [(meas_tf, torque_tf * motor) for meas_tf, torque_tf in channels]
+    return channels
+
+
+@cached_design  # made once per configuration and kept (fcu.design_cache)
+def _discretise(kind: str, inertia_kgm2: tuple[float, ...], dt_s: float, cutoff_rad_s: float,
+                motor_bandwidth_rad_s: float | None) -> tuple[np.ndarray, ...]:
+    """Both channels discretised: A, B, C, D of the measurement path, then of the torque
+    path, block-diagonal over the axes."""
+    import control
+
+    channels = _channels(kind, inertia_kgm2, cutoff_rad_s, motor_bandwidth_rad_s)
     # measurement: sampled, smooth -> FOH (exact for ramps: a constant rate reads as no
     # acceleration); torque: held between ticks -> ZOH (exact, strictly proper)
-    meas = _block_system([control.ss(m) for m, _ in channels])
-    torque = _block_system([control.ss(t) for _, t in channels])
-    return (channels, control.c2d(meas, dt_s, method="foh"),
-            control.c2d(torque, dt_s, method="zoh"))
+    meas = control.c2d(_block_system([control.ss(m) for m, _ in channels]), dt_s,
+                       method="foh")
+    torque = control.c2d(_block_system([control.ss(t) for _, t in channels]), dt_s,
+                         method="zoh")
+    return tuple(np.asarray(m, dtype=float) for m in (meas.A, meas.B, meas.C, meas.D,
+                                                      torque.A, torque.B, torque.C, torque.D))
 
 
 class _DiscreteDob:
@@ -159,37 +181,42 @@ class _DiscreteDob:
         self.dt_s = float(dt_s)
         self.cutoff_rad_s = float(cutoff_rad_s)
         self.motor_bandwidth_rad_s = motor_bandwidth_rad_s
-        # The discretisation (python-control c2d, hence scipy's expm) wakes OpenBLAS's worker
-        # threads, which then spin for about 0.1 s of CPU time. The channels are a pure
-        # function of the subclass and these parameters, so each design is made once per
-        # process (a batch of flights, a benchmark, the tests pay it once) and shared.
-        key = (type(self), tuple(float(i) for i in model.inertia), self.dt_s,
-               self.cutoff_rad_s, motor_bandwidth_rad_s)
-        design = _DESIGNS.get(key)
-        if design is None:
-            channels = [self._channel(inertia, self.cutoff_rad_s) for inertia in model.inertia]
-            design = _discretise(channels, self.dt_s, motor_bandwidth_rad_s)
-            if len(_DESIGNS) >= _MAX_DESIGNS:
-                _DESIGNS.clear()
-            _DESIGNS[key] = design
-        # per axis (measurement filter, torque filter), continuous; their discretisations
-        channels_shared, self.discrete_measurement, self.discrete_torque = design
-        self.channels = list(channels_shared)
-        dm, dtq = self.discrete_measurement, self.discrete_torque
-        self._am, self._bm = np.asarray(dm.A), np.asarray(dm.B)
-        self._cm, self._dm = np.asarray(dm.C), np.asarray(dm.D)
-        self._at, self._bt, self._ct = np.asarray(dtq.A), np.asarray(dtq.B), np.asarray(dtq.C)
-        if not np.allclose(np.asarray(dtq.D), 0.0):
+        (self._am, self._bm, self._cm, self._dm, self._at, self._bt, self._ct,
+         self._d_torque) = _discretise(self.kind, tuple(float(i) for i in model.inertia),
+                                       self.dt_s, self.cutoff_rad_s, motor_bandwidth_rad_s)
+        if not np.allclose(self._d_torque, 0.0):
             raise AssertionError("torque channel must be strictly proper after ZOH")
         # steady-state map for a constant measurement: x = (I - A)^-1 B y
         self._xm_per_meas = np.linalg.solve(np.eye(self._am.shape[0]) - self._am, self._bm)
-        # contiguous copies for the compiled per-tick update
+        # contiguous, writable copies for the compiled per-tick update (the cached design's
+        # arrays are read-only: numba would compile and load a second, read-only signature)
         self._k_am, self._k_bm, self._k_at, self._k_bt, self._k_cm, self._k_dm, self._k_ct = (
-            np.ascontiguousarray(m, dtype=float) for m in (
+            np.array(m, dtype=float, order="C") for m in (
                 self._am, self._bm, self._at, self._bt, self._cm, self._dm, self._ct))
         self._xm = np.zeros(self._am.shape[0])
         self._xt = np.zeros(self._at.shape[0])
         self._prev_meas: np.ndarray | None = None
+
+    @property
+    def channels(self) -> list[_Channel]:
+        """Per axis (measurement filter, torque filter), continuous, the motor model in the
+        torque path (python-control transfer functions; imports python-control)."""
+        return _channels(self.kind, tuple(float(i) for i in self.model.inertia),
+                         self.cutoff_rad_s, self.motor_bandwidth_rad_s)
+
+    @property
+    def discrete_measurement(self) -> control.StateSpace:
+        """The measurement path discretised (FOH), all axes (imports python-control)."""
+        import control
+
+        return control.ss(self._am, self._bm, self._cm, self._dm, self.dt_s)
+
+    @property
+    def discrete_torque(self) -> control.StateSpace:
+        """The torque path discretised (ZOH), all axes (imports python-control)."""
+        import control
+
+        return control.ss(self._at, self._bt, self._ct, self._d_torque, self.dt_s)
 
     def reset(self) -> None:
         """Forget the filter state; the next step re-initialises at rest on its measurement."""
@@ -245,6 +272,8 @@ class AccelerationDob(_DiscreteDob):
     @staticmethod
     def _channel(inertia_kgm2: float, w: float
                  ) -> tuple[control.TransferFunction, control.TransferFunction]:
+        import control
+
         den = [1.0, 2.0 * w, w * w]  # (s + w)^2, eq. 6.28 with the missing s restored
         return (control.tf([inertia_kgm2 * w * w, 0.0, 0.0], den),  # Q I s^2
                 control.tf([-w * w], den))  # -Q
@@ -276,9 +305,14 @@ class VelocityDob(_DiscreteDob):
     @staticmethod
     def _channel(inertia_kgm2: float, w: float
                  ) -> tuple[control.TransferFunction, control.TransferFunction]:
+        import control
+
         den = [1.0, w]  # s + w, eq. 6.30
         return (control.tf([inertia_kgm2 * w, 0.0], den),  # Q I s
                 control.tf([-w], den))  # -Q
 
     def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
         return np.asarray(rate_frd, dtype=float).reshape(3).copy()
+
+
+_KINDS: dict[str, type[_DiscreteDob]] = {dob.kind: dob for dob in (AccelerationDob, VelocityDob)}

@@ -17,12 +17,15 @@ effort, is unchanged. The loop stays stable with a motor 33 % slower than nomina
 
 from __future__ import annotations
 
-import functools
+from typing import TYPE_CHECKING
 
-import control
 import numpy as np
 
+from fcu.design_cache import cached_design
 from fcu.floats import floats
+
+if TYPE_CHECKING:
+    import control
 
 
 class MotorLead:
@@ -52,14 +55,23 @@ class MotorLead:
             raise ValueError(f"motor_lead_rad_s = {target_bandwidth_rad_s!r}: must exceed the "
                              f"motor bandwidth ({motor_bandwidth_rad_s} rad/s) or be None")
         # discrete, first order over first order (designed once per configuration)
-        self.transfer_function, self._a, self._b, self._c, self._d = _lead_design(
-            float(motor_bandwidth_rad_s), float(target_bandwidth_rad_s), float(dt_s))
+        self.dt_s = float(dt_s)
+        self._num, self._den, realisation = _lead_design(
+            float(motor_bandwidth_rad_s), float(target_bandwidth_rad_s), self.dt_s)
+        self._a, self._b, self._c, self._d = (float(v) for v in realisation)
         self._x = [0.0, 0.0, 0.0]  # filter state per axis
+
+    @property
+    def transfer_function(self) -> control.TransferFunction:
+        """``C(z)``, a discrete python-control transfer function (imports python-control)."""
+        import control
+
+        return control.tf(self._num, self._den, self.dt_s)
 
     @property
     def high_frequency_gain(self) -> float:
         """Gain at the Nyquist frequency, |C(-1)| (noise amplification)."""
-        return float(abs(np.squeeze(self.transfer_function(-1.0))))
+        return float(abs(np.polyval(self._num, -1.0) / np.polyval(self._den, -1.0)))
 
     def reset(self) -> None:
         """Zero the filter state."""
@@ -78,19 +90,20 @@ class MotorLead:
 
 
 # The controller designs (_lead_design here, the LQR's and the reference filter's) call
-# python-control's c2d and dlqr, hence scipy's expm and solve, which wake OpenBLAS's worker
-# threads; those then spin for about 0.1 s of CPU time. Each design is a pure function of
-# its (hashable) parameters, so it is made once per process and configuration: a process
-# that builds many controllers (a batch of flights, a benchmark, the tests) pays that once.
-# Cached arrays are read-only.
-@functools.lru_cache(maxsize=16)
-def _lead_design(w: float, wd: float, dt_s: float
-                 ) -> tuple[control.TransferFunction, float, float, float, float]:
-    """:class:`MotorLead`'s ``C(z)`` and its first-order realisation (A, B, C, D)."""
+# python-control's c2d and dlqr, hence scipy's expm and solve; importing python-control alone
+# takes seconds. Each design is a pure function of its parameters, so it is made once per
+# configuration and kept on disk (fcu.design_cache). Cached arrays are read-only.
+@cached_design
+def _lead_design(w: float, wd: float, dt_s: float) -> tuple[np.ndarray, ...]:
+    """:class:`MotorLead`'s ``C(z)`` (numerator, denominator: coefficients in descending
+    powers of z) and its first-order realisation ``[A, B, C, D]``."""
+    import control
+
     target = control.c2d(control.tf([wd], [1.0, wd]), dt_s, method="zoh")
     motor = control.c2d(control.tf([w], [1.0, w]), dt_s, method="zoh")
     transfer_function = target / motor  # discrete, first order over first order
     realised = control.ss(transfer_function)
-    return (transfer_function, float(np.asarray(realised.A)[0, 0]),
-            float(np.asarray(realised.B)[0, 0]), float(np.asarray(realised.C)[0, 0]),
-            float(np.asarray(realised.D)[0, 0]))
+    return (np.asarray(transfer_function.num[0][0], dtype=float),
+            np.asarray(transfer_function.den[0][0], dtype=float),
+            np.array([np.asarray(m)[0, 0] for m in (realised.A, realised.B, realised.C,
+                                                     realised.D)], dtype=float))

@@ -49,8 +49,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import expm
-from scipy.signal import cont2discrete
 
+from fcu.design_cache import cont2discrete
 from fcu.estimation.estimator import ProcessNoiseDensities
 from fcu.estimation.state import EULER, POS, RATE, STATE_DIM, THRUST, VEL, FloatArray
 from fcu.model import VehicleModel

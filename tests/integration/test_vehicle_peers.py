@@ -12,7 +12,7 @@ import socket
 import time
 
 from conftest import VehicleFactory
-from vehicle_harness import ANSWER_S, Gcs, M
+from vehicle_harness import ANSWER_S, STARTUP_S, Gcs, M
 
 CHATTERERS = 40
 CHATTER_WALL_S = 3.0  # s of chatter (what is asserted is counts, not timing)
@@ -25,7 +25,8 @@ def attitudes(gcs: Gcs, since: int) -> int:
 def test_forty_chattering_peers_do_not_starve_earlier_clients(
         start_vehicle: VehicleFactory, gcs: Gcs) -> None:
     vehicle = start_vehicle("--speedup", "2", outs=[gcs.port])
-    gcs.wait_heartbeat()
+    gcs.wait_heartbeat()  # sent as soon as the vehicle answers, before it warms up
+    gcs.wait("ATTITUDE", lambda m: m.time_boot_ms > 0, timeout_s=STARTUP_S)  # time runs
     client = Gcs()  # connects like MAVProxy's udpout: writes first, to the vehicle's address
     chatter = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(CHATTERERS)]
     try:

@@ -1,13 +1,18 @@
-"""``ftc-vehicle`` options: ``--instance N`` ports and ``--signing-key`` KEY, bad values in one
-line (exit status 2)."""
+"""``ftc-vehicle`` options: ``--instance N`` ports, ``--signing-key`` KEY and ``--speedup max``
+(unthrottled, telemetry at simulated-time rates), bad values in one line (exit status 2)."""
 
 from __future__ import annotations
 
 import hashlib
+import math
+import socket
 
 import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from sim.vehicle import MAX_INSTANCE, instance_addresses
+from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from sim.scenario import load_scenario
+from sim.vehicle import MAX_INSTANCE, VehicleOptions, VehicleProcess, instance_addresses
 from sim.vehicle_cli import build_parser, main
 
 LOOPBACK = "127.0.0.1"
@@ -36,10 +41,44 @@ def test_the_options_parse() -> None:
     assert args.instance == 3
     assert args.signing_key == hashlib.sha256(b"secret").digest()
     assert args.bind is None and args.out is None  # resolved from the instance in main()
+    assert build_parser().parse_args(["--speedup", "max"]).speedup == math.inf
+
+
+def test_unthrottled_vehicle_streams_at_simulated_time_rates() -> None:
+    sim_s = 3.0  # s simulated
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as client:
+        client.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
+        client.bind((LOOPBACK, 0))
+        process = VehicleProcess(VehicleOptions(
+            scenario=load_scenario("baseline"), speedup=math.inf, bind=(LOOPBACK, 0),
+            outs=(client.getsockname(),), max_sim_s=sim_s))
+        process.open()
+        try:
+            summary = process.run(lambda: False)
+        finally:
+            process.close()
+        client.setblocking(False)
+        parser = mav.MAVLink(None)
+        times_ms: list[int] = []
+        while True:
+            try:
+                data = client.recv(65535)
+            except BlockingIOError:
+                break
+            times_ms += [m.time_boot_ms for m in parser.parse_buffer(data) or []
+                         if m.get_type() == "ATTITUDE"]
+    assert summary.sim_s == pytest.approx(sim_s) and summary.reanchors == 0
+    assert process.vehicle.sim_params.speedup == 0.0  # SIM_SPEEDUP 0: unthrottled
+    # ATTITUDE at its rate in simulated time, one per 50 ms tick boundary, from t = 0
+    rate_hz = DEFAULT_RATES_HZ[mav.MAVLINK_MSG_ID_ATTITUDE]
+    assert len(times_ms) == round(sim_s * rate_hz) + 1
+    assert sorted(set(times_ms)) == times_ms  # in simulated-time order, none repeated
 
 
 @pytest.mark.parametrize(("argv", "words"), [
     (["--instance", "10"], "argument --instance: 10: must be in 0..9"),
+    (["--speedup", "0"], "argument --speedup: '0': must be a finite number > 0"),
+    (["--speedup", "inf"], "argument --speedup: 'inf': must be a finite number > 0"),
     (["--instance", "-1"], "argument --instance: -1: must be in 0..9"),
     (["--instance", "one"], "argument --instance: 'one' is not an integer"),
     (["--signing-key", "hex:1234"], "argument --signing-key: signing key: after 'hex:' give "

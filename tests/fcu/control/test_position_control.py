@@ -156,10 +156,10 @@ class RigidBody:
         wrench = self._mix @ thrusts
         acc = MODEL.gravity * E3 - wrench[0] / MODEL.mass * rot[:, 2]
         inertia = MODEL.inertia_diag
-        rate_dot = (wrench[1:] + self.torque_disturbance_nm - np.cross(rate, inertia * rate)) \
-            / inertia
+        hat = _hat(rate)  # hat(a) @ b = a x b, an order of magnitude cheaper than np.cross
+        rate_dot = (wrench[1:] + self.torque_disturbance_nm - hat @ (inertia * rate)) / inertia
         thrust_dot = MODEL.motor_bandwidth * (MODEL.thrust_gain * pwm - thrusts)
-        return vel, acc, rot @ _hat(rate), rate_dot, thrust_dot
+        return vel, acc, rot @ hat, rate_dot, thrust_dot
 
     def step(self, pwm: np.ndarray, h: float) -> None:
         s = (self.pos, self.vel, self.rot, self.rate, self.thrusts)
