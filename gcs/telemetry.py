@@ -319,11 +319,16 @@ class TelemetryReader:
         elif p.kind == "param":
             name, value = p.payload
             self.params[name] = value
-            requested = self._sent_params.pop(name, None)
+            requested = self._sent_params.get(name)
             if requested is not None:
+                # a value other than the one asked for is a refusal (the ground station
+                # says so with the vehicle's reason) or an answer sent before our PARAM_SET
+                # arrived: the request stays open for the echo that may follow
                 ok = value == requested
+                if ok:
+                    del self._sent_params[name]
                 self._emit(t, "PARAM", f"{name} = {value:g}" + ("" if ok else
-                           f" (REFUSED: asked for {requested:g})"))
+                           f" (asked for {requested:g})"))
         elif p.kind == "reached":
             self.reached.append((t, p.payload))
             self._emit(t, "MISSION", f"item {p.payload} reached")

@@ -344,3 +344,17 @@ def test_format_report_of_an_empty_flight_says_so() -> None:
     s.boot()
     text = format_report(s.analyzer.report(), title="t")
     assert "0 in-flight samples" in text and "x m" in text
+
+
+def test_an_old_parameter_value_before_the_echo_is_not_called_a_refusal() -> None:
+    s = Stream()
+    s.boot()
+    s.g(M.MAVLink_param_set_message(1, 1, b"FTC_MODE", 1.0, M.MAV_PARAM_TYPE_REAL32))
+    # the answer to an earlier read, sent before the PARAM_SET arrived, then the echo
+    s.v(M.MAVLink_param_value_message(b"FTC_MODE", 0.0, M.MAV_PARAM_TYPE_REAL32, 81, 26))
+    s.v(M.MAVLink_param_value_message(b"FTC_MODE", 1.0, M.MAV_PARAM_TYPE_REAL32, 81, 26))
+    s.v(M.MAVLink_attitude_message(1000, 0, 0, 0, 0, 0, 0))  # dates the answers
+    params = [text for _, kind, text in s.events if kind == "PARAM"]
+    assert params == ["FTC_MODE = 0 (asked for 1)", "FTC_MODE = 1"]
+    assert not any("REFUSED" in text for text in params)
+    assert s.analyzer.params["FTC_MODE"] == 1.0
