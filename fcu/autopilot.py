@@ -40,6 +40,7 @@ import numpy as np
 from fcu.config import AutopilotConfig
 from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
 from fcu.control.position import PositionCommand, PositionController
+from fcu.control.reduced_attitude import SPINNING_POSITION_GAINS, ReducedAttitudeController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
@@ -145,6 +146,10 @@ class Autopilot:
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
         self.crash_check = CrashCheck(cfg.crash)
         self.ftc_active = cfg.ftc == "active"
+        # relaxed hover after the loss of a rotor (fcu.control.reduced_attitude), designed
+        # when first needed, one per lost motor
+        self._reduced: dict[int, ReducedAttitudeController] = {}
+        self.position_spinning = PositionController(model, SPINNING_POSITION_GAINS, self.dt_s)
         self.battery = BatteryMonitor(cfg.battery)
         self._grouped_kinds = self._sensor_kinds | {BATTERY_SENSOR}
         self.reset()
@@ -164,6 +169,8 @@ class Autopilot:
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None
         self._flying = False
+        self._motor_lost_told: int | None = None  # a motor the operator declared lost
+        self._spinning: int | None = None  # the lost motor while in relaxed hover
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -172,6 +179,7 @@ class Autopilot:
 
     def _reset_controllers(self) -> None:
         self.position.reset()
+        self.position_spinning.reset()
         self.attitude.reset()
         self.attitude_filter.reset()
         self.dob.reset()
@@ -213,6 +221,7 @@ class Autopilot:
         if not flying:
             if self._flying:
                 self._reset_controllers()
+            self._spinning = None
             self._flying = False
             self._pwm = np.zeros(4)
             self._torque_applied = np.zeros(3)
@@ -230,25 +239,37 @@ class Autopilot:
         self._flying = True
         ref = nav.reference
         assert ref is not None
-        cmd: PositionCommand = self.position.step(estimate.pos_ned, estimate.vel_ned,
-                                                  ref.pos_ned, ref.vel_ned, ref.acc_ned,
-                                                  ref.yaw_rad)
+        lost = self._lost_motor()
+        position = self.position if lost is None else self.position_spinning
+        cmd: PositionCommand = position.step(estimate.pos_ned, estimate.vel_ned, ref.pos_ned,
+                                             ref.vel_ned, ref.acc_ned, ref.yaw_rad)
         att_ref = self.attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad))
-        torque = self.attitude.step(estimate.euler_rad, estimate.rate_frd, att_ref.euler_rad,
-                                    att_ref.rate, att_ref.acc)
-        d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
-        torque_cmd = torque - d_hat
-        self.allocator.set_effectiveness(self._ftc_effectiveness() if self.ftc_active
-                                         else None)
-        pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
-        self._thrust_n = cmd.thrust_n
+        if lost is not None:
+            # relaxed hover: yaw given up, the primary axis steered along the thrust the
+            # position loop asks for (fcu.control.reduced_attitude)
+            reduced = self._relaxed_hover(time_s, lost, estimate)
+            force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
+            spin = reduced.step(estimate.euler_rad, estimate.rate_frd, force)
+            pwm, thrust_n = spin.pwm, spin.collective_n
+            torque_cmd = d_hat = np.zeros(3)
+            self.allocator.set_effectiveness(None)
+        else:
+            torque = self.attitude.step(estimate.euler_rad, estimate.rate_frd,
+                                        att_ref.euler_rad, att_ref.rate, att_ref.acc)
+            d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
+            torque_cmd = torque - d_hat
+            self.allocator.set_effectiveness(self._ftc_effectiveness() if self.ftc_active
+                                             else None)
+            pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
+            thrust_n = cmd.thrust_n
+        self._thrust_n = thrust_n
         _, self._torque_applied = self.allocator.mix(pwm)
-        records += self._crash_check(time_s, estimate, att_ref, cmd.thrust_n)
+        records += self._crash_check(time_s, estimate, att_ref, thrust_n)
         if not self.navigator.armed:  # the crash check disarmed
             pwm = np.zeros(4)
         self._pwm = pwm
         self._publish(records)
-        self._status = self._make_status(time_s, estimate, nav, ref, att_ref, cmd.thrust_n,
+        self._status = self._make_status(time_s, estimate, nav, ref, att_ref, thrust_n,
                                          torque_cmd, d_hat)
         return pwm
 
@@ -291,6 +312,58 @@ class Autopilot:
         for motor in motors:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
         return e
+
+    def _lost_motor(self) -> int | None:
+        """The motor flown around in relaxed hover, or None: the one the operator declared
+        lost (:meth:`declare_motor_lost`), else in active FTC a motor the detector has
+        declared lost or suspects with an estimated loss above its ``lost_threshold`` (beyond
+        what yaw authority allows: the full-attitude controller cannot hold it). Once in
+        relaxed hover the vehicle stays in it until it lands."""
+        if self._spinning is not None:
+            return self._spinning
+        if self._motor_lost_told is not None:
+            return self._motor_lost_told
+        if not self.ftc_active:
+            return None
+        lost = self.detector.lost
+        if lost:
+            return lost[0]
+        suspected = self.detector.suspected
+        if (suspected is not None and float(self.detector.evidence.loe[suspected - 1])
+                > self.config.detector.lost_threshold):
+            return suspected
+        return None
+
+    def _relaxed_hover(self, time_s: float, motor: int, estimate: StateEstimate
+                       ) -> ReducedAttitudeController:
+        """The reduced-attitude controller for ``motor`` lost; on entry it is designed (once
+        per motor), started from the estimated thrusts and announced."""
+        reduced = self._reduced.get(motor)
+        if reduced is None:
+            reduced = ReducedAttitudeController(self.model, motor, self.dt_s)
+            self._reduced[motor] = reduced
+        if self._spinning != motor:
+            self._spinning = motor
+            reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
+            eq = reduced.equilibrium
+            self._events.append(AutopilotEvent(
+                time_s, "relaxed_hover",
+                f"motor {motor} lost: yaw given up, spinning about the thrust axis "
+                f"(relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected)", "critical"))
+        return reduced
+
+    @property
+    def relaxed_hover_motor(self) -> int | None:
+        """The lost motor while the vehicle flies in relaxed hover, else None."""
+        return self._spinning
+
+    def declare_motor_lost(self, motor: int | None) -> None:
+        """Tell the autopilot that ``motor`` (1..4) is lost: from the next tick in flight it
+        flies in relaxed hover (yaw given up) whatever the FTC mode; None forgets it (a
+        vehicle already spinning stays in relaxed hover until it lands)."""
+        if motor is not None and motor not in (1, 2, 3, 4):
+            raise ValueError(f"motor = {motor!r}: must be 1, 2, 3 or 4 (or None)")
+        self._motor_lost_told = motor
 
     def set_ftc(self, mode: str) -> None:
         """Switch fault-tolerant control between ``"passive"`` and ``"active"``, in flight too:
