@@ -77,11 +77,14 @@ class ReducedAttitudeWeights:
     q_axis: float = 2500.0  # 1/(unit vector component)^2, on dn_x and dn_y
     q_rate: float = 4.0  # 1/(rad/s)^2, on dp and dq
     q_torque: float = 1.0  # 1/(N*m)^2, on the lagged torques
+    q_integral: float = 1.0e4  # 1/(unit*s)^2, on the integrals of dn_x and dn_y
+    integral_limit: float = 0.2  # unit*s, |int dn dt| per axis (anti-windup)
     r_torque: float = 25.0  # 1/(N*m)^2, on the commanded torques
     opposite_ratio: float = DEFAULT_OPPOSITE_RATIO  # rho, fcu.control.relaxed_hover
 
     def __post_init__(self) -> None:
-        for name in ("q_axis", "q_rate", "q_torque", "r_torque"):
+        for name in ("q_axis", "q_rate", "q_torque", "r_torque", "q_integral",
+                     "integral_limit"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
@@ -161,7 +164,8 @@ class ReducedAttitudeController:
     equilibrium : RelaxedHoverEquilibrium
         The relaxed hover it is designed about.
     gain : numpy.ndarray
-        Discrete LQR gain, shape (2, 6), v = -gain x.
+        Discrete LQR gain at the equilibrium spin, shape (2, 8), v = -gain x with x the
+        module docstring's state plus the integrals of dn_x and dn_y.
     """
 
     def __init__(self, model: VehicleModel, lost_motor: int, dt_s: float,
@@ -176,16 +180,22 @@ class ReducedAttitudeController:
         self.equilibrium = relaxed_hover(model, lost_motor, wts.opposite_ratio)
         eq = self.equilibrium
         q = np.diag([wts.q_rate, wts.q_rate, wts.q_axis, wts.q_axis, wts.q_torque,
-                     wts.q_torque])
+                     wts.q_torque, wts.q_integral, wts.q_integral])
         gains = []
         for fraction in SCHEDULE:
             axis = scheduled_axis(eq, float(fraction))
-            a, b = linearisation(model, fraction * eq.spin_rad_s * axis, axis)
-            sysd = control.c2d(control.ss(a, b, np.eye(6), np.zeros((6, 2))), self.dt_s,
+            a6, b6 = linearisation(model, fraction * eq.spin_rad_s * axis, axis)
+            # integral action on the axis error: d/dt int dn = dn (removes the steady
+            # offset the unmodelled terms leave, e.g. the yaw rate's own deviation)
+            a = np.zeros((8, 8))
+            a[:6, :6] = a6
+            a[6, 2] = a[7, 3] = 1.0
+            b = np.vstack([b6, np.zeros((2, 2))])
+            sysd = control.c2d(control.ss(a, b, np.eye(8), np.zeros((8, 2))), self.dt_s,
                                "zoh")
             gain, _, _ = control.dlqr(sysd.A, sysd.B, q, wts.r_torque * np.eye(2))
             gains.append(np.asarray(gain))
-        self.gains = np.array(gains)  # (len(SCHEDULE), 2, 6)
+        self.gains = np.array(gains)  # (len(SCHEDULE), 2, 8)
         self.gain = self.gains[-1]
         self._torque = torque_matrix(model)  # (3, 4), N*m per N
         alive = [i for i in range(4) if i != lost_motor - 1]
@@ -202,6 +212,7 @@ class ReducedAttitudeController:
         start = self.equilibrium.thrust_n if thrust_n is None else np.asarray(thrust_n, float)
         self._thrust_model = np.array(start, dtype=float)
         self._thrust_model[self.lost_motor - 1] = 0.0
+        self._integral = np.zeros(2)  # unit*s, int (n - n_bar)_xy dt
 
     def _allocate(self, collective: float, tau_x: float, tau_y: float) -> np.ndarray:
         """Thrusts (N, shape (4,)) of the three remaining motors for U1 and (tau_x, tau_y).
@@ -261,8 +272,11 @@ class ReducedAttitudeController:
         i = min(int(k), len(SCHEDULE) - 2)
         gain = self.gains[i] + (k - i) * (self.gains[i + 1] - self.gains[i])
         tau_model = self._torque[:2] @ self._thrust_model
-        x = np.concatenate([np.asarray(rate_frd, dtype=float)[:2] - omega[:2],
-                            n[:2] - axis[:2], tau_model - tau_ff])
+        dn = n[:2] - axis[:2]
+        limit = self.weights.integral_limit
+        self._integral = np.clip(self._integral + dn * self.dt_s, -limit, limit)
+        x = np.concatenate([np.asarray(rate_frd, dtype=float)[:2] - omega[:2], dn,
+                            tau_model - tau_ff, self._integral])
         tau_cmd = tau_ff - gain @ x
         collective = self.model.mass * f_norm / -float(eq.axis_frd[2])
         thrust = self._allocate(collective, float(tau_cmd[0]), float(tau_cmd[1]))
