@@ -52,6 +52,7 @@ from fcu.monitoring.crash_check import CrashCheck
 from fcu.monitoring.motor_faults import MotorFaultDetector
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.navigation.guidance import Reference
+from fcu.navigation.modes import MODE_TABLE, Mode
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
 from flightdata.records import DetectionRecord
 from flightdata.vocabulary import BATTERY_SENSOR, FTC_MODES, SENSORS
@@ -171,6 +172,8 @@ class Autopilot:
         self._flying = False
         self._motor_lost_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the lost motor while in relaxed hover
+        self._spinning_since_s = 0.0  # s, when relaxed hover began
+        self._rotor_loss_landing = False  # the LAND after the hold was triggered
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -248,6 +251,10 @@ class Autopilot:
             # relaxed hover: yaw given up, the primary axis steered along the thrust the
             # position loop asks for (fcu.control.reduced_attitude)
             reduced = self._relaxed_hover(time_s, lost, estimate)
+            if (not self._rotor_loss_landing
+                    and time_s - self._spinning_since_s >= self.config.rotor_loss_hold_s):
+                self._rotor_loss_landing = True
+                self.navigator.trigger_failsafe("motor", "land")
             force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
             spin = reduced.step(estimate.euler_rad, estimate.rate_frd, force)
             pwm, thrust_n = spin.pwm, spin.collective_n
@@ -344,12 +351,18 @@ class Autopilot:
             self._reduced[motor] = reduced
         if self._spinning != motor:
             self._spinning = motor
+            self._spinning_since_s = time_s
+            self._rotor_loss_landing = False
             reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
             eq = reduced.equilibrium
             self._events.append(AutopilotEvent(
                 time_s, "relaxed_hover",
                 f"motor {motor} lost: yaw given up, spinning about the thrust axis "
-                f"(relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected)", "critical"))
+                f"(relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected); holding "
+                f"{self.config.rotor_loss_hold_s:.0f} s, then LAND", "critical"))
+            # stop where the fault struck (a landing or returning vehicle carries on)
+            if not MODE_TABLE[self.navigator.mode].lands:
+                self.navigator.set_mode(Mode.BRAKE)
         return reduced
 
     @property

@@ -1,7 +1,10 @@
-"""Loss of one rotor in hover: relaxed hover (yaw given up), hold position, land.
+"""Loss of one rotor: relaxed hover (yaw given up), hold position, land where it happened.
 
-Headless and seeded (rotor_lost_hover_m1 / _m3: total loss at 15 s in hover at 1 m, active
-FTC, then the mission's hold and landing). The autopilot flies in relaxed hover
+Headless and seeded: rotor_lost_hover_m1 / _m3 (total loss at 15 s in hover at 1 m) and
+active_motor1_lost, active_loe65, active_loe75 (motor 1 lost, or 65 % / 75 % of it, beyond
+yaw authority, at 30 s during the thesis square), all in active FTC. On the switch the
+vehicle brakes, holds ``rotor_loss_hold_s`` (10 s) while the spin builds, then lands
+(failsafe LAND). The autopilot flies in relaxed hover
 (fcu/control/reduced_attitude.py) either because the detector declared or suspects the motor
 lost (active FTC) or because it was told (:meth:`Autopilot.declare_motor_lost`). Figures are
 checked against the equilibrium derived in fcu/control/relaxed_hover.py.
@@ -23,8 +26,8 @@ from sim.scenario import load_scenario, nominal_model
 
 pytestmark = pytest.mark.slow
 
-TRANSIENT_S = 5.0  # s after the fault: the spin-up and the return to the waypoint
-SPIN_UP_S = 10.0  # s after the fault: the spin within 1 % of its final value (Izz/g_z = 4 s)
+TRANSIENT_S = 5.0  # s after the fault: the spin-up and the return to the hold point
+SPIN_UP_S = 8.0  # s after the fault: two time constants Izz/g_z of the spin-up
 LANDING_S = 6.0  # s before touchdown: the descent, left out of the hover figures
 
 
@@ -45,9 +48,10 @@ class RotorLossFlight:
     def at(self, time_s: float) -> int:
         return int(np.searchsorted(self.time_s, time_s))
 
-    def hover_window(self, start_after_fault_s: float) -> np.ndarray:
+    def hover_window(self, start_after_fault_s: float, end_before_touchdown_s: float
+                     = LANDING_S) -> np.ndarray:
         return ((self.time_s > self.fault_s + start_after_fault_s)
-                & (self.time_s < self.outcome.time_s - LANDING_S))
+                & (self.time_s < self.outcome.time_s - end_before_touchdown_s))
 
 
 @cache
@@ -75,7 +79,8 @@ def flight(name: str, told: bool = False) -> RotorLossFlight:
 
 
 CASES = [("rotor_lost_hover_m1", False), ("rotor_lost_hover_m3", False),
-         ("rotor_lost_hover_m1", True)]
+         ("rotor_lost_hover_m1", True), ("active_motor1_lost", False),
+         ("active_loe65", False), ("active_loe75", False)]
 
 
 @pytest.mark.parametrize(("name", "told"), CASES)
@@ -96,7 +101,7 @@ def test_stays_airborne_and_holds_position_after_the_transient(name: str, told: 
     # relaxed hover from the detection on (0.15-0.2 s after the fault; at once when told)
     assert np.all(f.spinning[after & (f.time_s > f.fault_s + 0.5)])
     window = f.hover_window(TRANSIENT_S)
-    assert np.count_nonzero(window) > 300  # at least 3 s of hover to judge
+    assert np.count_nonzero(window) > 200  # at least 2 s of hold to judge
     error = np.linalg.norm(f.pos_ned[window] - f.ref_ned[window], axis=1)
     assert np.sqrt(np.mean(error**2)) < 0.5  # the issue: 0.5 m RMS after the transient
 
@@ -105,7 +110,7 @@ def test_stays_airborne_and_holds_position_after_the_transient(name: str, told: 
 def test_spin_rate_matches_the_derived_equilibrium(name: str, told: bool) -> None:
     f = flight(name, told)
     eq = relaxed_hover(nominal_model(load_scenario(name).world.airframe), f.motor)
-    window = f.hover_window(SPIN_UP_S)
+    window = f.hover_window(SPIN_UP_S, 1.0)  # the spin goes on while it descends
     assert np.count_nonzero(window) > 100
     observed = float(np.mean(f.yaw_rate_rad_s[window]))
     # the issue: within 15 %; the sign says which way it turns (motor 1 counter-clockwise
