@@ -173,7 +173,7 @@ class Autopilot:
         self._motor_lost_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the lost motor while in relaxed hover
         self._spinning_since_s = 0.0  # s, when relaxed hover began
-        self._rotor_loss_landing = False  # the LAND after the hold was triggered
+        self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -225,6 +225,7 @@ class Autopilot:
             if self._flying:
                 self._reset_controllers()
             self._spinning = None
+            self._rotor_loss_landing = False
             self._flying = False
             self._pwm = np.zeros(4)
             self._torque_applied = np.zeros(3)
@@ -242,7 +243,7 @@ class Autopilot:
         self._flying = True
         ref = nav.reference
         assert ref is not None
-        lost = self._lost_motor()
+        lost = self._lost_motor(time_s)
         position = self.position if lost is None else self.position_spinning
         cmd: PositionCommand = position.step(estimate.pos_ned, estimate.vel_ned, ref.pos_ned,
                                              ref.vel_ned, ref.acc_ned, ref.yaw_rad)
@@ -320,35 +321,55 @@ class Autopilot:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
         return e
 
-    def _lost_motor(self) -> int | None:
+    def _lost_motor(self, time_s: float) -> int | None:
         """The motor flown around in relaxed hover, or None: the one the operator declared
         lost (:meth:`declare_motor_lost`), else in active FTC a motor the detector has
         declared lost or suspects with an estimated loss above its ``lost_threshold`` (beyond
         what yaw authority allows: the full-attitude controller cannot hold it). Once in
-        relaxed hover the vehicle stays in it until it lands."""
+        relaxed hover the vehicle stays in it until it lands. Two motors lost, or a vehicle
+        that cannot hover on three rotors, have no relaxed hover: that is announced once and
+        the vehicle descends level under the ordinary controller (failsafe LAND)."""
         if self._spinning is not None:
             return self._spinning
+        motors: tuple[int, ...] = ()
         if self._motor_lost_told is not None:
-            return self._motor_lost_told
-        if not self.ftc_active:
+            motors = (self._motor_lost_told,)
+        elif self.ftc_active:
+            motors = self.detector.lost
+            suspected = self.detector.suspected
+            if (not motors and suspected is not None
+                    and float(self.detector.evidence.loe[suspected - 1])
+                    > self.config.detector.lost_threshold):
+                motors = (suspected,)
+        if not motors:
             return None
-        lost = self.detector.lost
-        if lost:
-            return lost[0]
-        suspected = self.detector.suspected
-        if (suspected is not None and float(self.detector.evidence.loe[suspected - 1])
-                > self.config.detector.lost_threshold):
-            return suspected
-        return None
+        if len(motors) > 1:
+            self._cannot_survive(time_s, f"motors {' and '.join(map(str, motors))} lost: "
+                                 "no relaxed hover with two rotors down")
+            return None
+        motor = motors[0]
+        if motor not in self._reduced:
+            try:
+                self._reduced[motor] = ReducedAttitudeController(self.model, motor, self.dt_s)
+            except ValueError as err:
+                self._cannot_survive(time_s, str(err))
+                return None
+        return motor
+
+    def _cannot_survive(self, time_s: float, why: str) -> None:
+        """Say once that the loss cannot be flown around, and land (the least bad thing)."""
+        if self._rotor_loss_landing:
+            return
+        self._rotor_loss_landing = True
+        self._events.append(AutopilotEvent(time_s, "relaxed_hover",
+                                           f"{why}; descending level (LAND)", "critical"))
+        self.navigator.trigger_failsafe("motor", "land")
 
     def _relaxed_hover(self, time_s: float, motor: int, estimate: StateEstimate
                        ) -> ReducedAttitudeController:
         """The reduced-attitude controller for ``motor`` lost; on entry it is designed (once
         per motor), started from the estimated thrusts and announced."""
-        reduced = self._reduced.get(motor)
-        if reduced is None:
-            reduced = ReducedAttitudeController(self.model, motor, self.dt_s)
-            self._reduced[motor] = reduced
+        reduced = self._reduced[motor]  # designed by _lost_motor
         if self._spinning != motor:
             self._spinning = motor
             self._spinning_since_s = time_s

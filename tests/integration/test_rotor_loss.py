@@ -12,8 +12,12 @@ checked against the equilibrium derived in fcu/control/relaxed_hover.py.
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from dataclasses import dataclass, replace
 from functools import cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +29,9 @@ from sim.runner import fly
 from sim.scenario import load_scenario, nominal_model
 
 pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parents[2]
+WALL_S = 600.0  # s: one thesis-mission flight at 10x on a loaded two-core machine
 
 TRANSIENT_S = 5.0  # s after the fault: the spin-up and the return to the hold point
 SPIN_UP_S = 8.0  # s after the fault: two time constants Izz/g_z of the spin-up
@@ -123,3 +130,37 @@ def test_the_switch_is_announced() -> None:
     texts = [text for _, source, text in flight("rotor_lost_hover_m1").events
              if source == "autopilot"]
     assert any(t.startswith("motor 1 lost: yaw given up") for t in texts), texts
+
+
+def test_over_mavlink_the_thesis_mission_with_motor_1_lost_lands(tmp_path: Path) -> None:
+    """``ftc-gcs fly --param FTC_MODE=1 --fault 1:1.0@30``: exit 0, landed, the table shows
+    the spin, whose rate (ATTITUDE yawspeed) is the derived one within 15 %."""
+    out = tmp_path / "f.json"
+    proc = subprocess.run(
+        [sys.executable, "-m", "gcs", "fly", "--spawn-vehicle", "--speedup", "10",
+         "--param", "FTC_MODE=1", "--fault", "1:1.0@30", "--quiet",
+         "--tlog", str(tmp_path / "f.tlog"), "--json", str(out)],
+        cwd=ROOT, capture_output=True, text=True, timeout=WALL_S, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "outcome: LANDED" in proc.stdout
+    assert "spin (yaw given up) from" in proc.stdout
+    table = json.loads(out.read_text())
+    assert table["outcome"]["kind"] == "landed"
+    eq = relaxed_hover(nominal_model(load_scenario("baseline").world.airframe), 1)
+    assert table["spin"]["yaw_rate_rad_s"] == pytest.approx(eq.yaw_rate_rad_s, rel=0.15)
+    assert table["spin"]["start_s"] > 30.0  # after the fault (vehicle time = mission time)
+
+
+def test_a_vehicle_too_heavy_for_three_rotors_says_so_and_lands() -> None:
+    """2.4 kg: relaxed hover would need 9.4 N from each side rotor (8.75 N at most)."""
+    scenario = load_scenario("rotor_lost_hover_m1")
+    world = replace(scenario.world, airframe=replace(scenario.world.airframe, mass=2.4))
+    scenario = replace(scenario, world=world, duration_s=25.0,
+                       autopilot=replace(scenario.autopilot, model=nominal_model(
+                           world.airframe)))
+    result = fly(scenario)
+    texts = [text for _, _, text in result.events]
+    assert any("cannot hover" in t and t.endswith("descending level (LAND)") for t in texts)
+    assert any("failsafe motor: LAND" in t for t in texts), texts
+    # reported as it ended, whatever that is: never "airborne" long after the loss
+    assert result.outcome.kind in ("landed", "crashed"), result.outcome
