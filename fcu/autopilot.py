@@ -255,7 +255,9 @@ class Autopilot:
             if (not self._rotor_loss_landing
                     and time_s - self._spinning_since_s >= self.config.rotor_loss_hold_s):
                 self._rotor_loss_landing = True
-                self.navigator.trigger_failsafe("motor", "land")
+                # land after the hold unless the pilot chose a mode since (RTL, LAND...)
+                if self.navigator.mode == Mode.BRAKE:
+                    self.navigator.trigger_failsafe("motor", "land")
             force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
             spin = reduced.step(estimate.euler_rad, estimate.rate_frd, force)
             pwm, thrust_n = spin.pwm, spin.collective_n

@@ -164,3 +164,23 @@ def test_a_vehicle_too_heavy_for_three_rotors_says_so_and_lands() -> None:
     assert any("failsafe motor: LAND" in t for t in texts), texts
     # reported as it ended, whatever that is: never "airborne" long after the loss
     assert result.outcome.kind in ("landed", "crashed"), result.outcome
+
+
+def test_rtl_commanded_while_spinning_flies_home_and_lands() -> None:
+    """RTL at 35 s, 5 s into relaxed hover (motor 1 lost at 30 s in the square): the hold's
+    LAND does not override the pilot's choice, the vehicle flies home spinning and lands."""
+    scenario = replace(load_scenario("active_motor1_lost"), duration_s=75.0)
+    rtl: list[bool] = []
+    last: list[np.ndarray] = []
+
+    def on_tick(world: Any, autopilot: Any) -> None:
+        if world.time_s >= 35.0 and not rtl:
+            rtl.append(autopilot.navigator.set_mode(6).accepted)  # ArduCopter RTL
+        last.append(world.plant.state[0:3].copy())
+
+    result = fly(scenario, on_tick=on_tick)
+    assert rtl == [True]
+    assert result.outcome.kind == "landed", result.outcome
+    assert result.outcome.impact_speed_m_s < 1.0
+    assert np.linalg.norm(last[-1][:2]) < 0.3  # at home (the square's start), 0.3 m
+    assert not any("failsafe motor" in text for _, _, text in result.events)
