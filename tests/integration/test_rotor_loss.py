@@ -1,8 +1,8 @@
 """Loss of one rotor: relaxed hover (yaw given up), hold position, land where it happened.
 
 Headless and seeded: rotor_lost_hover_m1 / _m3 (total loss at 15 s in hover at 1 m) and
-active_motor1_lost, active_loe65, active_loe75 (motor 1 lost, or 65 % / 75 % of it, beyond
-yaw authority, at 30 s during the thesis square), all in active FTC. On the switch the
+active_motor1_lost, active_motor3_lost, active_loe65, active_loe75 (motor 1 or 3 lost, or
+65 % / 75 % of motor 1, beyond yaw authority, at 30 s during the thesis square), all in active FTC. On the switch the
 vehicle brakes, holds ``rotor_loss_hold_s`` (10 s) while the spin builds, then lands
 (failsafe LAND). The autopilot flies in relaxed hover
 (fcu/control/reduced_attitude.py) either because the detector declared or suspects the motor
@@ -87,6 +87,7 @@ def flight(name: str, told: bool = False) -> RotorLossFlight:
 
 CASES = [("rotor_lost_hover_m1", False), ("rotor_lost_hover_m3", False),
          ("rotor_lost_hover_m1", True), ("active_motor1_lost", False),
+         ("active_motor3_lost", False),
          ("active_loe65", False), ("active_loe75", False)]
 
 
