@@ -98,7 +98,8 @@ class AutopilotStatus:
     torque_cmd_nm: np.ndarray  # N*m, after the DOB compensation
     disturbance_nm: np.ndarray  # N*m, DOB estimate (zeros without a DOB)
     pwm: np.ndarray  # PWM commanded for the next interval, (4,)
-    loe_estimate: np.ndarray  # per-motor loss of effectiveness (TSKF, mass change removed)
+    loe_estimate: np.ndarray  # per-motor loss of effectiveness (TSKF, mass change removed;
+    # after a switch to relaxed hover, as it stood at the switch until the next take-off)
     fault_detected: tuple[bool, bool, bool, bool]  # motors 1..4 declared faulty
     mass_change_kg: float = 0.0  # kg, estimated change of mass (+ heavier)
     excluded_sensors: frozenset[str] = frozenset()  # sensors the estimators do not trust
@@ -173,6 +174,7 @@ class Autopilot:
         self._motor_lost_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the lost motor while in relaxed hover
         self._spinning_since_s = 0.0  # s, when relaxed hover began
+        self._loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
         self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
@@ -238,6 +240,7 @@ class Autopilot:
                                              np.zeros(3), np.zeros(3))
             return self._pwm
         if not self._flying:  # take-off: start from the current attitude, forget ground contact
+            self._loe_at_spin = None
             self.attitude_filter.reset(estimate.euler_rad)
             self.dob.reset()
         self._flying = True
@@ -376,6 +379,9 @@ class Autopilot:
             self._spinning = motor
             self._spinning_since_s = time_s
             self._rotor_loss_landing = False
+            # the TSKF's hover model does not hold in a spin: its per-motor estimates are
+            # published as they stood at the switch until the next take-off
+            self._loe_at_spin = np.array(self.detector.evidence.loe, dtype=float)
             reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
             eq = reduced.equilibrium
             self._events.append(AutopilotEvent(
@@ -459,8 +465,9 @@ class Autopilot:
                      thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray
                      ) -> AutopilotStatus:
         evidence = self.detector.evidence
+        loe = evidence.loe if self._loe_at_spin is None else self._loe_at_spin
         return AutopilotStatus(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
-                               d_hat, self._pwm, evidence.loe, self._detected(),
+                               d_hat, self._pwm, loe, self._detected(),
                                evidence.mass_change_kg, self.sensor_health.excluded,
                                evidence.lost)
 
