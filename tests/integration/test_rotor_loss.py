@@ -2,9 +2,9 @@
 
 Headless and seeded: rotor_lost_hover_m1 / _m3 (total loss at 15 s in hover at 1 m) and
 active_motor1_lost, active_motor3_lost, active_loe65, active_loe75 (motor 1 or 3 lost, or
-65 % / 75 % of motor 1, beyond yaw authority, at 30 s during the thesis square), all in active FTC. On the switch the
-vehicle brakes, holds ``rotor_loss_hold_s`` (10 s) while the spin builds, then lands
-(failsafe LAND). The autopilot flies in relaxed hover
+65 % / 75 % of motor 1, beyond yaw authority, at 30 s during the thesis square), all in
+active FTC. On the switch the vehicle brakes, holds ``rotor_loss_hold_s`` (10 s) while the
+spin builds, then lands (failsafe LAND). The autopilot flies in relaxed hover
 (fcu/control/reduced_attitude.py) either because the detector declared or suspects the motor
 lost (active FTC) or because it was told (:meth:`Autopilot.declare_motor_lost`). Figures are
 checked against the equilibrium derived in fcu/control/relaxed_hover.py.
