@@ -40,6 +40,7 @@ import numpy as np
 from fcu.config import AutopilotConfig
 from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
 from fcu.control.position import PositionCommand, PositionController
+from fcu.control.reduced_attitude import SPINNING_POSITION_GAINS, ReducedAttitudeController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
@@ -51,6 +52,7 @@ from fcu.monitoring.crash_check import CrashCheck
 from fcu.monitoring.motor_faults import MotorFaultDetector
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.navigation.guidance import Reference
+from fcu.navigation.modes import MODE_TABLE, Mode
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
 from flightdata.records import DetectionRecord
 from flightdata.vocabulary import BATTERY_SENSOR, FTC_MODES, SENSORS
@@ -96,7 +98,8 @@ class AutopilotStatus:
     torque_cmd_nm: np.ndarray  # N*m, after the DOB compensation
     disturbance_nm: np.ndarray  # N*m, DOB estimate (zeros without a DOB)
     pwm: np.ndarray  # PWM commanded for the next interval, (4,)
-    loe_estimate: np.ndarray  # per-motor loss of effectiveness (TSKF, mass change removed)
+    loe_estimate: np.ndarray  # per-motor loss of effectiveness (TSKF, mass change removed;
+    # after a switch to relaxed hover, as it stood at the switch until the next take-off)
     fault_detected: tuple[bool, bool, bool, bool]  # motors 1..4 declared faulty
     mass_change_kg: float = 0.0  # kg, estimated change of mass (+ heavier)
     excluded_sensors: frozenset[str] = frozenset()  # sensors the estimators do not trust
@@ -145,6 +148,10 @@ class Autopilot:
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
         self.crash_check = CrashCheck(cfg.crash)
         self.ftc_active = cfg.ftc == "active"
+        # relaxed hover after the loss of a rotor (fcu.control.reduced_attitude), designed
+        # when first needed, one per lost motor
+        self._reduced: dict[int, ReducedAttitudeController] = {}
+        self.position_spinning = PositionController(model, SPINNING_POSITION_GAINS, self.dt_s)
         self.battery = BatteryMonitor(cfg.battery)
         self._grouped_kinds = self._sensor_kinds | {BATTERY_SENSOR}
         self.reset()
@@ -164,6 +171,11 @@ class Autopilot:
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None
         self._flying = False
+        self._motor_lost_told: int | None = None  # a motor the operator declared lost
+        self._spinning: int | None = None  # the lost motor while in relaxed hover
+        self._spinning_since_s = 0.0  # s, when relaxed hover began
+        self._loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
+        self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -172,6 +184,7 @@ class Autopilot:
 
     def _reset_controllers(self) -> None:
         self.position.reset()
+        self.position_spinning.reset()
         self.attitude.reset()
         self.attitude_filter.reset()
         self.dob.reset()
@@ -213,6 +226,8 @@ class Autopilot:
         if not flying:
             if self._flying:
                 self._reset_controllers()
+            self._spinning = None
+            self._rotor_loss_landing = False
             self._flying = False
             self._pwm = np.zeros(4)
             self._torque_applied = np.zeros(3)
@@ -225,30 +240,49 @@ class Autopilot:
                                              np.zeros(3), np.zeros(3))
             return self._pwm
         if not self._flying:  # take-off: start from the current attitude, forget ground contact
+            self._loe_at_spin = None
             self.attitude_filter.reset(estimate.euler_rad)
             self.dob.reset()
         self._flying = True
         ref = nav.reference
         assert ref is not None
-        cmd: PositionCommand = self.position.step(estimate.pos_ned, estimate.vel_ned,
-                                                  ref.pos_ned, ref.vel_ned, ref.acc_ned,
-                                                  ref.yaw_rad)
+        lost = self._lost_motor(time_s)
+        position = self.position if lost is None else self.position_spinning
+        cmd: PositionCommand = position.step(estimate.pos_ned, estimate.vel_ned, ref.pos_ned,
+                                             ref.vel_ned, ref.acc_ned, ref.yaw_rad)
         att_ref = self.attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad))
-        torque = self.attitude.step(estimate.euler_rad, estimate.rate_frd, att_ref.euler_rad,
-                                    att_ref.rate, att_ref.acc)
-        d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
-        torque_cmd = torque - d_hat
-        self.allocator.set_effectiveness(self._ftc_effectiveness() if self.ftc_active
-                                         else None)
-        pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
-        self._thrust_n = cmd.thrust_n
+        if lost is not None:
+            # relaxed hover: yaw given up, the primary axis steered along the thrust the
+            # position loop asks for (fcu.control.reduced_attitude)
+            reduced = self._relaxed_hover(time_s, lost, estimate)
+            if (not self._rotor_loss_landing
+                    and time_s - self._spinning_since_s >= self.config.rotor_loss_hold_s):
+                self._rotor_loss_landing = True
+                # land after the hold unless the pilot chose a mode since (RTL, LAND...)
+                if self.navigator.mode == Mode.BRAKE:
+                    self.navigator.trigger_failsafe("motor", "land")
+            force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
+            spin = reduced.step(estimate.euler_rad, estimate.rate_frd, force)
+            pwm, thrust_n = spin.pwm, spin.collective_n
+            torque_cmd = d_hat = np.zeros(3)
+            self.allocator.set_effectiveness(None)
+        else:
+            torque = self.attitude.step(estimate.euler_rad, estimate.rate_frd,
+                                        att_ref.euler_rad, att_ref.rate, att_ref.acc)
+            d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
+            torque_cmd = torque - d_hat
+            self.allocator.set_effectiveness(self._ftc_effectiveness() if self.ftc_active
+                                             else None)
+            pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
+            thrust_n = cmd.thrust_n
+        self._thrust_n = thrust_n
         _, self._torque_applied = self.allocator.mix(pwm)
-        records += self._crash_check(time_s, estimate, att_ref, cmd.thrust_n)
+        records += self._crash_check(time_s, estimate, att_ref, thrust_n)
         if not self.navigator.armed:  # the crash check disarmed
             pwm = np.zeros(4)
         self._pwm = pwm
         self._publish(records)
-        self._status = self._make_status(time_s, estimate, nav, ref, att_ref, cmd.thrust_n,
+        self._status = self._make_status(time_s, estimate, nav, ref, att_ref, thrust_n,
                                          torque_cmd, d_hat)
         return pwm
 
@@ -291,6 +325,87 @@ class Autopilot:
         for motor in motors:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
         return e
+
+    def _lost_motor(self, time_s: float) -> int | None:
+        """The motor flown around in relaxed hover, or None: the one the operator declared
+        lost (:meth:`declare_motor_lost`), else in active FTC a motor the detector has
+        declared lost or suspects with an estimated loss above its ``lost_threshold`` (beyond
+        what yaw authority allows: the full-attitude controller cannot hold it). Once in
+        relaxed hover the vehicle stays in it until it lands. Two motors lost, or a vehicle
+        that cannot hover on three rotors, have no relaxed hover: that is announced once and
+        the vehicle descends level under the ordinary controller (failsafe LAND)."""
+        if self._spinning is not None:
+            return self._spinning
+        motors: tuple[int, ...] = ()
+        if self._motor_lost_told is not None:
+            motors = (self._motor_lost_told,)
+        elif self.ftc_active:
+            motors = self.detector.lost
+            suspected = self.detector.suspected
+            if (not motors and suspected is not None
+                    and float(self.detector.evidence.loe[suspected - 1])
+                    > self.config.detector.lost_threshold):
+                motors = (suspected,)
+        if not motors:
+            return None
+        if len(motors) > 1:
+            self._cannot_survive(time_s, f"motors {' and '.join(map(str, motors))} lost: "
+                                 "no relaxed hover with two rotors down")
+            return None
+        motor = motors[0]
+        if motor not in self._reduced:
+            try:
+                self._reduced[motor] = ReducedAttitudeController(self.model, motor, self.dt_s)
+            except ValueError as err:
+                self._cannot_survive(time_s, str(err))
+                return None
+        return motor
+
+    def _cannot_survive(self, time_s: float, why: str) -> None:
+        """Say once that the loss cannot be flown around, and land (the least bad thing)."""
+        if self._rotor_loss_landing:
+            return
+        self._rotor_loss_landing = True
+        self._events.append(AutopilotEvent(time_s, "relaxed_hover",
+                                           f"{why}; descending level (LAND)", "critical"))
+        self.navigator.trigger_failsafe("motor", "land")
+
+    def _relaxed_hover(self, time_s: float, motor: int, estimate: StateEstimate
+                       ) -> ReducedAttitudeController:
+        """The reduced-attitude controller for ``motor`` lost; on entry it is designed (once
+        per motor), started from the estimated thrusts and announced."""
+        reduced = self._reduced[motor]  # designed by _lost_motor
+        if self._spinning != motor:
+            self._spinning = motor
+            self._spinning_since_s = time_s
+            self._rotor_loss_landing = False
+            # the TSKF's hover model does not hold in a spin: its per-motor estimates are
+            # published as they stood at the switch until the next take-off
+            self._loe_at_spin = np.array(self.detector.evidence.loe, dtype=float)
+            reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
+            eq = reduced.equilibrium
+            self._events.append(AutopilotEvent(
+                time_s, "relaxed_hover",
+                f"motor {motor} lost: yaw given up, spinning about the thrust axis "
+                f"(relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected); holding "
+                f"{self.config.rotor_loss_hold_s:.0f} s, then LAND", "critical"))
+            # stop where the fault struck (a landing or returning vehicle carries on)
+            if not MODE_TABLE[self.navigator.mode].lands:
+                self.navigator.set_mode(Mode.BRAKE)
+        return reduced
+
+    @property
+    def relaxed_hover_motor(self) -> int | None:
+        """The lost motor while the vehicle flies in relaxed hover, else None."""
+        return self._spinning
+
+    def declare_motor_lost(self, motor: int | None) -> None:
+        """Tell the autopilot that ``motor`` (1..4) is lost: from the next tick in flight it
+        flies in relaxed hover (yaw given up) whatever the FTC mode; None forgets it (a
+        vehicle already spinning stays in relaxed hover until it lands)."""
+        if motor is not None and motor not in (1, 2, 3, 4):
+            raise ValueError(f"motor = {motor!r}: must be 1, 2, 3 or 4 (or None)")
+        self._motor_lost_told = motor
 
     def set_ftc(self, mode: str) -> None:
         """Switch fault-tolerant control between ``"passive"`` and ``"active"``, in flight too:
@@ -350,8 +465,9 @@ class Autopilot:
                      thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray
                      ) -> AutopilotStatus:
         evidence = self.detector.evidence
+        loe = evidence.loe if self._loe_at_spin is None else self._loe_at_spin
         return AutopilotStatus(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
-                               d_hat, self._pwm, evidence.loe, self._detected(),
+                               d_hat, self._pwm, loe, self._detected(),
                                evidence.mass_change_kg, self.sensor_health.excluded,
                                evidence.lost)
 

@@ -39,6 +39,9 @@ class AutopilotConfig:
     loop_rate_hz: float = 100.0  # Hz, control and estimation tick
     dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
     attitude_ref_bandwidth_rad_s: float = 15.0  # rad/s, attitude reference filter
+    # s: after the loss of a rotor (relaxed hover, fcu.control.reduced_attitude) the vehicle
+    # brakes and holds where it is while the spin builds up (Izz / g_z = 4 s), then lands
+    rotor_loss_hold_s: float = 10.0
     model: VehicleModel = field(default_factory=VehicleModel)
     position: PositionGains = field(default_factory=PositionGains)
     pd: AttitudePdGains = field(default_factory=AttitudePdGains)
@@ -54,6 +57,8 @@ class AutopilotConfig:
             value = getattr(self, key)
             require(value in choices, key, value,
                     f"must be one of {', '.join(map(repr, choices))}")
+        require(finite(self.rotor_loss_hold_s) and 0.0 <= self.rotor_loss_hold_s <= 600.0,
+                "rotor_loss_hold_s", self.rotor_loss_hold_s, "must be within [0, 600] s")
         require(finite(self.loop_rate_hz) and 20.0 <= self.loop_rate_hz <= 1000.0,
                 "loop_rate_hz", self.loop_rate_hz, "must be within [20, 1000] Hz")
         require(finite(self.dob_cutoff_rad_s) and self.dob_cutoff_rad_s > 0,

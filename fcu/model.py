@@ -25,6 +25,10 @@ class VehicleModel:
     inertia: tuple[float, float, float] = (0.03, 0.03, 0.04)  # Ixx, Iyy, Izz, kg*m^2
     pwm_min: float = 0.0  # PWM command at no power
     pwm_max: float = 0.05  # PWM command at full power
+    # aerodynamic damping of the body rates, tau_d = -diag(g) omega: the rotor drag at the
+    # moving hubs (d_z L^2 / 2 in roll and pitch, d_xy L^2 in yaw); it sets the spin rate
+    # after the loss of a rotor (fcu.control.relaxed_hover)
+    rate_damping: tuple[float, float, float] = (0.007, 0.007, 0.010)  # N*m per rad/s, x y z
 
     def __post_init__(self) -> None:
         for name in ("thrust_gain", "motor_bandwidth", "arm_length", "yaw_gain", "mass",
@@ -34,6 +38,9 @@ class VehicleModel:
                 raise ValueError(f"{name} = {value!r}: must be > 0")
         if not all(i > 0 for i in self.inertia):
             raise ValueError(f"inertia = {self.inertia!r}: each moment must be > 0")
+        if len(self.rate_damping) != 3 or not all(g >= 0 for g in self.rate_damping):
+            raise ValueError(f"rate_damping = {self.rate_damping!r}: must be three numbers "
+                             ">= 0 (N*m per rad/s)")
         if not self.pwm_max > self.pwm_min:
             raise ValueError(f"pwm_max = {self.pwm_max!r}: must be > pwm_min ({self.pwm_min})")
 

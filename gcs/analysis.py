@@ -23,6 +23,9 @@ true position              SIM_STATE lat_int, lon_int (degE7; the float32 lat, l
 motor commands             SERVO_OUTPUT_RAW servo1..4 = motors 1..4,
                            u = pwm_max (PWM_us - 1000) / 1000
 LOE estimates              NAMED_VALUE_FLOAT LOE1..LOE4 (TSKF)
+spin                       ATTITUDE yawspeed: the stretch where |r| exceeds
+                           :data:`SPIN_RATE_RAD_S` (a vehicle that lost a rotor and gave up
+                           yaw; normal flight stays far below it)
 detections, injections,    DEBUG_FLOAT_ARRAY ``FTC_REC`` records (fault, detection, outcome;
 outcome                    :mod:`flightdata.records`), whatever the route of an injection
                            (a SIM_* parameter, MAV_CMD_INJECT_FAILURE, a scenario's schedule);
@@ -73,7 +76,9 @@ from gcs.mavlink import read_tlog
 from gcs.table import FlightReport
 from gcs.telemetry import PWM_MAX, TelemetryReader
 
-__all__ = ["FlightAnalyzer", "analyze_tlog", "replay_tlog"]
+__all__ = ["SPIN_RATE_RAD_S", "FlightAnalyzer", "analyze_tlog", "replay_tlog"]
+
+SPIN_RATE_RAD_S = 3.0  # rad/s of |yaw rate| that marks a spin (normal flight: < 1 rad/s)
 
 
 class FlightAnalyzer(TelemetryReader):
@@ -182,7 +187,22 @@ class FlightAnalyzer(TelemetryReader):
                             injections=list(self.injections), detections=list(self.detections),
                             crashed=self.crashed, vehicle_time_s=self.clock_s,
                             params=dict(self.params), outcome=self.outcome,
-                            faults=list(self.faults))
+                            faults=list(self.faults), spin=self._spin())
+
+    def _spin(self) -> dict[str, float] | None:
+        """The spin phase (module docstring): first and last sample above the threshold,
+        the mean yaw rate over the second half of that stretch, the peak |yaw rate|."""
+        if not self._yaw_rate:
+            return None
+        rate = np.array(self._yaw_rate)
+        above = np.flatnonzero(np.abs(rate[:, 1]) > SPIN_RATE_RAD_S)
+        if above.size == 0:
+            return None
+        start, end = float(rate[above[0], 0]), float(rate[above[-1], 0])
+        phase = rate[above[0]:above[-1] + 1]
+        late = phase[phase[:, 0] >= 0.5 * (start + end), 1]
+        return {"start_s": start, "end_s": end, "yaw_rate_rad_s": float(np.mean(late)),
+                "peak_rad_s": float(np.max(np.abs(phase[:, 1])))}
 
     def _loe_table(self, t_end: float | None) -> list[dict[str, Any]]:
         rows = []

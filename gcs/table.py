@@ -10,6 +10,7 @@ those samples of the sum of the four motor commands (thesis Table 7.2: 0.0796 at
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -61,6 +62,9 @@ class FlightReport:
     params: dict[str, float] = field(default_factory=dict)
     outcome: OutcomeRecord | None = None  # the simulator's verdict on the flight
     faults: list[FaultRecord] = field(default_factory=list)  # the simulator's fault records
+    # the spin after the loss of a rotor (yaw given up), from ATTITUDE yawspeed: start_s,
+    # end_s (vehicle s), yaw_rate_rad_s (mean over its second half), peak_rad_s; None if none
+    spin: dict[str, float] | None = None
 
     def to_json(self) -> dict[str, Any]:
         """A JSON-ready dict (keys as ``ftc-scenario run --json`` where they overlap:
@@ -110,6 +114,12 @@ def format_report(report: FlightReport, title: str = "flight") -> str:
                      f"{fmt(row['latency_s'], 2):>11}")
     if start is not None:
         lines.append("(times in s after the mission start)")
+    if report.spin is not None:
+        spin = report.spin
+        rate = spin["yaw_rate_rad_s"]
+        lines.append(f"spin (yaw given up) from {rel(spin['start_s'])} to {rel(spin['end_s'])}: "
+                     f"yaw rate {rate:.1f} rad/s ({abs(rate) / (2 * math.pi):.1f} rev/s) over "
+                     f"its second half, peak {spin['peak_rad_s']:.1f} rad/s")
     others = [d for d in report.detections if d.motor is None or d.false_alarm]
     for d in others:
         alarm = "  FALSE ALARM" if d.false_alarm else ""

@@ -107,6 +107,7 @@ class TelemetryReader:
         self._pos_ref: list[tuple[float, float, float, float]] = []
         self._att_ref: list[tuple[float, float, float, float]] = []
         self._servo: list[tuple[float, float, float, float, float]] = []
+        self._yaw_rate: list[tuple[float, float]] = []  # t, ATTITUDE yawspeed (rad/s)
         self._loe_est: dict[int, list[tuple[float, float]]] = {m: [] for m in (1, 2, 3, 4)}
         # state
         self.home: tuple[int, int, int, float, float, float] | None = None  # e7, e7, mm, xyz
@@ -195,6 +196,10 @@ class TelemetryReader:
         t = int(msg.time_boot_ms) * 1e-3
         self._advance(t)
         return t
+
+    def _on_attitude(self, msg: MAVLinkMessage) -> None:
+        t = self._timed(msg)
+        self._yaw_rate.append((t, float(msg.yawspeed)))
 
     def _on_attitude_target(self, msg: MAVLinkMessage) -> None:
         t = self._timed(msg)
@@ -442,6 +447,7 @@ def _result_name(result: int) -> str:
 
 
 _HANDLERS: dict[str, Callable[[TelemetryReader, MAVLinkMessage], None]] = {
+    "ATTITUDE": TelemetryReader._on_attitude,
     "ATTITUDE_TARGET": TelemetryReader._on_attitude_target,
     "POSITION_TARGET_LOCAL_NED": TelemetryReader._on_position_target,
     "SIM_STATE": TelemetryReader._on_sim_state,

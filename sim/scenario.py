@@ -173,7 +173,7 @@ def nominal_model(airframe: Airframe) -> VehicleModel:
                         arm_length=airframe.arm_length, yaw_gain=airframe.yaw_gain,
                         mass=airframe.mass, gravity=airframe.gravity,
                         inertia=airframe.inertia, pwm_min=airframe.pwm_min,
-                        pwm_max=airframe.pwm_max)
+                        pwm_max=airframe.pwm_max, rate_damping=airframe.rate_damping)
 
 
 def shipped_names() -> list[str]:

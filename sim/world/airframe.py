@@ -14,6 +14,24 @@ frame and its protective cage. The centre of pressure sits on the body z axis, a
 centre of gravity (negative z in FRD), so flying forward (or a head wind) pitches the nose
 up, as blade flapping does on real quadrotors.
 
+Rate damping
+------------
+A spinning body meets air resistance: the rotors' in-plane (H-force) and axial drag at the
+hubs, which move at ``omega x r_i``, and the frame's own drag. The linear part is::
+
+    tau_d = -diag(g_xy, g_xy, g_z) omega                               (N*m, body FRD)
+
+Mueller and D'Andrea (ICRA 2014, "Stability and control of a quadrocopter despite the
+complete loss of one, two, or three propellers", section II) model the same torque,
+``tau_d = -gamma omega``, and identify ``gamma = 2.75e-3 N*m*s/rad`` on a 0.5 kg vehicle with
+0.17 m arms. Evaluating the rotor-drag model above at the hubs gives the same order for that
+vehicle and, for the Qball-X4, ``g_z = d_xy L^2 = 0.010`` and ``g_xy = d_z L^2 / 2 = 0.007``
+N*m*s/rad (see the field comments). At the rates of normal flight (below 1 rad/s) this is
+under 0.01 N*m, a few per cent of the attitude torques; it matters when a vehicle that has
+lost a rotor spins about its thrust axis: the reaction torque of the remaining rotors is then
+balanced by ``g_z r`` alone, which fixes the spin rate (:mod:`fcu.control.relaxed_hover`:
+about 19 rad/s, 3 rev/s, with one rotor lost). Without it the spin would grow without bound.
+
 The field names follow ``flightdata/data/thesis_tables.toml`` ``[airframe]`` (and the autopilot's
 nominal ``fcu.model.VehicleModel``), so that table loads directly with :meth:`Airframe.from_toml`.
 """
@@ -63,6 +81,12 @@ class Airframe:
     # Centre of pressure on body z, m (FRD: negative = above the centre of gravity). The rotor
     # plane of the Qball-X4 is a few centimetres above its CG; rotor drag acts at the hubs.
     cp_offset_z: float = -0.05  # m
+    # Aerodynamic damping of the body rates, tau_d = -diag(g_xy, g_xy, g_z) omega (module
+    # docstring, "Rate damping"): the rotor drag above acting at the hubs, which move at
+    # omega x r_i. Yaw: the four hubs move tangentially at r L, each rotor's in-plane drag is
+    # drag_coeff_xy / 4, so g_z = drag_coeff_xy L^2 = 0.25 * 0.2^2 = 0.010. Roll and pitch:
+    # two hubs move axially at p L (or q L), so g_xy = 2 (drag_coeff_z / 4) L^2 = 0.007.
+    rate_damping: tuple[float, float, float] = (0.007, 0.007, 0.010)  # N*m per rad/s, x y z
     crash_speed_m_s: float = 3.0  # m/s: a touchdown faster than this is a crash
 
     def __post_init__(self) -> None:
@@ -82,6 +106,10 @@ class Airframe:
         for key in ("drag_coeff_xy", "drag_coeff_z", "drag_quad_coeff"):
             value = getattr(self, key)
             require(finite(value) and value >= 0, key, value, "must be a finite number >= 0")
+        damping = self.rate_damping
+        require(isinstance(damping, tuple) and len(damping) == 3
+                and all(finite(v) and v >= 0 for v in damping), "rate_damping", damping,
+                "must be a tuple of three finite numbers >= 0 (N*m per rad/s, body x y z)")
         require(finite(self.cp_offset_z) and abs(self.cp_offset_z) <= 1.0, "cp_offset_z",
                 self.cp_offset_z, "must be a finite number of metres within [-1, 1]")
         inertia = self.inertia

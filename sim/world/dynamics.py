@@ -40,13 +40,16 @@ Translation, eq. 3.5 written in the inertial NED frame (which removes eq. 3.5's
 Rotation, eq. 3.6 with the gyroscopic rotor moments ``g_a`` of eq. 3.15 neglected (as the
 thesis does: rotor inertia is tiny against the airframe's)::
 
-    d(omega)/dt = I^-1 (tau_B + tau_w - omega x I omega),   tau_B = (U2, U3, U4)
+    d(omega)/dt = I^-1 (tau_B + tau_w + tau_d - omega x I omega),   tau_B = (U2, U3, U4)
     dq/dt = 0.5 q (x) (0, omega)
 
 Wind force and torque (the ``f_w``, ``tau_w`` of eq. 3.14/3.15) are the drag model documented
 in :mod:`sim.world.airframe`, evaluated on the air-relative velocity in body axes
 ``v_b = R^T (v - wind_ned)``: ``F_drag_b = -D v_b - c_q |v_b| v_b``,
-``tau_w = (0, 0, z_cp) x F_drag_b``.
+``tau_w = (0, 0, z_cp) x F_drag_b``. The body rates are damped by
+``tau_d = -diag(g_xy, g_xy, g_z) omega`` (rotor drag at the moving hubs, same module), added
+to ``tau_B + tau_w``: it is what gives a vehicle spinning after the loss of a rotor a finite
+spin rate.
 
 The numerical kernels are numba ``@njit`` functions taking a packed parameter vector
 (:func:`pack_params`). :func:`plant_step` adds PWM saturation and ground contact and advances
@@ -93,7 +96,10 @@ P_CP_Z = 11  # m, body z of the centre of pressure
 P_PWM_MIN = 12  # PWM duty
 P_PWM_MAX = 13  # PWM duty
 P_CRASH_SPEED = 14  # m/s
-PARAM_SIZE = 15
+P_DAMP_X = 15  # N*m per rad/s, roll-rate damping
+P_DAMP_Y = 16  # N*m per rad/s, pitch-rate damping
+P_DAMP_Z = 17  # N*m per rad/s, yaw-rate damping
+PARAM_SIZE = 18
 
 # ---- the stepping state of RigidBodyPlant (one record) -----------------------------------
 PLANT_STATE = np.dtype([
@@ -137,6 +143,7 @@ def pack_params(airframe: Airframe) -> FloatArray:
     p[P_PWM_MIN] = airframe.pwm_min
     p[P_PWM_MAX] = airframe.pwm_max
     p[P_CRASH_SPEED] = airframe.crash_speed_m_s
+    p[P_DAMP_X], p[P_DAMP_Y], p[P_DAMP_Z] = airframe.rate_damping
     return p
 
 
@@ -198,9 +205,10 @@ def _derivative_into(
     t1, t2, t3, t4 = x[13], x[14], x[15], x[16]
     arm = p[P_ARM_LENGTH]
     zcp = p[P_CP_Z]
-    tau_x = arm * (t3 - t4) - zcp * fdy
-    tau_y = arm * (t1 - t2) + zcp * fdx
-    tau_z = p[P_YAW_GAIN] * (t1 + t2 - t3 - t4)
+    # rate damping tau_d = -diag(g_x, g_y, g_z) omega (sim.world.airframe)
+    tau_x = arm * (t3 - t4) - zcp * fdy - p[P_DAMP_X] * wp
+    tau_y = arm * (t1 - t2) + zcp * fdx - p[P_DAMP_Y] * wq
+    tau_z = p[P_YAW_GAIN] * (t1 + t2 - t3 - t4) - p[P_DAMP_Z] * wr
     # eq. 3.6: I dw/dt = tau - w x I w  (g_a neglected)
     ixx, iyy, izz = p[P_IXX], p[P_IYY], p[P_IZZ]
     out[10] = (tau_x + (iyy - izz) * wq * wr) / ixx

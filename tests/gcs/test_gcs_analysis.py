@@ -358,3 +358,31 @@ def test_an_old_parameter_value_before_the_echo_is_not_called_a_refusal() -> Non
     assert params == ["FTC_MODE = 0 (asked for 1)", "FTC_MODE = 1"]
     assert not any("REFUSED" in text for text in params)
     assert s.analyzer.params["FTC_MODE"] == 1.0
+
+
+def test_spin_phase_from_attitude_yawspeed() -> None:
+    s = Stream()
+    s.boot()
+    assert s.analyzer.report().spin is None  # no ATTITUDE yet
+    # 2 s calm, then a spin building up to -19.4 rad/s (time constant 1 s) for 8 s
+    for k in range(1001):
+        t = 0.01 * k
+        rate = 0.2 * math.sin(t) if t < 2.0 else -19.4 * (1.0 - math.exp(-(t - 2.0)))
+        s.v(M.MAVLink_attitude_message(int(round(t * 1e3)), 0, 0, 0, 0, 0, rate))
+    spin = s.analyzer.report().spin
+    assert spin is not None
+    # |r| passes 3 rad/s at 2 - ln(1 - 3 / 19.4) = 2.168 s; one 10 ms sample of slack
+    assert spin["start_s"] == pytest.approx(2.0 - math.log(1.0 - 3.0 / 19.4), abs=0.011)
+    assert spin["end_s"] == pytest.approx(10.0)
+    # mean over 6.08-10 s of the exponential approach: within 0.3 rad/s of -19.4
+    assert spin["yaw_rate_rad_s"] == pytest.approx(-19.4, abs=0.3)
+    assert spin["peak_rad_s"] == pytest.approx(19.4 * (1.0 - math.exp(-8.0)), rel=1e-6)
+    assert "spin (yaw given up) from" in format_report(s.analyzer.report())
+
+
+def test_normal_flight_has_no_spin() -> None:
+    s = Stream()
+    s.boot()
+    for k in range(500):
+        s.v(M.MAVLink_attitude_message(10 * k, 0, 0, 0, 0, 0, 0.8 * math.sin(0.05 * k)))
+    assert s.analyzer.report().spin is None

@@ -29,7 +29,8 @@ from sim.world.dynamics import (
 from sim.world.rotations import euler_to_quat, quat_to_euler, quat_to_rotation
 
 AF = Airframe()
-NO_DRAG = Airframe(drag_coeff_xy=0.0, drag_coeff_z=0.0, drag_quad_coeff=0.0)
+NO_DRAG = Airframe(drag_coeff_xy=0.0, drag_coeff_z=0.0, drag_quad_coeff=0.0,
+                   rate_damping=(0.0, 0.0, 0.0))
 DT = 0.002  # s, the default 500 Hz plant rate
 G = AF.gravity
 M = AF.mass
@@ -267,7 +268,8 @@ def test_torque_free_tumble_conserves_angular_momentum_and_energy(
     inertia: tuple[float, float, float],
 ) -> None:
     """Eq. 3.6 with tau = 0: world-frame L = R I omega and 0.5 omega' I omega are constant."""
-    af = Airframe(inertia=inertia, drag_coeff_xy=0.0, drag_coeff_z=0.0, drag_quad_coeff=0.0)
+    af = Airframe(inertia=inertia, drag_coeff_xy=0.0, drag_coeff_z=0.0, drag_quad_coeff=0.0,
+                  rate_damping=(0.0, 0.0, 0.0))
     params = pack_params(af)
     i_b = np.diag(inertia)
     x = _state(euler=(0.3, -0.2, 1.0), rate_frd=(2.0, -3.0, 4.0), thrust_n=(0.0,) * 4)
@@ -284,6 +286,30 @@ def test_torque_free_tumble_conserves_angular_momentum_and_energy(
     # rel 1e-8: RK4 truncation at |omega| dt = 0.011 rad per step, (omega dt)^5 per step
     np.testing.assert_allclose(momentum(x), l0, rtol=1e-8, atol=1e-10)
     assert energy(x) == pytest.approx(e0, rel=1e-8)
+
+
+def test_rate_damping_is_the_documented_linear_law() -> None:
+    x = _state(rate_frd=(0.5, -0.4, 3.0))
+    xdot = derivative(x, np.full(4, AF.hover_pwm), NO_WIND, M, pack_params(AF))
+    i_b = np.array(AF.inertia)
+    omega = x[RATE_FRD]
+    # I dw/dt = -diag(g) w - w x I w at hover thrust, level, no wind; rel 1e-12: same operations
+    expected = (-np.array(AF.rate_damping) * omega - np.cross(omega, i_b * omega)) / i_b
+    np.testing.assert_allclose(xdot[RATE_FRD], expected, rtol=1e-12, atol=1e-12)
+
+
+def test_constant_yaw_torque_settles_at_torque_over_damping() -> None:
+    """The missing equilibrium of an undamped plant: r -> U4 / g_z with time constant
+    Izz / g_z (4 s); after 8 time constants the rate is within 0.04 % of it."""
+    params = pack_params(AF)
+    thrust = (HOVER_T + 0.5, HOVER_T + 0.5, HOVER_T - 0.5, HOVER_T - 0.5)
+    x = _state(thrust_n=thrust)
+    u = np.array(thrust) / AF.thrust_gain
+    for _ in range(round(32.0 / DT)):
+        x = rk4_step(x, u, NO_WIND, M, params, DT)
+    r_inf = AF.yaw_gain * 2.0 / AF.rate_damping[2]  # 4.6 rad/s
+    # rel 1e-3: exp(-8) = 3.4e-4 of the transient is left
+    assert x[12] == pytest.approx(r_inf, rel=1e-3)
 
 
 def test_drag_pushes_downwind_and_pitches_like_blade_flapping() -> None:

@@ -1,0 +1,312 @@
+"""Reduced-attitude control of a quadrotor that has lost one rotor (relaxed hover).
+
+With one rotor lost the yaw is given up (Mueller and D'Andrea, ICRA 2014): the vehicle spins
+about a primary axis ``n`` fixed in the body, and only the direction of ``n`` in the world is
+controlled, by the two body rates p, q and the torques of the three remaining rotors. The
+equilibrium (thrusts, ``n_bar``, body rates) is :func:`fcu.control.relaxed_hover.relaxed_hover`;
+this controller holds ``n_bar`` on a commanded world direction ``d`` (unit, NED, the way the
+mean thrust must point) by LQR on the linearisation about that equilibrium.
+
+Model (body FRD; n is the body vector that should point along d, ``n = R^T d``)::
+
+    Ixx dp/dt = tau_x - g_x p + (Iyy - Izz) q r          (eq. 3.6 with the rate damping)
+    Iyy dq/dt = tau_y - g_y q + (Izz - Ixx) r p
+    dn/dt     = n x omega                                (d fixed in the world)
+    dtau/dt   = w (tau_cmd - tau)                        (the motors' lag, eq. 3.1)
+
+Linearised about (p_bar, q_bar, r_bar, n_bar, tau_bar), with r held at r_bar (its own
+dynamics are the slow yaw damping, Izz / g_z = 4 s) and ``dn_z = -(n_x dn_x + n_y dn_y) /
+n_z`` (|n| = 1), the state ``x = [dp, dq, dn_x, dn_y, dtau_x, dtau_y]`` and the input
+``v = [dtau_x_cmd, dtau_y_cmd]``::
+
+    dp'   = (-g_x dp + (Iyy - Izz) r dq + dtau_x) / Ixx
+    dq'   = (-g_y dq + (Izz - Ixx) r dp + dtau_y) / Iyy
+    dn_x' =  r dn_y - n_z dq - q dn_z
+    dn_y' = -r dn_x + n_z dp + p dn_z
+    dtau' =  w (v - dtau)
+
+It is discretised (zero-order hold at the control period, ``control.c2d``) and the gain comes
+from ``control.dlqr`` at construction (weights :class:`ReducedAttitudeWeights`). The torque
+state is the autopilot's own model of its motors: each motor's thrust follows its command
+through the 15 rad/s lag (eq. 3.1), the lost motor's is taken as zero.
+
+Collective thrust: the mean force along n is ``U1 (-n_z)``, so ``U1 = m |f| / (-n_bar_z)`` for
+a requested specific force ``f`` (m/s^2). With (U1, tau_x, tau_y) the three remaining motors'
+thrusts follow from eq. 3.17 restricted to them (a 3 x 3 inverse); the yaw torque is what it
+is, and the spin follows from it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control
+import numpy as np
+
+from fcu.control.position import PositionGains
+from fcu.control.relaxed_hover import (
+    DEFAULT_OPPOSITE_RATIO,
+    RelaxedHoverEquilibrium,
+    relaxed_hover,
+    torque_matrix,
+)
+from fcu.model import VehicleModel
+
+SCHEDULE = np.linspace(0.0, 1.0, 11)  # fractions of the equilibrium spin with a design
+
+SPINNING_POSITION_GAINS = PositionGains(
+    kp=(2.0, 2.0, 9.0), kd=(2.5, 2.5, 5.5), ki=(0.3, 0.3, 3.0),
+    tilt_max_rad=math.radians(15.0))
+"""Position loop gains in relaxed hover: the vertical axis as in normal flight (thrust acts
+directly), the horizontal ones about four times softer (``s^3 + 2.5 s^2 + 2 s + 0.3``: poles
+near -1.2 +/- 0.6j and -0.2 rad/s) because the primary axis answers through the spin (a
+quarter turn, 80 ms, before a torque about one body axis tilts the other) and its loop is
+slower than the full attitude loop's; tilt of the primary axis at most 15 deg."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReducedAttitudeWeights:
+    """LQR weights, Bryson's rule (q = 1 / x_max^2), and the equilibrium's thrust split.
+
+    The primary axis may be off by 0.02 (1.1 deg) and the rates by 0.5 rad/s per 0.2 N*m of
+    torque; the lagged torque states carry a small weight so the design prefers smooth
+    commands.
+    """
+
+    q_axis: float = 2500.0  # 1/(unit vector component)^2, on dn_x and dn_y
+    q_rate: float = 4.0  # 1/(rad/s)^2, on dp and dq
+    q_torque: float = 1.0  # 1/(N*m)^2, on the lagged torques
+    q_integral: float = 1.0e4  # 1/(unit*s)^2, on the integrals of dn_x and dn_y
+    integral_limit: float = 0.2  # unit*s, |int dn dt| per axis (anti-windup)
+    r_torque: float = 25.0  # 1/(N*m)^2, on the commanded torques
+    opposite_ratio: float = DEFAULT_OPPOSITE_RATIO  # rho, fcu.control.relaxed_hover
+
+    def __post_init__(self) -> None:
+        for name in ("q_axis", "q_rate", "q_torque", "r_torque", "q_integral",
+                     "integral_limit"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
+        if not 0.0 <= self.opposite_ratio <= 1.0:
+            raise ValueError(f"opposite_ratio = {self.opposite_ratio!r}: must lie in [0, 1]")
+
+
+def linearisation(model: VehicleModel, rate_frd: np.ndarray, axis_frd: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Continuous (A, B), shapes (6, 6) and (6, 2), of the module docstring's model about the
+    body rates ``rate_frd`` (rad/s) and primary axis ``axis_frd`` (unit, body FRD)."""
+    ixx, iyy, izz = model.inertia
+    gx, gy, _ = model.rate_damping
+    p, q, r = (float(v) for v in rate_frd)
+    nx, ny, nz = (float(v) for v in axis_frd)
+    w = model.motor_bandwidth
+    # dn_z = cx dn_x + cy dn_y
+    cx, cy = -nx / nz, -ny / nz
+    a = np.zeros((6, 6))
+    a[0, 0], a[0, 1], a[0, 4] = -gx / ixx, (iyy - izz) * r / ixx, 1.0 / ixx
+    a[1, 0], a[1, 1], a[1, 5] = (izz - ixx) * r / iyy, -gy / iyy, 1.0 / iyy
+    a[2, 1], a[2, 2], a[2, 3] = -nz, -q * cx, r - q * cy
+    a[3, 0], a[3, 2], a[3, 3] = nz, -r + p * cx, p * cy
+    a[4, 4], a[5, 5] = -w, -w
+    b = np.zeros((6, 2))
+    b[4, 0], b[5, 1] = w, w
+    return a, b
+
+
+def scheduled_axis(eq: RelaxedHoverEquilibrium, fraction: float) -> np.ndarray:
+    """Primary axis at a fraction s in [0, 1] of the equilibrium spin: the unit vector along
+    ``s^2 n_bar + (1 - s^2) (0, 0, -1)`` (the tilt that balances the opposite rotor's torque
+    grows with the gyroscopic term, as w^2), the thrust axis at s = 0, n_bar at s = 1."""
+    s2 = fraction * fraction
+    v = s2 * eq.axis_frd + (1.0 - s2) * np.array([0.0, 0.0, -1.0])
+    return v / np.linalg.norm(v)
+
+
+@dataclass(frozen=True)
+class ReducedAttitudeCommand:
+    """One tick's output.
+
+    Attributes
+    ----------
+    thrust_n : numpy.ndarray
+        Thrust per motor 1..4, N, shape (4,), within [0, K pwm_max]; 0 for the lost motor.
+    pwm : numpy.ndarray
+        The PWM commands giving them, shape (4,).
+    collective_n : float
+        U1 = sum of thrust_n, N.
+    axis_error : float
+        |n - n_bar| of the primary axis, dimensionless (sin of the angle for small errors).
+    """
+
+    thrust_n: np.ndarray
+    pwm: np.ndarray
+    collective_n: float
+    axis_error: float
+
+
+class ReducedAttitudeController:
+    """Holds the primary axis of a spinning, one-rotor-down quadrotor on a world direction.
+
+    Parameters
+    ----------
+    model : VehicleModel
+        Nominal airframe (with its rate damping).
+    lost_motor : int
+        1..4.
+    dt_s : float
+        Control period, s.
+    weights : ReducedAttitudeWeights, optional
+        LQR weights and the thrust split.
+
+    Attributes
+    ----------
+    equilibrium : RelaxedHoverEquilibrium
+        The relaxed hover it is designed about.
+    gain : numpy.ndarray
+        Discrete LQR gain at the equilibrium spin, shape (2, 8), v = -gain x with x the
+        module docstring's state plus the integrals of dn_x and dn_y.
+    """
+
+    def __init__(self, model: VehicleModel, lost_motor: int, dt_s: float,
+                 weights: ReducedAttitudeWeights | None = None) -> None:
+        if not (math.isfinite(dt_s) and dt_s > 0):
+            raise ValueError(f"dt_s = {dt_s!r}: must be > 0")
+        self.model = model
+        self.lost_motor = lost_motor
+        self.dt_s = float(dt_s)
+        self.weights = weights if weights is not None else ReducedAttitudeWeights()
+        wts = self.weights
+        self.equilibrium = relaxed_hover(model, lost_motor, wts.opposite_ratio)
+        eq = self.equilibrium
+        q = np.diag([wts.q_rate, wts.q_rate, wts.q_axis, wts.q_axis, wts.q_torque,
+                     wts.q_torque, wts.q_integral, wts.q_integral])
+        gains = []
+        for fraction in SCHEDULE:
+            axis = scheduled_axis(eq, float(fraction))
+            a6, b6 = linearisation(model, fraction * eq.spin_rad_s * axis, axis)
+            # integral action on the axis error: d/dt int dn = dn (removes the steady
+            # offset the unmodelled terms leave, e.g. the yaw rate's own deviation)
+            a = np.zeros((8, 8))
+            a[:6, :6] = a6
+            a[6, 2] = a[7, 3] = 1.0
+            b = np.vstack([b6, np.zeros((2, 2))])
+            sysd = control.c2d(control.ss(a, b, np.eye(8), np.zeros((8, 2))), self.dt_s,
+                               "zoh")
+            gain, _, _ = control.dlqr(sysd.A, sysd.B, q, wts.r_torque * np.eye(2))
+            gains.append(np.asarray(gain))
+        self.gains = np.array(gains)  # (len(SCHEDULE), 2, 8)
+        self.gain = self.gains[-1]
+        self._torque = torque_matrix(model)  # (3, 4), N*m per N
+        alive = [i for i in range(4) if i != lost_motor - 1]
+        self._alive = alive
+        # (U1, tau_x, tau_y) of the three remaining motors, and its inverse
+        mix = np.vstack([np.ones(3), self._torque[0, alive], self._torque[1, alive]])
+        self._unmix = np.linalg.inv(mix)
+        self._decay = math.exp(-model.motor_bandwidth * self.dt_s)
+        self._max_thrust_n = model.thrust_gain * model.pwm_max
+        self.reset()
+
+    def reset(self, thrust_n: np.ndarray | None = None) -> None:
+        """Start the motor model at ``thrust_n`` (N, shape (4,); default the equilibrium's)."""
+        start = self.equilibrium.thrust_n if thrust_n is None else np.asarray(thrust_n, float)
+        self._thrust_model = np.array(start, dtype=float)
+        self._thrust_model[self.lost_motor - 1] = 0.0
+        self._integral = np.zeros(2)  # unit*s, int (n - n_bar)_xy dt
+
+    def _allocate(self, collective: float, tau_x: float, tau_y: float) -> np.ndarray:
+        """Thrusts (N, shape (4,)) of the three remaining motors for U1 and (tau_x, tau_y).
+
+        Exact when it fits the range [0, K pwm_max]. Otherwise the collective comes first
+        (height is what keeps the vehicle off the ground): the motor furthest out of range
+        is held at its bound, the other two share the rest of U1 and the one torque they can
+        still make (the other torque is given up), then clipped."""
+        alive = self._unmix @ np.array([collective, tau_x, tau_y])
+        top = self._max_thrust_n
+        thrust = np.zeros(4)
+        excess = np.maximum(alive - top, 0.0) + np.maximum(-alive, 0.0)
+        if np.max(excess) > 0.0:
+            j = int(np.argmax(excess))
+            fixed = min(max(float(alive[j]), 0.0), top)
+            others = [k for k in range(3) if k != j]
+            motors = [self._alive[k] for k in others]
+            # the torque row that separates the other two motors (their arms differ there)
+            row = 0 if abs(self._torque[0, motors[0]] - self._torque[0, motors[1]]) > 1e-9 else 1
+            tau = (tau_x, tau_y)[row] - self._torque[row, self._alive[j]] * fixed
+            a, b = _two_motor_split(collective - fixed, tau, self._torque[row, motors[0]],
+                                    self._torque[row, motors[1]])
+            alive = np.empty(3)
+            alive[j], alive[others[0]], alive[others[1]] = fixed, a, b
+        thrust[self._alive] = np.clip(alive, 0.0, top)
+        return thrust
+
+    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, force_ned: np.ndarray
+             ) -> ReducedAttitudeCommand:
+        """One tick.
+
+        Parameters
+        ----------
+        euler_rad : numpy.ndarray
+            Estimated roll, pitch, yaw (ZYX), rad, shape (3,).
+        rate_frd : numpy.ndarray
+            Estimated body rates, rad/s, shape (3,).
+        force_ned : numpy.ndarray
+            Specific force the mean thrust must give, ``mu - g e3`` (m/s^2, NED), shape (3,):
+            what the position loop asks for.
+        """
+        eq = self.equilibrium
+        f = np.asarray(force_ned, dtype=float)
+        f_norm = float(np.linalg.norm(f))
+        direction = f / f_norm if f_norm > 0.0 else np.array([0.0, 0.0, -1.0])
+        n = rotation_zyx(euler_rad).T @ direction  # the body vector that must point along d
+        # gain scheduling on the spin reached (module docstring)
+        spin = float(rate_frd[2]) / float(eq.axis_frd[2])  # w = r / n_z
+        fraction = min(max(spin / eq.spin_rad_s, 0.0), 1.0)
+        axis = scheduled_axis(eq, fraction)
+        omega = fraction * eq.spin_rad_s * axis
+        inertia = self.model.inertia_diag
+        # the torque that holds omega steady: tau = diag(g) omega + omega x I omega
+        tau_ff = (np.asarray(self.model.rate_damping) * omega
+                  + np.cross(omega, inertia * omega))[:2]
+        k = fraction * (len(SCHEDULE) - 1)
+        i = min(int(k), len(SCHEDULE) - 2)
+        gain = self.gains[i] + (k - i) * (self.gains[i + 1] - self.gains[i])
+        tau_model = self._torque[:2] @ self._thrust_model
+        dn = n[:2] - axis[:2]
+        limit = self.weights.integral_limit
+        self._integral = np.clip(self._integral + dn * self.dt_s, -limit, limit)
+        x = np.concatenate([np.asarray(rate_frd, dtype=float)[:2] - omega[:2], dn,
+                            tau_model - tau_ff, self._integral])
+        tau_cmd = tau_ff - gain @ x
+        collective = self.model.mass * f_norm / -float(eq.axis_frd[2])
+        thrust = self._allocate(collective, float(tau_cmd[0]), float(tau_cmd[1]))
+        # the motors' lag (eq. 3.1), exact over the period
+        self._thrust_model = thrust + self._decay * (self._thrust_model - thrust)
+        self._thrust_model[self.lost_motor - 1] = 0.0
+        return ReducedAttitudeCommand(thrust_n=thrust, pwm=thrust / self.model.thrust_gain,
+                                      collective_n=float(np.sum(thrust)),
+                                      axis_error=float(np.linalg.norm(n - axis)))
+
+
+def _two_motor_split(total: float, torque: float, arm_a: float, arm_b: float
+                     ) -> tuple[float, float]:
+    """Thrusts (a, b), N, with a + b = total and arm_a a + arm_b b = torque (arms differ)."""
+    b = (torque - arm_a * total) / (arm_b - arm_a)
+    return total - b, b
+
+
+def rotation_zyx(euler_rad: np.ndarray) -> np.ndarray:
+    """R = Rz(psi) Ry(theta) Rx(phi), body FRD to NED, shape (3, 3)."""
+    phi, theta, psi = (float(v) for v in euler_rad)
+    cf, sf = math.cos(phi), math.sin(phi)
+    ct, st = math.cos(theta), math.sin(theta)
+    cp, sp = math.cos(psi), math.sin(psi)
+    return np.array([
+        [cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf],
+        [sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf],
+        [-st, ct * sf, ct * cf],
+    ])
+
+
+__all__ = ["ReducedAttitudeCommand", "ReducedAttitudeController", "ReducedAttitudeWeights",
+           "linearisation", "rotation_zyx"]
