@@ -266,7 +266,7 @@ class Autopilot:
                                      and nav.landed_state == LandedState.IN_AIR,
                                      learn=airborne and valid)
         active = self.detector.active
-        loe = self.detector.evidence.loe
+        loe = self.detector.loe
         self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
             f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
             "restart the autopilot to clear" for m in active))
@@ -284,7 +284,7 @@ class Autopilot:
         declared motors only).
         """
         e = np.ones(4)
-        loe = self.detector.evidence.loe
+        loe = self.detector.loe
         motors = set(self.detector.active)
         if self.detector.suspected is not None:
             motors.add(self.detector.suspected)
@@ -349,11 +349,11 @@ class Autopilot:
                      ref: Reference | None, att_ref: AttitudeReference | None,
                      thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray
                      ) -> AutopilotStatus:
-        evidence = self.detector.evidence
+        detector = self.detector
         return AutopilotStatus(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
-                               d_hat, self._pwm, evidence.loe, self._detected(),
-                               evidence.mass_change_kg, self.sensor_health.excluded,
-                               evidence.lost)
+                               d_hat, self._pwm, detector.loe, self._detected(),
+                               detector.mass_change_kg, self.sensor_health.excluded,
+                               detector.lost)
 
     def _detected(self) -> tuple[bool, bool, bool, bool]:
         active = self.detector.active
