@@ -144,6 +144,7 @@ class Autopilot:
         self._sensor_noise = {name: float(getattr(noise, name)) for name in SENSORS}
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
         self.crash_check = CrashCheck(cfg.crash)
+        self._full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max  # N, the collective's scale
         self.ftc_active = cfg.ftc == "active"
         self.battery = BatteryMonitor(cfg.battery)
         self._grouped_kinds = self._sensor_kinds | {BATTERY_SENSOR}
@@ -164,6 +165,7 @@ class Autopilot:
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None
         self._flying = False
+        self._motors_blocked = True  # the motors' arming blocker may be set
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -260,16 +262,20 @@ class Autopilot:
         and the TSKF off the ground; blocks arming while a motor is declared."""
         valid = (self._hover_regime(estimate) and not self.tskf.on_ground
                  and not self.sensor_health.suspect(time_s))
-        airborne = flying and nav.landed_state != LandedState.ON_GROUND
-        records = self.detector.step(time_s, self.tskf.gamma_raw, self._pwm,
-                                     evidence=airborne and valid
-                                     and nav.landed_state == LandedState.IN_AIR,
-                                     learn=airborne and valid)
-        active = self.detector.active
-        loe = self.detector.loe
-        self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
-            f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
-            "restart the autopilot to clear" for m in active))
+        landed_state = nav.landed_state
+        airborne = flying and landed_state != LandedState.ON_GROUND
+        detector = self.detector
+        records = detector.step(time_s, self.tskf.gamma_raw, self._pwm,
+                                evidence=airborne and valid
+                                and landed_state == LandedState.IN_AIR,
+                                learn=airborne and valid)
+        active = detector.active
+        if active or self._motors_blocked:  # (the text names the latest LOE)
+            loe = detector.loe
+            self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
+                f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
+                "restart the autopilot to clear" for m in active))
+            self._motors_blocked = bool(active)
         return records
 
     def _ftc_effectiveness(self) -> np.ndarray:
@@ -317,27 +323,27 @@ class Autopilot:
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""
         cfg = self.config.detector
+        roll, pitch, _ = estimate.euler_rad.tolist()
         return (abs(float(estimate.rate_frd[2])) < cfg.valid_yaw_rate_rad_s
-                and abs(float(estimate.euler_rad[0])) < cfg.valid_tilt_rad
-                and abs(float(estimate.euler_rad[1])) < cfg.valid_tilt_rad)
+                and abs(roll) < cfg.valid_tilt_rad and abs(pitch) < cfg.valid_tilt_rad)
 
     def _crash_check(self, time_s: float, estimate: StateEstimate,
                      att_ref: AttitudeReference, thrust_n: float) -> list[DetectionRecord]:
         """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`); a
         crash disarms (``FS_CRASH_CHECK`` = 1)."""
         nav = self.navigator
-        roll, pitch = float(estimate.euler_rad[0]), float(estimate.euler_rad[1])
-        error = max(abs(float(att_ref.euler_rad[0]) - roll),
-                    abs(float(att_ref.euler_rad[1]) - pitch))
+        roll, pitch, _ = estimate.euler_rad.tolist()
+        roll_ref, pitch_ref, _ = att_ref.euler_rad.tolist()
+        error = max(abs(roll_ref - roll), abs(pitch_ref - pitch))
         lean = math.acos(max(-1.0, min(1.0, math.cos(roll) * math.cos(pitch))))
-        model = self.model
+        vel = estimate.vel_ned
         records = self.crash_check.step(
             time_s, flying=nav.armed and not nav.landed, leg=nav.leg_kind,
-            alt_m=estimate.alt_m, vel_down_m_s=float(estimate.vel_ned[2]),
-            speed_m_s=float(np.linalg.norm(estimate.vel_ned)), lean_rad=lean,
-            attitude_error_rad=error,
-            collective=thrust_n / (4.0 * model.thrust_gain * model.pwm_max))
-        if any(r.kind == "crash" for r in records) and self.config.crash.action == 1:
+            alt_m=estimate.alt_m, vel_down_m_s=float(vel[2]),
+            speed_m_s=math.sqrt(float(vel.dot(vel))), lean_rad=lean,  # |v|
+            attitude_error_rad=error, collective=thrust_n / self._full_thrust_n)
+        if records and any(r.kind == "crash" for r in records) and \
+                self.config.crash.action == 1:
             nav.crash("crash: disarming")
         return records
 

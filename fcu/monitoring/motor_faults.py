@@ -433,11 +433,9 @@ class MotorFaultDetector:
         list of DetectionRecord
             What was decided at this tick.
         """
-        evidence, learn = bool(evidence), bool(learn)
         settling = time_s - self._last_declared_s < self.config.settle_s
         best, t, loe, settled, mass_threshold, self._loe = _detector_tick(
-            float(time_s), np.asarray(gamma, dtype=np.float64),
-            np.asarray(pwm, dtype=np.float64), self._u, self._var, self._floor_var,
+            time_s, gamma, pwm, self._u, self._var, self._floor_var,
             self._declared_idx, self._state, self._history, self._ring, self._params,
             self._isolate, evidence, learn, settling, self._mass_reported)
         if not evidence:
