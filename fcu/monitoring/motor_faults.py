@@ -180,20 +180,53 @@ class MotorEvidence:
 def weighted_fit(d: np.ndarray, var: np.ndarray, motors: np.ndarray
                  ) -> tuple[np.ndarray, float]:
     """``f = argmin (d - M_S f)' Sigma^-1 (d - M_S f)`` over the signatures of ``motors``
-    (indices 0..3, at most 3 of them) and its weighted residual sum of squares."""
-    w = 1.0 / np.sqrt(var)
-    b = d * w
+    (indices 0..3, at most 3 of them) and its weighted residual sum of squares.
+
+    With ``A = Sigma^-1/2 M_S`` and ``b = Sigma^-1/2 d``: the normal equations
+    ``(A' A) f = A' b`` (the signatures of distinct motors are independent), solved by
+    Gaussian elimination with partial pivoting; ``RSS = |b - A f|^2``. Written out in loops:
+    at most 3 unknowns, where a BLAS or LAPACK call costs more than the arithmetic.
+    """
     k = motors.shape[0]
-    if k == 0:
-        return np.zeros(0), float(b @ b)
+    w = np.empty(3)
+    b = np.empty(3)
     a = np.empty((3, k))
     for i in range(3):
+        w[i] = 1.0 / math.sqrt(var[i])
+        b[i] = d[i] * w[i]
         for j in range(k):
             a[i, j] = SIGNATURES[i, motors[j]] * w[i]
-    # normal equations (A' A) f = A' b: the signatures of distinct motors are independent
-    f = np.linalg.solve(a.T @ a, a.T @ b)
-    r = b - a @ f
-    return f, float(r @ r)
+    # augmented normal equations [A' A | A' b]
+    n_mat = np.empty((k, k + 1))
+    for p in range(k):
+        for q in range(k):
+            n_mat[p, q] = a[0, p] * a[0, q] + a[1, p] * a[1, q] + a[2, p] * a[2, q]
+        n_mat[p, k] = a[0, p] * b[0] + a[1, p] * b[1] + a[2, p] * b[2]
+    for c in range(k):  # elimination, the largest pivot of column c first
+        pivot = c
+        for r in range(c + 1, k):
+            if abs(n_mat[r, c]) > abs(n_mat[pivot, c]):
+                pivot = r
+        if pivot != c:
+            for q in range(k + 1):
+                n_mat[c, q], n_mat[pivot, q] = n_mat[pivot, q], n_mat[c, q]
+        for r in range(c + 1, k):
+            factor = n_mat[r, c] / n_mat[c, c]
+            for q in range(c, k + 1):
+                n_mat[r, q] -= factor * n_mat[c, q]
+    f = np.empty(k)
+    for c in range(k - 1, -1, -1):  # back substitution
+        acc = n_mat[c, k]
+        for q in range(c + 1, k):
+            acc -= n_mat[c, q] * f[q]
+        f[c] = acc / n_mat[c, c]
+    rss = 0.0
+    for i in range(3):
+        r_i = b[i]
+        for j in range(k):
+            r_i -= a[i, j] * f[j]
+        rss += r_i * r_i
+    return f, rss
 
 
 # the detector's scalar state, one float array (MotorFaultDetector._state)
@@ -241,7 +274,10 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
     u[:] = u + a * (np.maximum(pwm, 1e-4) - u)
     # gamma_i u_i, PWM units; d = M a with a_i = gamma_i u_i / u_h: no common mode
     deficit = gamma * u
-    d = SIGNATURES @ (deficit / u_hover)
+    d = np.zeros(3)
+    for i in range(3):
+        for j in range(4):
+            d[i] += SIGNATURES[i, j] * (deficit[j] / u_hover)
     k = declared.shape[0]
     is_declared = np.zeros(4, dtype=np.bool_)
     for i in range(k):
@@ -292,13 +328,10 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
     if not half_now and learn and not settling:
         if not fitted:
             f0, _ = weighted_fit(d, var, declared)
-        res = d.copy()
-        if k > 0:
-            m_declared = np.empty((3, k))
-            for i in range(3):
-                for j in range(k):
-                    m_declared[i, j] = SIGNATURES[i, declared[j]]
-            res = d - m_declared @ f0
+        res = d.copy()  # d - M_declared f
+        for i in range(3):
+            for j in range(k):
+                res[i] -= SIGNATURES[i, declared[j]] * f0[j]
         state[_N_LEARNED] += 1.0
         up = max(dt / _ATTACK_S, 1.0 / state[_N_LEARNED])
         down = max(dt / params[_NOISE_TAU], 1.0 / state[_N_LEARNED])
