@@ -249,8 +249,8 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
                    var: np.ndarray, floor_var: np.ndarray, declared: np.ndarray,
                    state: np.ndarray, history: np.ndarray, ring: np.ndarray,
                    params: np.ndarray, isolate: bool, evidence: bool, learn: bool,
-                   settling: bool, mass_reported: bool
-                   ) -> tuple[int, float, float, bool, float, np.ndarray]:
+                   settling: bool, mass_reported: bool, loe: np.ndarray
+                   ) -> tuple[int, float, float, bool, float]:
     """The detector's arithmetic for one tick (module docstring, steps 1 and 2 and the mass
     change's spread and settling), compiled; the decisions stay with the caller.
 
@@ -258,12 +258,12 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
     diagonal), ``state`` (indices ``_E``...) and the mass history ``history`` (rows time s,
     dm kg; ring buffer, ``ring`` = [first, count]). ``declared`` holds the declared motors
     (0..3) in declaration order; ``isolate`` is False once a motor is lost or three are
-    declared (a fourth is not identifiable).
+    declared (a fourth is not identifiable). Writes the per-motor LOE ``delta`` into ``loe``
+    (an array returned to Python would cost more than the tick's arithmetic).
 
     Returns the strongest suspected motor (0..3, -1 for none) with its GLR statistic T and
-    LOE, whether the mass estimate has settled, the mass threshold
-    ``max(mass_threshold_kg, mass_sigmas s_m)`` (before this tick's spread update) and the
-    per-motor LOE ``delta`` (a new array).
+    LOE, whether the mass estimate has settled and the mass threshold
+    ``max(mass_threshold_kg, mass_sigmas s_m)`` (before this tick's spread update).
     """
     dt = params[_DT]
     u_hover = params[_U_HOVER]
@@ -321,7 +321,7 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
         state[_E] += min(1.0, dt / params[_COMMON_TAU]) * (raw - state[_E])
     e = state[_E]
     state[_MASS_KG] = 4.0 * params[_K] * e / params[_G]  # dm = 4 K e / g
-    loe = np.clip(deficit / u - e / u, 0.0, 1.0)  # delta_i = gamma_i - e / u_i
+    loe[:] = np.clip(deficit / u - e / u, 0.0, 1.0)  # delta_i = gamma_i - e / u_i
 
     # measured excitation: Sigma from the residual of d after the declared faults, fast
     # attack _ATTACK_S, slow decay noise_tau_s, unbiased while young, floored
@@ -381,7 +381,7 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
                 high = max(high, v)
             settled = (history[0, last] - history[0, first] >= _MASS_WINDOW_S - 1e-9
                        and high - low <= params[_MASS_SETTLE])
-    return best, best_t, best_loe, settled, mass_threshold, loe
+    return best, best_t, best_loe, settled, mass_threshold
 
 
 class MotorFaultDetector:
@@ -467,10 +467,11 @@ class MotorFaultDetector:
             What was decided at this tick.
         """
         settling = time_s - self._last_declared_s < self.config.settle_s
-        best, t, loe, settled, mass_threshold, self._loe = _detector_tick(
+        self._loe = np.empty(4)  # a new one every tick: the previous one may be kept
+        best, t, loe, settled, mass_threshold = _detector_tick(
             time_s, gamma, pwm, self._u, self._var, self._floor_var,
             self._declared_idx, self._state, self._history, self._ring, self._params,
-            self._isolate, evidence, learn, settling, self._mass_reported)
+            self._isolate, evidence, learn, settling, self._mass_reported, self._loe)
         if not evidence:
             self._suspect = None
             self._recover_since.clear()
@@ -493,7 +494,7 @@ class MotorFaultDetector:
         cfg = self.config
         if self._suspect != j:
             self._suspect, self._suspect_since = j, time_s
-        calm = bool(np.all(self._var <= self._calm_var))
+        calm = bool((self._var <= self._calm_var).all())
         need = declaration_delay_s(cfg, loe, t, calm)
         if time_s - self._suspect_since < need - 1e-9:
             return []
