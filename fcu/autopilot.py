@@ -147,6 +147,7 @@ class Autopilot:
         self._sensor_noise = {name: float(getattr(noise, name)) for name in SENSORS}
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
         self.crash_check = CrashCheck(cfg.crash)
+        self._full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max  # N, the collective's scale
         self.ftc_active = cfg.ftc == "active"
         # relaxed hover after the loss of a rotor (fcu.control.reduced_attitude), designed
         # when first needed, one per lost motor
@@ -176,6 +177,7 @@ class Autopilot:
         self._spinning_since_s = 0.0  # s, when relaxed hover began
         self._loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
         self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
+        self._motors_blocked = True  # the motors' arming blocker may be set
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -294,16 +296,20 @@ class Autopilot:
         and the TSKF off the ground; blocks arming while a motor is declared."""
         valid = (self._hover_regime(estimate) and not self.tskf.on_ground
                  and not self.sensor_health.suspect(time_s))
-        airborne = flying and nav.landed_state != LandedState.ON_GROUND
-        records = self.detector.step(time_s, self.tskf.gamma_raw, self._pwm,
-                                     evidence=airborne and valid
-                                     and nav.landed_state == LandedState.IN_AIR,
-                                     learn=airborne and valid)
-        active = self.detector.active
-        loe = self.detector.evidence.loe
-        self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
-            f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
-            "restart the autopilot to clear" for m in active))
+        landed_state = nav.landed_state
+        airborne = flying and landed_state != LandedState.ON_GROUND
+        detector = self.detector
+        records = detector.step(time_s, self.tskf.gamma_raw, self._pwm,
+                                evidence=airborne and valid
+                                and landed_state == LandedState.IN_AIR,
+                                learn=airborne and valid)
+        active = detector.active
+        if active or self._motors_blocked:  # (the text names the latest LOE)
+            loe = detector.loe
+            self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
+                f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
+                "restart the autopilot to clear" for m in active))
+            self._motors_blocked = bool(active)
         return records
 
     def _ftc_effectiveness(self) -> np.ndarray:
@@ -318,7 +324,7 @@ class Autopilot:
         declared motors only).
         """
         e = np.ones(4)
-        loe = self.detector.evidence.loe
+        loe = self.detector.loe
         motors = set(self.detector.active)
         if self.detector.suspected is not None:
             motors.add(self.detector.suspected)
@@ -343,7 +349,7 @@ class Autopilot:
             motors = self.detector.lost
             suspected = self.detector.suspected
             if (not motors and suspected is not None
-                    and float(self.detector.evidence.loe[suspected - 1])
+                    and float(self.detector.loe[suspected - 1])
                     > self.config.detector.lost_threshold):
                 motors = (suspected,)
         if not motors:
@@ -381,7 +387,7 @@ class Autopilot:
             self._rotor_loss_landing = False
             # the TSKF's hover model does not hold in a spin: its per-motor estimates are
             # published as they stood at the switch until the next take-off
-            self._loe_at_spin = np.array(self.detector.evidence.loe, dtype=float)
+            self._loe_at_spin = np.array(self.detector.loe, dtype=float)
             reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
             eq = reduced.equilibrium
             self._events.append(AutopilotEvent(
@@ -432,27 +438,27 @@ class Autopilot:
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""
         cfg = self.config.detector
+        roll, pitch, _ = estimate.euler_rad.tolist()
         return (abs(float(estimate.rate_frd[2])) < cfg.valid_yaw_rate_rad_s
-                and abs(float(estimate.euler_rad[0])) < cfg.valid_tilt_rad
-                and abs(float(estimate.euler_rad[1])) < cfg.valid_tilt_rad)
+                and abs(roll) < cfg.valid_tilt_rad and abs(pitch) < cfg.valid_tilt_rad)
 
     def _crash_check(self, time_s: float, estimate: StateEstimate,
                      att_ref: AttitudeReference, thrust_n: float) -> list[DetectionRecord]:
         """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`); a
         crash disarms (``FS_CRASH_CHECK`` = 1)."""
         nav = self.navigator
-        roll, pitch = float(estimate.euler_rad[0]), float(estimate.euler_rad[1])
-        error = max(abs(float(att_ref.euler_rad[0]) - roll),
-                    abs(float(att_ref.euler_rad[1]) - pitch))
+        roll, pitch, _ = estimate.euler_rad.tolist()
+        roll_ref, pitch_ref, _ = att_ref.euler_rad.tolist()
+        error = max(abs(roll_ref - roll), abs(pitch_ref - pitch))
         lean = math.acos(max(-1.0, min(1.0, math.cos(roll) * math.cos(pitch))))
-        model = self.model
+        vel = estimate.vel_ned
         records = self.crash_check.step(
             time_s, flying=nav.armed and not nav.landed, leg=nav.leg_kind,
-            alt_m=estimate.alt_m, vel_down_m_s=float(estimate.vel_ned[2]),
-            speed_m_s=float(np.linalg.norm(estimate.vel_ned)), lean_rad=lean,
-            attitude_error_rad=error,
-            collective=thrust_n / (4.0 * model.thrust_gain * model.pwm_max))
-        if any(r.kind == "crash" for r in records) and self.config.crash.action == 1:
+            alt_m=estimate.alt_m, vel_down_m_s=float(vel[2]),
+            speed_m_s=math.sqrt(float(vel.dot(vel))), lean_rad=lean,  # |v|
+            attitude_error_rad=error, collective=thrust_n / self._full_thrust_n)
+        if records and any(r.kind == "crash" for r in records) and \
+                self.config.crash.action == 1:
             nav.crash("crash: disarming")
         return records
 
@@ -464,12 +470,12 @@ class Autopilot:
                      ref: Reference | None, att_ref: AttitudeReference | None,
                      thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray
                      ) -> AutopilotStatus:
-        evidence = self.detector.evidence
-        loe = evidence.loe if self._loe_at_spin is None else self._loe_at_spin
+        detector = self.detector
+        loe = detector.loe if self._loe_at_spin is None else self._loe_at_spin
         return AutopilotStatus(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
                                d_hat, self._pwm, loe, self._detected(),
-                               evidence.mass_change_kg, self.sensor_health.excluded,
-                               evidence.lost)
+                               detector.mass_change_kg, self.sensor_health.excluded,
+                               detector.lost)
 
     def _detected(self) -> tuple[bool, bool, bool, bool]:
         active = self.detector.active

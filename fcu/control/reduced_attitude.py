@@ -41,7 +41,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
 from fcu.control.position import PositionGains
@@ -51,6 +50,7 @@ from fcu.control.relaxed_hover import (
     relaxed_hover,
     torque_matrix,
 )
+from fcu.design_cache import cached_design
 from fcu.model import VehicleModel
 
 SCHEDULE = np.linspace(0.0, 1.0, 11)  # fractions of the equilibrium spin with a design
@@ -191,10 +191,8 @@ class ReducedAttitudeController:
             a[:6, :6] = a6
             a[6, 2] = a[7, 3] = 1.0
             b = np.vstack([b6, np.zeros((2, 2))])
-            sysd = control.c2d(control.ss(a, b, np.eye(8), np.zeros((8, 2))), self.dt_s,
-                               "zoh")
-            gain, _, _ = control.dlqr(sysd.A, sysd.B, q, wts.r_torque * np.eye(2))
-            gains.append(np.asarray(gain))
+            (gain,) = _discrete_lqr_gain(a, b, q, wts.r_torque * np.eye(2), self.dt_s)
+            gains.append(gain)
         self.gains = np.array(gains)  # (len(SCHEDULE), 2, 8)
         self.gain = self.gains[-1]
         self._torque = torque_matrix(model)  # (3, 4), N*m per N
@@ -286,6 +284,19 @@ class ReducedAttitudeController:
         return ReducedAttitudeCommand(thrust_n=thrust, pwm=thrust / self.model.thrust_gain,
                                       collective_n=float(np.sum(thrust)),
                                       axis_error=float(np.linalg.norm(n - axis)))
+
+
+@cached_design
+def _discrete_lqr_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray,
+                       dt_s: float) -> tuple[np.ndarray, ...]:
+    """Gain of the discrete LQR (``control.dlqr``) of ``x' = a x + b u`` held at ``dt_s`` (s)
+    (``control.c2d``, zero-order hold), as a one-element tuple."""
+    import control
+
+    n, m = b.shape
+    sysd = control.c2d(control.ss(a, b, np.eye(n), np.zeros((n, m))), dt_s, "zoh")
+    gain, _, _ = control.dlqr(sysd.A, sysd.B, q, r)
+    return (np.asarray(gain),)
 
 
 def _two_motor_split(total: float, torque: float, arm_a: float, arm_b: float

@@ -61,6 +61,8 @@ class CrashCheck:
 
     def __init__(self, config: CrashCheckConfig) -> None:
         self.config = config
+        self._angle_rad = math.radians(config.angle_deg)
+        self._thrust_loss_error_rad = math.radians(15.0)
         self.reset()
 
     def reset(self) -> None:
@@ -100,10 +102,11 @@ class CrashCheck:
         if vel_down_m_s > cfg.impact_speed_m_s:
             self._fast_descent_s = time_s
         out: list[DetectionRecord] = []
-        out += self._thrust_loss(time_s, vel_down_m_s, attitude_error_rad, collective)
+        if not self._thrust_warned:
+            self._thrust_loss(out, time_s, vel_down_m_s, attitude_error_rad, collective)
         if self.crashed:
             return out
-        angle = math.radians(cfg.angle_deg)
+        angle = self._angle_rad
         if lean_rad > angle and attitude_error_rad > angle:
             if self._angle_since is None:
                 self._angle_since = time_s
@@ -128,19 +131,17 @@ class CrashCheck:
         return [DetectionRecord(time_s=time_s, action="detected", kind="crash",
                                 magnitude=attitude_error_rad)]
 
-    def _thrust_loss(self, time_s: float, vel_down_m_s: float, attitude_error_rad: float,
-                     collective: float) -> list[DetectionRecord]:
+    def _thrust_loss(self, out: list[DetectionRecord], time_s: float, vel_down_m_s: float,
+                     attitude_error_rad: float, collective: float) -> None:
+        """The thrust-loss warning, once per flight (appended to ``out``)."""
         cfg = self.config
-        if self._thrust_warned:
-            return []
         if collective > cfg.thrust_loss_throttle and vel_down_m_s > \
-                cfg.thrust_loss_descent_m_s and attitude_error_rad < math.radians(15.0):
+                cfg.thrust_loss_descent_m_s and attitude_error_rad < self._thrust_loss_error_rad:
             if self._thrust_since is None:
                 self._thrust_since = time_s
             if time_s - self._thrust_since >= cfg.thrust_loss_time_s - 1e-9:
                 self._thrust_warned = True
-                return [DetectionRecord(time_s=time_s, action="detected", kind="thrust_loss",
-                                        magnitude=collective)]
+                out.append(DetectionRecord(time_s=time_s, action="detected", kind="thrust_loss",
+                                           magnitude=collective))
         else:
             self._thrust_since = None
-        return []

@@ -100,24 +100,6 @@ SIGNATURES = np.array([[0.0, 0.0, -1.0, 1.0],
 _PWM_FILTER_S = 0.2  # s, time constant of the PWM low-pass
 
 
-@njit(cache=True, error_model="numpy")
-def weighted_fit(d: np.ndarray, var: np.ndarray, motors: np.ndarray
-                 ) -> tuple[np.ndarray, float]:
-    """``f = argmin (d - M_S f)' Sigma^-1 (d - M_S f)`` over the signatures of ``motors``
-    (indices 0..3, at most 3 of them) and its weighted residual sum of squares."""
-    w = 1.0 / np.sqrt(var)
-    b = d * w
-    k = motors.shape[0]
-    if k == 0:
-        return np.zeros(0), float(b @ b)
-    a = np.empty((3, k))
-    for i in range(3):
-        for j in range(k):
-            a[i, j] = SIGNATURES[i, motors[j]] * w[i]
-    # normal equations (A' A) f = A' b: the signatures of distinct motors are independent
-    f = np.linalg.solve(a.T @ a, a.T @ b)
-    r = b - a @ f
-    return f, float(r @ r)
 _CALM_RATIO = 2.0  # measured excitation within this many times its floor: calm air
 _ATTACK_S = 2.0  # s, time constant of the noise estimate's rise
 
@@ -194,8 +176,219 @@ class MotorEvidence:
     noise: np.ndarray  # (3,) measured excitation (roll, pitch, yaw deficit, 1 sigma)
 
 
+@njit(cache=True, error_model="numpy")
+def weighted_fit(d: np.ndarray, var: np.ndarray, motors: np.ndarray
+                 ) -> tuple[np.ndarray, float]:
+    """``f = argmin (d - M_S f)' Sigma^-1 (d - M_S f)`` over the signatures of ``motors``
+    (indices 0..3, at most 3 of them) and its weighted residual sum of squares.
+
+    With ``A = Sigma^-1/2 M_S`` and ``b = Sigma^-1/2 d``: the normal equations
+    ``(A' A) f = A' b`` (the signatures of distinct motors are independent), solved by
+    Gaussian elimination with partial pivoting; ``RSS = |b - A f|^2``. Written out in loops:
+    at most 3 unknowns, where a BLAS or LAPACK call costs more than the arithmetic.
+    """
+    k = motors.shape[0]
+    w = np.empty(3)
+    b = np.empty(3)
+    a = np.empty((3, k))
+    for i in range(3):
+        w[i] = 1.0 / math.sqrt(var[i])
+        b[i] = d[i] * w[i]
+        for j in range(k):
+            a[i, j] = SIGNATURES[i, motors[j]] * w[i]
+    # augmented normal equations [A' A | A' b]
+    n_mat = np.empty((k, k + 1))
+    for p in range(k):
+        for q in range(k):
+            n_mat[p, q] = a[0, p] * a[0, q] + a[1, p] * a[1, q] + a[2, p] * a[2, q]
+        n_mat[p, k] = a[0, p] * b[0] + a[1, p] * b[1] + a[2, p] * b[2]
+    for c in range(k):  # elimination, the largest pivot of column c first
+        pivot = c
+        for r in range(c + 1, k):
+            if abs(n_mat[r, c]) > abs(n_mat[pivot, c]):
+                pivot = r
+        if pivot != c:
+            for q in range(k + 1):
+                n_mat[c, q], n_mat[pivot, q] = n_mat[pivot, q], n_mat[c, q]
+        for r in range(c + 1, k):
+            factor = n_mat[r, c] / n_mat[c, c]
+            for q in range(c, k + 1):
+                n_mat[r, q] -= factor * n_mat[c, q]
+    f = np.empty(k)
+    for c in range(k - 1, -1, -1):  # back substitution
+        acc = n_mat[c, k]
+        for q in range(c + 1, k):
+            acc -= n_mat[c, q] * f[q]
+        f[c] = acc / n_mat[c, c]
+    rss = 0.0
+    for i in range(3):
+        r_i = b[i]
+        for j in range(k):
+            r_i -= a[i, j] * f[j]
+        rss += r_i * r_i
+    return f, rss
+
+
+# the detector's scalar state, one float array (MotorFaultDetector._state)
+_E = 0  # PWM, common-mode thrust deficit per motor, e
+_MASS_KG = 1  # kg, mass change dm = 4 K e / g
+_N_LEARNED = 2  # ticks of excitation learned
+_MASS_VAR = 3  # kg^2, measured spread of the common mode, s_m^2
+_MASS_N = 4  # ticks of that spread learned
+_HALF = 5  # 1 while a motor is half suspected (the latest tick that looked)
+_STATE_SIZE = 6
+# the settings the kernel reads, one float array (MotorFaultDetector._params)
+_DT, _U_HOVER, _K, _G, _COMMON_TAU, _NOISE_TAU, _THRESHOLD, _SIGNIFICANCE, _MASS_THRESHOLD, \
+    _MASS_SIGMAS, _MASS_SETTLE = range(11)
+_MASS_WINDOW_S = 0.5  # s, over which the mass estimate must have settled
+_MASS_VAR_FLOOR = 0.01 ** 2  # kg^2, the least spread of the common mode (10 g)
+
+
+@njit(cache=True, error_model="numpy")
+def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndarray,
+                   var: np.ndarray, floor_var: np.ndarray, declared: np.ndarray,
+                   state: np.ndarray, history: np.ndarray, ring: np.ndarray,
+                   params: np.ndarray, isolate: bool, evidence: bool, learn: bool,
+                   settling: bool, mass_reported: bool, loe: np.ndarray
+                   ) -> tuple[int, float, float, bool, float]:
+    """The detector's arithmetic for one tick (module docstring, steps 1 and 2 and the mass
+    change's spread and settling), compiled; the decisions stay with the caller.
+
+    Updates in place the low-passed PWM ``u``, the measured excitation ``var`` (Sigma's
+    diagonal), ``state`` (indices ``_E``...) and the mass history ``history`` (rows time s,
+    dm kg; ring buffer, ``ring`` = [first, count]). ``declared`` holds the declared motors
+    (0..3) in declaration order; ``isolate`` is False once a motor is lost or three are
+    declared (a fourth is not identifiable). Writes the per-motor LOE ``delta`` into ``loe``
+    (an array returned to Python would cost more than the tick's arithmetic).
+
+    Returns the strongest suspected motor (0..3, -1 for none) with its GLR statistic T and
+    LOE, whether the mass estimate has settled and the mass threshold
+    ``max(mass_threshold_kg, mass_sigmas s_m)`` (before this tick's spread update).
+    """
+    dt = params[_DT]
+    u_hover = params[_U_HOVER]
+    threshold = params[_THRESHOLD]
+    significance = params[_SIGNIFICANCE]
+    # u: PWM low-passed over _PWM_FILTER_S
+    a = min(1.0, dt / _PWM_FILTER_S)
+    u[:] = u + a * (np.maximum(pwm, 1e-4) - u)
+    # gamma_i u_i, PWM units; d = M a with a_i = gamma_i u_i / u_h: no common mode
+    deficit = gamma * u
+    d = np.zeros(3)
+    for i in range(3):
+        for j in range(4):
+            d[i] += SIGNATURES[i, j] * (deficit[j] / u_hover)
+    k = declared.shape[0]
+    is_declared = np.zeros(4, dtype=np.bool_)
+    for i in range(k):
+        is_declared[declared[i]] = True
+
+    # step 2: GLR of one more fault on each motor j, T_j = RSS(declared) - RSS(declared + j)
+    best, best_t, best_loe = -1, 0.0, 0.0
+    half_now = False
+    fitted = False
+    f0 = np.zeros(0)
+    if evidence or learn:
+        if isolate:
+            f0, rss0 = weighted_fit(d, var, declared)
+            fitted = True
+            motors = np.empty(k + 1, dtype=np.int64)
+            motors[:k] = declared
+            for j in range(4):
+                if is_declared[j]:
+                    continue
+                motors[k] = j
+                f, rss = weighted_fit(d, var, motors)
+                loe_j = f[k] * u_hover / u[j]  # LOE_j = f_j u_h / u_j
+                t = rss0 - rss
+                if loe_j > 0.5 * threshold and t > 0.25 * significance:
+                    half_now = True
+                if loe_j > threshold and t > significance and (best < 0 or t > best_t):
+                    best, best_t, best_loe = j, t, loe_j
+        state[_HALF] = 1.0 if half_now else 0.0
+    half = state[_HALF] != 0.0
+
+    # step 1: e = mean of gamma_j u_j over the motors not declared (the smallest when all
+    # are), low-passed over common_tau_s, held while a motor is half suspected
+    if not half:
+        n = 0
+        total = 0.0
+        for j in range(4):
+            if not is_declared[j]:
+                total += deficit[j]
+                n += 1
+        raw = total / n if n > 0 else deficit.min()
+        state[_E] += min(1.0, dt / params[_COMMON_TAU]) * (raw - state[_E])
+    e = state[_E]
+    state[_MASS_KG] = 4.0 * params[_K] * e / params[_G]  # dm = 4 K e / g
+    loe[:] = np.clip(deficit / u - e / u, 0.0, 1.0)  # delta_i = gamma_i - e / u_i
+
+    # measured excitation: Sigma from the residual of d after the declared faults, fast
+    # attack _ATTACK_S, slow decay noise_tau_s, unbiased while young, floored
+    if not half_now and learn and not settling:
+        if not fitted:
+            f0, _ = weighted_fit(d, var, declared)
+        res = d.copy()  # d - M_declared f
+        for i in range(3):
+            for j in range(k):
+                res[i] -= SIGNATURES[i, declared[j]] * f0[j]
+        state[_N_LEARNED] += 1.0
+        up = max(dt / _ATTACK_S, 1.0 / state[_N_LEARNED])
+        down = max(dt / params[_NOISE_TAU], 1.0 / state[_N_LEARNED])
+        sq = res * res
+        rate = np.where(sq > var, up, down)
+        var[:] = np.maximum(var + rate * (sq - var), floor_var)
+
+    # the mass change's threshold max(mass_threshold_kg, mass_sigmas s_m), its spread s_m
+    # (learned while nothing is reported, |dm| < mass_threshold_kg and nothing is half
+    # suspected) and whether dm has settled (within mass_settle_kg over the last 0.5 s)
+    dm = state[_MASS_KG]
+    mass_threshold = max(params[_MASS_THRESHOLD],
+                         params[_MASS_SIGMAS] * math.sqrt(state[_MASS_VAR]))
+    settled = False
+    capacity = history.shape[1]
+    if not evidence:
+        ring[1] = 0
+    else:
+        if not mass_reported and abs(dm) < params[_MASS_THRESHOLD] and not half:
+            state[_MASS_N] += 1.0
+            sq_m = dm * dm
+            rate_m = max(dt / (_ATTACK_S if sq_m > state[_MASS_VAR] else params[_NOISE_TAU]),
+                         1.0 / state[_MASS_N])
+            state[_MASS_VAR] = max(state[_MASS_VAR] + rate_m * (sq_m - state[_MASS_VAR]),
+                                   _MASS_VAR_FLOOR)
+        if half:  # the common mode is held: no news about the mass
+            ring[1] = 0
+        else:
+            if ring[1] == capacity:  # ticks faster than the capacity allows: forget the oldest
+                ring[0] = (ring[0] + 1) % capacity
+                ring[1] -= 1
+            slot = (ring[0] + ring[1]) % capacity
+            history[0, slot] = time_s
+            history[1, slot] = dm
+            ring[1] += 1
+        while ring[1] > 0 and history[0, ring[0]] < time_s - _MASS_WINDOW_S - 1e-9:
+            ring[0] = (ring[0] + 1) % capacity
+            ring[1] -= 1
+        count = ring[1]
+        if count > 1:
+            first = ring[0]
+            last = (ring[0] + count - 1) % capacity
+            low = high = history[1, first]
+            for i in range(1, count):
+                v = history[1, (first + i) % capacity]
+                low = min(low, v)
+                high = max(high, v)
+            settled = (history[0, last] - history[0, first] >= _MASS_WINDOW_S - 1e-9
+                       and high - low <= params[_MASS_SETTLE])
+    return best, best_t, best_loe, settled, mass_threshold
+
+
 class MotorFaultDetector:
     """Motor fault detection, isolation and the mass change (module docstring).
+
+    The arithmetic of a tick is one compiled call (:func:`_detector_tick`); the decisions
+    (suspicion, declaration, recovery, the mass report) and their records are made here.
 
     Parameters
     ----------
@@ -209,33 +402,45 @@ class MotorFaultDetector:
     def __init__(self, model: VehicleModel, config: DetectorConfig, dt_s: float) -> None:
         self.config = config
         self.dt_s = float(dt_s)
-        self._k = model.thrust_gain
-        self._g = model.gravity
         self._u_hover = model.hover_pwm
         self._floor_var = np.square(np.array(config.noise_floor, dtype=float))
+        self._calm_var = _CALM_RATIO**2 * self._floor_var
+        params = np.zeros(11)
+        params[[_DT, _U_HOVER, _K, _G, _COMMON_TAU, _NOISE_TAU, _THRESHOLD, _SIGNIFICANCE,
+                _MASS_THRESHOLD, _MASS_SIGMAS, _MASS_SETTLE]] = (
+            self.dt_s, model.hover_pwm, model.thrust_gain, model.gravity, config.common_tau_s,
+            config.noise_tau_s, config.threshold, config.significance,
+            config.mass_threshold_kg, config.mass_sigmas, config.mass_settle_kg)
+        self._params = params
+        # the mass history holds 0.5 s of ticks; room for ticks up to 4 times faster
+        self._history = np.zeros((2, 4 * math.ceil(_MASS_WINDOW_S / self.dt_s) + 8))
         self.reset()
 
     def reset(self) -> None:
         """Forget every fault, the learned excitation and the timers."""
         self._var = self._floor_var.copy()
-        self._n_learned = 0
         self._u = np.full(4, self._u_hover)
+        self._state = np.zeros(_STATE_SIZE)
+        self._state[_MASS_VAR] = _MASS_VAR_FLOOR
+        self._ring = np.zeros(2, dtype=np.int64)  # mass history: first slot, count
         self._declared: list[int] = []  # motor indices 0..3, in declaration order
         self._lost: set[int] = set()
         self._suspect: int | None = None
         self._suspect_since = 0.0
-        self._half: set[int] = set()  # motors half suspected at the latest tick
         self._last_declared_s = -math.inf
         self._recover_since: dict[int, float] = {}
         self._lost_since: dict[int, float] = {}
         self._mass_reported = False
         self._mass_since: float | None = None
-        self._mass_history: list[tuple[float, float]] = []  # (time s, kg) over the last 0.5 s
-        self._mass_var = 0.01 ** 2  # kg^2, measured spread of the common mode (floor 10 g)
-        self._mass_n = 0
         self._loe = np.zeros(4)
-        self._mass_kg = 0.0
-        self._e = 0.0  # PWM, common-mode thrust deficit per motor
+        self._declarations_changed()
+
+    def _declarations_changed(self) -> None:
+        """Refresh what follows from the declared and lost motors (read every tick)."""
+        self._declared_idx = np.array(self._declared, dtype=np.int64)
+        self._isolate = not self._lost and len(self._declared) < 3
+        self._active = tuple(sorted(j + 1 for j in self._declared))
+        self._lost_motors = tuple(sorted(j + 1 for j in self._lost))
 
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, gamma: np.ndarray, pwm: np.ndarray, *, evidence: bool,
@@ -261,88 +466,35 @@ class MotorFaultDetector:
         list of DetectionRecord
             What was decided at this tick.
         """
-        a = min(1.0, self.dt_s / _PWM_FILTER_S)
-        self._u = self._u + a * (np.maximum(np.asarray(pwm, dtype=float), 1e-4) - self._u)
-        u = self._u
-        g = np.asarray(gamma, dtype=float)
-        deficit = g * u  # PWM units
-        d = SIGNATURES @ (deficit / self._u_hover)  # mass-invariant: no common mode
-        records: list[DetectionRecord] = []
-        best, half_suspected = self._candidates(d, u) if (evidence or learn) else (None, False)
-        self._update_common_mode(deficit, u)
         settling = time_s - self._last_declared_s < self.config.settle_s
-        if not half_suspected and learn and not settling:
-            self._learn(d)
-        if best is not None and not evidence:
-            best = None
+        self._loe = np.empty(4)  # a new one every tick: the previous one may be kept
+        best, t, loe, settled, mass_threshold = _detector_tick(
+            time_s, gamma, pwm, self._u, self._var, self._floor_var,
+            self._declared_idx, self._state, self._history, self._ring, self._params,
+            self._isolate, evidence, learn, settling, self._mass_reported, self._loe)
         if not evidence:
             self._suspect = None
             self._recover_since.clear()
             self._mass_since = None
-            self._mass_history.clear()
-            return records
-        records += self._declare(time_s, best)
-        records += self._track_declared(time_s)
-        records += self._track_mass(time_s)
+            return []
+        if best < 0 or settling:
+            self._suspect = None
+            records = []
+        else:
+            records = self._declare(time_s, best, t, loe)
+        if self._declared:
+            records += self._track_declared(time_s)
+        mass = self._track_mass(time_s, settled, mass_threshold)
+        if mass is not None:
+            records.append(mass)
         return records
 
-    def _update_common_mode(self, deficit: np.ndarray, u: np.ndarray) -> None:
-        if not self._half:
-            others = [j for j in range(4) if j not in self._declared]
-            raw = float(np.mean(deficit[others])) if others else float(np.min(deficit))
-            self._e += min(1.0, self.dt_s / self.config.common_tau_s) * (raw - self._e)
-        e = self._e
-        self._mass_kg = 4.0 * self._k * e / self._g
-        self._loe = np.clip(deficit / u - e / u, 0.0, 1.0)
-
-    def _fit(self, d: np.ndarray, motors: list[int]) -> tuple[np.ndarray, float]:
-        """Weighted least squares of ``d`` on the signatures of ``motors``: (f, RSS)."""
-        return weighted_fit(d, self._var, np.array(motors, dtype=np.int64))
-
-    def _candidates(self, d: np.ndarray, u: np.ndarray
-                    ) -> tuple[tuple[int, float, float] | None, bool]:
-        """(motor index, T, LOE) of the strongest suspected fault (or None), and whether any
-        motor is half suspected (module docstring)."""
-        if self._lost or len(self._declared) >= 3:  # a fourth is not identifiable
-            self._half = set()
-            return None, False
+    def _declare(self, time_s: float, j: int, t: float, loe: float) -> list[DetectionRecord]:
+        """Motor ``j`` (0..3) is the strongest suspect, with GLR ``t`` and LOE ``loe``."""
         cfg = self.config
-        _, rss0 = self._fit(d, self._declared)
-        best: tuple[int, float, float] | None = None
-        self._half = set()
-        for j in range(4):
-            if j in self._declared:
-                continue
-            f, rss = self._fit(d, [*self._declared, j])
-            loe = float(f[-1]) * self._u_hover / u[j]
-            t = rss0 - rss
-            if loe > 0.5 * cfg.threshold and t > 0.25 * cfg.significance:
-                self._half.add(j)
-            if loe > cfg.threshold and t > cfg.significance and (best is None or t > best[1]):
-                best = (j, t, loe)
-        return best, bool(self._half)
-
-    def _learn(self, d: np.ndarray) -> None:
-        """Measured excitation: fast attack, slow decay, unbiased while young."""
-        f, _ = self._fit(d, self._declared)
-        res = d - (SIGNATURES[:, self._declared] @ f if self._declared else 0.0)
-        self._n_learned += 1
-        sq = res * res
-        up = max(self.dt_s / _ATTACK_S, 1.0 / self._n_learned)
-        down = max(self.dt_s / self.config.noise_tau_s, 1.0 / self._n_learned)
-        rate = np.where(sq > self._var, up, down)
-        self._var = np.maximum(self._var + rate * (sq - self._var), self._floor_var)
-
-    def _declare(self, time_s: float,
-                 best: tuple[int, float, float] | None) -> list[DetectionRecord]:
-        cfg = self.config
-        if best is None or time_s - self._last_declared_s < cfg.settle_s:
-            self._suspect = None
-            return []
-        j, t, loe = best
         if self._suspect != j:
             self._suspect, self._suspect_since = j, time_s
-        calm = bool(np.all(self._var <= _CALM_RATIO**2 * self._floor_var))
+        calm = bool((self._var <= self._calm_var).all())
         need = declaration_delay_s(cfg, loe, t, calm)
         if time_s - self._suspect_since < need - 1e-9:
             return []
@@ -352,6 +504,7 @@ class MotorFaultDetector:
         kind = "motor_lost" if loe > cfg.lost_threshold else "loe"
         if kind == "motor_lost":
             self._lost.add(j)
+        self._declarations_changed()
         return [DetectionRecord(time_s=time_s, action="detected", kind=kind, motor=j + 1,
                                 magnitude=min(1.0, loe))]
 
@@ -379,55 +532,53 @@ class MotorFaultDetector:
                                                motor=j + 1, magnitude=loe))
             else:
                 self._recover_since.pop(j, None)
+        if out:
+            self._declarations_changed()
         return out
 
-    def _track_mass(self, time_s: float) -> list[DetectionRecord]:
-        cfg = self.config
-        dm = self._mass_kg
-        threshold = max(cfg.mass_threshold_kg, cfg.mass_sigmas * math.sqrt(self._mass_var))
-        if not self._mass_reported and abs(dm) < cfg.mass_threshold_kg and not self._half:
-            self._mass_n += 1
-            sq = dm * dm
-            rate = max(self.dt_s / (_ATTACK_S if sq > self._mass_var else cfg.noise_tau_s),
-                       1.0 / self._mass_n)
-            self._mass_var = max(self._mass_var + rate * (sq - self._mass_var), 0.01 ** 2)
-        history = self._mass_history
-        if self._half:  # the common mode is held: no news about the mass
-            history.clear()
+    def _track_mass(self, time_s: float, settled: bool,
+                    threshold: float) -> DetectionRecord | None:
+        """Report a mass change beyond ``threshold`` (kg) held for ``mass_persistence_s``
+        once ``settled``, clear it below half the threshold (module docstring)."""
+        dm = float(self._state[_MASS_KG])
+        if not self._mass_reported:
+            pending = abs(dm) > threshold
         else:
-            history.append((time_s, dm))
-        while history and history[0][0] < time_s - 0.5 - 1e-9:
-            history.pop(0)
-        values = [v for _, v in history]
-        settled = (len(history) > 1 and history[-1][0] - history[0][0] >= 0.5 - 1e-9
-                   and max(values) - min(values) <= cfg.mass_settle_kg)
-        limit = threshold if not self._mass_reported else 0.5 * threshold
-        pending = abs(dm) > limit if not self._mass_reported else abs(dm) < limit
+            pending = abs(dm) < 0.5 * threshold
         if not pending:
             self._mass_since = None
-            return []
+            return None
         if self._mass_since is None:
             self._mass_since = time_s
-        if time_s - self._mass_since < cfg.mass_persistence_s - 1e-9 or not settled:
-            return []
+        if time_s - self._mass_since < self.config.mass_persistence_s - 1e-9 or not settled:
+            return None
         self._mass_since = None
         self._mass_reported = not self._mass_reported
-        return [DetectionRecord(time_s=time_s, action="detected" if self._mass_reported
-                                else "cleared", kind="mass_change", magnitude=dm)]
+        return DetectionRecord(time_s=time_s, action="detected" if self._mass_reported
+                               else "cleared", kind="mass_change", magnitude=dm)
 
     # ------------------------------------------------------------------ observation
     @property
     def evidence(self) -> MotorEvidence:
         """The latest per-motor LOE, mass change, declarations and measured excitation."""
-        return MotorEvidence(self._loe.copy(), self._mass_kg,
-                             tuple(sorted(j + 1 for j in self._declared)),
-                             tuple(sorted(j + 1 for j in self._lost)),
-                             np.sqrt(self._var))
+        return MotorEvidence(self._loe.copy(), self.mass_change_kg, self._active,
+                             self._lost_motors, np.sqrt(self._var))
+
+    @property
+    def loe(self) -> np.ndarray:
+        """The latest per-motor LOE, (4,), common mode removed, 0..1 (a new array every
+        tick: read it, do not modify it)."""
+        return self._loe
+
+    @property
+    def mass_change_kg(self) -> float:
+        """The latest mass change estimate, kg, + heavier."""
+        return float(self._state[_MASS_KG])
 
     @property
     def active(self) -> tuple[int, ...]:
         """Motors (1..4) currently declared faulty."""
-        return tuple(sorted(j + 1 for j in self._declared))
+        return self._active
 
     @property
     def suspected(self) -> int | None:
@@ -438,4 +589,4 @@ class MotorFaultDetector:
     @property
     def lost(self) -> tuple[int, ...]:
         """Motors (1..4) currently declared lost."""
-        return tuple(sorted(j + 1 for j in self._lost))
+        return self._lost_motors

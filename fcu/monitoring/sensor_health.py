@@ -42,10 +42,9 @@ evidence is not taken then (a sensor fault would otherwise raise motor alarms).
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
-
-import numpy as np
 
 from fcu.estimation.estimator import ChannelCheck
 from fcu.estimation.state import SampleBatch
@@ -79,7 +78,7 @@ class SensorHealthConfig:
                 "must be >= 0 s")
 
 
-@dataclass
+@dataclass(slots=True)
 class _Watch:
     """Bookkeeping of one sensor."""
 
@@ -87,12 +86,16 @@ class _Watch:
     excluded_s: float = 0.0
     rejections: int = 0
     last_rejected_s: float = -math.inf
-    last_value: np.ndarray | None = None
+    last_value: list[float] | None = None
     last_time_s: float = 0.0
     same: int = 0
     jumped: bool = False  # the latest batch jumped from the one before
     frozen_since_s: float = 0.0
     good_since_s: float | None = None
+
+
+# the sensor each height source reads
+_HEIGHT_SENSOR = {"mocap": "mocap_pos", "baro": "baro"}
 
 
 class SensorHealth:
@@ -113,10 +116,22 @@ class SensorHealth:
     def reset(self) -> None:
         """Every sensor trusted, every check restarted."""
         self._watch: dict[str, _Watch] = {}
-        self._cross: list[tuple[float, float]] = []  # (time, baro alt - mocap alt)
+        # the cross-check's window: tick times and baro alt - mocap alt, m
+        self._cross_t: deque[float] = deque()
+        self._cross_v: deque[float] = deque()
+        self._last_rejected_s = -math.inf  # the latest rejection of any sensor
+        self._exclusions_changed()
 
     def _w(self, sensor: str) -> _Watch:
-        return self._watch.setdefault(sensor, _Watch())
+        w = self._watch.get(sensor)
+        if w is None:
+            w = self._watch[sensor] = _Watch()
+        return w
+
+    def _exclusions_changed(self) -> None:
+        """Refresh what follows from the excluded sensors (read every tick)."""
+        self._excluded = frozenset(s for s, w in self._watch.items()
+                                   if w.excluded_as is not None)
 
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, batches: Mapping[str, SampleBatch],
@@ -138,36 +153,46 @@ class SensorHealth:
             Each sensor's noise, one sample, 1 sigma, sensor units (the jump test).
         """
         records: list[DetectionRecord] = []
+        watch = self._watch
         for sensor, check in screening.items():
-            w = self._w(sensor)
-            self._watch_value(time_s, w, batches.get(sensor), noise.get(sensor, 0.0),
-                              sensor == "mocap_att")
+            w = watch.get(sensor) or self._w(sensor)
+            batch = batches.get(sensor)
+            if batch is not None:
+                self._watch_value(time_s, w, batch, noise.get(sensor, 0.0),
+                                  sensor == "mocap_att")
             if airborne:
-                records += self._frozen(time_s, sensor, w)
-                records += self._innovation(time_s, sensor, w, check)
+                if w.same >= self.config.frozen_ticks:
+                    self._exclude(records, time_s, sensor, w, "sensor_frozen",
+                                  time_s - w.frozen_since_s)
+                if check.status != "rejected":
+                    w.rejections = 0
+                else:
+                    self._rejected(records, time_s, sensor, w, check)
             else:
                 w.rejections = 0
-            records += self._recovery(time_s, sensor, w, check)
-        records += self._cross_check(time_s, batches)
+            kind = w.excluded_as
+            if kind is not None and kind != "sensor_inconsistent":
+                # (the cross-check re-admits an inconsistent barometer)
+                self._recovery(records, time_s, sensor, w, kind, check)
+        self._cross_check(records, time_s, batches)
         return records
 
-    def _exclude(self, time_s: float, sensor: str, w: _Watch, kind: str,
-                 magnitude: float) -> list[DetectionRecord]:
+    def _exclude(self, records: list[DetectionRecord], time_s: float, sensor: str, w: _Watch,
+                 kind: str, magnitude: float) -> None:
         if w.excluded_as is not None:
-            return []
+            return
         w.excluded_as, w.excluded_s, w.good_since_s = kind, time_s, None
-        return [DetectionRecord(time_s=time_s, action="detected", kind=kind, sensor=sensor,
-                                magnitude=magnitude)]
+        self._exclusions_changed()
+        records.append(DetectionRecord(time_s=time_s, action="detected", kind=kind,
+                                       sensor=sensor, magnitude=magnitude))
 
-    def _watch_value(self, time_s: float, w: _Watch, batch: SampleBatch | None,
+    def _watch_value(self, time_s: float, w: _Watch, batch: SampleBatch,
                      sigma: float, yaw_last: bool) -> None:
         """Repeats (frozen) and jumps (garbage) of the batch values (``yaw_last``: the third
         entry is an angle, its change wrapped to [-pi, pi))."""
-        if batch is None:
-            return
         value = batch.value.tolist()
         last = w.last_value
-        if last is not None and value == last.tolist():
+        if last is not None and value == last:
             if w.same == 0:
                 w.frozen_since_s = time_s
             w.same += 1
@@ -177,78 +202,73 @@ class SensorHealth:
             if last is not None:
                 limit = self.config.jump_sigma * sigma + self.config.max_speed * (
                     time_s - w.last_time_s)
-                change = [a - b for a, b in zip(value, last.tolist(), strict=True)]
+                change = [a - b for a, b in zip(value, last, strict=True)]
                 if yaw_last:
                     change[2] = (change[2] + math.pi) % (2.0 * math.pi) - math.pi
-                w.jumped = any(abs(c) > limit for c in change)
-        w.last_value = np.asarray(batch.value).copy()
+                # some |change| > limit
+                w.jumped = max(change) > limit or min(change) < -limit
+        w.last_value = value
         w.last_time_s = time_s
 
-    def _frozen(self, time_s: float, sensor: str, w: _Watch) -> list[DetectionRecord]:
-        if w.same >= self.config.frozen_ticks:
-            return self._exclude(time_s, sensor, w, "sensor_frozen",
-                                 time_s - w.frozen_since_s)
-        return []
-
-    def _innovation(self, time_s: float, sensor: str, w: _Watch,
-                    check: ChannelCheck) -> list[DetectionRecord]:
-        if check.status != "rejected":
-            w.rejections = 0
-            return []
+    def _rejected(self, records: list[DetectionRecord], time_s: float, sensor: str,
+                  w: _Watch, check: ChannelCheck) -> None:
+        """The flying estimator rejected ``sensor`` at this tick (innovation check)."""
         w.rejections += 1
         w.last_rejected_s = time_s
+        self._last_rejected_s = max(self._last_rejected_s, time_s)
         if w.rejections >= self.config.reject_ticks:
-            return self._exclude(time_s, sensor, w, "sensor_rejected", check.nis)
-        return []
+            self._exclude(records, time_s, sensor, w, "sensor_rejected", check.nis)
 
-    def _recovery(self, time_s: float, sensor: str, w: _Watch,
-                  check: ChannelCheck) -> list[DetectionRecord]:
-        kind = w.excluded_as
-        if kind is None or kind == "sensor_inconsistent":
-            return []  # the cross-check re-admits the barometer
+    def _recovery(self, records: list[DetectionRecord], time_s: float, sensor: str,
+                  w: _Watch, kind: str, check: ChannelCheck) -> None:
+        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``."""
         consistent = check.nis <= check.gate and w.same == 0 and not w.jumped
         if not consistent:
             w.good_since_s = None
-            return []
+            return
         if w.good_since_s is None:
             w.good_since_s = time_s
         if time_s - w.good_since_s < self.config.recover_s - 1e-9:
-            return []
+            return
         w.excluded_as, w.good_since_s, w.rejections = None, None, 0
-        return [DetectionRecord(time_s=time_s, action="cleared", kind=kind, sensor=sensor,
-                                magnitude=time_s - w.excluded_s)]
+        self._exclusions_changed()
+        records.append(DetectionRecord(time_s=time_s, action="cleared", kind=kind,
+                                       sensor=sensor, magnitude=time_s - w.excluded_s))
 
-    def _cross_check(self, time_s: float,
-                     batches: Mapping[str, SampleBatch]) -> list[DetectionRecord]:
+    def _cross_check(self, records: list[DetectionRecord], time_s: float,
+                     batches: Mapping[str, SampleBatch]) -> None:
         """Barometer against motion-capture height (module docstring)."""
         baro, mocap = batches.get("baro"), batches.get("mocap_pos")
         cfg = self.config
-        if mocap is not None and self.excluded_as("mocap_pos") is not None:
+        if mocap is not None and "mocap_pos" in self._excluded:
             mocap = None
         if baro is None or mocap is None or len(mocap.value) < 3:
-            return []
+            return
+        times, values = self._cross_t, self._cross_v
         # alt = -z (NED); both averaged over the tick
-        self._cross.append((time_s, float(baro.value[0]) + float(mocap.value[2])))
-        while self._cross and self._cross[0][0] <= time_s - cfg.cross_window_s:
-            self._cross.pop(0)
-        if len(self._cross) < 2 or self._cross[-1][0] - self._cross[0][0] < \
-                0.5 * cfg.cross_window_s:
-            return []
-        mean = sum(v for _, v in self._cross) / len(self._cross)
+        times.append(time_s)
+        values.append(float(baro.value[0]) + float(mocap.value[2]))
+        while times and times[0] <= time_s - cfg.cross_window_s:
+            times.popleft()
+            values.popleft()
+        if len(times) < 2 or times[-1] - times[0] < 0.5 * cfg.cross_window_s:
+            return
+        mean = sum(values) / len(values)
         w = self._w("baro")
         if w.excluded_as is None and abs(mean) > cfg.cross_limit_m:
-            return self._exclude(time_s, "baro", w, "sensor_inconsistent", mean)
+            self._exclude(records, time_s, "baro", w, "sensor_inconsistent", mean)
+            return
         if w.excluded_as == "sensor_inconsistent" and abs(mean) < 0.5 * cfg.cross_limit_m:
             if w.good_since_s is None:
                 w.good_since_s = time_s
             if time_s - w.good_since_s >= cfg.recover_s - 1e-9:
                 w.excluded_as, w.good_since_s = None, None
-                return [DetectionRecord(time_s=time_s, action="cleared",
-                                        kind="sensor_inconsistent", sensor="baro",
-                                        magnitude=mean)]
+                self._exclusions_changed()
+                records.append(DetectionRecord(time_s=time_s, action="cleared",
+                                               kind="sensor_inconsistent", sensor="baro",
+                                               magnitude=mean))
         elif w.excluded_as == "sensor_inconsistent":
             w.good_since_s = None
-        return []
 
     # ------------------------------------------------------------------ observation
     def excluded_as(self, sensor: str) -> str | None:
@@ -259,26 +279,25 @@ class SensorHealth:
     @property
     def excluded(self) -> frozenset[str]:
         """Sensors the estimators must not use."""
-        return frozenset(s for s, w in self._watch.items() if w.excluded_as is not None)
+        return self._excluded
 
     def suspect(self, time_s: float) -> bool:
         """A sensor is excluded, or was rejected within ``quiet_s`` of ``time_s``."""
-        return any(w.excluded_as is not None
-                   or time_s - w.last_rejected_s < self.config.quiet_s
-                   for w in self._watch.values())
+        return bool(self._excluded) or time_s - self._last_rejected_s < self.config.quiet_s
 
     @property
     def position_fix(self) -> bool:
         """Motion-capture position is trusted."""
-        return self.excluded_as("mocap_pos") is None
+        return "mocap_pos" not in self._excluded
 
     @property
     def height_source(self) -> str:
         """Where height should come from now (module docstring)."""
         source = self.configured_height_source
+        if not self._excluded:
+            return source
         other = "baro" if source == "mocap" else "mocap"
-        sensor = {"mocap": "mocap_pos", "baro": "baro"}
-        if self.excluded_as(sensor[source]) is not None and \
-                self.excluded_as(sensor[other]) is None:
+        if _HEIGHT_SENSOR[source] in self._excluded and \
+                _HEIGHT_SENSOR[other] not in self._excluded:
             return other
         return source
