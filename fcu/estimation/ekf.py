@@ -22,13 +22,12 @@ of ``n`` samples. The accelerometer's x and y axes (drag only) are not used.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from numba import njit
-from numpy.typing import ArrayLike
 
 from fcu.estimation.ekf_model import (
     discrete_transition,
@@ -36,19 +35,33 @@ from fcu.estimation.ekf_model import (
     model_jacobian,
     pack_params,
 )
-from fcu.estimation.estimator import Channel, ProcessNoiseDensities, TickEstimator, common_channels
+from fcu.estimation.estimator import (
+    APPLIED,
+    COUNT,
+    MODEL_VAR,
+    ROW0,
+    ROW1,
+    SAMPLE_VAR,
+    TIME,
+    VALUE,
+    WRAP_YAW,
+    Channel,
+    ChannelSet,
+    ProcessNoiseDensities,
+    TickEstimator,
+    on_ground_at,
+    screen_channels,
+)
 from fcu.estimation.state import (
     STATE_DIM,
     YAW_INDEX,
     FloatArray,
     InitialUncertainty,
     Innovation,
-    SampleBatch,
     SensorNoise,
     StateEstimate,
 )
 from fcu.model import VehicleModel
-from flightdata.vocabulary import HEIGHT_SOURCES
 
 
 @njit(cache=True, error_model="numpy")
@@ -148,9 +161,9 @@ def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatAr
 
 @njit(cache=True, error_model="numpy")
 def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: FloatArray,
-                       on_ground: bool, sel_stack: FloatArray, rows: np.ndarray,
-                       sample_var: FloatArray, model_var: FloatArray, wrap_yaw: np.ndarray,
-                       counts: np.ndarray, deltas: FloatArray, z_stack: FloatArray
+                       on_ground: bool, sel_stack: FloatArray, layout: np.ndarray,
+                       noise: FloatArray, counts: np.ndarray, deltas: FloatArray,
+                       z_stack: FloatArray
                        ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
                                   FloatArray, FloatArray, int]:
     """A tick's sequential updates, channel after channel, each by :func:`channel_update`.
@@ -161,15 +174,11 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
         Prior state and covariance.
     u, p, on_ground
         As for :func:`channel_update`.
-    sel_stack : ndarray, shape (rows_total, 16)
-        Every channel's selection ``S``, stacked in update order.
-    rows : ndarray of int, shape (n_ch, 2)
-        First and end row of each channel in ``sel_stack`` and ``z_stack``.
-    sample_var, model_var : ndarrays, shape (n_ch,)
-        Noise variance of one sample (divided by the count) and the model error (not), so
+    sel_stack, layout, noise : ndarrays
+        The channels (:class:`~fcu.estimation.estimator.ChannelSet`): selections ``S``
+        stacked in update order, each channel's rows and yaw flag, its noise variance of one
+        sample (divided by the count) and model error (not), so
         ``R = (sample_var / count + model_var) I``.
-    wrap_yaw : ndarray of bool, shape (n_ch,)
-        The channel's third entry is a yaw (its innovation is wrapped).
     counts : ndarray of int, shape (n_ch,)
         Samples averaged into each channel's measurement; 0 = no update this tick.
     deltas : ndarray, shape (n_ch,)
@@ -184,10 +193,10 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
         top-left block of ``s_stack[c]`` (shape (n_ch, m_max, m_max)); each NIS; ``S^-1`` and
         ``K`` of the last update; the index of the last channel updated (-1: none).
     """
-    n_ch = rows.shape[0]
+    n_ch = layout.shape[0]
     m_max = 1
     for c in range(n_ch):
-        m_max = max(m_max, rows[c, 1] - rows[c, 0])
+        m_max = max(m_max, layout[c, ROW1] - layout[c, ROW0])
     y_stack = np.zeros(z_stack.shape[0])
     s_stack = np.zeros((n_ch, m_max, m_max))
     nis = np.zeros(n_ch)
@@ -197,19 +206,102 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
     for c in range(n_ch):
         if counts[c] <= 0:
             continue
-        i0, i1 = rows[c, 0], rows[c, 1]
+        i0, i1 = layout[c, ROW0], layout[c, ROW1]
         m = i1 - i0
         # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
         r_mat = np.zeros((m, m))
         for i in range(m):
-            r_mat[i, i] = sample_var[c] / counts[c] + model_var[c]
+            r_mat[i, i] = noise[c, SAMPLE_VAR] / counts[c] + noise[c, MODEL_VAR]
         x, p_mat, y, s_mat, s_inv, k_gain, nis[c] = channel_update(
             x, p_mat, z_stack[i0:i1].copy(), np.ascontiguousarray(sel_stack[i0:i1]),
-            deltas[c], u, p, on_ground, r_mat, wrap_yaw[c])
+            deltas[c], u, p, on_ground, r_mat, layout[c, WRAP_YAW] != 0)
         y_stack[i0:i1] = y
         s_stack[c, :m, :m] = s_mat
         last = c
     return x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last
+
+
+@njit(cache=True, error_model="numpy")
+def ekf_tick(x: FloatArray, p_mat: FloatArray, on_ground: bool, u: FloatArray, dt: float,
+             dt_max: float, p: FloatArray, qc_diag: FloatArray, ground: FloatArray,
+             meas: FloatArray, time_s: float, excluded: np.ndarray, reject: bool,
+             sel_stack: FloatArray, layout: np.ndarray, noise: FloatArray
+             ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                        FloatArray, bool, FloatArray, FloatArray, FloatArray, np.ndarray,
+                        FloatArray, np.ndarray, FloatArray, FloatArray, FloatArray, FloatArray,
+                        FloatArray, int, FloatArray, FloatArray]:
+    """One tick of the estimator in one compiled call: predict, screen, update.
+
+    Parameters
+    ----------
+    x, p_mat : ndarrays, shapes (16,), (16, 16)
+        Posterior of the previous tick.
+    on_ground : bool
+        Whether the previous prediction held the vehicle on the ground (kept when there is
+        nothing to predict).
+    u : ndarray, shape (4,)
+        PWM held since the previous tick.
+    dt, dt_max : float
+        Time since the previous tick and the longest prediction step, s.
+    p, qc_diag : ndarrays, shapes (9,), (16,)
+        Packed model (:func:`~fcu.estimation.ekf_model.pack_params`) and ``Qc`` diagonal.
+    ground : ndarray, shape (3,)
+        The ground plane (:func:`~fcu.estimation.estimator.on_ground_at`).
+    meas, excluded, reject
+        The tick's measurements, exclusions and whether a lone outlier may be rejected
+        (:func:`~fcu.estimation.estimator.screen_channels`).
+    time_s : float
+        Tick time, s.
+    sel_stack, layout, noise : ndarrays
+        The channels (:class:`~fcu.estimation.estimator.ChannelSet`).
+
+    Returns
+    -------
+    x, p_mat, x_prior, p_prior, f_mat, q_mat, on_ground
+        Posterior, prior, the last prediction's ``F`` and ``Q`` (shape (0, 0) without one)
+        and the ground flag used.
+    nu_stack, var_stack, nis_screen, status
+        The screening (:func:`~fcu.estimation.estimator.screen_channels`).
+    z_stack, counts, y_stack, s_stack, nis, s_inv, k_gain, last
+        The updates: the measurements, samples per channel applied (0: not), and
+        :func:`sequential_updates`'s output.
+    x_est, p_diag
+        The posterior again (an estimate's own copy) and its covariance diagonal.
+    """
+    f_mat = np.zeros((0, 0))
+    q_mat = np.zeros((0, 0))
+    if dt > 1e-9:
+        # a longer gap than dt_max: several equal RK4 steps
+        n_sub = max(1, math.ceil(dt / dt_max - 1e-6))
+        on_ground = on_ground_at(x, ground)
+        for _ in range(n_sub):
+            # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
+            x, f_mat, q_mat, p_mat = predict_covariance(x, p_mat, u, dt / n_sub, p, on_ground,
+                                                        qc_diag)
+    x_prior = x.copy()
+    p_prior = p_mat.copy()
+    # screened against the prior; on the ground the accelerometer is skipped
+    nu_stack, var_stack, nis_screen, status = screen_channels(
+        x, p_mat, meas, sel_stack, layout, noise, excluded, on_ground, reject)
+    n_ch = layout.shape[0]
+    counts = np.zeros(n_ch, dtype=np.int64)
+    deltas = np.zeros(n_ch)
+    z_stack = np.zeros(sel_stack.shape[0])
+    for c in range(n_ch):
+        if status[c] == APPLIED:
+            counts[c] = int(meas[c, COUNT])
+            # s, how long before the tick the batch was taken
+            deltas[c] = time_s - meas[c, TIME]
+            i0, i1 = layout[c, ROW0], layout[c, ROW1]
+            z_stack[i0:i1] = meas[c, VALUE:VALUE + i1 - i0]
+    # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
+    # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
+    x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last = sequential_updates(
+        x, p_mat, u, p, on_ground, sel_stack, layout, noise, counts, deltas, z_stack)
+    return (x, p_mat, x_prior, p_prior, f_mat, q_mat, on_ground,
+            nu_stack, var_stack, nis_screen, status,
+            z_stack, counts, y_stack, s_stack, nis, s_inv, k_gain, last,
+            x.copy(), np.diag(p_mat).copy())
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -241,30 +333,6 @@ class EkfProcessNoise(ProcessNoiseDensities):
     thrust: float = 60.0  # N^2/s, each motor
 
 
-class _Channel(Channel):
-    """A measurement channel: ``h(x) = S x`` at the sample time, and its noise."""
-
-    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...],
-                 sigma: float, model_sigma: float = 0.0) -> None:
-        super().__init__(sensor, selection, value_index, sigma, model_sigma)
-        self.no_value = [0.0] * self.rows  # placeholder measurement of a tick without one
-
-
-class _ChannelSet:
-    """One height source's channels, stacked for the compiled update of a whole tick."""
-
-    def __init__(self, channels: tuple[_Channel, ...]) -> None:
-        self.channels = channels
-        self.sel_stack = np.ascontiguousarray(np.vstack([c.selection for c in channels]))
-        sizes = np.array([c.rows for c in channels])
-        ends = np.cumsum(sizes)
-        self.rows = np.ascontiguousarray(np.column_stack((ends - sizes, ends)), dtype=np.int64)
-        self.rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self.rows]
-        self.sample_var = np.array([c.sample_var for c in channels])
-        self.model_var = np.array([c.model_var for c in channels])
-        self.wrap_yaw = np.array([c.wrap_yaw for c in channels])
-
-
 class _QuadrotorEKF(ExtendedKalmanFilter):
     """filterpy's EKF with the nonlinear prediction of this module and a compiled update.
 
@@ -276,9 +344,10 @@ class _QuadrotorEKF(ExtendedKalmanFilter):
     ``x_post``, ``P_post``; Joseph-form covariance) but runs the matrix algebra in
     :func:`kalman_update`: filterpy's own version (scipy ``inv`` with its argument checks,
     ``deepcopy``) costs 16-35 us per call on this machine, and a tick has three or four.
-    ``tests/fcu/test_ekf.py`` checks the two against each other. The estimator goes one step
-    further and runs a whole tick's updates in one compiled call (:func:`sequential_updates`,
-    the same algebra), then sets the same attributes as the last :meth:`update` would.
+    ``tests/fcu/test_ekf.py`` checks the two against each other. The estimator goes further
+    and runs a whole tick (predictions, screening, updates) in one compiled call
+    (:func:`ekf_tick`, the same algebra); its :attr:`ExtendedKalmanEstimator.filter` is this
+    object with the attributes the last :meth:`predict` and :meth:`update` would have set.
     """
 
     x: FloatArray
@@ -391,35 +460,18 @@ class ExtendedKalmanEstimator(TickEstimator):
                  ground_margin_m: float = 0.02,
                  accel_z_model_sigma: float | None = 0.1) -> None:
         super().__init__(model, dt_s, height_source, noise, initial_uncertainty, ground_z_ned,
-                         ground_margin_m)
+                         ground_margin_m, accel_z_model_sigma)
         self.process_noise = process_noise if process_noise is not None else EkfProcessNoise()
-        if accel_z_model_sigma is not None and not (math.isfinite(accel_z_model_sigma)
-                                                    and accel_z_model_sigma >= 0):
-            raise ValueError(f"accel_z_model_sigma = {accel_z_model_sigma!r}: must be >= 0 "
-                             "m/s^2, or None to leave the accelerometer out")
-        self.accel_z_model_sigma = accel_z_model_sigma
         self._params = pack_params(model)
-        # every height source's channels, stacked for sequential_updates
-        self._sets = {source: _ChannelSet(self._make_channels(source))
-                      for source in HEIGHT_SOURCES}
-        self._kinds = frozenset(c.sensor for cs in self._sets.values() for c in cs.channels)
-        self._select_channels(self.height_source)
-        self.filter = _QuadrotorEKF(self._params, self.process_noise.diagonal())
-        self._innovations: dict[str, Innovation] = {}
-        # (sensor, y, S, NIS) of this tick's updates, turned into _innovations on request
-        self._innovation_parts: list[tuple[str, FloatArray, FloatArray, float]] = []
+        self._qc_diag = self.process_noise.diagonal()
+        self._build_channel_sets()
         self.reset()
 
-    def _make_channels(self, height_source: str) -> tuple[_Channel, ...]:
+    def _make_channels(self, height_source: str) -> ChannelSet:
         n = self.noise
-        return tuple(_Channel(sensor, sel, value_index, getattr(n, sensor), model_sigma)
-                     for sensor, sel, value_index, model_sigma
-                     in common_channels(height_source, self.model, self.accel_z_model_sigma))
-
-    def _select_channels(self, height_source: str) -> None:
-        cs = self._sets[height_source]
-        self._set = cs
-        self._channels = cs.channels
+        return ChannelSet(tuple(Channel(sensor, sel, value_index, getattr(n, sensor), model_sigma)
+                                for sensor, sel, value_index, model_sigma
+                                in self._common_channels(height_source)))
 
     # ---- life cycle ------------------------------------------------------------------------
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None) -> None:
@@ -435,137 +487,106 @@ class ExtendedKalmanEstimator(TickEstimator):
             position and attitude).
         """
         x0, p0 = self._initial_state(initial)
-        f = self.filter
-        f.x = x0.astype(float)
-        f.P = np.diag(p0)
-        f.x_prior = f.x.copy()
-        f.P_prior = f.P.copy()
-        f.x_post = f.x.copy()
-        f.P_post = f.P.copy()
-        self._time_s = float(time_s)
-        self._innovations = {}
-        self._innovation_parts = []
-        self._estimate = self._make_estimate()
+        self._x = x0.astype(float)
+        self._P = np.diag(p0)
+        self._x_prior = self._x.copy()
+        self._P_prior = self._P.copy()
+        self._on_ground = False
+        self._f_mat = np.eye(STATE_DIM)  # the latest prediction's F and Q (filterpy's start)
+        self._q_mat = np.eye(STATE_DIM)
+        # the latest tick's updates (Innovation records built on request) and the last one's
+        # (y, S, S^-1, K, z) for the filterpy view
+        self._updates: tuple[ChannelSet, FloatArray, FloatArray, list[float],
+                             list[int]] | None = None
+        self._innovations: dict[str, Innovation] | None = None
+        self._last_update: tuple[FloatArray, FloatArray, FloatArray, FloatArray,
+                                 FloatArray] | None = None
+        self._innovation_time_s = self._time_s = float(time_s)
+        self._estimate = StateEstimate._from_owned(self._time_s, self._x.copy(),
+                                                   self._P.diagonal().copy())
 
-    def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
-                     batches: Mapping[str, SampleBatch], *,
-                     excluded: Collection[str] = (), reject: bool = True) -> StateEstimate:
-        """Predict to ``time_s`` (s) with ``pwm_applied`` held, screen the tick's averaged
-        samples and update with those that pass (:meth:`TickEstimator.step_grouped`);
-        returns the posterior."""
-        time_s = float(time_s)
-        u = np.asarray(pwm_applied, dtype=float).reshape(4)
+    def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
+              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+        """Predict to ``time_s`` (s), screen the tick's measurements and update with those
+        that pass, in one compiled call (:func:`ekf_tick`)."""
         dt = time_s - self._time_s
         if dt < -1e-9:
             raise ValueError(f"time_s = {time_s!r}: earlier than the previous tick "
                              f"({self._time_s!r})")
-        f = self.filter
-        if dt > 1e-9:
-            n_sub = max(1, math.ceil(dt / self.dt_s - 1e-6))
-            f.on_ground = self._on_ground()
-            f.step_dt_s = dt / n_sub
-            for _ in range(n_sub):
-                # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
-                f.predict(u=u)
-        else:
-            f.x_prior = f.x.copy()
-            f.P_prior = f.P.copy()
-        self._time_s = time_s
-        self._innovations = {}
-        self._innovation_parts = []
-        # on the ground the accelerometer feels the ground reaction, not the thrust
-        on_ground = f.on_ground
-        batches = self._screen(self._channels, batches, f.x, f.P, excluded,
-                               lambda ch: not (ch.sensor == "accel" and on_ground),
-                               reject and not on_ground)
-        counts: list[int] = []
-        deltas: list[float] = []
-        z_l: list[float] = []
-        for channel in self._channels:
-            batch = batches.get(channel.sensor)
-            if batch is not None:
-                counts.append(batch.count)
-                # s, how long before the tick the batch was taken
-                deltas.append(time_s - batch.time_s)
-                z_l += batch.value.tolist()[channel.value_slice]
-            else:
-                counts.append(0)
-                deltas.append(0.0)
-                z_l += channel.no_value
-        if any(counts):
-            self._update_all(counts, np.array(deltas), np.array(z_l), u)
-        self._estimate = self._make_estimate()
-        return self._estimate
-
-    # ---- internals -------------------------------------------------------------------------
-    def _on_ground(self) -> bool:
-        return self._on_ground_at(self.filter.x)
-
-    def _update_all(self, counts: list[int], deltas: FloatArray, z_stack: FloatArray,
-                    u: FloatArray) -> None:
-        """The tick's sequential updates (module docstring, "Measurements") in one call."""
-        f = self.filter
-        # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
-        # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
-        # (filterpy's update contract, as _QuadrotorEKF.update)
-        cs = self._set
-        x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last = sequential_updates(
-            f.x, f.P, u, self._params, f.on_ground, cs.sel_stack, cs.rows,
-            cs.sample_var, cs.model_var, cs.wrap_yaw, np.array(counts), deltas,
-            z_stack)
-        f.x, f.P = x, p_mat
-        rows = cs.rows_list
-        i0, i1 = rows[last]
-        f.y, f.S, f.SI, f.K = y_stack[i0:i1], s_stack[last, :i1 - i0, :i1 - i0], s_inv, k_gain
-        f.z = z_stack[i0:i1].copy()
-        f.x_post = x.copy()
-        f.P_post = p_mat.copy()
-        # the Innovation records are built on request (last_innovation)
-        nis_l = nis.tolist()
-        for c, channel in enumerate(self._channels):
-            if counts[c] > 0:
-                i0, i1 = rows[c]
-                self._innovation_parts.append((channel.sensor, y_stack[i0:i1],
-                                               s_stack[c, :i1 - i0, :i1 - i0], nis_l[c]))
-
-    def _make_estimate(self) -> StateEstimate:
-        f = self.filter
-        return StateEstimate._from_owned(self._time_s, f.x.copy(), f.P.diagonal().copy())
+        cs = channel_set
+        (self._x, self._P, self._x_prior, self._P_prior, f_mat, q_mat, self._on_ground,
+         nu_stack, var_stack, nis_screen, status, z_stack, counts, y_stack, s_stack, nis,
+         s_inv, k_gain, last, x_est, p_diag) = ekf_tick(
+            self._x, self._P, self._on_ground, u, dt, self.dt_s, self._params, self._qc_diag,
+            self._ground, meas, time_s, excluded, reject, cs.sel_stack, cs.layout, cs.noise)
+        if f_mat.size:
+            self._f_mat, self._q_mat = f_mat, q_mat
+        self._keep_screening(cs, nu_stack, var_stack, nis_screen, status)
+        # the tick's Innovation records are built on request (last_innovation)
+        self._updates = (cs, y_stack, s_stack, nis.tolist(), counts.tolist())
+        self._innovations = None
+        self._innovation_time_s = time_s
+        if last >= 0:
+            i0, i1 = cs.rows_list[last]
+            self._last_update = (y_stack[i0:i1], s_stack[last, :i1 - i0, :i1 - i0], s_inv,
+                                 k_gain, z_stack[i0:i1])
+        return x_est, p_diag
 
     # ---- inspection ------------------------------------------------------------------------
     @property
     def x(self) -> FloatArray:
         """Posterior state ``x_{k|k}``, shape (16,) (a copy)."""
-        return np.array(self.filter.x, dtype=float)
+        return np.array(self._x, dtype=float)
 
     @property
     def P(self) -> FloatArray:  # noqa: N802 (filter notation)
         """Posterior covariance ``P_{k|k}``, shape (16, 16) (a copy)."""
-        return np.array(self.filter.P, dtype=float)
+        return np.array(self._P, dtype=float)
 
     @property
     def x_prior(self) -> FloatArray:
         """Prior state ``x_{k|k-1}`` of the latest tick, shape (16,) (a copy)."""
-        return np.array(self.filter.x_prior, dtype=float)
+        return np.array(self._x_prior, dtype=float)
 
     @property
     def P_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
         """Prior covariance ``P_{k|k-1}`` of the latest tick, shape (16, 16) (a copy)."""
-        return np.array(self.filter.P_prior, dtype=float)
+        return np.array(self._P_prior, dtype=float)
 
     @property
     def on_ground(self) -> bool:
         """Whether the latest prediction held the vehicle on the ground."""
-        return bool(self.filter.on_ground)
+        return bool(self._on_ground)
+
+    @property
+    def filter(self) -> _QuadrotorEKF:
+        """The latest tick as filterpy's EKF holds it (built on request, a copy): ``x``,
+        ``P``, the priors, the latest prediction's ``F`` and ``Q``, and the latest update's
+        ``y``, ``S``, ``SI``, ``K``, ``z``."""
+        f = _QuadrotorEKF(self._params, self._qc_diag)
+        f.x, f.P = self._x.copy(), self._P.copy()
+        f.x_prior, f.P_prior = self._x_prior.copy(), self._P_prior.copy()
+        f.x_post, f.P_post = self._x.copy(), self._P.copy()
+        f.F, f.Q = self._f_mat.copy(), self._q_mat.copy()
+        f.step_dt_s, f.on_ground = self.dt_s, self._on_ground
+        if self._last_update is not None:
+            f.y, f.S, f.SI, f.K, f.z = (a.copy() for a in self._last_update)
+        return f
 
     @property
     def last_innovation(self) -> Mapping[str, Innovation]:
         """Innovation, its covariance and NIS of each sensor updated at the latest tick."""
-        if self._innovation_parts:
-            for sensor, y, s_mat, nis in self._innovation_parts:
-                self._innovations[sensor] = Innovation(sensor, self._time_s, y.copy(),
-                                                       s_mat.copy(), float(nis))
-            self._innovation_parts = []
+        if self._innovations is None:
+            self._innovations = {}
+            if self._updates is not None:
+                cs, y_stack, s_stack, nis, counts = self._updates
+                for c, count in enumerate(counts):
+                    if count > 0:
+                        sensor = cs.sensors[c]
+                        i0, i1 = cs.rows_list[c]
+                        self._innovations[sensor] = Innovation(
+                            sensor, self._innovation_time_s, y_stack[i0:i1].copy(),
+                            s_stack[c, :i1 - i0, :i1 - i0].copy(), nis[c])
         return dict(self._innovations)
 
 
