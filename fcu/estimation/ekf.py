@@ -221,21 +221,43 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
     return x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last
 
 
+# ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
+N = STATE_DIM
+NN = N * N
+MAX_CHANNELS, MAX_ROWS = 5, 3  # channels of a height source, rows of one channel
+_X = 0  # posterior x (N)
+_P = _X + N  # posterior P (N x N, row-major)
+_X_PRIOR = _P + NN  # prior x
+_P_PRIOR = _X_PRIOR + N  # prior P
+_F = _P_PRIOR + NN  # the latest prediction's F
+_Q = _F + NN  # and Q
+_Y = _Q + NN  # y_stack (N rows at the most)
+_Z = _Y + N  # z_stack
+_NIS = _Z + N  # per channel: NIS of its update
+_COUNTS = _NIS + MAX_CHANNELS  # samples applied (0: not updated)
+_S_INV = _COUNTS + MAX_CHANNELS  # the last update's S^-1 (m x m, row-major, stride MAX_ROWS)
+_K = _S_INV + MAX_ROWS * MAX_ROWS  # and K (N x m, stride MAX_ROWS)
+WORK_SIZE = _K + N * MAX_ROWS
+
+
 @njit(cache=True, error_model="numpy")
-def ekf_tick(x: FloatArray, p_mat: FloatArray, on_ground: bool, u: FloatArray, dt: float,
+def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArray, dt: float,
              dt_max: float, p: FloatArray, qc_diag: FloatArray, ground: FloatArray,
              meas: FloatArray, time_s: float, excluded: np.ndarray, reject: bool,
              sel_stack: FloatArray, layout: np.ndarray, noise: FloatArray
-             ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-                        FloatArray, bool, FloatArray, FloatArray, FloatArray, np.ndarray,
-                        FloatArray, np.ndarray, FloatArray, FloatArray, FloatArray, FloatArray,
-                        FloatArray, int, FloatArray, FloatArray]:
+             ) -> tuple[FloatArray, FloatArray, bool, bool, int]:
     """One tick of the estimator in one compiled call: predict, screen, update.
 
     Parameters
     ----------
-    x, p_mat : ndarrays, shapes (16,), (16, 16)
-        Posterior of the previous tick.
+    work : ndarray, shape (WORK_SIZE,)
+        The estimator's workspace (:data:`WORK`), updated in place: read are the previous
+        posterior ``x``, ``P``; written are the posterior, the prior, ``F`` and ``Q`` (when
+        there is a prediction), and the updates' innovations (``y_stack``), NIS, sample
+        counts (0: not updated), measurements (``z_stack``) and the last update's ``S^-1``
+        and ``K`` (top-left blocks).
+    s_stack : ndarray, shape (MAX_CHANNELS, MAX_ROWS, MAX_ROWS)
+        Written: each channel's innovation covariance ``S`` (top-left block).
     on_ground : bool
         Whether the previous prediction held the vehicle on the ground (kept when there is
         nothing to predict).
@@ -257,20 +279,16 @@ def ekf_tick(x: FloatArray, p_mat: FloatArray, on_ground: bool, u: FloatArray, d
 
     Returns
     -------
-    x, p_mat, x_prior, p_prior, f_mat, q_mat, on_ground
-        Posterior, prior, the last prediction's ``F`` and ``Q`` (shape (0, 0) without one)
-        and the ground flag used.
-    nu_stack, var_stack, nis_screen, status
-        The screening (:func:`~fcu.estimation.estimator.screen_channels`).
-    z_stack, counts, y_stack, s_stack, nis, s_inv, k_gain, last
-        The updates: the measurements, samples per channel applied (0: not), and
-        :func:`sequential_updates`'s output.
-    x_est, p_diag
-        The posterior again (an estimate's own copy) and its covariance diagonal.
+    estimate, screen, on_ground, predicted, last
+        The posterior state and its covariance diagonal, shape (32,) (fresh: the estimate's
+        own); the screening (:func:`~fcu.estimation.estimator.screen_channels`); the
+        ground flag used; whether there was a prediction; the last channel updated (-1:
+        none).
     """
-    f_mat = np.zeros((0, 0))
-    q_mat = np.zeros((0, 0))
-    if dt > 1e-9:
+    x = work[_X:_X + N].copy()
+    p_mat = work[_P:_P + NN].reshape(N, N).copy()
+    predicted = dt > 1e-9
+    if predicted:
         # a longer gap than dt_max: several equal RK4 steps
         n_sub = max(1, math.ceil(dt / dt_max - 1e-6))
         on_ground = on_ground_at(x, ground)
@@ -278,11 +296,13 @@ def ekf_tick(x: FloatArray, p_mat: FloatArray, on_ground: bool, u: FloatArray, d
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
             x, f_mat, q_mat, p_mat = predict_covariance(x, p_mat, u, dt / n_sub, p, on_ground,
                                                         qc_diag)
-    x_prior = x.copy()
-    p_prior = p_mat.copy()
+            work[_F:_F + NN] = f_mat.ravel()
+            work[_Q:_Q + NN] = q_mat.ravel()
+    work[_X_PRIOR:_X_PRIOR + N] = x
+    work[_P_PRIOR:_P_PRIOR + NN] = p_mat.ravel()
     # screened against the prior; on the ground the accelerometer is skipped
-    nu_stack, var_stack, nis_screen, status = screen_channels(
-        x, p_mat, meas, sel_stack, layout, noise, excluded, on_ground, reject)
+    screen, status = screen_channels(x, p_mat, meas, sel_stack, layout, noise, excluded,
+                                     on_ground, reject)
     n_ch = layout.shape[0]
     counts = np.zeros(n_ch, dtype=np.int64)
     deltas = np.zeros(n_ch)
@@ -296,12 +316,28 @@ def ekf_tick(x: FloatArray, p_mat: FloatArray, on_ground: bool, u: FloatArray, d
             z_stack[i0:i1] = meas[c, VALUE:VALUE + i1 - i0]
     # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
     # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
-    x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last = sequential_updates(
+    x, p_mat, y_stack, s_all, nis, s_inv, k_gain, last = sequential_updates(
         x, p_mat, u, p, on_ground, sel_stack, layout, noise, counts, deltas, z_stack)
-    return (x, p_mat, x_prior, p_prior, f_mat, q_mat, on_ground,
-            nu_stack, var_stack, nis_screen, status,
-            z_stack, counts, y_stack, s_stack, nis, s_inv, k_gain, last,
-            x.copy(), np.diag(p_mat).copy())
+    work[_X:_X + N] = x
+    work[_P:_P + NN] = p_mat.ravel()
+    n_rows = sel_stack.shape[0]
+    work[_Y:_Y + n_rows] = y_stack
+    work[_Z:_Z + n_rows] = z_stack
+    work[_NIS:_NIS + n_ch] = nis
+    work[_COUNTS:_COUNTS + n_ch] = counts
+    m = s_inv.shape[0]
+    for i in range(m):
+        for j in range(m):
+            work[_S_INV + MAX_ROWS * i + j] = s_inv[i, j]
+    for i in range(N):
+        for j in range(m):
+            work[_K + MAX_ROWS * i + j] = k_gain[i, j]
+    s_stack[:] = 0.0
+    s_stack[:n_ch, :s_all.shape[1], :s_all.shape[2]] = s_all
+    estimate = np.empty(32)
+    estimate[:16] = x
+    estimate[16:] = np.diag(p_mat)
+    return estimate, screen, on_ground, predicted, last
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -487,23 +523,20 @@ class ExtendedKalmanEstimator(TickEstimator):
             position and attitude).
         """
         x0, p0 = self._initial_state(initial)
-        self._x = x0.astype(float)
-        self._P = np.diag(p0)
-        self._x_prior = self._x.copy()
-        self._P_prior = self._P.copy()
+        # x, P, priors, F, Q and the latest updates, as ekf_tick keeps them
+        self._work = np.zeros(WORK_SIZE)
+        self._s_stack = np.zeros((MAX_CHANNELS, MAX_ROWS, MAX_ROWS))
+        w = self._work
+        w[_X:_X + N] = w[_X_PRIOR:_X_PRIOR + N] = x0
+        w[_P:_P + NN] = w[_P_PRIOR:_P_PRIOR + NN] = np.diag(p0).ravel()
+        w[_F:_F + NN] = w[_Q:_Q + NN] = np.eye(N).ravel()  # filterpy's start
         self._on_ground = False
-        self._f_mat = np.eye(STATE_DIM)  # the latest prediction's F and Q (filterpy's start)
-        self._q_mat = np.eye(STATE_DIM)
-        # the latest tick's updates (Innovation records built on request) and the last one's
-        # (y, S, S^-1, K, z) for the filterpy view
-        self._updates: tuple[ChannelSet, FloatArray, FloatArray, list[float],
-                             list[int]] | None = None
-        self._innovations: dict[str, Innovation] | None = None
-        self._last_update: tuple[FloatArray, FloatArray, FloatArray, FloatArray,
-                                 FloatArray] | None = None
-        self._innovation_time_s = self._time_s = float(time_s)
-        self._estimate = StateEstimate._from_owned(self._time_s, self._x.copy(),
-                                                   self._P.diagonal().copy())
+        self._last = -1  # the latest tick's last channel updated (-1: none)
+        self._last_update: tuple[FloatArray, ...] = ()  # (y, S, S^-1, K, z) of the last update
+        self._innovations: dict[str, Innovation] | None = {}
+        self._time_s = float(time_s)
+        self._estimate = StateEstimate._from_owned(self._time_s, x0.astype(float),
+                                                   p0.astype(float))
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
               excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
@@ -514,44 +547,49 @@ class ExtendedKalmanEstimator(TickEstimator):
             raise ValueError(f"time_s = {time_s!r}: earlier than the previous tick "
                              f"({self._time_s!r})")
         cs = channel_set
-        (self._x, self._P, self._x_prior, self._P_prior, f_mat, q_mat, self._on_ground,
-         nu_stack, var_stack, nis_screen, status, z_stack, counts, y_stack, s_stack, nis,
-         s_inv, k_gain, last, x_est, p_diag) = ekf_tick(
-            self._x, self._P, self._on_ground, u, dt, self.dt_s, self._params, self._qc_diag,
-            self._ground, meas, time_s, excluded, reject, cs.sel_stack, cs.layout, cs.noise)
-        if f_mat.size:
-            self._f_mat, self._q_mat = f_mat, q_mat
-        self._keep_screening(cs, nu_stack, var_stack, nis_screen, status)
-        # the tick's Innovation records are built on request (last_innovation)
-        self._updates = (cs, y_stack, s_stack, nis.tolist(), counts.tolist())
+        estimate, screen, self._on_ground, _, last = ekf_tick(
+            self._work, self._s_stack, self._on_ground, u, dt, self.dt_s, self._params,
+            self._qc_diag, self._ground, meas, time_s, excluded, reject, cs.sel_stack,
+            cs.layout, cs.noise)
+        self._keep_screening(cs, screen)
+        # the Innovation records and the filterpy view are built on request
         self._innovations = None
         self._innovation_time_s = time_s
+        self._updates_of = cs
         if last >= 0:
-            i0, i1 = cs.rows_list[last]
-            self._last_update = (y_stack[i0:i1], s_stack[last, :i1 - i0, :i1 - i0], s_inv,
-                                 k_gain, z_stack[i0:i1])
-        return x_est, p_diag
+            self._last_update = self._update_parts(cs, last)
+        return estimate[:N], estimate[N:]
+
+    def _update_parts(self, cs: ChannelSet, c: int) -> tuple[FloatArray, ...]:
+        """(y, S, S^-1, K, z) of channel ``c``'s update at the latest tick (copies)."""
+        w = self._work
+        i0, i1 = cs.rows_list[c]
+        m = i1 - i0
+        return (w[_Y + i0:_Y + i1].copy(), self._s_stack[c, :m, :m].copy(),
+                w[_S_INV:_S_INV + MAX_ROWS * m].reshape(m, MAX_ROWS)[:, :m].copy(),
+                w[_K:_K + MAX_ROWS * N].reshape(N, MAX_ROWS)[:, :m].copy(),
+                w[_Z + i0:_Z + i1].copy())
 
     # ---- inspection ------------------------------------------------------------------------
     @property
     def x(self) -> FloatArray:
         """Posterior state ``x_{k|k}``, shape (16,) (a copy)."""
-        return np.array(self._x, dtype=float)
+        return self._work[_X:_X + N].copy()
 
     @property
     def P(self) -> FloatArray:  # noqa: N802 (filter notation)
         """Posterior covariance ``P_{k|k}``, shape (16, 16) (a copy)."""
-        return np.array(self._P, dtype=float)
+        return self._work[_P:_P + NN].reshape(N, N).copy()
 
     @property
     def x_prior(self) -> FloatArray:
         """Prior state ``x_{k|k-1}`` of the latest tick, shape (16,) (a copy)."""
-        return np.array(self._x_prior, dtype=float)
+        return self._work[_X_PRIOR:_X_PRIOR + N].copy()
 
     @property
     def P_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
         """Prior covariance ``P_{k|k-1}`` of the latest tick, shape (16, 16) (a copy)."""
-        return np.array(self._P_prior, dtype=float)
+        return self._work[_P_PRIOR:_P_PRIOR + NN].reshape(N, N).copy()
 
     @property
     def on_ground(self) -> bool:
@@ -560,33 +598,33 @@ class ExtendedKalmanEstimator(TickEstimator):
 
     @property
     def filter(self) -> _QuadrotorEKF:
-        """The latest tick as filterpy's EKF holds it (built on request, a copy): ``x``,
+        """The latest tick as filterpy's EKF holds it (built on request, copies): ``x``,
         ``P``, the priors, the latest prediction's ``F`` and ``Q``, and the latest update's
         ``y``, ``S``, ``SI``, ``K``, ``z``."""
         f = _QuadrotorEKF(self._params, self._qc_diag)
-        f.x, f.P = self._x.copy(), self._P.copy()
-        f.x_prior, f.P_prior = self._x_prior.copy(), self._P_prior.copy()
-        f.x_post, f.P_post = self._x.copy(), self._P.copy()
-        f.F, f.Q = self._f_mat.copy(), self._q_mat.copy()
+        f.x, f.P, f.x_prior, f.P_prior = self.x, self.P, self.x_prior, self.P_prior
+        f.x_post, f.P_post = self.x, self.P
+        f.F = self._work[_F:_F + NN].reshape(N, N).copy()
+        f.Q = self._work[_Q:_Q + NN].reshape(N, N).copy()
         f.step_dt_s, f.on_ground = self.dt_s, self._on_ground
-        if self._last_update is not None:
-            f.y, f.S, f.SI, f.K, f.z = (a.copy() for a in self._last_update)
+        if self._last_update:
+            f.y, f.S, f.SI, f.K, f.z = self._last_update
         return f
 
     @property
     def last_innovation(self) -> Mapping[str, Innovation]:
         """Innovation, its covariance and NIS of each sensor updated at the latest tick."""
         if self._innovations is None:
+            cs = self._updates_of
+            n_ch = len(cs.channels)
+            counts = self._work[_COUNTS:_COUNTS + n_ch].tolist()
+            nis = self._work[_NIS:_NIS + n_ch].tolist()
             self._innovations = {}
-            if self._updates is not None:
-                cs, y_stack, s_stack, nis, counts = self._updates
-                for c, count in enumerate(counts):
-                    if count > 0:
-                        sensor = cs.sensors[c]
-                        i0, i1 = cs.rows_list[c]
-                        self._innovations[sensor] = Innovation(
-                            sensor, self._innovation_time_s, y_stack[i0:i1].copy(),
-                            s_stack[c, :i1 - i0, :i1 - i0].copy(), nis[c])
+            for c, sensor in enumerate(cs.sensors):
+                if counts[c] > 0:
+                    y, s_mat, _, _, _ = self._update_parts(cs, c)
+                    self._innovations[sensor] = Innovation(sensor, self._innovation_time_s, y,
+                                                           s_mat, nis[c])
         return dict(self._innovations)
 
 

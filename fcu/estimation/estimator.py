@@ -139,8 +139,7 @@ def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
 @njit(cache=True, error_model="numpy")
 def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stack: FloatArray,
                     layout: np.ndarray, noise: FloatArray, excluded: np.ndarray,
-                    on_ground: bool, reject: bool
-                    ) -> tuple[FloatArray, FloatArray, FloatArray, np.ndarray]:
+                    on_ground: bool, reject: bool) -> tuple[FloatArray, np.ndarray]:
     """Screen every channel that delivered a batch against the prior ``x``, ``p_mat``
     (module docstring), by :func:`screen_channel` each.
 
@@ -161,14 +160,19 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
 
     Returns
     -------
-    nu_stack, var_stack, nis, status
-        ``nu = z - S x`` and ``diag(S P S' + R)`` stacked like ``sel_stack``, each channel's
-        NIS and status code (``APPLIED`` ... ``SKIPPED``, ``ABSENT`` without a batch).
+    screen : ndarray, shape (2 rows_total + 2 n_ch,)
+        ``nu = z - S x`` and ``diag(S P S' + R)``, each stacked like ``sel_stack``, then each
+        channel's NIS and status code (``APPLIED`` ... ``SKIPPED``, ``ABSENT`` without a
+        batch), one array for :meth:`TickEstimator._keep_screening`.
+    status : ndarray of int, shape (n_ch,)
+        The status codes again.
     """
     n_ch = layout.shape[0]
-    nu_stack = np.zeros(sel_stack.shape[0])
-    var_stack = np.zeros(sel_stack.shape[0])
-    nis = np.zeros(n_ch)
+    n_rows = sel_stack.shape[0]
+    screen = np.zeros(2 * n_rows + 2 * n_ch)
+    nu_stack = screen[:n_rows]
+    var_stack = screen[n_rows:2 * n_rows]
+    nis = screen[2 * n_rows:2 * n_rows + n_ch]
     status = np.full(n_ch, ABSENT, dtype=np.int64)
     n_outliers = 0
     outlier = -1
@@ -197,7 +201,8 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
                 outlier = c
     if reject and not on_ground and n_outliers == 1:  # a lone outlier is that sensor's fault
         status[outlier] = REJECTED
-    return nu_stack, var_stack, nis, status
+    screen[2 * n_rows + n_ch:] = status
+    return screen, status
 
 
 _DENSITY_NAMES = ("pos", "accel", "euler", "ang_accel", "thrust")
@@ -411,8 +416,7 @@ class TickEstimator:
         self._kinds: frozenset[str] = frozenset()
         self._estimate: StateEstimate | None = None
         # the latest tick's screening, as computed (ChannelCheck records built on request)
-        self._screen_out: tuple[ChannelSet, FloatArray, FloatArray, list[float],
-                                list[int]] | None = None
+        self._screen_out: tuple[ChannelSet, FloatArray] | None = None
         self._screening: dict[str, ChannelCheck] | None = None
 
     # ---- the measurement channels ------------------------------------------------------------
@@ -450,11 +454,17 @@ class TickEstimator:
         return common_channels(height_source, self.model, self.accel_z_model_sigma)
 
     # ---- screening ---------------------------------------------------------------------------
-    def _keep_screening(self, channel_set: ChannelSet, nu_stack: FloatArray,
-                        var_stack: FloatArray, nis: FloatArray, status: np.ndarray) -> None:
+    def _keep_screening(self, channel_set: ChannelSet, screen: FloatArray) -> None:
         """Keep the tick's :func:`screen_channels` output for :attr:`screening`."""
-        self._screen_out = (channel_set, nu_stack, var_stack, nis.tolist(), status.tolist())
+        self._screen_out = (channel_set, screen)
         self._screening = None
+
+    def _statuses(self) -> list[int]:
+        """The latest tick's status code of each channel (:func:`screen_channels`)."""
+        if self._screen_out is None:
+            return []
+        cs, screen = self._screen_out
+        return [int(code) for code in screen[-len(cs.channels):].tolist()]
 
     @property
     def screening(self) -> Mapping[str, ChannelCheck]:
@@ -462,15 +472,15 @@ class TickEstimator:
         if self._screening is None:
             checks: dict[str, ChannelCheck] = {}
             if self._screen_out is not None:
-                cs, nu_stack, var_stack, nis, status = self._screen_out
-                for c, code in enumerate(status):
-                    if code == ABSENT:
-                        continue
-                    ch = cs.channels[c]
-                    i0, i1 = cs.rows_list[c]
-                    checks[ch.sensor] = ChannelCheck(ch.sensor, nu_stack[i0:i1],
-                                                     var_stack[i0:i1], nis[c], ch.gate,
-                                                     STATUS_NAMES[code])
+                cs, screen = self._screen_out
+                n_rows, n_ch = cs.sel_stack.shape[0], len(cs.channels)
+                tail = screen[2 * n_rows:].tolist()  # NIS, then status codes
+                for c, (ch, (i0, i1)) in enumerate(zip(cs.channels, cs.rows_list, strict=True)):
+                    code = int(tail[n_ch + c])
+                    if code != ABSENT:
+                        checks[ch.sensor] = ChannelCheck(
+                            ch.sensor, screen[i0:i1], screen[n_rows + i0:n_rows + i1],
+                            tail[c], ch.gate, STATUS_NAMES[code])
             self._screening = checks
         return self._screening
 

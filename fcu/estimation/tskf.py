@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 from numba import njit
@@ -262,15 +261,35 @@ def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: 
     return x_hat, p_diag
 
 
+# ---- the filter's workspace (tskf_tick): one float array, these offsets --------------------
+N, G = STATE_DIM, N_MOTORS
+MAX_M = STATE_DIM  # measurement rows of one update at the most
+_XB = 0  # x_bar (N)
+_PX = _XB + N  # P^x (N x N, row-major)
+_PG = _PX + N * N  # P^gamma (G x G)
+_V = _PG + G * G  # V (N x G)
+_PRIOR = _V + N * G  # the same four, priors
+_RES = 2 * _PRIOR  # residual r (m)
+_RES_COV = _RES + MAX_M  # S_bar (m x m)
+_INN = _RES_COV + MAX_M * MAX_M  # innovation r - H gamma (m)
+_INN_COV = _INN + MAX_M  # its covariance (m x m)
+WORK_SIZE = _INN_COV + MAX_M * MAX_M
+
+
 @njit(cache=True, error_model="numpy")
-def tskf_tick(n_steps: int, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
-              gamma: FloatArray, p_gamma: FloatArray, v: FloatArray, on_ground: bool,
-              accel_power: float, a_d: FloatArray, b_d: FloatArray, g_d: FloatArray,
-              q_d: FloatArray, q_gamma: float, ground: FloatArray, dt_s: float,
-              meas: FloatArray, time_s: float, excluded: np.ndarray, reject: bool,
-              sel_stack: FloatArray, sel_a: FloatArray, sel_b: FloatArray, sel_g: FloatArray,
-              mapped: np.ndarray, layout: np.ndarray, noise: FloatArray
-              ) -> tuple[Any, ...]:
+def _store(work: FloatArray, at: int, arr: FloatArray) -> None:
+    """Write ``arr`` (any shape, row-major) into ``work`` from ``at``."""
+    work[at:at + arr.size] = arr.ravel()
+
+
+@njit(cache=True, error_model="numpy")
+def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
+              on_ground: bool, accel_power: float, a_d: FloatArray, b_d: FloatArray,
+              g_d: FloatArray, q_d: FloatArray, q_gamma: float, ground: FloatArray,
+              dt_s: float, meas: FloatArray, time_s: float, excluded: np.ndarray,
+              reject: bool, sel_stack: FloatArray, sel_a: FloatArray, sel_b: FloatArray,
+              sel_g: FloatArray, mapped: np.ndarray, layout: np.ndarray, noise: FloatArray
+              ) -> tuple[FloatArray, FloatArray, FloatArray, bool, float, int]:
     """One tick of the TSKF in one compiled call (class and module docstrings).
 
     ``n_steps`` time updates (:func:`tskf_predict`, each with the flight or ground model by
@@ -284,8 +303,13 @@ def tskf_tick(n_steps: int, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
         Time updates of ``dt_s`` since the previous tick.
     u : ndarray, shape (4,)
         PWM held over them.
-    x_bar, p_x, gamma, p_gamma, v : ndarrays
-        Posteriors of the previous tick (eq. 6.13, 6.14, 6.18, 6.19, 6.24).
+    work : ndarray, shape (WORK_SIZE,)
+        The filter's workspace, updated in place: read are the previous posteriors
+        ``x_bar``, ``P^x``, ``P^gamma``, ``V`` (eq. 6.14, 6.18, 6.19, 6.24); written are the
+        new ones, the priors (eq. 6.11, 6.15, 6.16, 6.22), and the update's residual,
+        ``S_bar``, innovation and its covariance (first ``m`` rows).
+    gamma : ndarray, shape (4,)
+        ``gamma_hat`` of the previous tick (eq. 6.13).
     on_ground : bool
         The previous time update's ground flag (kept when ``n_steps`` is 0).
     accel_power : float
@@ -306,17 +330,15 @@ def tskf_tick(n_steps: int, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
 
     Returns
     -------
-    x_bar, p_x, gamma, p_gamma, v
-        Posteriors.
-    x_bar_prior, p_x_prior, p_gamma_prior, v_prior, on_ground, accel_power
-        Priors, the ground flag, the innovation power.
-    nu_stack, var_stack, nis, status
-        The screening.
-    residual, residual_cov, innovation, innovation_cov
-        Of the update (size 0 without one): :func:`tskf_correct`.
-    x_hat, p_diag
-        The estimate (eq. 6.25) and its covariance diagonal (eq. 6.26).
+    estimate, screen, gamma, on_ground, accel_power, m
+        ``x_hat`` (eq. 6.25) and the diagonal of its covariance (eq. 6.26), shape (32,); the
+        screening; ``gamma_hat`` (fresh arrays); the ground flag; the innovation power; the
+        rows of the update (0: none).
     """
+    x_bar = work[_XB:_XB + N].copy()
+    p_x = work[_PX:_PX + N * N].reshape(N, N).copy()
+    p_gamma = work[_PG:_PG + G * G].reshape(G, G).copy()
+    v = work[_V:_V + N * G].reshape(N, G).copy()
     for _ in range(n_steps):
         # x_hat = x_bar + V gamma_hat (eq. 6.25): the ground test picks the model
         on_ground = on_ground_at(x_bar + v @ gamma, ground)
@@ -325,11 +347,13 @@ def tskf_tick(n_steps: int, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
         x_bar, p_x, p_gamma, v = tskf_predict(a_d[g], b_d[g], g_d[g], q_d[g],
                                               0.0 if on_ground else q_gamma, u, x_bar, p_x,
                                               gamma, p_gamma, v)
-    x_bar_prior, p_x_prior, p_gamma_prior, v_prior = (x_bar.copy(), p_x.copy(),
-                                                      p_gamma.copy(), v.copy())
+    _store(work, _PRIOR + _XB, x_bar)
+    _store(work, _PRIOR + _PX, p_x)
+    _store(work, _PRIOR + _PG, p_gamma)
+    _store(work, _PRIOR + _V, v)
     # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
     # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
-    nu_stack, var_stack, nis, status = screen_channels(
+    screen, status = screen_channels(
         x_bar + v @ gamma, v @ p_gamma @ v.T + p_x, meas, sel_stack, layout, noise, excluded,
         on_ground, reject)
     n_ch = layout.shape[0]
@@ -340,19 +364,13 @@ def tskf_tick(n_steps: int, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
             if layout[c, IS_ACCEL] != 0:
                 # the accelerometer's innovation power nu^2: fast attack (2 s), slow decay
                 # (20 s); what its measurement noise becomes when larger than the model's
-                sq = nu_stack[layout[c, ROW0]] ** 2
+                sq = screen[layout[c, ROW0]] ** 2
                 rate = dt_s / (2.0 if sq > accel_power else 20.0)
                 accel_power += rate * (sq - accel_power)
-    if m == 0:
-        residual = np.zeros(0)
-        residual_cov = np.zeros((0, 0))
-        innovation = np.zeros(0)
-        innovation_cov = np.zeros((0, 0))
-    else:
+    if m > 0:
         g = 1 if on_ground else 0
-        n = x_bar.shape[0]
-        sel = np.empty((m, n))
-        sel_ac = np.empty((m, n))
+        sel = np.empty((m, N))
+        sel_ac = np.empty((m, N))
         row_delta = np.empty(m)
         y = np.empty(m)
         r_diag = np.empty(m)
@@ -385,11 +403,20 @@ def tskf_tick(n_steps: int, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
         (x_bar, p_x, gamma, p_gamma, v, residual_cov, innovation, innovation_cov,
          residual) = tskf_correct(sel, sel_ac, row_delta, y, r_diag, yaw_row, x_bar, p_x,
                                   gamma, p_gamma, v)
+        _store(work, _RES, residual)
+        _store(work, _RES_COV, residual_cov)
+        _store(work, _INN, innovation)
+        _store(work, _INN_COV, innovation_cov)
+    _store(work, _XB, x_bar)
+    _store(work, _PX, p_x)
+    _store(work, _PG, p_gamma)
+    _store(work, _V, v)
     # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
     x_hat, p_diag = tskf_output(x_bar, p_x, gamma, p_gamma, v)
-    return (x_bar, p_x, gamma, p_gamma, v, x_bar_prior, p_x_prior, p_gamma_prior, v_prior,
-            on_ground, accel_power, nu_stack, var_stack, nis, status, residual, residual_cov,
-            innovation, innovation_cov, x_hat, p_diag)
+    estimate = np.empty(2 * N)
+    estimate[:N] = x_hat
+    estimate[N:] = p_diag
+    return estimate, screen, gamma.copy(), on_ground, accel_power, m
 
 
 FLYING_ACCEL_MODEL_SIGMA = 0.4  # m/s^2, accelerometer model error of the TSKF that flies
@@ -443,6 +470,7 @@ class TwoStageKalmanFilter(TickEstimator):
 
     Attributes
     ----------
+    (Read-only; the arrays are copies of the filter's workspace.)
     x_bar, P_x : ndarrays, shapes (16,), (16, 16)
         Bias-free filter's posterior (eq. 6.18, 6.19).
     gamma_raw, P_gamma : ndarrays, shapes (4,), (4, 4)
@@ -527,24 +555,19 @@ class TwoStageKalmanFilter(TickEstimator):
         x0, p0 = self._initial_state(initial)
         self._time_s = float(time_s)
         self._accel_power = 0.0  # (m/s^2)^2, measured innovation power of the accelerometer
-        # bias-free filter: x_bar, P^x (eq. 6.15-6.19)
-        self.x_bar = x0.astype(float)
-        self.P_x = np.diag(p0)
-        # bias filter: gamma_hat, P^gamma (eq. 6.10-6.14)
+        # bias-free filter x_bar, P^x (eq. 6.15-6.19), bias filter P^gamma (eq. 6.10-6.14),
+        # coupling V_{k|k} (eq. 6.24), their priors and the update's residual and innovation,
+        # as tskf_tick keeps them (read through the properties below)
+        self._work = np.zeros(WORK_SIZE)
+        for at in (0, _PRIOR):
+            self._work[at + _XB:at + _XB + N] = x0
+            self._work[at + _PX:at + _PX + N * N] = np.diag(p0).ravel()
+            self._work[at + _PG:at + _PG + G * G] = (np.eye(G) * self.gamma_std0 ** 2).ravel()
+            # V = 0: the initial state and gamma are uncorrelated
+        self._m = 0  # rows of the latest update
+        # gamma_hat (eq. 6.13), unclipped
         self.gamma_raw = (np.zeros(N_MOTORS) if gamma0 is None
                           else np.array(gamma0, dtype=float).reshape(N_MOTORS))
-        self.P_gamma = np.eye(N_MOTORS) * self.gamma_std0 ** 2
-        # coupling V_{k|k} (eq. 6.24); zero: the initial state and gamma are uncorrelated
-        self.V = np.zeros((STATE_DIM, N_MOTORS))
-        # priors and the last update's quantities, kept for inspection
-        self.x_bar_prior = self.x_bar.copy()
-        self.P_x_prior = self.P_x.copy()
-        self.P_gamma_prior = self.P_gamma.copy()
-        self.V_prior = self.V.copy()
-        self.residual = np.zeros(0)  # r_{k+1} = y - C x_bar_{k+1|k}
-        self.residual_cov = np.zeros((0, 0))  # S_bar_{k+1} (eq. 6.20)
-        self.innovation = np.zeros(0)  # r - H gamma_hat_{k+1|k}: full-state innovation
-        self.innovation_cov = np.zeros((0, 0))  # H P^gamma H' + S_bar
         self.on_ground = False
         x_hat, p_diag = tskf_output(self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V)
         self._estimate = StateEstimate._from_owned(self._time_s, x_hat, p_diag)
@@ -564,16 +587,80 @@ class TwoStageKalmanFilter(TickEstimator):
                              f"{self.dt_s} s and was last stepped at {self._time_s!r} s; "
                              "call it at whole multiples of dt_s")
         cs = self._sets[self._height_source]
-        (self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V, self.x_bar_prior,
-         self.P_x_prior, self.P_gamma_prior, self.V_prior, self.on_ground, self._accel_power,
-         nu_stack, var_stack, nis, status, self.residual, self.residual_cov, self.innovation,
-         self.innovation_cov, x_hat, p_diag) = tskf_tick(
-            n_steps, u, self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V,
-            self.on_ground, self._accel_power, self._a_d, self._b_d, self._g_d, self._q_d,
-            self.q_gamma, self._ground, self.dt_s, meas, time_s, excluded, reject,
-            cs.sel_stack, cs.sel_a, cs.sel_b, cs.sel_g, cs.mapped, cs.layout, cs.noise)
-        self._keep_screening(cs, nu_stack, var_stack, nis, status)
-        return x_hat, p_diag
+        estimate, screen, self.gamma_raw, self.on_ground, self._accel_power, self._m = (
+            tskf_tick(n_steps, u, self._work, self.gamma_raw, self.on_ground,
+                      self._accel_power, self._a_d, self._b_d, self._g_d, self._q_d,
+                      self.q_gamma, self._ground, self.dt_s, meas, time_s, excluded, reject,
+                      cs.sel_stack, cs.sel_a, cs.sel_b, cs.sel_g, cs.mapped, cs.layout,
+                      cs.noise))
+        self._keep_screening(cs, screen)
+        return estimate[:N], estimate[N:]
+
+    # ---- the workspace, read (copies) ------------------------------------------------------
+    def _read(self, at: int, *shape: int) -> FloatArray:
+        size = int(np.prod(shape))
+        return self._work[at:at + size].reshape(shape).copy()
+
+    @property
+    def x_bar(self) -> FloatArray:
+        """Bias-free filter's posterior ``x_bar_{k|k}`` (eq. 6.18), shape (16,)."""
+        return self._read(_XB, N)
+
+    @property
+    def P_x(self) -> FloatArray:  # noqa: N802 (filter notation)
+        """Bias-free filter's posterior ``P^x_{k|k}`` (eq. 6.19), shape (16, 16)."""
+        return self._read(_PX, N, N)
+
+    @property
+    def P_gamma(self) -> FloatArray:  # noqa: N802 (filter notation)
+        """Bias filter's posterior ``P^gamma_{k|k}`` (eq. 6.14), shape (4, 4)."""
+        return self._read(_PG, G, G)
+
+    @property
+    def V(self) -> FloatArray:  # noqa: N802 (filter notation)
+        """Coupling ``V_{k|k}`` (eq. 6.24), shape (16, 4)."""
+        return self._read(_V, N, G)
+
+    @property
+    def x_bar_prior(self) -> FloatArray:
+        """The latest time update's ``x_bar_{k+1|k}`` (eq. 6.15)."""
+        return self._read(_PRIOR + _XB, N)
+
+    @property
+    def P_x_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
+        """The latest time update's ``P^x_{k+1|k}`` (eq. 6.16)."""
+        return self._read(_PRIOR + _PX, N, N)
+
+    @property
+    def P_gamma_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
+        """The latest time update's ``P^gamma_{k+1|k}`` (eq. 6.11)."""
+        return self._read(_PRIOR + _PG, G, G)
+
+    @property
+    def V_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
+        """The latest time update's ``V_{k+1|k}`` (eq. 6.22)."""
+        return self._read(_PRIOR + _V, N, G)
+
+    @property
+    def residual(self) -> FloatArray:
+        """``r_{k+1} = y - C x_bar_{k+1|k}`` of the latest update, shape (m,)."""
+        return self._read(_RES, self._m)
+
+    @property
+    def residual_cov(self) -> FloatArray:
+        """``S_bar_{k+1}`` (eq. 6.20) of the latest update, shape (m, m)."""
+        return self._read(_RES_COV, self._m, self._m)
+
+    @property
+    def innovation(self) -> FloatArray:
+        """``r - H gamma_hat_{k+1|k}`` of the latest update (the augmented filter's
+        innovation), shape (m,)."""
+        return self._read(_INN, self._m)
+
+    @property
+    def innovation_cov(self) -> FloatArray:
+        """Its covariance ``H P^gamma H' + S_bar``, shape (m, m)."""
+        return self._read(_INN_COV, self._m, self._m)
 
     # ---- inspection ------------------------------------------------------------------------
     @property
@@ -611,18 +698,19 @@ class TwoStageKalmanFilter(TickEstimator):
         ``H P^gamma H' + S_bar`` (the augmented filter's innovation), with each block's NIS
         ``nu' S^-1 nu``. Computed on request."""
         out: dict[str, Innovation] = {}
-        if self.innovation.size == 0 or self._screen_out is None:
+        if self._m == 0 or self._screen_out is None:
             return out
         # the update stacks the applied channels' rows in update order
-        cs, _, _, _, status = self._screen_out
+        cs = self._screen_out[0]
         blocks: list[tuple[str, int, int]] = []
-        for c, code in enumerate(status):
+        for c, code in enumerate(self._statuses()):
             if code == APPLIED:
                 i0 = blocks[-1][2] if blocks else 0
                 blocks.append((cs.sensors[c], i0, i0 + cs.channels[c].rows))
+        innovation, innovation_cov = self.innovation, self.innovation_cov
         for name, i0, i1 in blocks:
-            blk = self.innovation_cov[i0:i1, i0:i1].copy()
-            res = self.innovation[i0:i1].copy()
+            blk = innovation_cov[i0:i1, i0:i1].copy()
+            res = innovation[i0:i1].copy()
             out[name] = Innovation(name, self._time_s, res, blk,
                                    float(res @ np.linalg.solve(blk, res)))
         return out
