@@ -228,8 +228,7 @@ class SampleBatch:
 
 @njit(cache=True, error_model="numpy")
 def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: FloatArray,
-                        slot_of: np.ndarray, axes: np.ndarray, yaw_slot: int
-                        ) -> tuple[FloatArray, FloatArray, np.ndarray, np.ndarray]:
+                        slot_of: np.ndarray, axes: np.ndarray, yaw_slot: int) -> FloatArray:
     """Average a tick's samples per kind (:func:`group_samples`), compiled.
 
     Parameters
@@ -249,14 +248,16 @@ def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: Fl
 
     Returns
     -------
-    mean, mean_time_s, count, first
-        Per slot: the mean value (yaw averaged as offsets from the first reading, wrapped to
-        [-pi, pi)), shape (n_slots, w); the mean time; the samples averaged (samples with a
-        non-finite value are dropped); the index of its first sample (-1: none).
+    ndarray, shape (n_slots, w + 3)
+        Per slot (row): the mean value (yaw averaged as offsets from the first reading,
+        wrapped to [-pi, pi)), the mean time (s), the samples averaged (samples with a
+        non-finite value are dropped) and the index of its first sample (-1: none).
     """
     n_slots = axes.shape[0]
-    mean = np.zeros((n_slots, values.shape[1]))
-    time_sum = np.zeros(n_slots)
+    w = values.shape[1]
+    out = np.zeros((n_slots, w + 3))
+    mean = out[:, :w]
+    time_sum = out[:, w]
     count = np.zeros(n_slots, dtype=np.int64)
     first = np.full(n_slots, -1, dtype=np.int64)
     yaw0 = 0.0
@@ -293,7 +294,9 @@ def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: Fl
             mean[s, 2] = (mean[s, 2] + math.pi) % (2.0 * math.pi) - math.pi
         if count[s] > 0:
             time_sum[s] /= count[s]
-    return mean, time_sum, count, first
+    out[:, w + 1] = count
+    out[:, w + 2] = first
+    return out
 
 
 @functools.lru_cache(maxsize=64)
@@ -339,12 +342,12 @@ def group_samples(samples: Iterable[SensorSampleLike],
         index, times, values = arrays.sensor_index, arrays.time_s, arrays.values
     else:
         index, times, values, slot_of, axes, yaw_slot, names = _sample_arrays(samples, kinds)
-    mean, mean_time, count, first = group_sample_arrays(index, times, values, slot_of, axes,
-                                                        yaw_slot)
-    first_l = first.tolist()
-    order = sorted((j, s) for s, j in enumerate(first_l) if j >= 0)
-    mean_time_l, count_l, axes_l = mean_time.tolist(), count.tolist(), axes.tolist()
-    return {names[s]: SampleBatch(mean[s, :axes_l[s]], mean_time_l[s], count_l[s])
+    out = group_sample_arrays(index, times, values, slot_of, axes, yaw_slot)
+    w = out.shape[1] - 3
+    rows = out.tolist()
+    order = sorted((row[w + 2], s) for s, row in enumerate(rows) if row[w + 1] > 0)
+    axes_l = axes.tolist()
+    return {names[s]: SampleBatch(out[s, :axes_l[s]], rows[s][w], int(rows[s][w + 1]))
             for _, s in order}
 
 
