@@ -29,6 +29,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from numba import njit
 
+from fcu.estimation import estimator as frame
 from fcu.estimation.ekf_model import (
     discrete_transition,
     model_derivative,
@@ -36,31 +37,16 @@ from fcu.estimation.ekf_model import (
     pack_params,
 )
 from fcu.estimation.estimator import (
-    APPLIED,
-    COUNT,
-    MODEL_VAR,
-    ROW0,
-    ROW1,
-    SAMPLE_VAR,
-    TIME,
-    VALUE,
-    WRAP_YAW,
     Channel,
     ChannelSet,
-    ProcessNoiseDensities,
-    TickEstimator,
-    on_ground_at,
-    screen_channels,
-)
-from fcu.estimation.state import (
-    STATE_DIM,
-    YAW_INDEX,
-    FloatArray,
     InitialUncertainty,
     Innovation,
+    ProcessNoiseDensities,
     SensorNoise,
     StateEstimate,
+    TickEstimator,
 )
+from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
 
 
@@ -196,7 +182,7 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
     n_ch = layout.shape[0]
     m_max = 1
     for c in range(n_ch):
-        m_max = max(m_max, layout[c, ROW1] - layout[c, ROW0])
+        m_max = max(m_max, layout[c, frame.ROW1] - layout[c, frame.ROW0])
     y_stack = np.zeros(z_stack.shape[0])
     s_stack = np.zeros((n_ch, m_max, m_max))
     nis = np.zeros(n_ch)
@@ -206,15 +192,15 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
     for c in range(n_ch):
         if counts[c] <= 0:
             continue
-        i0, i1 = layout[c, ROW0], layout[c, ROW1]
+        i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
         m = i1 - i0
         # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
         r_mat = np.zeros((m, m))
         for i in range(m):
-            r_mat[i, i] = noise[c, SAMPLE_VAR] / counts[c] + noise[c, MODEL_VAR]
+            r_mat[i, i] = frame.noise_var(noise, c, counts[c])
         x, p_mat, y, s_mat, s_inv, k_gain, nis[c] = channel_update(
             x, p_mat, z_stack[i0:i1].copy(), np.ascontiguousarray(sel_stack[i0:i1]),
-            deltas[c], u, p, on_ground, r_mat, layout[c, WRAP_YAW] != 0)
+            deltas[c], u, p, on_ground, r_mat, layout[c, frame.WRAP_YAW] != 0)
         y_stack[i0:i1] = y
         s_stack[c, :m, :m] = s_mat
         last = c
@@ -291,7 +277,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
     if predicted:
         # a longer gap than dt_max: several equal RK4 steps
         n_sub = max(1, math.ceil(dt / dt_max - 1e-6))
-        on_ground = on_ground_at(x, ground)
+        on_ground = frame.on_ground_at(x, ground)
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
             x, f_mat, q_mat, p_mat = predict_covariance(x, p_mat, u, dt / n_sub, p, on_ground,
@@ -301,19 +287,19 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
     work[_X_PRIOR:_X_PRIOR + N] = x
     work[_P_PRIOR:_P_PRIOR + NN] = p_mat.ravel()
     # screened against the prior; on the ground the accelerometer is skipped
-    screen, status = screen_channels(x, p_mat, meas, sel_stack, layout, noise, excluded,
+    screen, status = frame.screen_channels(x, p_mat, meas, sel_stack, layout, noise, excluded,
                                      on_ground, reject)
     n_ch = layout.shape[0]
     counts = np.zeros(n_ch, dtype=np.int64)
     deltas = np.zeros(n_ch)
     z_stack = np.zeros(sel_stack.shape[0])
     for c in range(n_ch):
-        if status[c] == APPLIED:
-            counts[c] = int(meas[c, COUNT])
+        if status[c] == frame.APPLIED:
+            counts[c] = int(meas[c, frame.COUNT])
             # s, how long before the tick the batch was taken
-            deltas[c] = time_s - meas[c, TIME]
-            i0, i1 = layout[c, ROW0], layout[c, ROW1]
-            z_stack[i0:i1] = meas[c, VALUE:VALUE + i1 - i0]
+            deltas[c] = time_s - meas[c, frame.TIME]
+            i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
+            z_stack[i0:i1] = meas[c, frame.VALUE:frame.VALUE + i1 - i0]
     # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
     # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
     x, p_mat, y_stack, s_all, nis, s_inv, k_gain, last = sequential_updates(

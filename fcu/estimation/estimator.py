@@ -44,6 +44,7 @@ from fcu.estimation.state import (
     Z_INDEX,
     FloatArray,
     InitialUncertainty,
+    Innovation,
     SampleBatch,
     SensorNoise,
     StateEstimate,
@@ -125,6 +126,14 @@ MEAS_WIDTH = 5
 
 
 @njit(cache=True, error_model="numpy")
+def noise_var(noise: FloatArray, c: int, count: float) -> float:
+    """Channel ``c``'s ``R`` (per axis) for the mean of ``count`` samples (``noise``: a
+    :class:`ChannelSet`'s)."""
+    # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
+    return noise[c, SAMPLE_VAR] / count + noise[c, MODEL_VAR]
+
+
+@njit(cache=True, error_model="numpy")
 def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
     """The ground holds a vehicle in state ``x``: within the ground margin of the ground plane
     with its thrust below its weight. ``ground`` = [ground plane present (0/1), plane z minus
@@ -181,8 +190,7 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
         if count <= 0.0:
             continue
         i0, i1 = layout[c, ROW0], layout[c, ROW1]
-        # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
-        r_var = noise[c, SAMPLE_VAR] / count + noise[c, MODEL_VAR]
+        r_var = noise_var(noise, c, count)
         # nu = z - S x;  diag(S P S' + R);  NIS = nu' (S P S' + R)^-1 nu
         nu, var, nis[c] = screen_channel(
             np.ascontiguousarray(sel_stack[i0:i1]), meas[c, VALUE:VALUE + i1 - i0].copy(),
@@ -564,3 +572,24 @@ class TickEstimator:
     def sensor_kinds(self) -> frozenset[str]:
         """The sensor kinds this estimator uses (samples of other kinds are ignored)."""
         return self._kinds
+
+
+__all__ = [
+    # the frame
+    "ChannelCheck",
+    "ChannelSet",
+    "Channel",
+    "ProcessNoiseDensities",
+    "TickEstimator",
+    "common_channels",
+    "noise_var",
+    "on_ground_at",
+    "screen_channel",
+    "screen_channels",
+    "selection",
+    # what an estimator built on it takes and returns (from fcu.estimation.state)
+    "InitialUncertainty",
+    "Innovation",
+    "SensorNoise",
+    "StateEstimate",
+]

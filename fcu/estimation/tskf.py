@@ -39,32 +39,17 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from fcu.estimation import estimator as frame
 from fcu.estimation.estimator import (
-    APPLIED,
-    COUNT,
-    IS_ACCEL,
-    MODEL_VAR,
-    ROW0,
-    ROW1,
-    SAMPLE_VAR,
-    TIME,
-    VALUE,
-    WRAP_YAW,
     Channel,
     ChannelSet,
-    TickEstimator,
-    on_ground_at,
-    screen_channels,
-)
-from fcu.estimation.state import (
-    STATE_DIM,
-    YAW_INDEX,
-    FloatArray,
     InitialUncertainty,
     Innovation,
     SensorNoise,
     StateEstimate,
+    TickEstimator,
 )
+from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.estimation.tskf_model import (
     N_MOTORS,
     LinearHoverModel,
@@ -341,7 +326,7 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
     v = work[_V:_V + N * G].reshape(N, G).copy()
     for _ in range(n_steps):
         # x_hat = x_bar + V gamma_hat (eq. 6.25): the ground test picks the model
-        on_ground = on_ground_at(x_bar + v @ gamma, ground)
+        on_ground = frame.on_ground_at(x_bar + v @ gamma, ground)
         g = 1 if on_ground else 0
         # eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22; Q^gamma = 0 on the ground
         x_bar, p_x, p_gamma, v = tskf_predict(a_d[g], b_d[g], g_d[g], q_d[g],
@@ -353,18 +338,18 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
     _store(work, _PRIOR + _V, v)
     # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
     # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
-    screen, status = screen_channels(
+    screen, status = frame.screen_channels(
         x_bar + v @ gamma, v @ p_gamma @ v.T + p_x, meas, sel_stack, layout, noise, excluded,
         on_ground, reject)
     n_ch = layout.shape[0]
     m = 0
     for c in range(n_ch):
-        if status[c] == APPLIED:
-            m += layout[c, ROW1] - layout[c, ROW0]
-            if layout[c, IS_ACCEL] != 0:
+        if status[c] == frame.APPLIED:
+            m += layout[c, frame.ROW1] - layout[c, frame.ROW0]
+            if layout[c, frame.IS_ACCEL] != 0:
                 # the accelerometer's innovation power nu^2: fast attack (2 s), slow decay
                 # (20 s); what its measurement noise becomes when larger than the model's
-                sq = screen[layout[c, ROW0]] ** 2
+                sq = screen[layout[c, frame.ROW0]] ** 2
                 rate = dt_s / (2.0 if sq > accel_power else 20.0)
                 accel_power += rate * (sq - accel_power)
     if m > 0:
@@ -377,14 +362,14 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
         yaw_row = -1
         k = 0
         for c in range(n_ch):
-            if status[c] != APPLIED:
+            if status[c] != frame.APPLIED:
                 continue
-            i0, i1 = layout[c, ROW0], layout[c, ROW1]
+            i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
             # C = S (I - delta A_c): the rows mapped back to the batch's mean sample time
-            delta = time_s - meas[c, TIME]
+            delta = time_s - meas[c, frame.TIME]
             # R = sigma^2 / n for the mean of n samples (+ model error)
-            r_var = noise[c, SAMPLE_VAR] / meas[c, COUNT] + noise[c, MODEL_VAR]
-            if layout[c, IS_ACCEL] != 0 and accel_power > r_var:
+            r_var = frame.noise_var(noise, c, meas[c, frame.COUNT])
+            if layout[c, frame.IS_ACCEL] != 0 and accel_power > r_var:
                 r_var = accel_power  # adaptive: the measured innovation power (class doc)
             shift = np.zeros(i1 - i0)
             if mapped[c]:
@@ -394,9 +379,11 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
                 sel[k] = sel_stack[i0 + i]
                 sel_ac[k] = sel_a[g, i0 + i]
                 row_delta[k] = delta
-                y[k] = meas[c, VALUE + i] + shift[i] if mapped[c] else meas[c, VALUE + i]
+                y[k] = meas[c, frame.VALUE + i]
+                if mapped[c]:
+                    y[k] += shift[i]
                 r_diag[k] = r_var
-                if layout[c, WRAP_YAW] != 0 and i == 2:
+                if layout[c, frame.WRAP_YAW] != 0 and i == 2:
                     yaw_row = k
                 k += 1
         # r = y - C x_bar (yaw wrapped); eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24 (tskf_update)
@@ -417,6 +404,14 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
     estimate[:N] = x_hat
     estimate[N:] = p_diag
     return estimate, screen, gamma.copy(), on_ground, accel_power, m
+
+
+def _workspace_array(at: int, shape: tuple[int | str, ...], doc: str) -> property:
+    """A read-only attribute of :class:`TwoStageKalmanFilter`: the array of ``shape`` kept in
+    its workspace from ``at`` (a copy; ``"m"`` in ``shape``: the latest update's rows)."""
+    def read(self: TwoStageKalmanFilter) -> FloatArray:
+        return self._read(at, shape)
+    return property(read, doc=doc)
 
 
 FLYING_ACCEL_MODEL_SIGMA = 0.4  # m/s^2, accelerometer model error of the TSKF that flies
@@ -597,70 +592,24 @@ class TwoStageKalmanFilter(TickEstimator):
         return estimate[:N], estimate[N:]
 
     # ---- the workspace, read (copies) ------------------------------------------------------
-    def _read(self, at: int, *shape: int) -> FloatArray:
-        size = int(np.prod(shape))
-        return self._work[at:at + size].reshape(shape).copy()
+    def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:
+        """The array of ``shape`` (``"m"``: the latest update's rows) stored in the workspace
+        from ``at``, a copy."""
+        dims = tuple(self._m if d == "m" else int(d) for d in shape)
+        return self._work[at:at + int(np.prod(dims))].reshape(dims).copy()
 
-    @property
-    def x_bar(self) -> FloatArray:
-        """Bias-free filter's posterior ``x_bar_{k|k}`` (eq. 6.18), shape (16,)."""
-        return self._read(_XB, N)
-
-    @property
-    def P_x(self) -> FloatArray:  # noqa: N802 (filter notation)
-        """Bias-free filter's posterior ``P^x_{k|k}`` (eq. 6.19), shape (16, 16)."""
-        return self._read(_PX, N, N)
-
-    @property
-    def P_gamma(self) -> FloatArray:  # noqa: N802 (filter notation)
-        """Bias filter's posterior ``P^gamma_{k|k}`` (eq. 6.14), shape (4, 4)."""
-        return self._read(_PG, G, G)
-
-    @property
-    def V(self) -> FloatArray:  # noqa: N802 (filter notation)
-        """Coupling ``V_{k|k}`` (eq. 6.24), shape (16, 4)."""
-        return self._read(_V, N, G)
-
-    @property
-    def x_bar_prior(self) -> FloatArray:
-        """The latest time update's ``x_bar_{k+1|k}`` (eq. 6.15)."""
-        return self._read(_PRIOR + _XB, N)
-
-    @property
-    def P_x_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
-        """The latest time update's ``P^x_{k+1|k}`` (eq. 6.16)."""
-        return self._read(_PRIOR + _PX, N, N)
-
-    @property
-    def P_gamma_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
-        """The latest time update's ``P^gamma_{k+1|k}`` (eq. 6.11)."""
-        return self._read(_PRIOR + _PG, G, G)
-
-    @property
-    def V_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
-        """The latest time update's ``V_{k+1|k}`` (eq. 6.22)."""
-        return self._read(_PRIOR + _V, N, G)
-
-    @property
-    def residual(self) -> FloatArray:
-        """``r_{k+1} = y - C x_bar_{k+1|k}`` of the latest update, shape (m,)."""
-        return self._read(_RES, self._m)
-
-    @property
-    def residual_cov(self) -> FloatArray:
-        """``S_bar_{k+1}`` (eq. 6.20) of the latest update, shape (m, m)."""
-        return self._read(_RES_COV, self._m, self._m)
-
-    @property
-    def innovation(self) -> FloatArray:
-        """``r - H gamma_hat_{k+1|k}`` of the latest update (the augmented filter's
-        innovation), shape (m,)."""
-        return self._read(_INN, self._m)
-
-    @property
-    def innovation_cov(self) -> FloatArray:
-        """Its covariance ``H P^gamma H' + S_bar``, shape (m, m)."""
-        return self._read(_INN_COV, self._m, self._m)
+    x_bar = _workspace_array(_XB, (N,), "Bias-free filter's ``x_bar_{k|k}`` (eq. 6.18).")
+    P_x = _workspace_array(_PX, (N, N), "Bias-free filter's ``P^x_{k|k}`` (eq. 6.19).")
+    P_gamma = _workspace_array(_PG, (G, G), "Bias filter's ``P^gamma_{k|k}`` (eq. 6.14).")
+    V = _workspace_array(_V, (N, G), "Coupling ``V_{k|k}`` (eq. 6.24).")
+    x_bar_prior = _workspace_array(_PRIOR + _XB, (N,), "``x_bar_{k+1|k}`` (eq. 6.15).")
+    P_x_prior = _workspace_array(_PRIOR + _PX, (N, N), "``P^x_{k+1|k}`` (eq. 6.16).")
+    P_gamma_prior = _workspace_array(_PRIOR + _PG, (G, G), "``P^gamma_{k+1|k}`` (eq. 6.11).")
+    V_prior = _workspace_array(_PRIOR + _V, (N, G), "``V_{k+1|k}`` (eq. 6.22).")
+    residual = _workspace_array(_RES, ("m",), "``r_{k+1} = y - C x_bar_{k+1|k}``.")
+    residual_cov = _workspace_array(_RES_COV, ("m", "m"), "``S_bar_{k+1}`` (eq. 6.20).")
+    innovation = _workspace_array(_INN, ("m",), "``r - H gamma_hat_{k+1|k}``.")
+    innovation_cov = _workspace_array(_INN_COV, ("m", "m"), "``H P^gamma H' + S_bar``.")
 
     # ---- inspection ------------------------------------------------------------------------
     @property
@@ -704,7 +653,7 @@ class TwoStageKalmanFilter(TickEstimator):
         cs = self._screen_out[0]
         blocks: list[tuple[str, int, int]] = []
         for c, code in enumerate(self._statuses()):
-            if code == APPLIED:
+            if code == frame.APPLIED:
                 i0 = blocks[-1][2] if blocks else 0
                 blocks.append((cs.sensors[c], i0, i0 + cs.channels[c].rows))
         innovation, innovation_cov = self.innovation, self.innovation_cov
