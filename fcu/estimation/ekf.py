@@ -239,11 +239,12 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
     work : ndarray, shape (WORK_SIZE,)
         The estimator's workspace (:data:`WORK`), updated in place: read are the previous
         posterior ``x``, ``P``; written are the posterior, the prior, ``F`` and ``Q`` (when
-        there is a prediction), and the updates' innovations (``y_stack``), NIS, sample
-        counts (0: not updated), measurements (``z_stack``) and the last update's ``S^-1``
-        and ``K`` (top-left blocks).
+        there is a prediction), and, when a channel was updated, the updates' innovations
+        (``y_stack``), NIS, sample counts (0: not updated), measurements (``z_stack``) and
+        the last update's ``S^-1`` and ``K`` (top-left blocks).
     s_stack : ndarray, shape (MAX_CHANNELS, MAX_ROWS, MAX_ROWS)
-        Written: each channel's innovation covariance ``S`` (top-left block).
+        Written with the updates: each channel's innovation covariance ``S`` (top-left
+        block).
     on_ground : bool
         Whether the previous prediction held the vehicle on the ground (kept when there is
         nothing to predict).
@@ -306,23 +307,24 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
         x, p_mat, u, p, on_ground, sel_stack, layout, noise, counts, deltas, z_stack)
     work[_X:_X + N] = x
     work[_P:_P + NN] = p_mat.ravel()
-    n_rows = sel_stack.shape[0]
-    work[_Y:_Y + n_rows] = y_stack
-    work[_Z:_Z + n_rows] = z_stack
-    work[_NIS:_NIS + n_ch] = nis
-    work[_COUNTS:_COUNTS + n_ch] = counts
-    m = s_inv.shape[0]
-    for i in range(m):
-        for j in range(m):
-            work[_S_INV + MAX_ROWS * i + j] = s_inv[i, j]
-    for i in range(N):
-        for j in range(m):
-            work[_K + MAX_ROWS * i + j] = k_gain[i, j]
-    s_stack[:] = 0.0
-    s_stack[:n_ch, :s_all.shape[1], :s_all.shape[2]] = s_all
-    estimate = np.empty(32)
-    estimate[:16] = x
-    estimate[16:] = np.diag(p_mat)
+    if last >= 0:  # the updates (a tick without any keeps the latest tick's that had some)
+        n_rows = sel_stack.shape[0]
+        work[_Y:_Y + n_rows] = y_stack
+        work[_Z:_Z + n_rows] = z_stack
+        work[_NIS:_NIS + n_ch] = nis
+        work[_COUNTS:_COUNTS + n_ch] = counts
+        m = s_inv.shape[0]
+        for i in range(m):
+            for j in range(m):
+                work[_S_INV + MAX_ROWS * i + j] = s_inv[i, j]
+        for i in range(N):
+            for j in range(m):
+                work[_K + MAX_ROWS * i + j] = k_gain[i, j]
+        s_stack[:] = 0.0
+        s_stack[:n_ch, :s_all.shape[1], :s_all.shape[2]] = s_all
+    estimate = np.empty(2 * N)
+    estimate[:N] = x
+    estimate[N:] = np.diag(p_mat)
     return estimate, screen, on_ground, predicted, last
 
 
@@ -517,8 +519,8 @@ class ExtendedKalmanEstimator(TickEstimator):
         w[_P:_P + NN] = w[_P_PRIOR:_P_PRIOR + NN] = np.diag(p0).ravel()
         w[_F:_F + NN] = w[_Q:_Q + NN] = np.eye(N).ravel()  # filterpy's start
         self._on_ground = False
-        self._last = -1  # the latest tick's last channel updated (-1: none)
-        self._last_update: tuple[FloatArray, ...] = ()  # (y, S, S^-1, K, z) of the last update
+        # the channels, the last channel updated and the time of the latest tick with updates
+        self._updated: tuple[ChannelSet, int, float] | None = None
         self._innovations: dict[str, Innovation] | None = {}
         self._time_s = float(time_s)
         self._estimate = StateEstimate._from_owned(self._time_s, x0.astype(float),
@@ -538,12 +540,11 @@ class ExtendedKalmanEstimator(TickEstimator):
             self._qc_diag, self._ground, meas, time_s, excluded, reject, cs.sel_stack,
             cs.layout, cs.noise)
         self._keep_screening(cs, screen)
-        # the Innovation records and the filterpy view are built on request
-        self._innovations = None
-        self._innovation_time_s = time_s
-        self._updates_of = cs
+        # the Innovation records and the filterpy view are built on request from the
+        # workspace, which holds the updates of the latest tick that had some
+        self._innovations = None if last >= 0 else {}
         if last >= 0:
-            self._last_update = self._update_parts(cs, last)
+            self._updated = (cs, last, time_s)
         return estimate[:N], estimate[N:]
 
     def _update_parts(self, cs: ChannelSet, c: int) -> tuple[FloatArray, ...]:
@@ -593,15 +594,17 @@ class ExtendedKalmanEstimator(TickEstimator):
         f.F = self._work[_F:_F + NN].reshape(N, N).copy()
         f.Q = self._work[_Q:_Q + NN].reshape(N, N).copy()
         f.step_dt_s, f.on_ground = self.dt_s, self._on_ground
-        if self._last_update:
-            f.y, f.S, f.SI, f.K, f.z = self._last_update
+        if self._updated is not None:
+            cs, last, _ = self._updated
+            f.y, f.S, f.SI, f.K, f.z = self._update_parts(cs, last)
         return f
 
     @property
     def last_innovation(self) -> Mapping[str, Innovation]:
         """Innovation, its covariance and NIS of each sensor updated at the latest tick."""
         if self._innovations is None:
-            cs = self._updates_of
+            assert self._updated is not None
+            cs, _, time_s = self._updated
             n_ch = len(cs.channels)
             counts = self._work[_COUNTS:_COUNTS + n_ch].tolist()
             nis = self._work[_NIS:_NIS + n_ch].tolist()
@@ -609,8 +612,7 @@ class ExtendedKalmanEstimator(TickEstimator):
             for c, sensor in enumerate(cs.sensors):
                 if counts[c] > 0:
                     y, s_mat, _, _, _ = self._update_parts(cs, c)
-                    self._innovations[sensor] = Innovation(sensor, self._innovation_time_s, y,
-                                                           s_mat, nis[c])
+                    self._innovations[sensor] = Innovation(sensor, time_s, y, s_mat, nis[c])
         return dict(self._innovations)
 
 
