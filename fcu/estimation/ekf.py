@@ -110,7 +110,7 @@ def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: floa
 @njit(cache=True, error_model="numpy")
 def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatArray,
                    delta: float, u: FloatArray, p: FloatArray, on_ground: bool,
-                   r_mat: FloatArray, wrap_yaw: bool
+                   r_mat: FloatArray, wrap_yaw: bool, picks: bool = False
                    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
                               FloatArray, float]:
     """One sequential measurement update of a channel ``h(x) = S (x - delta f(x, u))``.
@@ -118,7 +118,7 @@ def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatAr
     One of the estimator's sequential updates in one compiled call (module docstring,
     "Measurements"): ``H = S (I - delta A(x))`` (``S`` when ``|delta| < 1e-9``),
     ``y = z - h(x)`` (yaw wrapped when ``wrap_yaw``), :func:`kalman_update`, posterior yaw
-    wrapped, and the NIS.
+    wrapped, and the NIS (``picks``: as for :func:`~fcu.estimation.estimator.select`).
 
     Returns
     -------
@@ -127,12 +127,12 @@ def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatAr
     """
     if abs(delta) < 1e-9:
         h_mat = sel
-        hx = sel @ x
+        hx = frame.select(sel, x, picks)
     else:
         # H = S (I - delta A(x))
-        h_mat = sel - delta * (sel @ model_jacobian(x, p, on_ground))
+        h_mat = sel - delta * frame.select(sel, model_jacobian(x, p, on_ground), picks)
         # h(x) = S (x - delta f(x, u))
-        hx = sel @ (x - delta * model_derivative(x, u, p, on_ground))
+        hx = frame.select(sel, x - delta * model_derivative(x, u, p, on_ground), picks)
     # y = z - h(x)  (attitude: yaw difference wrapped)
     y = z - hx
     if wrap_yaw:
@@ -200,7 +200,8 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
             r_mat[i, i] = frame.noise_var(noise, c, counts[c])
         x, p_mat, y, s_mat, s_inv, k_gain, nis[c] = channel_update(
             x, p_mat, z_stack[i0:i1].copy(), np.ascontiguousarray(sel_stack[i0:i1]),
-            deltas[c], u, p, on_ground, r_mat, layout[c, frame.WRAP_YAW] != 0)
+            deltas[c], u, p, on_ground, r_mat, layout[c, frame.WRAP_YAW] != 0,
+            layout[c, frame.PICKS] != 0)
         y_stack[i0:i1] = y
         s_stack[c, :m, :m] = s_mat
         last = c

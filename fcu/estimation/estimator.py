@@ -95,17 +95,36 @@ class ChannelCheck:
 
 
 @njit(cache=True, error_model="numpy")
+def select(sel: FloatArray, a: FloatArray, picks: bool) -> FloatArray:
+    """``S a`` for ``a`` of shape (16,) or (16, k). ``picks``: each row of ``S`` is a single
+    entry of +-1, so the product is those entries of ``a`` (signed), which is what the
+    matrix product computes too, to the bit, without a BLAS call."""
+    if not picks:
+        return sel @ a
+    out = np.zeros((sel.shape[0],) + a.shape[1:])
+    for i in range(sel.shape[0]):
+        for k in range(sel.shape[1]):
+            if sel[i, k] != 0.0:
+                out[i] = sel[i, k] * a[k]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
 def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatArray,
-                   r_var: float, wrap_yaw: bool) -> tuple[FloatArray, FloatArray, float]:
+                   r_var: float, wrap_yaw: bool, picks: bool = False
+                   ) -> tuple[FloatArray, FloatArray, float]:
     """One channel's screening against the prior (module docstring), compiled.
 
     Returns ``nu = z - S x`` (third entry wrapped to [-pi, pi) when ``wrap_yaw``), the
-    diagonal of ``S P S' + R`` (``R = r_var I``) and ``NIS = nu' (S P S' + R)^-1 nu``.
+    diagonal of ``S P S' + R`` (``R = r_var I``) and ``NIS = nu' (S P S' + R)^-1 nu``
+    (``picks``: as for :func:`select`).
     """
-    nu = z - sel @ x
+    nu = z - select(sel, x, picks)
     if wrap_yaw:
         nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
-    s_mat = sel @ p_mat @ sel.T
+    # S P S' (picks: S (S P)' = (S P) S', each entry a product by +-1)
+    s_mat = select(sel, select(sel, p_mat, picks).T.copy(), picks).T.copy() if picks else (
+        sel @ p_mat @ sel.T)
     for i in range(s_mat.shape[0]):
         s_mat[i, i] += r_var
     nis = float(nu @ np.linalg.solve(s_mat, nu))
@@ -117,7 +136,7 @@ def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatAr
 APPLIED, REJECTED, EXCLUDED, SKIPPED, ABSENT = 0, 1, 2, 3, -1
 STATUS_NAMES: tuple[ChannelStatus, ...] = ("applied", "rejected", "excluded", "skipped")
 # columns of a ChannelSet's layout (int) and noise (float) tables, one row per channel
-ROW0, ROW1, WRAP_YAW, IS_ACCEL = 0, 1, 2, 3
+ROW0, ROW1, WRAP_YAW, IS_ACCEL, PICKS = 0, 1, 2, 3, 4
 SAMPLE_VAR, MODEL_VAR, GATE = 0, 1, 2
 # columns of a tick's measurement table (TickEstimator._measurements), one row per channel:
 # samples averaged (0: no batch), their mean time (s), the measured entries (first m used)
@@ -194,7 +213,7 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
         # nu = z - S x;  diag(S P S' + R);  NIS = nu' (S P S' + R)^-1 nu
         nu, var, nis[c] = screen_channel(
             np.ascontiguousarray(sel_stack[i0:i1]), meas[c, VALUE:VALUE + i1 - i0].copy(),
-            x, p_mat, r_var, layout[c, WRAP_YAW] != 0)
+            x, p_mat, r_var, layout[c, WRAP_YAW] != 0, layout[c, PICKS] != 0)
         nu_stack[i0:i1] = nu
         var_stack[i0:i1] = var
         if excluded[c]:
@@ -277,6 +296,9 @@ class Channel:
         self.value_slice = slice(value_index[0], value_index[-1] + 1)  # the same, as a slice
         self.rows = self.selection.shape[0]  # m
         self.wrap_yaw = sensor == "mocap_att"  # innovation's third entry is a yaw difference
+        # each row of S picks one state entry (times +-1): S x and S A are those entries
+        self.picks = bool(np.all(np.sum(self.selection != 0.0, axis=1) == 1)
+                          and np.all(np.abs(self.selection[self.selection != 0.0]) == 1.0))
         # NIS gate: chi-square quantile of m degrees of freedom at GATE_PROBABILITY
         self.gate = float(chi2.isf(GATE_PROBABILITY, self.rows))
 
@@ -313,10 +335,11 @@ class ChannelSet:
         Their sensor names.
     sel_stack : ndarray, shape (rows_total, 16)
         Every channel's ``S``, stacked in update order.
-    layout : ndarray of int, shape (n_ch, 4)
+    layout : ndarray of int, shape (n_ch, 5)
         Per channel: first and end row in ``sel_stack``, yaw in the third entry (its
-        innovation is wrapped), the accelerometer (columns ``ROW0``, ``ROW1``, ``WRAP_YAW``,
-        ``IS_ACCEL``).
+        innovation is wrapped), the accelerometer, each row of ``S`` a single entry of +-1
+        (:func:`select`) (columns ``ROW0``, ``ROW1``, ``WRAP_YAW``, ``IS_ACCEL``,
+        ``PICKS``).
     noise : ndarray, shape (n_ch, 3)
         Per channel: noise variance of one sample (divided by the count), model error
         variance (not), NIS gate (columns ``SAMPLE_VAR``, ``MODEL_VAR``, ``GATE``).
@@ -327,7 +350,8 @@ class ChannelSet:
         self.sensors = tuple(c.sensor for c in channels)
         self.sel_stack = np.ascontiguousarray(np.vstack([c.selection for c in channels]))
         ends = np.cumsum([c.rows for c in channels])
-        self.layout = np.array([(end - c.rows, end, c.wrap_yaw, c.sensor == "accel")
+        self.layout = np.array([(end - c.rows, end, c.wrap_yaw, c.sensor == "accel",
+                                 c.picks)
                                 for c, end in zip(channels, ends.tolist(), strict=True)],
                                dtype=np.int64)
         self.noise = np.array([(c.sample_var, c.model_var, c.gate) for c in channels])
@@ -586,6 +610,7 @@ __all__ = [
     "on_ground_at",
     "screen_channel",
     "screen_channels",
+    "select",
     "selection",
     # what an estimator built on it takes and returns (from fcu.estimation.state)
     "InitialUncertainty",
