@@ -42,6 +42,31 @@ class SensorSampleLike(Protocol):
     def value(self) -> np.ndarray: ...
 
 
+class SensorSampleArrays(Protocol):
+    """Structural type of a tick's samples held as arrays rather than one object each (the
+    simulator's sample batch is one); :func:`fcu.estimation.state.group_samples` reads them
+    without an object per sample."""
+
+    sensor_names: tuple[str, ...]  # the sensor names sensor_index indexes
+    sensor_axes: tuple[int, ...]  # entries of each of those sensors' values
+
+    @property
+    def sensor_index(self) -> np.ndarray:
+        """Index into ``sensor_names`` of each sample, int, shape (n,)."""
+        ...
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """Simulated time of each sample, s, shape (n,)."""
+        ...
+
+    @property
+    def values(self) -> np.ndarray:
+        """Sample values, shape (n, w); the first ``sensor_axes[sensor_index[j]]`` entries of
+        row j count."""
+        ...
+
+
 @dataclass(frozen=True, slots=True)
 class SensorSample:
     """One timestamped sensor reading (simulated time, seconds)."""

@@ -22,33 +22,32 @@ of ``n`` samples. The accelerometer's x and y axes (drag only) are not used.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Collection, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from numba import njit
-from numpy.typing import ArrayLike
 
+from fcu.estimation import estimator as frame
 from fcu.estimation.ekf_model import (
     discrete_transition,
     model_derivative,
     model_jacobian,
     pack_params,
 )
-from fcu.estimation.estimator import Channel, ProcessNoiseDensities, TickEstimator, common_channels
-from fcu.estimation.state import (
-    STATE_DIM,
-    YAW_INDEX,
-    FloatArray,
+from fcu.estimation.estimator import (
+    Channel,
+    ChannelSet,
     InitialUncertainty,
     Innovation,
-    SampleBatch,
+    ProcessNoiseDensities,
     SensorNoise,
     StateEstimate,
+    TickEstimator,
 )
+from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
-from flightdata.vocabulary import HEIGHT_SOURCES
 
 
 @njit(cache=True, error_model="numpy")
@@ -111,7 +110,7 @@ def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: floa
 @njit(cache=True, error_model="numpy")
 def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatArray,
                    delta: float, u: FloatArray, p: FloatArray, on_ground: bool,
-                   r_mat: FloatArray, wrap_yaw: bool
+                   r_mat: FloatArray, wrap_yaw: bool, picks: bool = False
                    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
                               FloatArray, float]:
     """One sequential measurement update of a channel ``h(x) = S (x - delta f(x, u))``.
@@ -119,7 +118,7 @@ def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatAr
     One of the estimator's sequential updates in one compiled call (module docstring,
     "Measurements"): ``H = S (I - delta A(x))`` (``S`` when ``|delta| < 1e-9``),
     ``y = z - h(x)`` (yaw wrapped when ``wrap_yaw``), :func:`kalman_update`, posterior yaw
-    wrapped, and the NIS.
+    wrapped, and the NIS (``picks``: as for :func:`~fcu.estimation.estimator.select`).
 
     Returns
     -------
@@ -128,12 +127,12 @@ def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatAr
     """
     if abs(delta) < 1e-9:
         h_mat = sel
-        hx = sel @ x
+        hx = frame.select(sel, x, picks)
     else:
         # H = S (I - delta A(x))
-        h_mat = sel - delta * (sel @ model_jacobian(x, p, on_ground))
+        h_mat = sel - delta * frame.select(sel, model_jacobian(x, p, on_ground), picks)
         # h(x) = S (x - delta f(x, u))
-        hx = sel @ (x - delta * model_derivative(x, u, p, on_ground))
+        hx = frame.select(sel, x - delta * model_derivative(x, u, p, on_ground), picks)
     # y = z - h(x)  (attitude: yaw difference wrapped)
     y = z - hx
     if wrap_yaw:
@@ -148,9 +147,9 @@ def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatAr
 
 @njit(cache=True, error_model="numpy")
 def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: FloatArray,
-                       on_ground: bool, sel_stack: FloatArray, rows: np.ndarray,
-                       sample_var: FloatArray, model_var: FloatArray, wrap_yaw: np.ndarray,
-                       counts: np.ndarray, deltas: FloatArray, z_stack: FloatArray
+                       on_ground: bool, sel_stack: FloatArray, layout: np.ndarray,
+                       noise: FloatArray, counts: np.ndarray, deltas: FloatArray,
+                       z_stack: FloatArray
                        ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
                                   FloatArray, FloatArray, int]:
     """A tick's sequential updates, channel after channel, each by :func:`channel_update`.
@@ -161,15 +160,11 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
         Prior state and covariance.
     u, p, on_ground
         As for :func:`channel_update`.
-    sel_stack : ndarray, shape (rows_total, 16)
-        Every channel's selection ``S``, stacked in update order.
-    rows : ndarray of int, shape (n_ch, 2)
-        First and end row of each channel in ``sel_stack`` and ``z_stack``.
-    sample_var, model_var : ndarrays, shape (n_ch,)
-        Noise variance of one sample (divided by the count) and the model error (not), so
+    sel_stack, layout, noise : ndarrays
+        The channels (:class:`~fcu.estimation.estimator.ChannelSet`): selections ``S``
+        stacked in update order, each channel's rows and yaw flag, its noise variance of one
+        sample (divided by the count) and model error (not), so
         ``R = (sample_var / count + model_var) I``.
-    wrap_yaw : ndarray of bool, shape (n_ch,)
-        The channel's third entry is a yaw (its innovation is wrapped).
     counts : ndarray of int, shape (n_ch,)
         Samples averaged into each channel's measurement; 0 = no update this tick.
     deltas : ndarray, shape (n_ch,)
@@ -184,10 +179,10 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
         top-left block of ``s_stack[c]`` (shape (n_ch, m_max, m_max)); each NIS; ``S^-1`` and
         ``K`` of the last update; the index of the last channel updated (-1: none).
     """
-    n_ch = rows.shape[0]
+    n_ch = layout.shape[0]
     m_max = 1
     for c in range(n_ch):
-        m_max = max(m_max, rows[c, 1] - rows[c, 0])
+        m_max = max(m_max, layout[c, frame.ROW1] - layout[c, frame.ROW0])
     y_stack = np.zeros(z_stack.shape[0])
     s_stack = np.zeros((n_ch, m_max, m_max))
     nis = np.zeros(n_ch)
@@ -197,19 +192,141 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
     for c in range(n_ch):
         if counts[c] <= 0:
             continue
-        i0, i1 = rows[c, 0], rows[c, 1]
+        i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
         m = i1 - i0
         # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
         r_mat = np.zeros((m, m))
         for i in range(m):
-            r_mat[i, i] = sample_var[c] / counts[c] + model_var[c]
+            r_mat[i, i] = frame.noise_var(noise, c, counts[c])
         x, p_mat, y, s_mat, s_inv, k_gain, nis[c] = channel_update(
             x, p_mat, z_stack[i0:i1].copy(), np.ascontiguousarray(sel_stack[i0:i1]),
-            deltas[c], u, p, on_ground, r_mat, wrap_yaw[c])
+            deltas[c], u, p, on_ground, r_mat, layout[c, frame.WRAP_YAW] != 0,
+            layout[c, frame.PICKS] != 0)
         y_stack[i0:i1] = y
         s_stack[c, :m, :m] = s_mat
         last = c
     return x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last
+
+
+# ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
+N = STATE_DIM
+NN = N * N
+MAX_CHANNELS, MAX_ROWS = 5, 3  # channels of a height source, rows of one channel
+_X = 0  # posterior x (N)
+_P = _X + N  # posterior P (N x N, row-major)
+_X_PRIOR = _P + NN  # prior x
+_P_PRIOR = _X_PRIOR + N  # prior P
+_F = _P_PRIOR + NN  # the latest prediction's F
+_Q = _F + NN  # and Q
+_Y = _Q + NN  # y_stack (N rows at the most)
+_Z = _Y + N  # z_stack
+_NIS = _Z + N  # per channel: NIS of its update
+_COUNTS = _NIS + MAX_CHANNELS  # samples applied (0: not updated)
+_S_INV = _COUNTS + MAX_CHANNELS  # the last update's S^-1 (m x m, row-major, stride MAX_ROWS)
+_K = _S_INV + MAX_ROWS * MAX_ROWS  # and K (N x m, stride MAX_ROWS)
+WORK_SIZE = _K + N * MAX_ROWS
+
+
+@njit(cache=True, error_model="numpy")
+def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArray, dt: float,
+             dt_max: float, p: FloatArray, qc_diag: FloatArray, ground: FloatArray,
+             meas: FloatArray, time_s: float, excluded: np.ndarray, reject: bool,
+             sel_stack: FloatArray, layout: np.ndarray, noise: FloatArray
+             ) -> tuple[FloatArray, FloatArray, bool, bool, int]:
+    """One tick of the estimator in one compiled call: predict, screen, update.
+
+    Parameters
+    ----------
+    work : ndarray, shape (WORK_SIZE,)
+        The estimator's workspace (:data:`WORK`), updated in place: read are the previous
+        posterior ``x``, ``P``; written are the posterior, the prior, ``F`` and ``Q`` (when
+        there is a prediction), and, when a channel was updated, the updates' innovations
+        (``y_stack``), NIS, sample counts (0: not updated), measurements (``z_stack``) and
+        the last update's ``S^-1`` and ``K`` (top-left blocks).
+    s_stack : ndarray, shape (MAX_CHANNELS, MAX_ROWS, MAX_ROWS)
+        Written with the updates: each channel's innovation covariance ``S`` (top-left
+        block).
+    on_ground : bool
+        Whether the previous prediction held the vehicle on the ground (kept when there is
+        nothing to predict).
+    u : ndarray, shape (4,)
+        PWM held since the previous tick.
+    dt, dt_max : float
+        Time since the previous tick and the longest prediction step, s.
+    p, qc_diag : ndarrays, shapes (9,), (16,)
+        Packed model (:func:`~fcu.estimation.ekf_model.pack_params`) and ``Qc`` diagonal.
+    ground : ndarray, shape (3,)
+        The ground plane (:func:`~fcu.estimation.estimator.on_ground_at`).
+    meas, excluded, reject
+        The tick's measurements, exclusions and whether a lone outlier may be rejected
+        (:func:`~fcu.estimation.estimator.screen_channels`).
+    time_s : float
+        Tick time, s.
+    sel_stack, layout, noise : ndarrays
+        The channels (:class:`~fcu.estimation.estimator.ChannelSet`).
+
+    Returns
+    -------
+    estimate, screen, on_ground, predicted, last
+        The posterior state and its covariance diagonal, shape (32,) (fresh: the estimate's
+        own); the screening (:func:`~fcu.estimation.estimator.screen_channels`); the
+        ground flag used; whether there was a prediction; the last channel updated (-1:
+        none).
+    """
+    x = work[_X:_X + N].copy()
+    p_mat = work[_P:_P + NN].reshape(N, N).copy()
+    predicted = dt > 1e-9
+    if predicted:
+        # a longer gap than dt_max: several equal RK4 steps
+        n_sub = max(1, math.ceil(dt / dt_max - 1e-6))
+        on_ground = frame.on_ground_at(x, ground)
+        for _ in range(n_sub):
+            # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
+            x, f_mat, q_mat, p_mat = predict_covariance(x, p_mat, u, dt / n_sub, p, on_ground,
+                                                        qc_diag)
+            work[_F:_F + NN] = f_mat.ravel()
+            work[_Q:_Q + NN] = q_mat.ravel()
+    work[_X_PRIOR:_X_PRIOR + N] = x
+    work[_P_PRIOR:_P_PRIOR + NN] = p_mat.ravel()
+    # screened against the prior; on the ground the accelerometer is skipped
+    screen, status = frame.screen_channels(x, p_mat, meas, sel_stack, layout, noise, excluded,
+                                     on_ground, reject)
+    n_ch = layout.shape[0]
+    counts = np.zeros(n_ch, dtype=np.int64)
+    deltas = np.zeros(n_ch)
+    z_stack = np.zeros(sel_stack.shape[0])
+    for c in range(n_ch):
+        if status[c] == frame.APPLIED:
+            counts[c] = int(meas[c, frame.COUNT])
+            # s, how long before the tick the batch was taken
+            deltas[c] = time_s - meas[c, frame.TIME]
+            i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
+            z_stack[i0:i1] = meas[c, frame.VALUE:frame.VALUE + i1 - i0]
+    # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
+    # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
+    x, p_mat, y_stack, s_all, nis, s_inv, k_gain, last = sequential_updates(
+        x, p_mat, u, p, on_ground, sel_stack, layout, noise, counts, deltas, z_stack)
+    work[_X:_X + N] = x
+    work[_P:_P + NN] = p_mat.ravel()
+    if last >= 0:  # the updates (a tick without any keeps the latest tick's that had some)
+        n_rows = sel_stack.shape[0]
+        work[_Y:_Y + n_rows] = y_stack
+        work[_Z:_Z + n_rows] = z_stack
+        work[_NIS:_NIS + n_ch] = nis
+        work[_COUNTS:_COUNTS + n_ch] = counts
+        m = s_inv.shape[0]
+        for i in range(m):
+            for j in range(m):
+                work[_S_INV + MAX_ROWS * i + j] = s_inv[i, j]
+        for i in range(N):
+            for j in range(m):
+                work[_K + MAX_ROWS * i + j] = k_gain[i, j]
+        s_stack[:] = 0.0
+        s_stack[:n_ch, :s_all.shape[1], :s_all.shape[2]] = s_all
+    estimate = np.empty(2 * N)
+    estimate[:N] = x
+    estimate[N:] = np.diag(p_mat)
+    return estimate, screen, on_ground, predicted, last
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -241,30 +358,6 @@ class EkfProcessNoise(ProcessNoiseDensities):
     thrust: float = 60.0  # N^2/s, each motor
 
 
-class _Channel(Channel):
-    """A measurement channel: ``h(x) = S x`` at the sample time, and its noise."""
-
-    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...],
-                 sigma: float, model_sigma: float = 0.0) -> None:
-        super().__init__(sensor, selection, value_index, sigma, model_sigma)
-        self.no_value = [0.0] * self.rows  # placeholder measurement of a tick without one
-
-
-class _ChannelSet:
-    """One height source's channels, stacked for the compiled update of a whole tick."""
-
-    def __init__(self, channels: tuple[_Channel, ...]) -> None:
-        self.channels = channels
-        self.sel_stack = np.ascontiguousarray(np.vstack([c.selection for c in channels]))
-        sizes = np.array([c.rows for c in channels])
-        ends = np.cumsum(sizes)
-        self.rows = np.ascontiguousarray(np.column_stack((ends - sizes, ends)), dtype=np.int64)
-        self.rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self.rows]
-        self.sample_var = np.array([c.sample_var for c in channels])
-        self.model_var = np.array([c.model_var for c in channels])
-        self.wrap_yaw = np.array([c.wrap_yaw for c in channels])
-
-
 class _QuadrotorEKF(ExtendedKalmanFilter):
     """filterpy's EKF with the nonlinear prediction of this module and a compiled update.
 
@@ -276,9 +369,10 @@ class _QuadrotorEKF(ExtendedKalmanFilter):
     ``x_post``, ``P_post``; Joseph-form covariance) but runs the matrix algebra in
     :func:`kalman_update`: filterpy's own version (scipy ``inv`` with its argument checks,
     ``deepcopy``) costs 16-35 us per call on this machine, and a tick has three or four.
-    ``tests/fcu/test_ekf.py`` checks the two against each other. The estimator goes one step
-    further and runs a whole tick's updates in one compiled call (:func:`sequential_updates`,
-    the same algebra), then sets the same attributes as the last :meth:`update` would.
+    ``tests/fcu/test_ekf.py`` checks the two against each other. The estimator goes further
+    and runs a whole tick (predictions, screening, updates) in one compiled call
+    (:func:`ekf_tick`, the same algebra); its :attr:`ExtendedKalmanEstimator.filter` is this
+    object with the attributes the last :meth:`predict` and :meth:`update` would have set.
     """
 
     x: FloatArray
@@ -391,35 +485,18 @@ class ExtendedKalmanEstimator(TickEstimator):
                  ground_margin_m: float = 0.02,
                  accel_z_model_sigma: float | None = 0.1) -> None:
         super().__init__(model, dt_s, height_source, noise, initial_uncertainty, ground_z_ned,
-                         ground_margin_m)
+                         ground_margin_m, accel_z_model_sigma)
         self.process_noise = process_noise if process_noise is not None else EkfProcessNoise()
-        if accel_z_model_sigma is not None and not (math.isfinite(accel_z_model_sigma)
-                                                    and accel_z_model_sigma >= 0):
-            raise ValueError(f"accel_z_model_sigma = {accel_z_model_sigma!r}: must be >= 0 "
-                             "m/s^2, or None to leave the accelerometer out")
-        self.accel_z_model_sigma = accel_z_model_sigma
         self._params = pack_params(model)
-        # every height source's channels, stacked for sequential_updates
-        self._sets = {source: _ChannelSet(self._make_channels(source))
-                      for source in HEIGHT_SOURCES}
-        self._kinds = frozenset(c.sensor for cs in self._sets.values() for c in cs.channels)
-        self._select_channels(self.height_source)
-        self.filter = _QuadrotorEKF(self._params, self.process_noise.diagonal())
-        self._innovations: dict[str, Innovation] = {}
-        # (sensor, y, S, NIS) of this tick's updates, turned into _innovations on request
-        self._innovation_parts: list[tuple[str, FloatArray, FloatArray, float]] = []
+        self._qc_diag = self.process_noise.diagonal()
+        self._build_channel_sets()
         self.reset()
 
-    def _make_channels(self, height_source: str) -> tuple[_Channel, ...]:
+    def _make_channels(self, height_source: str) -> ChannelSet:
         n = self.noise
-        return tuple(_Channel(sensor, sel, value_index, getattr(n, sensor), model_sigma)
-                     for sensor, sel, value_index, model_sigma
-                     in common_channels(height_source, self.model, self.accel_z_model_sigma))
-
-    def _select_channels(self, height_source: str) -> None:
-        cs = self._sets[height_source]
-        self._set = cs
-        self._channels = cs.channels
+        return ChannelSet(tuple(Channel(sensor, sel, value_index, getattr(n, sensor), model_sigma)
+                                for sensor, sel, value_index, model_sigma
+                                in self._common_channels(height_source)))
 
     # ---- life cycle ------------------------------------------------------------------------
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None) -> None:
@@ -435,137 +512,108 @@ class ExtendedKalmanEstimator(TickEstimator):
             position and attitude).
         """
         x0, p0 = self._initial_state(initial)
-        f = self.filter
-        f.x = x0.astype(float)
-        f.P = np.diag(p0)
-        f.x_prior = f.x.copy()
-        f.P_prior = f.P.copy()
-        f.x_post = f.x.copy()
-        f.P_post = f.P.copy()
+        # x, P, priors, F, Q and the latest updates, as ekf_tick keeps them
+        self._work = np.zeros(WORK_SIZE)
+        self._s_stack = np.zeros((MAX_CHANNELS, MAX_ROWS, MAX_ROWS))
+        w = self._work
+        w[_X:_X + N] = w[_X_PRIOR:_X_PRIOR + N] = x0
+        w[_P:_P + NN] = w[_P_PRIOR:_P_PRIOR + NN] = np.diag(p0).ravel()
+        w[_F:_F + NN] = w[_Q:_Q + NN] = np.eye(N).ravel()  # filterpy's start
+        self._on_ground = False
+        # the channels, the last channel updated and the time of the latest tick with updates
+        self._updated: tuple[ChannelSet, int, float] | None = None
+        self._innovations: dict[str, Innovation] | None = {}
         self._time_s = float(time_s)
-        self._innovations = {}
-        self._innovation_parts = []
-        self._estimate = self._make_estimate()
+        self._estimate = StateEstimate._from_owned(self._time_s, x0.astype(float),
+                                                   p0.astype(float))
 
-    def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
-                     batches: Mapping[str, SampleBatch], *,
-                     excluded: Collection[str] = (), reject: bool = True) -> StateEstimate:
-        """Predict to ``time_s`` (s) with ``pwm_applied`` held, screen the tick's averaged
-        samples and update with those that pass (:meth:`TickEstimator.step_grouped`);
-        returns the posterior."""
-        time_s = float(time_s)
-        u = np.asarray(pwm_applied, dtype=float).reshape(4)
+    def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
+              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+        """Predict to ``time_s`` (s), screen the tick's measurements and update with those
+        that pass, in one compiled call (:func:`ekf_tick`)."""
         dt = time_s - self._time_s
         if dt < -1e-9:
             raise ValueError(f"time_s = {time_s!r}: earlier than the previous tick "
                              f"({self._time_s!r})")
-        f = self.filter
-        if dt > 1e-9:
-            n_sub = max(1, math.ceil(dt / self.dt_s - 1e-6))
-            f.on_ground = self._on_ground()
-            f.step_dt_s = dt / n_sub
-            for _ in range(n_sub):
-                # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
-                f.predict(u=u)
-        else:
-            f.x_prior = f.x.copy()
-            f.P_prior = f.P.copy()
-        self._time_s = time_s
-        self._innovations = {}
-        self._innovation_parts = []
-        # on the ground the accelerometer feels the ground reaction, not the thrust
-        on_ground = f.on_ground
-        batches = self._screen(self._channels, batches, f.x, f.P, excluded,
-                               lambda ch: not (ch.sensor == "accel" and on_ground),
-                               reject and not on_ground)
-        counts: list[int] = []
-        deltas: list[float] = []
-        z_l: list[float] = []
-        for channel in self._channels:
-            batch = batches.get(channel.sensor)
-            if batch is not None:
-                counts.append(batch.count)
-                # s, how long before the tick the batch was taken
-                deltas.append(time_s - batch.time_s)
-                z_l += batch.value.tolist()[channel.value_slice]
-            else:
-                counts.append(0)
-                deltas.append(0.0)
-                z_l += channel.no_value
-        if any(counts):
-            self._update_all(counts, np.array(deltas), np.array(z_l), u)
-        self._estimate = self._make_estimate()
-        return self._estimate
+        cs = channel_set
+        estimate, screen, self._on_ground, _, last = ekf_tick(
+            self._work, self._s_stack, self._on_ground, u, dt, self.dt_s, self._params,
+            self._qc_diag, self._ground, meas, time_s, excluded, reject, cs.sel_stack,
+            cs.layout, cs.noise)
+        self._keep_screening(cs, screen)
+        # the Innovation records and the filterpy view are built on request from the
+        # workspace, which holds the updates of the latest tick that had some
+        self._innovations = None if last >= 0 else {}
+        if last >= 0:
+            self._updated = (cs, last, time_s)
+        return estimate[:N], estimate[N:]
 
-    # ---- internals -------------------------------------------------------------------------
-    def _on_ground(self) -> bool:
-        return self._on_ground_at(self.filter.x)
-
-    def _update_all(self, counts: list[int], deltas: FloatArray, z_stack: FloatArray,
-                    u: FloatArray) -> None:
-        """The tick's sequential updates (module docstring, "Measurements") in one call."""
-        f = self.filter
-        # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
-        # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
-        # (filterpy's update contract, as _QuadrotorEKF.update)
-        cs = self._set
-        x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last = sequential_updates(
-            f.x, f.P, u, self._params, f.on_ground, cs.sel_stack, cs.rows,
-            cs.sample_var, cs.model_var, cs.wrap_yaw, np.array(counts), deltas,
-            z_stack)
-        f.x, f.P = x, p_mat
-        rows = cs.rows_list
-        i0, i1 = rows[last]
-        f.y, f.S, f.SI, f.K = y_stack[i0:i1], s_stack[last, :i1 - i0, :i1 - i0], s_inv, k_gain
-        f.z = z_stack[i0:i1].copy()
-        f.x_post = x.copy()
-        f.P_post = p_mat.copy()
-        # the Innovation records are built on request (last_innovation)
-        nis_l = nis.tolist()
-        for c, channel in enumerate(self._channels):
-            if counts[c] > 0:
-                i0, i1 = rows[c]
-                self._innovation_parts.append((channel.sensor, y_stack[i0:i1],
-                                               s_stack[c, :i1 - i0, :i1 - i0], nis_l[c]))
-
-    def _make_estimate(self) -> StateEstimate:
-        f = self.filter
-        return StateEstimate._from_owned(self._time_s, f.x.copy(), f.P.diagonal().copy())
+    def _update_parts(self, cs: ChannelSet, c: int) -> tuple[FloatArray, ...]:
+        """(y, S, S^-1, K, z) of channel ``c``'s update at the latest tick (copies)."""
+        w = self._work
+        i0, i1 = cs.rows_list[c]
+        m = i1 - i0
+        return (w[_Y + i0:_Y + i1].copy(), self._s_stack[c, :m, :m].copy(),
+                w[_S_INV:_S_INV + MAX_ROWS * m].reshape(m, MAX_ROWS)[:, :m].copy(),
+                w[_K:_K + MAX_ROWS * N].reshape(N, MAX_ROWS)[:, :m].copy(),
+                w[_Z + i0:_Z + i1].copy())
 
     # ---- inspection ------------------------------------------------------------------------
     @property
     def x(self) -> FloatArray:
         """Posterior state ``x_{k|k}``, shape (16,) (a copy)."""
-        return np.array(self.filter.x, dtype=float)
+        return self._work[_X:_X + N].copy()
 
     @property
     def P(self) -> FloatArray:  # noqa: N802 (filter notation)
         """Posterior covariance ``P_{k|k}``, shape (16, 16) (a copy)."""
-        return np.array(self.filter.P, dtype=float)
+        return self._work[_P:_P + NN].reshape(N, N).copy()
 
     @property
     def x_prior(self) -> FloatArray:
         """Prior state ``x_{k|k-1}`` of the latest tick, shape (16,) (a copy)."""
-        return np.array(self.filter.x_prior, dtype=float)
+        return self._work[_X_PRIOR:_X_PRIOR + N].copy()
 
     @property
     def P_prior(self) -> FloatArray:  # noqa: N802 (filter notation)
         """Prior covariance ``P_{k|k-1}`` of the latest tick, shape (16, 16) (a copy)."""
-        return np.array(self.filter.P_prior, dtype=float)
+        return self._work[_P_PRIOR:_P_PRIOR + NN].reshape(N, N).copy()
 
     @property
     def on_ground(self) -> bool:
         """Whether the latest prediction held the vehicle on the ground."""
-        return bool(self.filter.on_ground)
+        return bool(self._on_ground)
+
+    @property
+    def filter(self) -> _QuadrotorEKF:
+        """The latest tick as filterpy's EKF holds it (built on request, copies): ``x``,
+        ``P``, the priors, the latest prediction's ``F`` and ``Q``, and the latest update's
+        ``y``, ``S``, ``SI``, ``K``, ``z``."""
+        f = _QuadrotorEKF(self._params, self._qc_diag)
+        f.x, f.P, f.x_prior, f.P_prior = self.x, self.P, self.x_prior, self.P_prior
+        f.x_post, f.P_post = self.x, self.P
+        f.F = self._work[_F:_F + NN].reshape(N, N).copy()
+        f.Q = self._work[_Q:_Q + NN].reshape(N, N).copy()
+        f.step_dt_s, f.on_ground = self.dt_s, self._on_ground
+        if self._updated is not None:
+            cs, last, _ = self._updated
+            f.y, f.S, f.SI, f.K, f.z = self._update_parts(cs, last)
+        return f
 
     @property
     def last_innovation(self) -> Mapping[str, Innovation]:
         """Innovation, its covariance and NIS of each sensor updated at the latest tick."""
-        if self._innovation_parts:
-            for sensor, y, s_mat, nis in self._innovation_parts:
-                self._innovations[sensor] = Innovation(sensor, self._time_s, y.copy(),
-                                                       s_mat.copy(), float(nis))
-            self._innovation_parts = []
+        if self._innovations is None:
+            assert self._updated is not None
+            cs, _, time_s = self._updated
+            n_ch = len(cs.channels)
+            counts = self._work[_COUNTS:_COUNTS + n_ch].tolist()
+            nis = self._work[_NIS:_NIS + n_ch].tolist()
+            self._innovations = {}
+            for c, sensor in enumerate(cs.sensors):
+                if counts[c] > 0:
+                    y, s_mat, _, _, _ = self._update_parts(cs, c)
+                    self._innovations[sensor] = Innovation(sensor, time_s, y, s_mat, nis[c])
         return dict(self._innovations)
 
 

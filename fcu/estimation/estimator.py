@@ -15,7 +15,7 @@ accelerometer feels the ground reaction).
 Screening (beyond the thesis, which assumes healthy sensors)
 -----------------------------------------------------------
 Before its update, each tick, an estimator screens every sensor that delivered a batch
-against its prior (:meth:`TickEstimator._screen`): the innovation ``nu = z - S x_prior``, its
+against its prior (:func:`screen_channels`, compiled): the innovation ``nu = z - S x_prior``, its
 variance ``diag(S P_prior S' + R)`` and ``NIS = nu' (S P S' + R)^-1 nu`` (chi-square with m
 degrees of freedom for a consistent filter). A measurement is *rejected* for this tick when its
 NIS exceeds the gate (the chi-square quantile at probability :data:`GATE_PROBABILITY`, about
@@ -30,7 +30,7 @@ sensor. The height source can be switched at run time (:attr:`TickEstimator.heig
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +44,7 @@ from fcu.estimation.state import (
     Z_INDEX,
     FloatArray,
     InitialUncertainty,
+    Innovation,
     SampleBatch,
     SensorNoise,
     StateEstimate,
@@ -52,6 +53,7 @@ from fcu.estimation.state import (
 )
 from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
+from flightdata.vocabulary import HEIGHT_SOURCES
 
 GATE_PROBABILITY = 1e-9
 """Probability that a consistent measurement exceeds its NIS gate (about 6 sigma)."""
@@ -93,21 +95,145 @@ class ChannelCheck:
 
 
 @njit(cache=True, error_model="numpy")
+def select(sel: FloatArray, a: FloatArray, picks: bool) -> FloatArray:
+    """``S a`` for ``a`` of shape (16,) or (16, k). ``picks``: each row of ``S`` is a single
+    entry of +-1, so the product is those entries of ``a`` (signed), which is what the
+    matrix product computes too, to the bit, without a BLAS call."""
+    if not picks:
+        return sel @ a
+    out = np.zeros((sel.shape[0],) + a.shape[1:])
+    for i in range(sel.shape[0]):
+        for k in range(sel.shape[1]):
+            if sel[i, k] != 0.0:
+                out[i] = sel[i, k] * a[k]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
 def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatArray,
-                   r_var: float, wrap_yaw: bool) -> tuple[FloatArray, FloatArray, float]:
+                   r_var: float, wrap_yaw: bool, picks: bool = False
+                   ) -> tuple[FloatArray, FloatArray, float]:
     """One channel's screening against the prior (module docstring), compiled.
 
     Returns ``nu = z - S x`` (third entry wrapped to [-pi, pi) when ``wrap_yaw``), the
-    diagonal of ``S P S' + R`` (``R = r_var I``) and ``NIS = nu' (S P S' + R)^-1 nu``.
+    diagonal of ``S P S' + R`` (``R = r_var I``) and ``NIS = nu' (S P S' + R)^-1 nu``
+    (``picks``: as for :func:`select`).
     """
-    nu = z - sel @ x
+    nu = z - select(sel, x, picks)
     if wrap_yaw:
         nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
-    s_mat = sel @ p_mat @ sel.T
+    # S P S' (picks: S (S P)' = (S P) S', each entry a product by +-1)
+    s_mat = select(sel, select(sel, p_mat, picks).T.copy(), picks).T.copy() if picks else (
+        sel @ p_mat @ sel.T)
     for i in range(s_mat.shape[0]):
         s_mat[i, i] += r_var
     nis = float(nu @ np.linalg.solve(s_mat, nu))
     return nu, np.diag(s_mat).copy(), nis
+
+
+# ---- one tick's screening of every channel, compiled ----------------------------------------
+# The filters' tick kernels (ekf_tick, tskf_tick) compile the kernels below into themselves, and
+# numba's on-disk cache (cache=True) is keyed on a kernel's own source file only: after editing
+# a kernel here, delete the *.nbi/*.nbc files in fcu/estimation/__pycache__ so that the tick
+# kernels are compiled again.
+# ChannelCheck.status by code (ABSENT: no batch this tick)
+APPLIED, REJECTED, EXCLUDED, SKIPPED, ABSENT = 0, 1, 2, 3, -1
+STATUS_NAMES: tuple[ChannelStatus, ...] = ("applied", "rejected", "excluded", "skipped")
+# columns of a ChannelSet's layout (int) and noise (float) tables, one row per channel
+ROW0, ROW1, WRAP_YAW, IS_ACCEL, PICKS = 0, 1, 2, 3, 4
+SAMPLE_VAR, MODEL_VAR, GATE = 0, 1, 2
+# columns of a tick's measurement table (TickEstimator._measurements), one row per channel:
+# samples averaged (0: no batch), their mean time (s), the measured entries (first m used)
+COUNT, TIME, VALUE = 0, 1, 2
+MEAS_WIDTH = 5
+
+
+@njit(cache=True, error_model="numpy")
+def noise_var(noise: FloatArray, c: int, count: float) -> float:
+    """Channel ``c``'s ``R`` (per axis) for the mean of ``count`` samples (``noise``: a
+    :class:`ChannelSet`'s)."""
+    # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
+    return noise[c, SAMPLE_VAR] / count + noise[c, MODEL_VAR]
+
+
+@njit(cache=True, error_model="numpy")
+def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
+    """The ground holds a vehicle in state ``x``: within the ground margin of the ground plane
+    with its thrust below its weight. ``ground`` = [ground plane present (0/1), plane z minus
+    the margin (m, NED), weight (N)]."""
+    if ground[0] == 0.0:
+        return False
+    # sum(T), left to right as numpy sums four entries
+    thrust = x[12] + x[13] + x[14] + x[15]
+    return x[Z_INDEX] >= ground[1] and thrust < ground[2]
+
+
+@njit(cache=True, error_model="numpy")
+def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stack: FloatArray,
+                    layout: np.ndarray, noise: FloatArray, excluded: np.ndarray,
+                    on_ground: bool, reject: bool) -> tuple[FloatArray, np.ndarray]:
+    """Screen every channel that delivered a batch against the prior ``x``, ``p_mat``
+    (module docstring), by :func:`screen_channel` each.
+
+    Parameters
+    ----------
+    x, p_mat : ndarrays, shapes (16,), (16, 16)
+        Prior state and covariance.
+    meas : ndarray, shape (n_ch, MEAS_WIDTH)
+        The tick's measurement table (:meth:`TickEstimator._measurements`).
+    sel_stack, layout, noise : ndarrays
+        The channels (:class:`ChannelSet`).
+    excluded : ndarray of bool, shape (n_ch,)
+        Channels the health monitor excluded (screened, never applied).
+    on_ground : bool
+        The vehicle is on the ground: the accelerometer is skipped and no outlier rejected.
+    reject : bool
+        A lone outlier may be rejected.
+
+    Returns
+    -------
+    screen : ndarray, shape (2 rows_total + 2 n_ch,)
+        ``nu = z - S x`` and ``diag(S P S' + R)``, each stacked like ``sel_stack``, then each
+        channel's NIS and status code (``APPLIED`` ... ``SKIPPED``, ``ABSENT`` without a
+        batch), one array for :meth:`TickEstimator._keep_screening`.
+    status : ndarray of int, shape (n_ch,)
+        The status codes again.
+    """
+    n_ch = layout.shape[0]
+    n_rows = sel_stack.shape[0]
+    screen = np.zeros(2 * n_rows + 2 * n_ch)
+    nu_stack = screen[:n_rows]
+    var_stack = screen[n_rows:2 * n_rows]
+    nis = screen[2 * n_rows:2 * n_rows + n_ch]
+    status = np.full(n_ch, ABSENT, dtype=np.int64)
+    n_outliers = 0
+    outlier = -1
+    for c in range(n_ch):
+        count = meas[c, COUNT]
+        if count <= 0.0:
+            continue
+        i0, i1 = layout[c, ROW0], layout[c, ROW1]
+        r_var = noise_var(noise, c, count)
+        # nu = z - S x;  diag(S P S' + R);  NIS = nu' (S P S' + R)^-1 nu
+        nu, var, nis[c] = screen_channel(
+            np.ascontiguousarray(sel_stack[i0:i1]), meas[c, VALUE:VALUE + i1 - i0].copy(),
+            x, p_mat, r_var, layout[c, WRAP_YAW] != 0, layout[c, PICKS] != 0)
+        nu_stack[i0:i1] = nu
+        var_stack[i0:i1] = var
+        if excluded[c]:
+            status[c] = EXCLUDED
+        elif on_ground and layout[c, IS_ACCEL] != 0:
+            # on the ground the accelerometer feels the ground reaction, not the thrust
+            status[c] = SKIPPED
+        else:
+            status[c] = APPLIED
+            if nis[c] > noise[c, GATE]:
+                n_outliers += 1
+                outlier = c
+    if reject and not on_ground and n_outliers == 1:  # a lone outlier is that sensor's fault
+        status[outlier] = REJECTED
+    screen[2 * n_rows + n_ch:] = status
+    return screen, status
 
 
 _DENSITY_NAMES = ("pos", "accel", "euler", "ang_accel", "thrust")
@@ -174,12 +300,11 @@ class Channel:
         self.value_slice = slice(value_index[0], value_index[-1] + 1)  # the same, as a slice
         self.rows = self.selection.shape[0]  # m
         self.wrap_yaw = sensor == "mocap_att"  # innovation's third entry is a yaw difference
+        # each row of S picks one state entry (times +-1): S x and S A are those entries
+        self.picks = bool(np.all(np.sum(self.selection != 0.0, axis=1) == 1)
+                          and np.all(np.abs(self.selection[self.selection != 0.0]) == 1.0))
         # NIS gate: chi-square quantile of m degrees of freedom at GATE_PROBABILITY
         self.gate = float(chi2.isf(GATE_PROBABILITY, self.rows))
-
-    def noise_var(self, count: int) -> float:
-        """``R`` (per axis) of a mean of ``count`` samples."""
-        return self.sample_var / count + self.model_var
 
 
 def common_channels(height_source: str, model: VehicleModel, accel_model_sigma: float | None
@@ -203,6 +328,70 @@ def common_channels(height_source: str, model: VehicleModel, accel_model_sigma: 
     return channels
 
 
+class ChannelSet:
+    """One height source's channels, stacked for the compiled tick of an estimator.
+
+    Attributes
+    ----------
+    channels : tuple of Channel
+        In update order.
+    sensors : tuple of str
+        Their sensor names.
+    sel_stack : ndarray, shape (rows_total, 16)
+        Every channel's ``S``, stacked in update order.
+    layout : ndarray of int, shape (n_ch, 5)
+        Per channel: first and end row in ``sel_stack``, yaw in the third entry (its
+        innovation is wrapped), the accelerometer, each row of ``S`` a single entry of +-1
+        (:func:`select`) (columns ``ROW0``, ``ROW1``, ``WRAP_YAW``, ``IS_ACCEL``,
+        ``PICKS``).
+    noise : ndarray, shape (n_ch, 3)
+        Per channel: noise variance of one sample (divided by the count), model error
+        variance (not), NIS gate (columns ``SAMPLE_VAR``, ``MODEL_VAR``, ``GATE``).
+    """
+
+    def __init__(self, channels: tuple[Channel, ...]) -> None:
+        self.channels = channels
+        self.sensors = tuple(c.sensor for c in channels)
+        self.sel_stack = np.ascontiguousarray(np.vstack([c.selection for c in channels]))
+        ends = np.cumsum([c.rows for c in channels])
+        self.layout = np.array([(end - c.rows, end, c.wrap_yaw, c.sensor == "accel",
+                                 c.picks)
+                                for c, end in zip(channels, ends.tolist(), strict=True)],
+                               dtype=np.int64)
+        self.noise = np.array([(c.sample_var, c.model_var, c.gate) for c in channels])
+        self.rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self.layout[:, :2]]
+        # what _measurements reads of each sensor's batch value, and the padding after it
+        self._reads = [(c.sensor, c.value_slice, [0.0] * (MEAS_WIDTH - VALUE - c.rows))
+                       for c in channels]
+        self.no_exclusion = np.zeros(len(channels), dtype=np.bool_)
+        self._absent = [0.0] * MEAS_WIDTH
+
+    def measurements(self, batches: Mapping[str, SampleBatch]) -> FloatArray:
+        """The tick's measurement table, shape (n_ch, MEAS_WIDTH): per channel the count
+        and mean time of its batch and the entries it measures (zeros without a batch)."""
+        flat: list[float] = []
+        get = batches.get
+        for sensor, value_slice, pad in self._reads:
+            batch = get(sensor)
+            if batch is None:
+                flat += self._absent
+                continue
+            value = batch.value
+            vals = (value.tolist() if type(value) is np.ndarray
+                    else np.asarray(value, dtype=float).tolist())
+            flat.append(batch.count)
+            flat.append(batch.time_s)
+            flat += vals[value_slice]
+            flat += pad
+        return np.array(flat, dtype=np.float64).reshape(len(self._reads), MEAS_WIDTH)
+
+    def exclusion(self, excluded: Collection[str]) -> np.ndarray:
+        """Which channels are ``excluded``, bool, shape (n_ch,)."""
+        if not excluded:
+            return self.no_exclusion
+        return np.array([s in excluded for s in self.sensors], dtype=np.bool_)
+
+
 class TickEstimator:
     """What an estimator of the autopilot is, apart from its filter maths.
 
@@ -222,15 +411,29 @@ class TickEstimator:
         z (NED, m) of the ground plane, or None for no ground contact.
     ground_margin_m : float
         Distance above the ground plane within which the vehicle counts as on the ground, m.
+    accel_z_model_sigma : float or None
+        Model error of the accelerometer's thrust measurement, m/s^2, or None to leave the
+        accelerometer out.
+
+    Subclasses build their channels by :meth:`_build_channel_sets` (after what their
+    :meth:`_make_channels` needs) and keep each tick's screening by :meth:`_keep_screening`.
     """
+
+    _sets: Mapping[str, ChannelSet]  # every height source's channels
+    _set: ChannelSet  # the current height source's
 
     def __init__(self, model: VehicleModel, dt_s: float, height_source: str,
                  noise: SensorNoise | None, initial_uncertainty: InitialUncertainty | None,
-                 ground_z_ned: float | None, ground_margin_m: float) -> None:
+                 ground_z_ned: float | None, ground_margin_m: float,
+                 accel_z_model_sigma: float | None) -> None:
         if not (math.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s = {dt_s!r}: must be a finite number > 0 s")
         if not (math.isfinite(ground_margin_m) and ground_margin_m >= 0):
             raise ValueError(f"ground_margin_m = {ground_margin_m!r}: must be >= 0 m")
+        if accel_z_model_sigma is not None and not (math.isfinite(accel_z_model_sigma)
+                                                    and accel_z_model_sigma >= 0):
+            raise ValueError(f"accel_z_model_sigma = {accel_z_model_sigma!r}: must be >= 0 "
+                             "m/s^2, or None to leave the accelerometer out")
         self.model = model
         self.dt_s = float(dt_s)
         self._height_source = check_height_source(height_source)
@@ -239,12 +442,18 @@ class TickEstimator:
                                     else InitialUncertainty())
         self.ground_z_ned = ground_z_ned
         self.ground_margin_m = float(ground_margin_m)
-        self._weight_n = model.mass * model.gravity
+        self.accel_z_model_sigma = accel_z_model_sigma
+        # on_ground_at's view of the ground: [present, plane z - margin (m), weight (N)]
+        self._ground = np.array([
+            0.0 if ground_z_ned is None else 1.0,
+            0.0 if ground_z_ned is None else ground_z_ned - self.ground_margin_m,
+            model.mass * model.gravity])
         self._time_s = 0.0
         self._kinds: frozenset[str] = frozenset()
         self._estimate: StateEstimate | None = None
-        self.screening: dict[str, ChannelCheck] = {}
-        """Each sensor's :class:`ChannelCheck` at the latest tick (module docstring)."""
+        # the latest tick's screening, as computed (ChannelCheck records built on request)
+        self._screen_out: tuple[ChannelSet, FloatArray] | None = None
+        self._screening: dict[str, ChannelCheck] | None = None
 
     # ---- the measurement channels ------------------------------------------------------------
     @property
@@ -255,55 +464,67 @@ class TickEstimator:
 
     @height_source.setter
     def height_source(self, source: str) -> None:
-        source = check_height_source(source)
         if source != self._height_source:
-            self._height_source = source
-            self._select_channels(source)
+            self._height_source = check_height_source(source)
+            self._set = self._sets[self._height_source]
 
-    def _select_channels(self, height_source: str) -> None:
-        """Make the channel set of ``height_source`` the one updated (built at construction
-        for every source, :data:`flightdata.vocabulary.HEIGHT_SOURCES`)."""
+    @property
+    def _channels(self) -> tuple[Channel, ...]:
+        """The channels updated now, in update order."""
+        return self._set.channels
+
+    def _make_channels(self, height_source: str) -> ChannelSet:
+        """The channels of ``height_source``, stacked."""
         raise NotImplementedError
 
-    def _screen(self, channels: Iterable[Channel], batches: Mapping[str, SampleBatch],
-                x: FloatArray, p_mat: FloatArray, excluded: Collection[str],
-                usable: Callable[[Channel], bool], reject: bool) -> dict[str, SampleBatch]:
-        """Screen the tick's measurements against the prior ``x``, ``p_mat`` (module
-        docstring); returns the batches to update with and sets :attr:`screening`.
+    def _build_channel_sets(self) -> None:
+        """Every height source's channels (:data:`flightdata.vocabulary.HEIGHT_SOURCES`),
+        and the set of the current one."""
+        self._sets = {source: self._make_channels(source) for source in HEIGHT_SOURCES}
+        self._set = self._sets[self._height_source]
+        self._kinds = frozenset(s for cs in self._sets.values() for s in cs.sensors)
 
-        ``usable(channel)`` says whether a delivered channel can be used at all now (the
-        accelerometer not on the ground); ``reject`` whether a lone outlier may be rejected
-        (the caller knows when the model is too uncertain for that: on the ground, in a
-        tumble).
-        """
-        checks: dict[str, ChannelCheck] = {}
-        outliers: list[str] = []
-        for ch in channels:
-            batch = batches.get(ch.sensor)
-            if batch is None:
-                continue
-            nu, variance, nis = screen_channel(
-                ch.selection, np.asarray(batch.value, dtype=float)[ch.value_slice], x, p_mat,
-                ch.noise_var(batch.count), ch.wrap_yaw)
-            if ch.sensor in excluded:
-                status = "excluded"
-            elif not usable(ch):
-                status = "skipped"
-            else:
-                status = "applied"
-                if nis > ch.gate:
-                    outliers.append(ch.sensor)
-            checks[ch.sensor] = ChannelCheck(ch.sensor, nu, variance, nis, ch.gate, status)
-        if reject and len(outliers) == 1:  # a lone outlier is that sensor's fault
-            c = checks[outliers[0]]
-            checks[c.sensor] = ChannelCheck(c.sensor, c.residual, c.variance, c.nis, c.gate,
-                                            "rejected")
-        self.screening = checks
-        return {name: batches[name] for name, c in checks.items() if c.status == "applied"}
+    def _common_channels(self, height_source: str) -> list[tuple[str, FloatArray,
+                                                                 tuple[int, ...], float]]:
+        """:func:`common_channels` of this estimator."""
+        return common_channels(height_source, self.model, self.accel_z_model_sigma)
+
+    # ---- screening ---------------------------------------------------------------------------
+    def _keep_screening(self, channel_set: ChannelSet, screen: FloatArray) -> None:
+        """Keep the tick's :func:`screen_channels` output for :attr:`screening`."""
+        self._screen_out = (channel_set, screen)
+        self._screening = None
+
+    def _statuses(self) -> list[int]:
+        """The latest tick's status code of each channel (:func:`screen_channels`)."""
+        if self._screen_out is None:
+            return []
+        cs, screen = self._screen_out
+        return [int(code) for code in screen[-len(cs.channels):].tolist()]
+
+    @property
+    def screening(self) -> Mapping[str, ChannelCheck]:
+        """Each sensor's :class:`ChannelCheck` at the latest tick (module docstring)."""
+        if self._screening is None:
+            checks: dict[str, ChannelCheck] = {}
+            if self._screen_out is not None:
+                cs, screen = self._screen_out
+                n_rows, n_ch = cs.sel_stack.shape[0], len(cs.channels)
+                tail = screen[2 * n_rows:].tolist()  # NIS, then status codes
+                for c, (ch, (i0, i1)) in enumerate(zip(cs.channels, cs.rows_list, strict=True)):
+                    code = int(tail[n_ch + c])
+                    if code != ABSENT:
+                        checks[ch.sensor] = ChannelCheck(
+                            ch.sensor, screen[i0:i1], screen[n_rows + i0:n_rows + i1],
+                            tail[c], ch.gate, STATUS_NAMES[code])
+            self._screening = checks
+        return self._screening
 
     def _initial_state(self, initial: StateEstimate | None) -> tuple[FloatArray, FloatArray]:
         """State and covariance diagonal to restart from, shapes (16,), (16,): ``initial``'s,
         or at rest at the origin, level, motors off, with ``initial_uncertainty``."""
+        self._screen_out = None
+        self._screening = None
         if initial is None:
             return np.zeros(STATE_DIM), self.initial_uncertainty.diagonal()
         x0 = initial.to_vector()
@@ -312,13 +533,6 @@ class TickEstimator:
             raise ValueError(f"initial.covariance_diag = {p0.tolist()}: must be 16 "
                              "numbers > 0")
         return x0, p0
-
-    def _on_ground_at(self, x: FloatArray) -> bool:
-        """The ground holds a vehicle in state ``x``: within ``ground_margin_m`` of the
-        ground plane with its thrust below its weight."""
-        return bool(self.ground_z_ned is not None
-                    and x[Z_INDEX] >= self.ground_z_ned - self.ground_margin_m
-                    and float(np.sum(x[THRUST])) < self._weight_n)
 
     def step(self, time_s: float, pwm_applied: ArrayLike,
              samples: Iterable[SensorSampleLike], *,
@@ -352,6 +566,23 @@ class TickEstimator:
         """:meth:`step` with the tick's samples already averaged by
         :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use
         are ignored), so that several estimators can share one grouping."""
+        time_s = float(time_s)
+        cs = self._set
+        x_est, p_diag = self._tick(time_s, np.asarray(pwm_applied, dtype=float).reshape(4), cs,
+                                   cs.measurements(batches), cs.exclusion(excluded),
+                                   bool(reject))
+        self._time_s = time_s
+        self._estimate = StateEstimate._from_owned(time_s, x_est, p_diag)
+        return self._estimate
+
+    def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
+              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+        """The filter's tick from its latest (at :attr:`time_s`) to ``time_s`` (s), with the
+        PWM ``u`` (4,) held, the channels of the current height source, the tick's
+        measurement table (:meth:`ChannelSet.measurements`), the channels excluded (bool per
+        channel) and whether a lone outlier may be rejected; keeps the screening
+        (:meth:`_keep_screening`) and returns the estimate's state and covariance diagonal
+        (fresh arrays, shape (16,))."""
         raise NotImplementedError
 
     @property
@@ -369,3 +600,25 @@ class TickEstimator:
     def sensor_kinds(self) -> frozenset[str]:
         """The sensor kinds this estimator uses (samples of other kinds are ignored)."""
         return self._kinds
+
+
+__all__ = [
+    # the frame
+    "ChannelCheck",
+    "ChannelSet",
+    "Channel",
+    "ProcessNoiseDensities",
+    "TickEstimator",
+    "common_channels",
+    "noise_var",
+    "on_ground_at",
+    "screen_channel",
+    "screen_channels",
+    "select",
+    "selection",
+    # what an estimator built on it takes and returns (from fcu.estimation.state)
+    "InitialUncertainty",
+    "Innovation",
+    "SensorNoise",
+    "StateEstimate",
+]

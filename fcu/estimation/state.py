@@ -30,15 +30,18 @@ horizontal position only.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Collection, Iterable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from fcu.floats import wrap_pi
-from fcu.hal import SensorSampleLike
+from fcu.hal import SensorSampleArrays, SensorSampleLike
 from flightdata.vocabulary import HEIGHT_SOURCES, SENSORS
 
 FloatArray = NDArray[np.float64]
@@ -223,6 +226,93 @@ class SampleBatch:
     count: int
 
 
+@njit(cache=True, error_model="numpy")
+def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: FloatArray,
+                        slot_of: np.ndarray, axes: np.ndarray, yaw_slot: int) -> FloatArray:
+    """Average a tick's samples per kind (:func:`group_samples`), compiled.
+
+    Parameters
+    ----------
+    sensor_index : ndarray of int, shape (n,)
+        Each sample's sensor, an index into ``slot_of``.
+    time_s : ndarray, shape (n,)
+        Sample times, s.
+    values : ndarray, shape (n, w)
+        Sample values; the first ``axes[slot]`` entries of a row count.
+    slot_of : ndarray of int
+        The slot (output row) of each sensor index; -1: not kept.
+    axes : ndarray of int, shape (n_slots,)
+        Entries of each slot's value.
+    yaw_slot : int
+        The slot whose third entry is a yaw (``mocap_att``), or -1.
+
+    Returns
+    -------
+    ndarray, shape (n_slots, w + 3)
+        Per slot (row): the mean value (yaw averaged as offsets from the first reading,
+        wrapped to [-pi, pi)), the mean time (s), the samples averaged (samples with a
+        non-finite value are dropped) and the index of its first sample (-1: none).
+    """
+    n_slots = axes.shape[0]
+    w = values.shape[1]
+    out = np.zeros((n_slots, w + 3))
+    mean = out[:, :w]
+    time_sum = out[:, w]
+    count = np.zeros(n_slots, dtype=np.int64)
+    first = np.full(n_slots, -1, dtype=np.int64)
+    yaw0 = 0.0
+    for j in range(sensor_index.shape[0]):
+        s = slot_of[sensor_index[j]]
+        if s < 0:
+            continue
+        finite = True
+        for i in range(axes[s]):
+            finite = finite and math.isfinite(values[j, i])
+        if not finite:
+            continue
+        if count[s] == 0:
+            first[s] = j
+            for i in range(axes[s]):
+                mean[s, i] = values[j, i]
+            if s == yaw_slot:
+                yaw0 = values[j, 2]
+        elif s == yaw_slot:
+            mean[s, 0] += values[j, 0]
+            mean[s, 1] += values[j, 1]
+            # yaw offset from the first reading, wrapped to [-pi, pi)
+            mean[s, 2] += yaw0 + ((values[j, 2] - yaw0 + math.pi) % (2.0 * math.pi) - math.pi)
+        else:
+            for i in range(axes[s]):
+                mean[s, i] += values[j, i]
+        time_sum[s] += time_s[j]
+        count[s] += 1
+    for s in range(n_slots):
+        if count[s] > 1:
+            for i in range(axes[s]):
+                mean[s, i] /= count[s]
+        if s == yaw_slot:
+            mean[s, 2] = (mean[s, 2] + math.pi) % (2.0 * math.pi) - math.pi
+        if count[s] > 0:
+            time_sum[s] /= count[s]
+    out[:, w + 1] = count
+    out[:, w + 2] = first
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _slots(sensor_names: tuple[str, ...], sensor_axes: tuple[int, ...],
+           kinds: frozenset[str] | tuple[str, ...]
+           ) -> tuple[np.ndarray, np.ndarray, int, tuple[str, ...]]:
+    """:func:`group_sample_arrays`'s ``slot_of``, ``axes`` and ``yaw_slot`` for samples of
+    ``sensor_names`` (with ``sensor_axes`` entries) keeping ``kinds``, and the slots' names."""
+    names = tuple(n for n in sensor_names if n in kinds)
+    slot_of = np.array([names.index(n) if n in names else -1 for n in sensor_names],
+                       dtype=np.int64)
+    axes = np.array([sensor_axes[sensor_names.index(n)] for n in names], dtype=np.int64)
+    yaw_slot = names.index("mocap_att") if "mocap_att" in names else -1
+    return slot_of, axes, yaw_slot, names
+
+
 def group_samples(samples: Iterable[SensorSampleLike],
                   kinds: Collection[str] = SENSORS) -> dict[str, SampleBatch]:
     """Average one tick's samples per sensor kind.
@@ -232,22 +322,46 @@ def group_samples(samples: Iterable[SensorSampleLike],
     samples : iterable of SensorSampleLike
         Samples produced since the previous tick, any order, any mix of kinds. Samples of
         kinds not in ``kinds`` are ignored; samples holding a non-finite value are dropped.
+        Samples that come as arrays (:class:`fcu.hal.SensorSampleArrays`) are read as such.
     kinds : collection of str
         Sensor kinds to keep.
 
     Returns
     -------
     dict of str to SampleBatch
-        One batch per kept sensor kind that delivered at least one usable sample. The
-        ``mocap_att`` yaw is averaged as offsets from the first reading, so readings on both
-        sides of +-pi average correctly (result wrapped to [-pi, pi)).
+        One batch per kept sensor kind that delivered at least one usable sample, in the
+        order of their first samples. The ``mocap_att`` yaw is averaged as offsets from the
+        first reading, so readings on both sides of +-pi average correctly (result wrapped to
+        [-pi, pi)).
     """
-    # Plain-float arithmetic: a tick holds ~8 three-element samples, for which numpy's
-    # per-call overhead dwarfs the sums. Same operations in the same order as an
-    # element-wise numpy mean, hence the same rounding.
-    values: dict[str, list[list[float]]] = {}
-    times: dict[str, list[float]] = {}
-    isfinite = math.isfinite
+    if hasattr(samples, "sensor_axes"):  # SensorSampleArrays (the protocol's test is slow)
+        arrays = cast(SensorSampleArrays, samples)
+        slot_of, axes, yaw_slot, names = _slots(
+            arrays.sensor_names, arrays.sensor_axes,
+            kinds if isinstance(kinds, (frozenset, tuple)) else frozenset(kinds))
+        index, times, values = arrays.sensor_index, arrays.time_s, arrays.values
+    else:
+        index, times, values, slot_of, axes, yaw_slot, names = _sample_arrays(samples, kinds)
+    out = group_sample_arrays(index, times, values, slot_of, axes, yaw_slot)
+    w = out.shape[1] - 3
+    rows = out.tolist()
+    order = sorted((row[w + 2], s) for s, row in enumerate(rows) if row[w + 1] > 0)
+    axes_l = axes.tolist()
+    return {names[s]: SampleBatch(out[s, :axes_l[s]], rows[s][w], int(rows[s][w + 1]))
+            for _, s in order}
+
+
+def _sample_arrays(samples: Iterable[SensorSampleLike], kinds: Collection[str]
+                   ) -> tuple[np.ndarray, FloatArray, FloatArray, np.ndarray, np.ndarray, int,
+                              tuple[str, ...]]:
+    """Samples given one object each, as :func:`group_sample_arrays` takes them: each kept
+    kind a slot, in the order of its first sample (raises ValueError when a kind's samples
+    differ in length)."""
+    slot: dict[str, int] = {}
+    axes: list[int] = []
+    index: list[int] = []
+    times: list[float] = []
+    rows: list[list[float]] = []
     for sample in samples:
         name = sample.sensor
         if name not in kinds:
@@ -257,37 +371,22 @@ def group_samples(samples: Iterable[SensorSampleLike],
             vals = value.tolist()
         else:
             vals = np.asarray(value, dtype=float).reshape(-1).tolist()
-        if not all(map(isfinite, vals)):
-            continue
-        if name in values:
-            if len(vals) != len(values[name][0]):
-                raise ValueError(f"{name} sample at {sample.time_s!r} s has {len(vals)} "
-                                 f"values, earlier ones {len(values[name][0])}")
-            values[name].append(vals)
-            times[name].append(float(sample.time_s))
-        else:
-            values[name] = [vals]
-            times[name] = [float(sample.time_s)]
-    batches: dict[str, SampleBatch] = {}
-    for name, rows in values.items():
-        count = len(rows)
-        mean = list(rows[0])
-        if count > 1:
-            n = len(mean)
-            if name == "mocap_att":
-                yaw0 = mean[2]
-                for v in rows[1:]:
-                    mean[0] += v[0]
-                    mean[1] += v[1]
-                    # yaw offset from the first reading, wrapped to [-pi, pi)
-                    mean[2] += yaw0 + wrap_pi(v[2] - yaw0)
-            else:
-                for v in rows[1:]:
-                    for i in range(n):
-                        mean[i] += v[i]
-            mean = [m / count for m in mean]
-        if name == "mocap_att":
-            mean[2] = wrap_pi(mean[2])
-        batches[name] = SampleBatch(value=np.array(mean), time_s=sum(times[name]) / count,
-                                    count=count)
-    return batches
+        if not all(map(math.isfinite, vals)):
+            continue  # dropped (the arrays' kernel drops such samples too)
+        s = slot.get(name)
+        if s is None:
+            s = slot[name] = len(axes)
+            axes.append(len(vals))
+        elif len(vals) != axes[s]:
+            raise ValueError(f"{name} sample at {sample.time_s!r} s has {len(vals)} "
+                             f"values, earlier ones {axes[s]}")
+        index.append(s)
+        times.append(float(sample.time_s))
+        rows.append(vals)
+    width = max(axes, default=0)
+    padded = [r + [0.0] * (width - len(r)) for r in rows]
+    values = np.array(padded, dtype=float).reshape(len(rows), width)
+    names = tuple(slot)
+    return (np.array(index, dtype=np.int64), np.array(times, dtype=float), values,
+            np.arange(len(names), dtype=np.int64), np.array(axes, dtype=np.int64),
+            slot.get("mocap_att", -1), names)

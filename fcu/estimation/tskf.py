@@ -33,23 +33,23 @@ algebraically the Kalman filter on the 20-state model [x; gamma] (Hsieh and Chen
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
-from fcu.estimation.estimator import Channel, TickEstimator, common_channels
-from fcu.estimation.state import (
-    STATE_DIM,
-    YAW_INDEX,
-    FloatArray,
+from fcu.estimation import estimator as frame
+from fcu.estimation.estimator import (
+    Channel,
+    ChannelSet,
     InitialUncertainty,
     Innovation,
-    SampleBatch,
     SensorNoise,
     StateEstimate,
+    TickEstimator,
 )
+from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.estimation.tskf_model import (
     N_MOTORS,
     LinearHoverModel,
@@ -58,23 +58,26 @@ from fcu.estimation.tskf_model import (
 )
 from fcu.floats import clip
 from fcu.model import VehicleModel
-from flightdata.vocabulary import HEIGHT_SOURCES
 
 
-class _Channel(Channel):
-    """One measurement kind: ``y = S x`` at its sample time, its noise, and ``S A_c``."""
+class _ChannelSet(ChannelSet):
+    """One height source's channels, stacked, with ``S A_c``, ``S B_c`` and ``S g_c`` of the
+    flight model (index 0) and the ground model (index 1): ``sel_a`` (2, rows, 16), ``sel_b``
+    (2, rows, 4), ``sel_g`` (2, rows), and ``mapped`` (n_ch,), whether the input's share
+    of a channel's back-mapping is non-zero."""
 
-    def __init__(self, sensor: str, selection: FloatArray, value_index: tuple[int, ...],
-                 sigma: float, model_sigma: float, flight: LinearHoverModel,
+    def __init__(self, channels: tuple[Channel, ...], flight: LinearHoverModel,
                  ground: LinearHoverModel) -> None:
-        super().__init__(sensor, selection, value_index, sigma, model_sigma)
+        super().__init__(channels)
+        models = (flight, ground)
         # S A_c of the flight and ground models, for C = S (I - delta A_c)
-        self.sel_a = {False: self.selection @ flight.a_c, True: self.selection @ ground.a_c}
+        self.sel_a = np.ascontiguousarray([self.sel_stack @ lm.a_c for lm in models])
         # S B_c and S g_c: the input's share of the back-mapping, x(t - delta) = x - delta
         # (A_c x + B_c u + g_c); non-zero only for the accelerometer, which reads the thrusts
-        self.sel_b = {False: self.selection @ flight.b_c, True: self.selection @ ground.b_c}
-        self.sel_g = {False: self.selection @ flight.g_c, True: self.selection @ ground.g_c}
-        self.input_mapped = bool(np.any(self.sel_b[False]) or np.any(self.sel_g[False]))
+        self.sel_b = np.ascontiguousarray([self.sel_stack @ lm.b_c for lm in models])
+        self.sel_g = np.ascontiguousarray([self.sel_stack @ lm.g_c for lm in models])
+        self.mapped = np.array([bool(np.any(self.sel_b[0, i0:i1]) or np.any(self.sel_g[0, i0:i1]))
+                                for i0, i1 in self.rows_list])
 
 
 @njit(cache=True, error_model="numpy")
@@ -243,6 +246,174 @@ def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: 
     return x_hat, p_diag
 
 
+# ---- the filter's workspace (tskf_tick): one float array, these offsets --------------------
+N, G = STATE_DIM, N_MOTORS
+MAX_M = STATE_DIM  # measurement rows of one update at the most
+_XB = 0  # x_bar (N)
+_PX = _XB + N  # P^x (N x N, row-major)
+_PG = _PX + N * N  # P^gamma (G x G)
+_V = _PG + G * G  # V (N x G)
+_PRIOR = _V + N * G  # the same four, priors
+_RES = 2 * _PRIOR  # residual r (m)
+_RES_COV = _RES + MAX_M  # S_bar (m x m)
+_INN = _RES_COV + MAX_M * MAX_M  # innovation r - H gamma (m)
+_INN_COV = _INN + MAX_M  # its covariance (m x m)
+WORK_SIZE = _INN_COV + MAX_M * MAX_M
+
+
+@njit(cache=True, error_model="numpy")
+def _store(work: FloatArray, at: int, arr: FloatArray) -> None:
+    """Write ``arr`` (any shape, row-major) into ``work`` from ``at``."""
+    work[at:at + arr.size] = arr.ravel()
+
+
+@njit(cache=True, error_model="numpy")
+def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
+              on_ground: bool, accel_power: float, a_d: FloatArray, b_d: FloatArray,
+              g_d: FloatArray, q_d: FloatArray, q_gamma: float, ground: FloatArray,
+              dt_s: float, meas: FloatArray, time_s: float, excluded: np.ndarray,
+              reject: bool, sel_stack: FloatArray, sel_a: FloatArray, sel_b: FloatArray,
+              sel_g: FloatArray, mapped: np.ndarray, layout: np.ndarray, noise: FloatArray
+              ) -> tuple[FloatArray, FloatArray, FloatArray, bool, float, int]:
+    """One tick of the TSKF in one compiled call (class and module docstrings).
+
+    ``n_steps`` time updates (:func:`tskf_predict`, each with the flight or ground model by
+    the ground test on ``x_hat``), the screening of the tick's measurements against the prior
+    (:func:`~fcu.estimation.estimator.screen_channels`), the accelerometer's innovation power,
+    and one stacked measurement update of the channels applied (:func:`tskf_correct`).
+
+    Parameters
+    ----------
+    n_steps : int
+        Time updates of ``dt_s`` since the previous tick.
+    u : ndarray, shape (4,)
+        PWM held over them.
+    work : ndarray, shape (WORK_SIZE,)
+        The filter's workspace, updated in place: read are the previous posteriors
+        ``x_bar``, ``P^x``, ``P^gamma``, ``V`` (eq. 6.14, 6.18, 6.19, 6.24); written are the
+        new ones, the priors (eq. 6.11, 6.15, 6.16, 6.22), and the update's residual,
+        ``S_bar``, innovation and its covariance (first ``m`` rows).
+    gamma : ndarray, shape (4,)
+        ``gamma_hat`` of the previous tick (eq. 6.13).
+    on_ground : bool
+        The previous time update's ground flag (kept when ``n_steps`` is 0).
+    accel_power : float
+        The accelerometer's measured innovation power so far, (m/s^2)^2.
+    a_d, b_d, g_d, q_d : ndarrays, shapes (2, 16, 16), (2, 16, 4), (2, 16), (2, 16, 16)
+        Discrete flight (index 0) and ground (index 1) models.
+    q_gamma : float
+        ``Q^gamma`` per step in flight (zero on the ground).
+    ground : ndarray, shape (3,)
+        The ground plane (:func:`~fcu.estimation.estimator.on_ground_at`).
+    dt_s : float
+        Filter period, s.
+    meas, time_s, excluded, reject
+        The tick's measurements, its time (s), exclusions, and whether a lone outlier may be
+        rejected (:func:`~fcu.estimation.estimator.screen_channels`).
+    sel_stack, sel_a, sel_b, sel_g, mapped, layout, noise : ndarrays
+        The channels (:class:`_ChannelSet`).
+
+    Returns
+    -------
+    estimate, screen, gamma, on_ground, accel_power, m
+        ``x_hat`` (eq. 6.25) and the diagonal of its covariance (eq. 6.26), shape (32,); the
+        screening; ``gamma_hat`` (fresh arrays); the ground flag; the innovation power; the
+        rows of the update (0: none).
+    """
+    x_bar = work[_XB:_XB + N].copy()
+    p_x = work[_PX:_PX + N * N].reshape(N, N).copy()
+    p_gamma = work[_PG:_PG + G * G].reshape(G, G).copy()
+    v = work[_V:_V + N * G].reshape(N, G).copy()
+    for _ in range(n_steps):
+        # x_hat = x_bar + V gamma_hat (eq. 6.25): the ground test picks the model
+        on_ground = frame.on_ground_at(x_bar + v @ gamma, ground)
+        g = 1 if on_ground else 0
+        # eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22; Q^gamma = 0 on the ground
+        x_bar, p_x, p_gamma, v = tskf_predict(a_d[g], b_d[g], g_d[g], q_d[g],
+                                              0.0 if on_ground else q_gamma, u, x_bar, p_x,
+                                              gamma, p_gamma, v)
+    _store(work, _PRIOR + _XB, x_bar)
+    _store(work, _PRIOR + _PX, p_x)
+    _store(work, _PRIOR + _PG, p_gamma)
+    _store(work, _PRIOR + _V, v)
+    # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
+    # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
+    screen, status = frame.screen_channels(
+        x_bar + v @ gamma, v @ p_gamma @ v.T + p_x, meas, sel_stack, layout, noise, excluded,
+        on_ground, reject)
+    n_ch = layout.shape[0]
+    m = 0
+    for c in range(n_ch):
+        if status[c] == frame.APPLIED:
+            m += layout[c, frame.ROW1] - layout[c, frame.ROW0]
+            if layout[c, frame.IS_ACCEL] != 0:
+                # the accelerometer's innovation power nu^2: fast attack (2 s), slow decay
+                # (20 s); what its measurement noise becomes when larger than the model's
+                sq = screen[layout[c, frame.ROW0]] ** 2
+                rate = dt_s / (2.0 if sq > accel_power else 20.0)
+                accel_power += rate * (sq - accel_power)
+    if m > 0:
+        g = 1 if on_ground else 0
+        sel = np.empty((m, N))
+        sel_ac = np.empty((m, N))
+        row_delta = np.empty(m)
+        y = np.empty(m)
+        r_diag = np.empty(m)
+        yaw_row = -1
+        k = 0
+        for c in range(n_ch):
+            if status[c] != frame.APPLIED:
+                continue
+            i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
+            # C = S (I - delta A_c): the rows mapped back to the batch's mean sample time
+            delta = time_s - meas[c, frame.TIME]
+            # R = sigma^2 / n for the mean of n samples (+ model error)
+            r_var = frame.noise_var(noise, c, meas[c, frame.COUNT])
+            if layout[c, frame.IS_ACCEL] != 0 and accel_power > r_var:
+                r_var = accel_power  # adaptive: the measured innovation power (class doc)
+            shift = np.zeros(i1 - i0)
+            if mapped[c]:
+                # y = S x(t - delta) = C x - delta S (B_c u + g_c): move the known part over
+                shift = delta * (np.ascontiguousarray(sel_b[g, i0:i1]) @ u + sel_g[g, i0:i1])
+            for i in range(i1 - i0):
+                sel[k] = sel_stack[i0 + i]
+                sel_ac[k] = sel_a[g, i0 + i]
+                row_delta[k] = delta
+                y[k] = meas[c, frame.VALUE + i]
+                if mapped[c]:
+                    y[k] += shift[i]
+                r_diag[k] = r_var
+                if layout[c, frame.WRAP_YAW] != 0 and i == 2:
+                    yaw_row = k
+                k += 1
+        # r = y - C x_bar (yaw wrapped); eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24 (tskf_update)
+        (x_bar, p_x, gamma, p_gamma, v, residual_cov, innovation, innovation_cov,
+         residual) = tskf_correct(sel, sel_ac, row_delta, y, r_diag, yaw_row, x_bar, p_x,
+                                  gamma, p_gamma, v)
+        _store(work, _RES, residual)
+        _store(work, _RES_COV, residual_cov)
+        _store(work, _INN, innovation)
+        _store(work, _INN_COV, innovation_cov)
+    _store(work, _XB, x_bar)
+    _store(work, _PX, p_x)
+    _store(work, _PG, p_gamma)
+    _store(work, _V, v)
+    # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
+    x_hat, p_diag = tskf_output(x_bar, p_x, gamma, p_gamma, v)
+    estimate = np.empty(2 * N)
+    estimate[:N] = x_hat
+    estimate[N:] = p_diag
+    return estimate, screen, gamma.copy(), on_ground, accel_power, m
+
+
+def _workspace_array(at: int, shape: tuple[int | str, ...], doc: str) -> property:
+    """A read-only attribute of :class:`TwoStageKalmanFilter`: the array of ``shape`` kept in
+    its workspace from ``at`` (a copy; ``"m"`` in ``shape``: the latest update's rows)."""
+    def read(self: TwoStageKalmanFilter) -> FloatArray:
+        return self._read(at, shape)
+    return property(read, doc=doc)
+
+
 FLYING_ACCEL_MODEL_SIGMA = 0.4  # m/s^2, accelerometer model error of the TSKF that flies
 # Default random-walk variance of gamma per 10 ms step (eq. 6.9): see TwoStageKalmanFilter.
 DEFAULT_Q_GAMMA = 1e-4
@@ -294,6 +465,7 @@ class TwoStageKalmanFilter(TickEstimator):
 
     Attributes
     ----------
+    (Read-only; the arrays are copies of the filter's workspace.)
     x_bar, P_x : ndarrays, shapes (16,), (16, 16)
         Bias-free filter's posterior (eq. 6.18, 6.19).
     gamma_raw, P_gamma : ndarrays, shapes (4,), (4, 4)
@@ -318,6 +490,8 @@ class TwoStageKalmanFilter(TickEstimator):
     motors were actually asked for) and the samples produced since the previous tick.
     """
 
+    _sets: Mapping[str, _ChannelSet]  # every height source's channels (_build_channel_sets)
+
     def __init__(self, model: VehicleModel, dt_s: float = 0.01,
                  q_gamma: float = DEFAULT_Q_GAMMA, *,
                  height_source: str = "mocap",
@@ -334,12 +508,7 @@ class TwoStageKalmanFilter(TickEstimator):
             raise ValueError(f"gamma_std0 = {gamma_std0!r}: must be a finite number > 0 "
                              "(P^gamma must stay invertible, eq. 6.22)")
         super().__init__(model, dt_s, height_source, noise, initial_uncertainty, ground_z_ned,
-                         ground_margin_m)
-        if accel_z_model_sigma is not None and not (math.isfinite(accel_z_model_sigma)
-                                                    and accel_z_model_sigma >= 0):
-            raise ValueError(f"accel_z_model_sigma = {accel_z_model_sigma!r}: must be >= 0 "
-                             "m/s^2, or None to leave the accelerometer out")
-        self.accel_z_model_sigma = accel_z_model_sigma
+                         ground_margin_m, accel_z_model_sigma)
         self.q_gamma = float(q_gamma)
         self.process_noise = process_noise if process_noise is not None else TskfProcessNoise()
         self.gamma_std0 = float(gamma_std0)
@@ -347,25 +516,21 @@ class TwoStageKalmanFilter(TickEstimator):
         # designed once per configuration and shared (read-only): shared_hover_model
         self.flight_model = shared_hover_model(model, self.dt_s, qc, False)
         self.ground_model = shared_hover_model(model, self.dt_s, qc, True)
-        self._channel_sets = {source: self._make_channels(source) for source in HEIGHT_SOURCES}
-        self._kinds = frozenset(ch.sensor for chs in self._channel_sets.values() for ch in chs)
-        self._select_channels(self.height_source)
+        # both models stacked for tskf_tick: index 0 flight, 1 ground
+        models = (self.flight_model, self.ground_model)
+        self._a_d, self._b_d, self._g_d, self._q_d = (
+            np.ascontiguousarray([getattr(lm, name) for lm in models])
+            for name in ("a_d", "b_d", "g_d", "q_d"))
+        self._build_channel_sets()
         self.reset()
 
-    def _make_channels(self, height_source: str) -> tuple[_Channel, ...]:
-        n, fm, gm = self.noise, self.flight_model, self.ground_model
-        return tuple(_Channel(sensor, sel, value_index, getattr(n, sensor), model_sigma, fm, gm)
-                     for sensor, sel, value_index, model_sigma
-                     in common_channels(height_source, self.model,
-                                        self.accel_z_model_sigma))
-
-    def _select_channels(self, height_source: str) -> None:
-        self._channels = self._channel_sets[height_source]
-        # every channel stacked, for the usual tick on which all of them deliver
-        self._sel_all = np.ascontiguousarray(np.vstack([ch.selection for ch in self._channels]))
-        self._sel_a_all = {g: np.ascontiguousarray(np.vstack([ch.sel_a[g]
-                                                              for ch in self._channels]))
-                           for g in (False, True)}
+    def _make_channels(self, height_source: str) -> _ChannelSet:
+        n = self.noise
+        return _ChannelSet(tuple(Channel(sensor, sel, value_index, getattr(n, sensor),
+                                         model_sigma)
+                                 for sensor, sel, value_index, model_sigma
+                                 in self._common_channels(height_source)),
+                           self.flight_model, self.ground_model)
 
     # ---- life cycle ------------------------------------------------------------------------
     def reset(self, time_s: float = 0.0, initial: StateEstimate | None = None,
@@ -384,159 +549,67 @@ class TwoStageKalmanFilter(TickEstimator):
         """
         x0, p0 = self._initial_state(initial)
         self._time_s = float(time_s)
-        self._u = np.zeros(N_MOTORS)  # PWM held over the latest interval
         self._accel_power = 0.0  # (m/s^2)^2, measured innovation power of the accelerometer
-        # bias-free filter: x_bar, P^x (eq. 6.15-6.19)
-        self.x_bar = x0.astype(float)
-        self.P_x = np.diag(p0)
-        # bias filter: gamma_hat, P^gamma (eq. 6.10-6.14)
+        # bias-free filter x_bar, P^x (eq. 6.15-6.19), bias filter P^gamma (eq. 6.10-6.14),
+        # coupling V_{k|k} (eq. 6.24), their priors and the update's residual and innovation,
+        # as tskf_tick keeps them (read through the properties below)
+        self._work = np.zeros(WORK_SIZE)
+        for at in (0, _PRIOR):
+            self._work[at + _XB:at + _XB + N] = x0
+            self._work[at + _PX:at + _PX + N * N] = np.diag(p0).ravel()
+            self._work[at + _PG:at + _PG + G * G] = (np.eye(G) * self.gamma_std0 ** 2).ravel()
+            # V = 0: the initial state and gamma are uncorrelated
+        self._m = 0  # rows of the latest update
+        # gamma_hat (eq. 6.13), unclipped
         self.gamma_raw = (np.zeros(N_MOTORS) if gamma0 is None
                           else np.array(gamma0, dtype=float).reshape(N_MOTORS))
-        self.P_gamma = np.eye(N_MOTORS) * self.gamma_std0 ** 2
-        # coupling V_{k|k} (eq. 6.24); zero: the initial state and gamma are uncorrelated
-        self.V = np.zeros((STATE_DIM, N_MOTORS))
-        # priors and the last update's quantities, kept for inspection
-        self.x_bar_prior = self.x_bar.copy()
-        self.P_x_prior = self.P_x.copy()
-        self.P_gamma_prior = self.P_gamma.copy()
-        self.V_prior = self.V.copy()
-        self.residual = np.zeros(0)  # r_{k+1} = y - C x_bar_{k+1|k}
-        self.residual_cov = np.zeros((0, 0))  # S_bar_{k+1} (eq. 6.20)
-        self.innovation = np.zeros(0)  # r - H gamma_hat_{k+1|k}: full-state innovation
-        self.innovation_cov = np.zeros((0, 0))  # H P^gamma H' + S_bar
-        self._blocks: list[tuple[str, int, int]] = []  # (sensor, first row, end row)
         self.on_ground = False
-        self._estimate = self._make_estimate()
+        x_hat, p_diag = tskf_output(self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V)
+        self._estimate = StateEstimate._from_owned(self._time_s, x_hat, p_diag)
 
-    def step_grouped(self, time_s: float, pwm_applied: ArrayLike,
-                     batches: Mapping[str, SampleBatch], *,
-                     excluded: Collection[str] = (), reject: bool = True) -> StateEstimate:
-        """Advance to ``time_s`` with ``pwm_applied`` held and update with the tick's averaged
-        samples (:meth:`TickEstimator.step_grouped`).
+    def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
+              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+        """Advance to ``time_s`` and update with the tick's measurements, in one compiled call
+        (:func:`tskf_tick`); returns ``x_hat_{k|k}`` (eq. 6.25) and the diagonal of eq. 6.26.
 
         ``time_s`` is the previous tick's plus a whole number of ``dt_s`` (within 25 % of
-        ``dt_s``); zero steps (same time) update only. Returns ``x_hat_{k|k}`` (eq. 6.25)
-        with the diagonal of eq. 6.26.
+        ``dt_s``); zero steps (same time) update only.
         """
-        time_s = float(time_s)
-        u = np.asarray(pwm_applied, dtype=float).reshape(N_MOTORS)
         n_steps_f = (time_s - self._time_s) / self.dt_s
         n_steps = round(n_steps_f)
         if n_steps < 0 or abs(n_steps_f - n_steps) > 0.25:
             raise ValueError(f"time_s = {time_s!r}: the TSKF is discretised at dt_s = "
                              f"{self.dt_s} s and was last stepped at {self._time_s!r} s; "
                              "call it at whole multiples of dt_s")
-        self._u = u  # held over the interval: the input part of the back-mapping
-        for _ in range(n_steps):
-            self._predict(u)
-        if n_steps == 0:
-            self._keep_prior()
-        self._time_s = time_s
-        # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
-        # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
-        on_ground = self.on_ground
-        batches = self._screen(self._channels, batches,
-                               self.x_bar + self.V @ self.gamma_raw,
-                               self.V @ self.P_gamma @ self.V.T + self.P_x, excluded,
-                               lambda ch: not (ch.sensor == "accel" and on_ground),
-                               reject and not on_ground)
-        self._learn_accel_power()
-        self._update(batches)
-        self._estimate = self._make_estimate()
-        return self._estimate
+        cs = self._sets[self._height_source]
+        estimate, screen, self.gamma_raw, self.on_ground, self._accel_power, self._m = (
+            tskf_tick(n_steps, u, self._work, self.gamma_raw, self.on_ground,
+                      self._accel_power, self._a_d, self._b_d, self._g_d, self._q_d,
+                      self.q_gamma, self._ground, self.dt_s, meas, time_s, excluded, reject,
+                      cs.sel_stack, cs.sel_a, cs.sel_b, cs.sel_g, cs.mapped, cs.layout,
+                      cs.noise))
+        self._keep_screening(cs, screen)
+        return estimate[:N], estimate[N:]
 
-    # ---- filter maths ----------------------------------------------------------------------
-    def _learn_accel_power(self) -> None:
-        """The accelerometer row's measured innovation power nu^2: fast attack (2 s), slow
-        decay (20 s); what its measurement noise becomes when larger than the model's."""
-        check = self.screening.get("accel")
-        if check is None or check.status != "applied":
-            return
-        sq = float(check.residual[0]) ** 2
-        rate = self.dt_s / (2.0 if sq > self._accel_power else 20.0)
-        self._accel_power += rate * (sq - self._accel_power)
+    # ---- the workspace, read (copies) ------------------------------------------------------
+    def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:
+        """The array of ``shape`` (``"m"``: the latest update's rows) stored in the workspace
+        from ``at``, a copy."""
+        dims = tuple(self._m if d == "m" else int(d) for d in shape)
+        return self._work[at:at + int(np.prod(dims))].reshape(dims).copy()
 
-    def _current_model(self) -> LinearHoverModel:
-        x_bar, v, gamma, x_hat = self._x_hat_of
-        if not (x_bar is self.x_bar and v is self.V and gamma is self.gamma_raw):
-            # x_hat = x_bar + V gamma_hat   (eq. 6.25)
-            x_hat = self.x_bar + self.V @ self.gamma_raw
-        self.on_ground = self._on_ground_at(x_hat)
-        return self.ground_model if self.on_ground else self.flight_model
-
-    def _predict(self, u: FloatArray) -> None:
-        lm = self._current_model()
-        q_gamma = 0.0 if self.on_ground else self.q_gamma
-        # eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22 (tskf_predict)
-        self.x_bar, self.P_x, self.P_gamma, self.V = tskf_predict(
-            lm.a_d, lm.b_d, lm.g_d, lm.q_d, q_gamma, u, self.x_bar, self.P_x,
-            self.gamma_raw, self.P_gamma, self.V)
-        self._keep_prior()
-
-    def _keep_prior(self) -> None:
-        self.x_bar_prior = self.x_bar.copy()
-        self.P_x_prior = self.P_x.copy()
-        self.P_gamma_prior = self.P_gamma.copy()
-        self.V_prior = self.V.copy()
-
-    def _update(self, batches: Mapping[str, SampleBatch]) -> None:
-        present: list[_Channel] = []
-        row_delta: list[float] = []
-        y_l: list[float] = []
-        r_l: list[float] = []
-        blocks: list[tuple[str, int, int]] = []
-        yaw_row = -1
-        m = 0
-        for ch in self._channels:
-            batch = batches.get(ch.sensor)
-            if batch is None:
-                continue
-            present.append(ch)
-            k = ch.rows
-            # C = S (I - delta A_c): the rows mapped back to the batch's mean sample time
-            delta = self._time_s - batch.time_s
-            row_delta += [delta] * k
-            value = batch.value.tolist()[ch.value_slice]
-            if ch.input_mapped:
-                # y = S x(t - delta) = C x - delta S (B_c u + g_c): move the known part over
-                og = self.on_ground
-                shift = delta * (ch.sel_b[og] @ self._u + ch.sel_g[og])
-                value = [v + d for v, d in zip(value, shift.tolist(), strict=True)]
-            y_l += value
-            # R = sigma^2 / n for the mean of n samples (+ model error)
-            r_var = ch.noise_var(batch.count)
-            if ch.sensor == "accel":  # adaptive: the measured innovation power (class doc)
-                r_var = max(r_var, self._accel_power)
-            r_l += [r_var] * k
-            if ch.sensor == "mocap_att":
-                yaw_row = m + 2
-            blocks.append((ch.sensor, m, m + k))
-            m += k
-        self._blocks = blocks
-        if m == 0:
-            self.residual = np.zeros(0)
-            self.residual_cov = np.zeros((0, 0))
-            self.innovation = np.zeros(0)
-            self.innovation_cov = np.zeros((0, 0))
-            return
-        on_ground = self.on_ground
-        if len(present) == len(self._channels):
-            sel, sel_a = self._sel_all, self._sel_a_all[on_ground]
-        else:
-            sel = np.vstack([ch.selection for ch in present])
-            sel_a = np.vstack([ch.sel_a[on_ground] for ch in present])
-        # r = y - C x_bar (yaw wrapped); eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24 (tskf_update)
-        (self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V, self.residual_cov,
-         self.innovation, self.innovation_cov, self.residual) = tskf_correct(
-            sel, sel_a, np.array(row_delta), np.array(y_l), np.array(r_l), yaw_row,
-            self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V)
-
-    def _make_estimate(self) -> StateEstimate:
-        # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
-        x_hat, p_diag = tskf_output(self.x_bar, self.P_x, self.gamma_raw, self.P_gamma, self.V)
-        # kept for the next time update's ground test (same x_hat while nothing changed)
-        self._x_hat_of = (self.x_bar, self.V, self.gamma_raw, x_hat.copy())
-        return StateEstimate._from_owned(self._time_s, x_hat, p_diag)
+    x_bar = _workspace_array(_XB, (N,), "Bias-free filter's ``x_bar_{k|k}`` (eq. 6.18).")
+    P_x = _workspace_array(_PX, (N, N), "Bias-free filter's ``P^x_{k|k}`` (eq. 6.19).")
+    P_gamma = _workspace_array(_PG, (G, G), "Bias filter's ``P^gamma_{k|k}`` (eq. 6.14).")
+    V = _workspace_array(_V, (N, G), "Coupling ``V_{k|k}`` (eq. 6.24).")
+    x_bar_prior = _workspace_array(_PRIOR + _XB, (N,), "``x_bar_{k+1|k}`` (eq. 6.15).")
+    P_x_prior = _workspace_array(_PRIOR + _PX, (N, N), "``P^x_{k+1|k}`` (eq. 6.16).")
+    P_gamma_prior = _workspace_array(_PRIOR + _PG, (G, G), "``P^gamma_{k+1|k}`` (eq. 6.11).")
+    V_prior = _workspace_array(_PRIOR + _V, (N, G), "``V_{k+1|k}`` (eq. 6.22).")
+    residual = _workspace_array(_RES, ("m",), "``r_{k+1} = y - C x_bar_{k+1|k}``.")
+    residual_cov = _workspace_array(_RES_COV, ("m", "m"), "``S_bar_{k+1}`` (eq. 6.20).")
+    innovation = _workspace_array(_INN, ("m",), "``r - H gamma_hat_{k+1|k}``.")
+    innovation_cov = _workspace_array(_INN_COV, ("m", "m"), "``H P^gamma H' + S_bar``.")
 
     # ---- inspection ------------------------------------------------------------------------
     @property
@@ -574,11 +647,19 @@ class TwoStageKalmanFilter(TickEstimator):
         ``H P^gamma H' + S_bar`` (the augmented filter's innovation), with each block's NIS
         ``nu' S^-1 nu``. Computed on request."""
         out: dict[str, Innovation] = {}
-        if self.innovation.size == 0:
+        if self._m == 0 or self._screen_out is None:
             return out
-        for name, i0, i1 in self._blocks:
-            blk = self.innovation_cov[i0:i1, i0:i1].copy()
-            res = self.innovation[i0:i1].copy()
+        # the update stacks the applied channels' rows in update order
+        cs = self._screen_out[0]
+        blocks: list[tuple[str, int, int]] = []
+        for c, code in enumerate(self._statuses()):
+            if code == frame.APPLIED:
+                i0 = blocks[-1][2] if blocks else 0
+                blocks.append((cs.sensors[c], i0, i0 + cs.channels[c].rows))
+        innovation, innovation_cov = self.innovation, self.innovation_cov
+        for name, i0, i1 in blocks:
+            blk = innovation_cov[i0:i1, i0:i1].copy()
+            res = innovation[i0:i1].copy()
             out[name] = Innovation(name, self._time_s, res, blk,
                                    float(res @ np.linalg.solve(blk, res)))
         return out

@@ -7,7 +7,8 @@ objects made on demand, so anything that iterates over samples and reads ``.sens
 ``.time_s`` and ``.value`` (the autopilot's ``fcu.hal.SensorSampleLike``) works unchanged;
 code that wants no object per sample reads :attr:`SampleBatch.sensor_index` (into
 :attr:`SampleBatch.sensor_names`), :attr:`SampleBatch.time_s` and :attr:`SampleBatch.values`
-instead.
+(the first :attr:`SampleBatch.sensor_axes` entries of a row) instead, as the autopilot's
+``fcu.hal.SensorSampleArrays`` does.
 """
 
 from __future__ import annotations
@@ -51,6 +52,9 @@ class SampleBatch(Sequence[SensorSample]):
     __slots__ = ("records",)
     sensor_names: tuple[str, ...] = SENSOR_NAMES
     """The names :attr:`sensor_index` indexes (for readers of the arrays)."""
+    sensor_axes: tuple[int, ...] = _AXES
+    """The entries of each of those sensors' values (the first of a row of :attr:`values`
+    that count)."""
 
     def __init__(self, records: np.ndarray) -> None:
         if records.dtype != SAMPLE_RECORD or records.ndim != 1:
