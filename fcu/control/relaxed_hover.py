@@ -65,7 +65,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import fsolve
 
 from fcu.model import VehicleModel
 
@@ -188,6 +187,8 @@ def relaxed_hover(model: VehicleModel, lost_motor: int,
     yaw_torque = float(torque_matrix(model)[2] @ _thrusts(lost_motor, rho, t_side))
     w0 = yaw_torque / (g_z * -1.0)  # omega_z = w n_z = yaw_torque / g_z with n_z = -1
     guess = np.array([t_side, 0.0, 0.0, -1.0, w0])
+    from scipy.optimize import fsolve  # only once a rotor is lost: not at start-up
+
     solution, _, status, message = fsolve(_residual, guess, args=(model, lost_motor, rho),
                                           full_output=True, xtol=1e-12)
     residual = _residual(solution, model, lost_motor, rho)

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
-from scipy.stats import chi2
+from scipy.special import chdtri
 
 from fcu.estimation.state import (
     STATE_DIM,
@@ -304,7 +304,7 @@ class Channel:
         self.picks = bool(np.all(np.sum(self.selection != 0.0, axis=1) == 1)
                           and np.all(np.abs(self.selection[self.selection != 0.0]) == 1.0))
         # NIS gate: chi-square quantile of m degrees of freedom at GATE_PROBABILITY
-        self.gate = float(chi2.isf(GATE_PROBABILITY, self.rows))
+        self.gate = float(chdtri(self.rows, GATE_PROBABILITY))  # chi-square isf
 
 
 def common_channels(height_source: str, model: VehicleModel, accel_model_sigma: float | None

@@ -21,7 +21,8 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 from scipy.stats import chi2
 
-from fcu.estimation.ekf import EkfProcessNoise, ExtendedKalmanEstimator, _QuadrotorEKF
+from fcu.estimation.ekf import EkfProcessNoise, ExtendedKalmanEstimator
+from fcu.estimation.ekf_filterpy import QuadrotorEKF
 from fcu.estimation.ekf_model import (
     discrete_transition,
     model_derivative,
@@ -184,7 +185,7 @@ def test_compiled_update_equals_filterpys_update() -> None:
     h = rng.normal(size=(3, STATE_DIM))
     r = np.diag([0.1, 0.2, 0.3])
     z = rng.normal(size=3)
-    ours = _QuadrotorEKF(PARAMS, EkfProcessNoise().diagonal())
+    ours = QuadrotorEKF(PARAMS, EkfProcessNoise().diagonal())
     ref = ExtendedKalmanFilter(dim_x=STATE_DIM, dim_z=3)
     for f in (ours, ref):
         f.x = x0.copy()
