@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
-from fcu.estimation import estimator as frame
+from fcu.estimation import screening
 from fcu.estimation.ekf_model import (
     discrete_transition,
     model_derivative,
@@ -130,12 +130,12 @@ def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatAr
     """
     if abs(delta) < 1e-9:
         h_mat = sel
-        hx = frame.select(sel, x, picks)
+        hx = screening.select(sel, x, picks)
     else:
         # H = S (I - delta A(x))
-        h_mat = sel - delta * frame.select(sel, model_jacobian(x, p, on_ground), picks)
+        h_mat = sel - delta * screening.select(sel, model_jacobian(x, p, on_ground), picks)
         # h(x) = S (x - delta f(x, u))
-        hx = frame.select(sel, x - delta * model_derivative(x, u, p, on_ground), picks)
+        hx = screening.select(sel, x - delta * model_derivative(x, u, p, on_ground), picks)
     # y = z - h(x)  (attitude: yaw difference wrapped)
     y = z - hx
     if wrap_yaw:
@@ -185,7 +185,7 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
     n_ch = layout.shape[0]
     m_max = 1
     for c in range(n_ch):
-        m_max = max(m_max, layout[c, frame.ROW1] - layout[c, frame.ROW0])
+        m_max = max(m_max, layout[c, screening.ROW1] - layout[c, screening.ROW0])
     y_stack = np.zeros(z_stack.shape[0])
     s_stack = np.zeros((n_ch, m_max, m_max))
     nis = np.zeros(n_ch)
@@ -195,16 +195,16 @@ def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: Float
     for c in range(n_ch):
         if counts[c] <= 0:
             continue
-        i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
+        i0, i1 = layout[c, screening.ROW0], layout[c, screening.ROW1]
         m = i1 - i0
         # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
         r_mat = np.zeros((m, m))
         for i in range(m):
-            r_mat[i, i] = frame.noise_var(noise, c, counts[c])
+            r_mat[i, i] = screening.noise_var(noise, c, counts[c])
         x, p_mat, y, s_mat, s_inv, k_gain, nis[c] = channel_update(
             x, p_mat, z_stack[i0:i1].copy(), np.ascontiguousarray(sel_stack[i0:i1]),
-            deltas[c], u, p, on_ground, r_mat, layout[c, frame.WRAP_YAW] != 0,
-            layout[c, frame.PICKS] != 0)
+            deltas[c], u, p, on_ground, r_mat, layout[c, screening.WRAP_YAW] != 0,
+            layout[c, screening.PICKS] != 0)
         y_stack[i0:i1] = y
         s_stack[c, :m, :m] = s_mat
         last = c
@@ -262,7 +262,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
         The ground plane (:func:`~fcu.estimation.estimator.on_ground_at`).
     meas, excluded, reject
         The tick's measurements, exclusions and whether a lone outlier may be rejected
-        (:func:`~fcu.estimation.estimator.screen_channels`).
+        (:func:`~fcu.estimation.screening.screen_channels`).
     time_s : float
         Tick time, s.
     sel_stack, layout, noise : ndarrays
@@ -272,7 +272,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
     -------
     estimate, screen, on_ground, predicted, last
         The posterior state and its covariance diagonal, shape (32,) (fresh: the estimate's
-        own); the screening (:func:`~fcu.estimation.estimator.screen_channels`); the
+        own); the screening (:func:`~fcu.estimation.screening.screen_channels`); the
         ground flag used; whether there was a prediction; the last channel updated (-1:
         none).
     """
@@ -282,7 +282,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
     if predicted:
         # a longer gap than dt_max: several equal RK4 steps
         n_sub = max(1, math.ceil(dt / dt_max - 1e-6))
-        on_ground = frame.on_ground_at(x, ground)
+        on_ground = screening.on_ground_at(x, ground)
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
             x, f_mat, q_mat, p_mat = predict_covariance(x, p_mat, u, dt / n_sub, p, on_ground,
@@ -292,19 +292,19 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
     work[_X_PRIOR:_X_PRIOR + N] = x
     work[_P_PRIOR:_P_PRIOR + NN] = p_mat.ravel()
     # screened against the prior; on the ground the accelerometer is skipped
-    screen, status = frame.screen_channels(x, p_mat, meas, sel_stack, layout, noise, excluded,
+    screen, status = screening.screen_channels(x, p_mat, meas, sel_stack, layout, noise, excluded,
                                      on_ground, reject)
     n_ch = layout.shape[0]
     counts = np.zeros(n_ch, dtype=np.int64)
     deltas = np.zeros(n_ch)
     z_stack = np.zeros(sel_stack.shape[0])
     for c in range(n_ch):
-        if status[c] == frame.APPLIED:
-            counts[c] = int(meas[c, frame.COUNT])
+        if status[c] == screening.APPLIED:
+            counts[c] = int(meas[c, screening.COUNT])
             # s, how long before the tick the batch was taken
-            deltas[c] = time_s - meas[c, frame.TIME]
-            i0, i1 = layout[c, frame.ROW0], layout[c, frame.ROW1]
-            z_stack[i0:i1] = meas[c, frame.VALUE:frame.VALUE + i1 - i0]
+            deltas[c] = time_s - meas[c, screening.TIME]
+            i0, i1 = layout[c, screening.ROW0], layout[c, screening.ROW1]
+            z_stack[i0:i1] = meas[c, screening.VALUE:screening.VALUE + i1 - i0]
     # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
     # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
     x, p_mat, y_stack, s_all, nis, s_inv, k_gain, last = sequential_updates(

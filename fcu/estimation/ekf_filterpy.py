@@ -32,8 +32,8 @@ class QuadrotorEKF(ExtendedKalmanFilter):
     ``x_post``, ``P_post``; Joseph-form covariance) but runs the matrix algebra in
     :func:`kalman_update`: filterpy's own version (scipy ``inv`` with its argument checks,
     ``deepcopy``) costs 16-35 us per call on this machine, and a tick has three or four.
-    ``tests/fcu/estimation/test_ekf.py`` checks the two against each other. The estimator goes further
-    and runs a whole tick (predictions, screening, updates) in one compiled call
+    ``tests/fcu/estimation/test_ekf.py`` checks the two against each other. The estimator
+    goes further and runs a whole tick (predictions, screening, updates) in one compiled call
     (:func:`ekf_tick`, the same algebra); its :attr:`ExtendedKalmanEstimator.filter` is this
     object with the attributes the last :meth:`predict` and :meth:`update` would have set.
     """

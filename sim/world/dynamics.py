@@ -344,14 +344,8 @@ def specific_force_frd(
 
     Parameters
     ----------
-    x : numpy.ndarray
-        State, shape (17,).
-    wind_ned : numpy.ndarray
-        Wind velocity in NED, m/s, shape (3,).
-    mass_kg : float
-        Current mass, kg.
-    params : numpy.ndarray
-        Output of :func:`pack_params`.
+    x, wind_ned, mass_kg, params
+        As for :func:`derivative`.
 
     Returns
     -------

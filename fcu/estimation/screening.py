@@ -1,0 +1,157 @@
+"""Screening of a tick's measurements against the prior, compiled (the kernels behind
+:class:`fcu.estimation.estimator.TickEstimator`'s screening; the rule is in that module's
+docstring), and the layout of the tables the filters' tick kernels read.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from fcu.estimation.state import Z_INDEX, FloatArray
+
+ChannelStatus = str  # "applied" | "rejected" | "excluded" | "skipped"
+
+
+@njit(cache=True, error_model="numpy")
+def select(sel: FloatArray, a: FloatArray, picks: bool) -> FloatArray:
+    """``S a`` for ``a`` of shape (16,) or (16, k). ``picks``: each row of ``S`` is a single
+    entry of +-1, so the product is those entries of ``a`` (signed), which is what the
+    matrix product computes too, to the bit, without a BLAS call."""
+    if not picks:
+        return sel @ a
+    out = np.zeros((sel.shape[0],) + a.shape[1:])
+    for i in range(sel.shape[0]):
+        for k in range(sel.shape[1]):
+            if sel[i, k] != 0.0:
+                out[i] = sel[i, k] * a[k]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatArray,
+                   r_var: float, wrap_yaw: bool, picks: bool = False
+                   ) -> tuple[FloatArray, FloatArray, float]:
+    """One channel's screening against the prior (module docstring), compiled.
+
+    Returns ``nu = z - S x`` (third entry wrapped to [-pi, pi) when ``wrap_yaw``), the
+    diagonal of ``S P S' + R`` (``R = r_var I``) and ``NIS = nu' (S P S' + R)^-1 nu``
+    (``picks``: as for :func:`select`).
+    """
+    nu = z - select(sel, x, picks)
+    if wrap_yaw:
+        nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
+    # S P S' (picks: S (S P)' = (S P) S', each entry a product by +-1)
+    s_mat = select(sel, select(sel, p_mat, picks).T.copy(), picks).T.copy() if picks else (
+        sel @ p_mat @ sel.T)
+    for i in range(s_mat.shape[0]):
+        s_mat[i, i] += r_var
+    nis = float(nu @ np.linalg.solve(s_mat, nu))
+    return nu, np.diag(s_mat).copy(), nis
+
+
+# ---- one tick's screening of every channel, compiled ----------------------------------------
+# The filters' tick kernels (ekf_tick, tskf_tick) compile the kernels below into themselves, and
+# numba's on-disk cache (cache=True) is keyed on a kernel's own source file only: after editing
+# a kernel here, delete the *.nbi/*.nbc files in fcu/estimation/__pycache__ so that the tick
+# kernels are compiled again.
+# ChannelCheck.status by code (ABSENT: no batch this tick)
+APPLIED, REJECTED, EXCLUDED, SKIPPED, ABSENT = 0, 1, 2, 3, -1
+STATUS_NAMES: tuple[ChannelStatus, ...] = ("applied", "rejected", "excluded", "skipped")
+# columns of a ChannelSet's layout (int) and noise (float) tables, one row per channel
+ROW0, ROW1, WRAP_YAW, IS_ACCEL, PICKS = 0, 1, 2, 3, 4
+SAMPLE_VAR, MODEL_VAR, GATE = 0, 1, 2
+# columns of a tick's measurement table (TickEstimator._measurements), one row per channel:
+# samples averaged (0: no batch), their mean time (s), the measured entries (first m used)
+COUNT, TIME, VALUE = 0, 1, 2
+MEAS_WIDTH = 5
+
+
+@njit(cache=True, error_model="numpy")
+def noise_var(noise: FloatArray, c: int, count: float) -> float:
+    """Channel ``c``'s ``R`` (per axis) for the mean of ``count`` samples (``noise``: a
+    :class:`ChannelSet`'s)."""
+    # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
+    return noise[c, SAMPLE_VAR] / count + noise[c, MODEL_VAR]
+
+
+@njit(cache=True, error_model="numpy")
+def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
+    """The ground holds a vehicle in state ``x``: within the ground margin of the ground plane
+    with its thrust below its weight. ``ground`` = [ground plane present (0/1), plane z minus
+    the margin (m, NED), weight (N)]."""
+    if ground[0] == 0.0:
+        return False
+    # sum(T), left to right as numpy sums four entries
+    thrust = x[12] + x[13] + x[14] + x[15]
+    return x[Z_INDEX] >= ground[1] and thrust < ground[2]
+
+
+@njit(cache=True, error_model="numpy")
+def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stack: FloatArray,
+                    layout: np.ndarray, noise: FloatArray, excluded: np.ndarray,
+                    on_ground: bool, reject: bool) -> tuple[FloatArray, np.ndarray]:
+    """Screen every channel that delivered a batch against the prior ``x``, ``p_mat``
+    (module docstring), by :func:`screen_channel` each.
+
+    Parameters
+    ----------
+    x, p_mat : ndarrays, shapes (16,), (16, 16)
+        Prior state and covariance.
+    meas : ndarray, shape (n_ch, MEAS_WIDTH)
+        The tick's measurement table (:meth:`TickEstimator._measurements`).
+    sel_stack, layout, noise : ndarrays
+        The channels (:class:`ChannelSet`).
+    excluded : ndarray of bool, shape (n_ch,)
+        Channels the health monitor excluded (screened, never applied).
+    on_ground : bool
+        The vehicle is on the ground: the accelerometer is skipped and no outlier rejected.
+    reject : bool
+        A lone outlier may be rejected.
+
+    Returns
+    -------
+    screen : ndarray, shape (2 rows_total + 2 n_ch,)
+        ``nu = z - S x`` and ``diag(S P S' + R)``, each stacked like ``sel_stack``, then each
+        channel's NIS and status code (``APPLIED`` ... ``SKIPPED``, ``ABSENT`` without a
+        batch), one array for :meth:`TickEstimator._keep_screening`.
+    status : ndarray of int, shape (n_ch,)
+        The status codes again.
+    """
+    n_ch = layout.shape[0]
+    n_rows = sel_stack.shape[0]
+    screen = np.zeros(2 * n_rows + 2 * n_ch)
+    nu_stack = screen[:n_rows]
+    var_stack = screen[n_rows:2 * n_rows]
+    nis = screen[2 * n_rows:2 * n_rows + n_ch]
+    status = np.full(n_ch, ABSENT, dtype=np.int64)
+    n_outliers = 0
+    outlier = -1
+    for c in range(n_ch):
+        count = meas[c, COUNT]
+        if count <= 0.0:
+            continue
+        i0, i1 = layout[c, ROW0], layout[c, ROW1]
+        r_var = noise_var(noise, c, count)
+        # nu = z - S x;  diag(S P S' + R);  NIS = nu' (S P S' + R)^-1 nu
+        nu, var, nis[c] = screen_channel(
+            np.ascontiguousarray(sel_stack[i0:i1]), meas[c, VALUE:VALUE + i1 - i0].copy(),
+            x, p_mat, r_var, layout[c, WRAP_YAW] != 0, layout[c, PICKS] != 0)
+        nu_stack[i0:i1] = nu
+        var_stack[i0:i1] = var
+        if excluded[c]:
+            status[c] = EXCLUDED
+        elif on_ground and layout[c, IS_ACCEL] != 0:
+            # on the ground the accelerometer feels the ground reaction, not the thrust
+            status[c] = SKIPPED
+        else:
+            status[c] = APPLIED
+            if nis[c] > noise[c, GATE]:
+                n_outliers += 1
+                outlier = c
+    if reject and not on_ground and n_outliers == 1:  # a lone outlier is that sensor's fault
+        status[outlier] = REJECTED
+    screen[2 * n_rows + n_ch:] = status
+    return screen, status
