@@ -48,6 +48,9 @@ from fcu.estimation.estimator import (
 )
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # ekf_tick compiles in the kernels of ekf_model and screening
 
 if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view is asked for
     from fcu.estimation.ekf_filterpy import QuadrotorEKF

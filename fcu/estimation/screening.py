@@ -53,10 +53,8 @@ def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatAr
 
 
 # ---- one tick's screening of every channel, compiled ----------------------------------------
-# The filters' tick kernels (ekf_tick, tskf_tick) compile the kernels below into themselves, and
-# numba's on-disk cache (cache=True) is keyed on a kernel's own source file only: after editing
-# a kernel here, delete the *.nbi/*.nbc files in fcu/estimation/__pycache__ so that the tick
-# kernels are compiled again.
+# The filters' tick kernels (ekf_tick, tskf_tick) compile the kernels below into themselves;
+# their modules drop their cached kernels when this one changes (flightdata.kernel_cache).
 # ChannelCheck.status by code (ABSENT: no batch this tick)
 APPLIED, REJECTED, EXCLUDED, SKIPPED, ABSENT = 0, 1, 2, 3, -1
 STATUS_NAMES: tuple[ChannelStatus, ...] = ("applied", "rejected", "excluded", "skipped")

@@ -60,6 +60,9 @@ from fcu.estimation.tskf_model import (
 )
 from fcu.floats import clip
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # tskf_tick compiles in the kernels of tskf_algebra and screening
 
 
 class _ChannelSet(ChannelSet):

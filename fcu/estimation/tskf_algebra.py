@@ -2,7 +2,7 @@
 update, the stacked correction of a tick and the outputs (eq. 6.10-6.26).
 
 :mod:`fcu.estimation.tskf` runs them, a tick at a time, in :func:`fcu.estimation.tskf.tskf_tick`
-(numba's cache does not see edits here from there: clear ``__pycache__`` after editing).
+(whose cached kernels are dropped when this module changes: :mod:`flightdata.kernel_cache`).
 """
 
 from __future__ import annotations

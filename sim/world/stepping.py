@@ -34,6 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
+from flightdata.kernel_cache import drop_stale_kernels
 from sim.world.dynamics import plant_step, specific_force_into
 from sim.world.fault_kernels import (
     actuator_draws_ready,
@@ -44,6 +45,8 @@ from sim.world.fault_kernels import (
 from sim.world.fault_types import SENSOR_AXES, SENSOR_NAMES
 from sim.world.sensors import noise_ready, sensor_due, sensor_reading
 from sim.world.wind import WIND_READY, WIND_RETUNE, dryden_ready, dryden_step
+
+drop_stale_kernels(__file__)  # the world step compiles in dynamics, sensors, wind, faults
 
 STOP_DONE = 0  # all the steps asked for were taken
 STOP_CONTACT = 1  # the last step taken changed the ground contact (touchdown, lift-off, crash)
