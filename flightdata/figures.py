@@ -103,12 +103,12 @@ def _only_flying(values: np.ndarray, flying: np.ndarray) -> np.ndarray:
     return out
 
 
-def _mark_faults(ax: Axes, fault_times_s: Sequence[float]) -> None:
+def mark_faults(ax: Axes, fault_times_s: Sequence[float]) -> None:
     for t in fault_times_s:
         ax.axvline(t, label="_fault", **_FAULT_STYLE)
 
 
-def _title(fig: Figure, text: str, name: str | None) -> None:
+def figure_title(fig: Figure, text: str, name: str | None) -> None:
     fig.suptitle(text if not name else f"{name}: {text}")
 
 
@@ -163,7 +163,7 @@ def trajectory_figure(series: FlightSeries, name: str | None = None) -> Figure:
     top.grid(True, alpha=0.3)
     top.legend(loc="best")
     top.set_title("seen from above")
-    _title(fig, "trajectory (thesis Figure 7.3)", name)
+    figure_title(fig, "trajectory (thesis Figure 7.3)", name)
     return fig
 
 
@@ -201,9 +201,9 @@ def _tracking_figure(series: FlightSeries,
         bottom.set_xlabel("time (s)")
         for ax in (top, bottom):
             ax.grid(True, alpha=0.3)
-            _mark_faults(ax, faults)
+            mark_faults(ax, faults)
     axes[0, 0].legend(loc="best")
-    _title(fig, labels.title, name)
+    figure_title(fig, labels.title, name)
     return fig
 
 
@@ -231,9 +231,9 @@ def pwm_figure(series: FlightSeries, name: str | None = None) -> Figure:
         ax.set_ylabel(f"u{j + 1} (PWM)")
         ax.grid(True, alpha=0.3)
         ax.legend(loc="lower left")
-        _mark_faults(ax, faults)
+        mark_faults(ax, faults)
     axes[-1].set_xlabel("time (s)")
-    _title(fig, "motor commands (thesis Figure 7.9)", name)
+    figure_title(fig, "motor commands (thesis Figure 7.9)", name)
     return fig
 
 
@@ -254,12 +254,12 @@ def loe_figure(series: FlightSeries, name: str | None = None) -> Figure:
         ax.set_title(f"motor {j + 1}")
         ax.set_ylabel("loss of effectiveness")
         ax.grid(True, alpha=0.3)
-        _mark_faults(ax, faults)
+        mark_faults(ax, faults)
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
     axes[0, 0].set_ylim(bottom=-0.05)
     axes[0, 0].legend(loc="upper left")
-    _title(fig, "effectiveness, injected and estimated (thesis Figure 6.2)", name)
+    figure_title(fig, "effectiveness, injected and estimated (thesis Figure 6.2)", name)
     return fig
 
 

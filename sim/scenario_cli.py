@@ -7,6 +7,7 @@ Usage::
                                     [--figures DIR]
     ftc-scenario thesis [--out DIR] [--json PATH] [--seed N] [--jobs N]
     ftc-scenario seeds NAME|FILE.toml --seeds 1-30 [--jobs N] [--json PATH]
+    ftc-scenario compare NAME|FILE.toml NAME|FILE.toml ... --out DIR [--seed N]
 
 ``run`` shows a live progress line on stderr when it is a terminal (simulated time, real-time
 factor, flight phase) and a final line otherwise. ``--rrd`` records the flight, with truth, to
@@ -16,7 +17,9 @@ thesis-style figures as PNG and PDF (:mod:`flightdata.figures`).
 
 ``seeds`` flies one scenario over many seeds and counts outcomes, detections and false
 alarms (a detection that matches no injected fault, :func:`flightdata.metrics.score_detection`):
-the figures the fault-detection claims rest on.
+the figures the fault-detection claims rest on. ``compare`` flies several scenarios (passive
+against active FTC, say) and draws their positions through the faults in one figure, plus the
+spin phase of any flight that gave up yaw (:mod:`flightdata.fault_figures`).
 
 Bad input (unknown scenario, bad file, bad value, an output that cannot be written) prints one
 line naming what was wrong and exits with status 2, before anything is flown; a crash of the
@@ -165,6 +168,38 @@ def cmd_thesis(args: argparse.Namespace) -> int:
     return 1 if any(_unsafe(m) for m in report.metrics.values()) else 0
 
 
+SPIN_RATE_RAD_S = 5.0  # rad/s: a flight that spun faster than this gets a spin figure
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    """Fly each scenario and draw them against each other through their faults; a flight
+    that gave up yaw (spun faster than SPIN_RATE_RAD_S) gets its spin figure too."""
+    import numpy as np
+
+    from flightdata.fault_figures import comparison_figure, spin_figure, spin_series
+    from flightdata.figures import save_figure
+    from sim.runner import fly
+
+    scenarios = [load_scenario(name) for name in args.scenarios]  # bad input fails here
+    if args.seed is not None:
+        scenarios = [s.with_seed(args.seed) for s in scenarios]
+    _check_outputs([], [("--out", args.out)])
+    out = Path(args.out)
+    flights = {}
+    for scenario in scenarios:
+        result = fly(scenario)
+        flights[scenario.name] = result.log
+        print(f"{scenario.name}: {result.metrics['outcome']['kind']}")
+    written = save_figure(comparison_figure(flights), out / "compare")
+    for name, series in flights.items():
+        rate, _ = spin_series(series)
+        if np.nanmax(np.abs(rate)) > SPIN_RATE_RAD_S:
+            written += save_figure(spin_figure(series, name), out / f"{name}_spin")
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
 def cmd_seeds(args: argparse.Namespace) -> int:
     from sim.batch import fly_many
 
@@ -240,6 +275,14 @@ def build_parser() -> argparse.ArgumentParser:
     thesis.add_argument("--seed", type=_seed, help="override every scenario's seed")
     thesis.add_argument("--jobs", type=_jobs, default=2, help="parallel runs (default 2)")
     thesis.set_defaults(func=cmd_thesis)
+    compare = sub.add_parser("compare", help="fly scenarios and draw them against each other "
+                             "through their faults (and the spin of any that gave up yaw)")
+    compare.add_argument("scenarios", nargs="+", metavar="scenario",
+                         help="shipped scenario names or scenario .toml files")
+    compare.add_argument("--out", metavar="DIR", required=True,
+                         help="write compare.png/.pdf (and NAME_spin.png/.pdf) here")
+    compare.add_argument("--seed", type=_seed, help="override every scenario's seed")
+    compare.set_defaults(func=cmd_compare)
     seeds = sub.add_parser("seeds", help="fly one scenario over many seeds, count outcomes "
                            "and false alarms")
     seeds.add_argument("scenario", help="a shipped scenario name or a scenario .toml file")
