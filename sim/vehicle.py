@@ -172,9 +172,8 @@ class VehicleProcess:
         self.summary = RunSummary()
 
     def open(self) -> Address:
-        """Bind the socket, run the boot tick, send the first HEARTBEAT, then warm up (numba
-        code loaded by a throwaway copy of the vehicle, the endpoint answering meanwhile);
-        returns the bound address.
+        """Bind the socket, run the boot tick and send the first HEARTBEAT; returns the bound
+        address. :meth:`run` warms up before it flies.
 
         Raises
         ------
@@ -183,15 +182,19 @@ class VehicleProcess:
         """
         self.link.open()
         self.vehicle.first_tick()
+        self.endpoint.tick(time_s=self.vehicle.time_s, wall_time_s=time.monotonic())
+        return self.link.local_address
+
+    def _warm_up(self) -> None:
+        """Load the numba code by flying a throwaway copy of the vehicle, the endpoint
+        answering between its ticks."""
         vehicle, endpoint = self.vehicle, self.endpoint
-        endpoint.tick(time_s=vehicle.time_s, wall_time_s=time.monotonic())  # first HEARTBEAT
         setup = vehicle.setup
         warm_up(setup.world, setup.autopilot, setup.seed,
                 between_ticks=lambda: endpoint.tick(time_s=vehicle.time_s,
                                                     wall_time_s=time.monotonic()))
         gc.collect()
         gc.freeze()  # start-up objects are never collected: shorter collections in flight
-        return self.link.local_address
 
     def enter_realtime(self) -> str:
         """Run this process at SCHED_FIFO ``realtime_priority`` if asked and allowed.
@@ -226,7 +229,9 @@ class VehicleProcess:
             path.write_text("\n".join(lines) + "\n")
 
     def run(self, should_stop: Callable[[], bool]) -> RunSummary:
-        """Fly until ``should_stop()`` or ``max_sim_s``; call :meth:`open` first."""
+        """Warm up, then fly until ``should_stop()`` or ``max_sim_s``; call :meth:`open`
+        first."""
+        self._warm_up()
         vehicle, endpoint, summary = self.vehicle, self.endpoint, self.summary
         clock, sleep, cpu = time.monotonic, time.sleep, time.process_time
         period_s = vehicle.tick_s / self.options.speedup
