@@ -473,11 +473,13 @@ class GroundStation(ParameterClient):
         ``_RESEND_AFTER_S`` (or three link lags) of vehicle time after it left, up to
         ``_MAX_SENDS`` times: on a lossy link a lost PARAM_SET would be a lost fault. A
         repeat is harmless (the vehicle keeps a parameter fault it already holds)."""
+        waiting = [f for f in self._inflight if f.by_param and not f.received]
+        if not waiting:  # the usual case, on every clock update
+            return
         wait_s = max(_RESEND_AFTER_S, 3.0 * self.lead_s())
-        for flight in self._inflight:
+        for flight in waiting:
             name = flight.param_name()
-            if name is None or flight.received:
-                continue
+            assert name is not None  # by_param
             echoed = self.analyzer.params.get(name)
             if echoed is not None and same_float32(echoed, flight.param_value()):
                 flight.received = True
