@@ -420,7 +420,8 @@ class Link:
     # ------------------------------------------------------------------ connecting
     def wait_vehicle(self, timeout_s: float = 10.0,
                      gone: Callable[[], str | None] | None = None) -> tuple[int, int]:
-        """Wait for an autopilot's HEARTBEAT; returns its (sysid, compid).
+        """Wait for an autopilot's HEARTBEAT, and while it says MAV_STATE_BOOT for one that
+        does not; returns its (sysid, compid).
 
         Parameters
         ----------
@@ -439,12 +440,20 @@ class Link:
         """
         self.log("LINK", f"listening on {self.url}" + (" (signing)" if self.signing else ""))
         deadline = time.monotonic() + timeout_s
-        while self.analyzer.vehicle is None or self._signing_mismatch():
+        booting_logged = False
+        while (self.analyzer.vehicle is None or self.analyzer.vehicle_booting
+               or self._signing_mismatch()):
+            if self.analyzer.vehicle_booting and not booting_logged:
+                self.log("LINK", "vehicle booting (HEARTBEAT says MAV_STATE_BOOT): waiting")
+                booting_logged = True
             mismatch = self._signing_mismatch()
             if mismatch:
                 raise SigningMismatch(mismatch)
             left = deadline - time.monotonic()
             if left <= 0:
+                if self.analyzer.vehicle_booting:
+                    raise VehicleNotFound(f"the vehicle on {self.url} was still booting after "
+                                          f"{timeout_s:g} s")
                 raise VehicleNotFound(f"no HEARTBEAT from an autopilot on {self.url} within "
                                       f"{timeout_s:g} s" + (
                                           f" ({self.unverified} packets failed the signature "

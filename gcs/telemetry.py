@@ -136,6 +136,7 @@ class TelemetryReader:
         self._record_seqs: set[int] = set()
         self.malformed_records = 0
         self.last_vehicle_unix_us: int | None = None
+        self.vehicle_booting = False  # the vehicle's last HEARTBEAT said MAV_STATE_BOOT
         self.events: list[FlightEvent] = []  # every event emitted, in order
 
     # ------------------------------------------------------------------ feeding
@@ -246,6 +247,7 @@ class TelemetryReader:
                      float(msg.x), float(msg.y), float(msg.z))
 
     def _on_heartbeat(self, msg: MAVLinkMessage) -> None:
+        self.vehicle_booting = int(msg.system_status) == _M.MAV_STATE_BOOT
         armed = bool(int(msg.base_mode) & _M.MAV_MODE_FLAG_SAFETY_ARMED)
         mode = int(msg.custom_mode)
         if armed != self.armed:

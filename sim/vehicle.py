@@ -37,46 +37,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fcu.mavlink.autopilot_port import vehicle_autopilot_config
+from fcu.mavlink.boot_beacon import BootBeacon
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.link import Address
 from fcu.mavlink.port import GeoPoint
 from fcu.mavlink.udp import DEFAULT_PEERS, UdpLink
+from sim.instances import DEFAULT_BIND
 from sim.scenario import Scenario
 from sim.stack import warm_up
 from sim.vehicle_port import SimVehicle, VehicleSetup
 
-__all__ = ["DEFAULT_BIND", "DEFAULT_HOME", "MAX_INSTANCE", "MAX_LAG_S", "SERVICE_PERIOD_S",
-           "RunSummary", "VehicleOptions", "VehicleProcess", "build_setup", "instance_addresses"]
+__all__ = ["DEFAULT_HOME", "MAX_LAG_S", "SERVICE_PERIOD_S", "RunSummary", "VehicleOptions",
+           "VehicleProcess", "build_setup"]
 
-DEFAULT_BIND: Address = ("127.0.0.1", 14555)
-"""Where the vehicle listens by default (``udpout:127.0.0.1:14555`` reaches it)."""
 DEFAULT_HOME = GeoPoint(-35.363261, 149.165230, 584.0)
 """ArduPilot SITL's default location (CMAC, Canberra): deg, deg, m AMSL."""
-MAX_INSTANCE = 9  # highest --instance: beyond it the API port 14540 + N meets 14550 + 10 M
 SERVICE_PERIOD_S = 0.02  # wall s, longest gap between endpoint services while waiting
 MAX_LAG_S = 0.25  # wall s, longest backlog caught up before the schedule is re-anchored
-
-
-def instance_addresses(instance: int) -> tuple[Address, tuple[Address, ...]]:
-    """Default listening address and telemetry destinations of vehicle ``instance``.
-
-    As ArduPilot SITL's ``-I N`` moves its ports by 10 N, instance N listens on
-    127.0.0.1:14555 + 10 N and sends to the ground-station port 14550 + 10 N; the API port
-    (MAVSDK) is 14540 + N, PX4 SITL's convention for instance N (14540 + 10 N would be the
-    ground-station port of instance N - 1). For N in 0..:data:`MAX_INSTANCE` no port of one
-    instance is a port of another.
-
-    Raises
-    ------
-    ValueError
-        ``instance`` outside 0..MAX_INSTANCE.
-    """
-    if not 0 <= instance <= MAX_INSTANCE:
-        raise ValueError(f"instance = {instance!r}: must be in 0..{MAX_INSTANCE}")
-    (gcs_host, gcs_port), (api_host, api_port) = DEFAULT_PEERS
-    bind = (DEFAULT_BIND[0], DEFAULT_BIND[1] + 10 * instance)
-    return bind, ((gcs_host, gcs_port + 10 * instance), (api_host, api_port + instance))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -155,12 +133,21 @@ class VehicleProcess:
     Parameters
     ----------
     options : VehicleOptions
+    beacon : BootBeacon or None
+        The boot HEARTBEATs sent while this process loaded (``ftc-vehicle``): stopped here,
+        its bound link and packer carry on (their addresses and ids must be ``options``').
+        None: a new link, bound by :meth:`open`.
     """
 
-    def __init__(self, options: VehicleOptions) -> None:
+    def __init__(self, options: VehicleOptions, beacon: BootBeacon | None = None) -> None:
         self.options = options
         self.vehicle = SimVehicle(build_setup(options))
-        self.link = UdpLink(options.bind[0], options.bind[1], default_peers=options.outs)
+        codec = None
+        if beacon is None:
+            self.link = UdpLink(options.bind[0], options.bind[1], default_peers=options.outs)
+        else:
+            beacon.handover()
+            self.link, codec = beacon.link, beacon.codec
         model = self.vehicle.config.model
         self.endpoint = MavlinkEndpoint(
             self.vehicle.port, self.link,
@@ -168,7 +155,7 @@ class VehicleProcess:
                                   pwm_max=model.pwm_max, boot_unix_time_s=time.time(),
                                   signing_key=options.signing_key,
                                   max_stream_rate_hz=1.0 / self.vehicle.tick_s),
-            injector=self.vehicle, extra_params=[self.vehicle.sim_params])
+            injector=self.vehicle, extra_params=[self.vehicle.sim_params], codec=codec)
         self.summary = RunSummary()
 
     def open(self) -> Address:

@@ -27,9 +27,12 @@ digits): every packet sent is signed and unsigned or wrongly signed packets are 
 key installed later over MAVLink (SETUP_SIGNING) lasts until the process ends; only a key on
 the command line is there again after a restart.
 
-One line on stdout says where it listens; Ctrl-C or SIGTERM stops it cleanly (exit 0). A bad
-option or scenario (or a ``--timing-log`` that cannot be written) prints one line and exits
-with status 2 before the vehicle starts; an address that cannot be bound exits with status 1.
+The socket is bound first and a HEARTBEAT saying ``MAV_STATE_BOOT`` goes out at once (and at
+1 Hz) while the autopilot loads (:mod:`fcu.mavlink.boot_beacon`); then one line on stdout says
+where it listens, and the HEARTBEATs say STANDBY. Ctrl-C or SIGTERM stops it cleanly (exit
+0). A bad option (or a ``--timing-log`` that cannot be written) prints one line and exits with
+status 2 before anything is sent; a bad scenario does the same once loading reaches it (a
+boot HEARTBEAT may have gone out); an address that cannot be bound exits with status 1.
 """
 
 from __future__ import annotations
@@ -192,18 +195,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
 
+    # bind and say we are booting (MAV_STATE_BOOT) before the autopilot loads
+    from fcu.mavlink.boot_beacon import BootBeacon
+    from fcu.mavlink.codec import Codec
+    from fcu.mavlink.udp import UdpLink
+    from sim.instances import instance_addresses
+
+    default_bind, default_outs = instance_addresses(args.instance)
+    bind = default_bind if args.bind is None else args.bind
+    outs = default_outs if args.out is None else tuple(o for o in args.out if o)
+    beacon = BootBeacon(UdpLink(bind[0], bind[1], default_peers=outs),
+                        Codec(args.sysid, args.compid), signing_key=args.signing_key)
+    try:
+        beacon.start()
+    except OSError as err:
+        print(f"{PROG}: cannot listen on {bind[0]}:{bind[1]}: {err.strerror or err}",
+              file=sys.stderr)
+        return 1
+
     from fcu.mavlink.port import GeoPoint
     from flightdata.config import ConfigError
     from sim.scenario import load_scenario
-    from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess, instance_addresses
+    from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess
 
     try:
         scenario = load_scenario(args.scenario)
         if args.seed is not None:
             scenario = scenario.with_seed(args.seed)
-        default_bind, default_outs = instance_addresses(args.instance)
-        bind = default_bind if args.bind is None else args.bind
-        outs = default_outs if args.out is None else tuple(o for o in args.out if o)
         origin = DEFAULT_HOME if args.home is None else GeoPoint(*args.home)
         options = VehicleOptions(
             scenario=scenario, speedup=args.speedup, sysid=args.sysid, compid=args.compid,
@@ -211,15 +229,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             with_faults=args.with_faults, load_mission=args.load_mission,
             start_paused=args.start_paused, timing_log=args.timing_log,
             realtime_priority=args.realtime, signing_key=args.signing_key)
-        process = VehicleProcess(options)
+        process = VehicleProcess(options, beacon)
     except (ConfigError, ValueError) as err:
+        beacon.handover()
+        beacon.link.close()
         parser.error(str(err))
-    try:
-        host, port = process.open()
-    except OSError as err:
-        print(f"{PROG}: cannot listen on {bind[0]}:{bind[1]}: {err.strerror or err}",
-              file=sys.stderr)
-        return 1
+    host, port = process.open()
     realtime = process.enter_realtime()
     outs_text = ", ".join(f"{h}:{p}" for h, p in outs) or "none"
     print(f"{PROG}: listening on udp {host}:{port} as sysid {args.sysid} compid "

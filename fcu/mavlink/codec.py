@@ -19,9 +19,18 @@ from typing import TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-__all__ = ["Codec", "ParseResult", "mavlink2"]
+__all__ = ["Codec", "ParseResult", "heartbeat_message", "mavlink2"]
 
 MAVLinkMessage: TypeAlias = mavlink2.MAVLink_message
+
+
+def heartbeat_message(base_mode: int, custom_mode: int, system_status: int) -> MAVLinkMessage:
+    """The vehicle's HEARTBEAT: an ArduCopter-style quadrotor (``MAV_TYPE_QUADROTOR``,
+    ``MAV_AUTOPILOT_ARDUPILOTMEGA``, MAVLink version 3) in ``base_mode`` / ``custom_mode``
+    with ``system_status`` (MAV_STATE)."""
+    return mavlink2.MAVLink_heartbeat_message(
+        mavlink2.MAV_TYPE_QUADROTOR, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode,
+        custom_mode, system_status, 3)
 
 
 @dataclass(frozen=True, slots=True)

@@ -124,18 +124,22 @@ class MavlinkEndpoint:
         More parameters (e.g. the simulator's ``SIM_*``); names must be unique overall.
     clock : callable
         Wall clock for the receive budget, s (``time.perf_counter``; injectable for tests).
+    codec : Codec or None
+        The packer to carry on with (the boot beacon's, :mod:`fcu.mavlink.boot_beacon`: its
+        sequence numbers go on); None: a new one for ``config``'s ids.
     """
 
     def __init__(self, port: VehiclePort, link: Link, *,
                  config: EndpointConfig | None = None,
                  injector: FailureInjector | None = None,
                  extra_params: Sequence[ParamProvider] = (),
-                 clock: Callable[[], float] = time.perf_counter) -> None:
+                 clock: Callable[[], float] = time.perf_counter,
+                 codec: Codec | None = None) -> None:
         self._config = config = config if config is not None else EndpointConfig()
         self._port = port
         self._link = link
         self.stats = EndpointStats()
-        self._codec = Codec(config.sysid, config.compid)
+        self._codec = Codec(config.sysid, config.compid) if codec is None else codec
         self._outbox = _Outbox(self._codec, link, self.stats)
         self.signing = MessageSigning(self._codec.signing, self._outbox, key=config.signing_key)
         self._records = RecordRelay()

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.codec import MAVLinkMessage, heartbeat_message, mavlink2
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.port import LandedState, VehicleSnapshot
@@ -162,9 +162,8 @@ def heartbeat(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     status = int(snap.system_status)
     if (ctx.gcs_failsafe_active or snap.failsafe_active) and status != MavState.BOOT:
         status = max(status, int(MavState.CRITICAL))
-    return _M.MAVLink_heartbeat_message(
-        _M.MAV_TYPE_QUADROTOR, _M.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode,
-        clamp_int(snap.custom_mode, 0, UINT32_MAX, 0), clamp_int(status, 0, UINT8_MAX, 0), 3)
+    return heartbeat_message(base_mode, clamp_int(snap.custom_mode, 0, UINT32_MAX, 0),
+                             clamp_int(status, 0, UINT8_MAX, 0))
 
 
 def sensor_bits(snap: VehicleSnapshot) -> tuple[int, int, int]:

@@ -55,7 +55,8 @@ from flightdata.signing import (
     timestamp_from_unix,
 )
 
-__all__ = ["MAX_STREAMS", "REPORT_NAME", "MessageSigning", "SigningStats", "check_key"]
+__all__ = ["MAX_STREAMS", "REPORT_NAME", "MessageSigning", "SigningStats", "check_key",
+           "start_signing"]
 
 _M = mavlink2
 MAX_STREAMS = 16  # MAVLINK_MAX_SIGNING_STREAMS of the C library
@@ -92,6 +93,19 @@ class SigningStats:
         """Packets dropped by the signing check."""
         return (self.unsigned + self.bad_signature + self.replayed + self.stale
                 + self.too_many_streams)
+
+
+def start_signing(state: mavlink2.MAVLinkSigning, key: bytes, initial_timestamp: int = 0,
+                  unix_clock: Callable[[], float] = time.time) -> None:
+    """Sign what ``state``'s packer sends with ``key`` (32 bytes, not all zero) on the
+    vehicle's link id, from ``initial_timestamp`` (10 us units since 2015) or the wall clock
+    when that is later."""
+    state.secret_key = check_key(key)
+    state.sign_outgoing = True
+    state.link_id = _LINK_ID
+    state.allow_unsigned_callback = None
+    now = timestamp_from_unix(unix_clock())
+    state.timestamp = min(max(int(initial_timestamp), now), MAX_TIMESTAMP)
 
 
 class MessageSigning:
@@ -137,11 +151,7 @@ class MessageSigning:
     def install(self, key: bytes, initial_timestamp: int) -> None:
         """Start signing with ``key`` (32 bytes, not all zero) from ``initial_timestamp``
         (10 us units since 2015; the wall clock when that is later)."""
-        self._state.secret_key = check_key(key)
-        self._state.sign_outgoing = True
-        self._state.link_id = _LINK_ID
-        self._state.allow_unsigned_callback = None
-        self._state.timestamp = min(max(int(initial_timestamp), self._now()), MAX_TIMESTAMP)
+        start_signing(self._state, key, initial_timestamp, self._clock)
         self._streams.clear()
         self._announced = False
         self.stats = SigningStats()

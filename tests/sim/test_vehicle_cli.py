@@ -11,8 +11,9 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from sim.instances import MAX_INSTANCE, instance_addresses
 from sim.scenario import load_scenario
-from sim.vehicle import MAX_INSTANCE, VehicleOptions, VehicleProcess, instance_addresses
+from sim.vehicle import VehicleOptions, VehicleProcess
 from sim.vehicle_cli import build_parser, main
 
 LOOPBACK = "127.0.0.1"
