@@ -464,12 +464,13 @@ class Autopilot:
         tick's ``measures`` (:func:`fcu.control.chain.crash_measures`); a crash disarms
         (``FS_CRASH_CHECK`` = 1)."""
         nav = self.navigator
-        alt, vel_down, speed, lean, error, collective = measures[
-            control_chain.OUT_ALT:control_chain.OUT_COLLECTIVE + 1].tolist()
-        records = self.crash_check.step(
-            time_s, flying=nav.armed and not nav.landed, leg=nav.leg_kind, alt_m=alt,
-            vel_down_m_s=vel_down, speed_m_s=speed, lean_rad=lean, attitude_error_rad=error,
-            collective=collective)
+        if nav.armed and not nav.landed:
+            records = self.crash_check.check(
+                time_s, nav.leg_kind not in ("takeoff", "land"),
+                measures[control_chain.OUT_ALT:control_chain.OUT_COLLECTIVE + 1])
+        else:  # not flying: the checks restart
+            self.crash_check.reset()
+            records = []
         if records and any(r.kind == "crash" for r in records) and \
                 self.config.crash.action == 1:
             nav.crash("crash: disarming")

@@ -176,6 +176,7 @@ class Allocator:
                                     self._per_yaw, [model.pwm_min, model.pwm_max]])
         self._mixer_c = np.ascontiguousarray(self._mixer, dtype=float)
         self._effectiveness = np.ones(4)  # e_i = 1 - gamma_i believed (active FTC)
+        self._nominal = True  # every e_i set to 1 by set_effectiveness(None)
 
     @property
     def effectiveness(self) -> np.ndarray:
@@ -189,10 +190,13 @@ class Allocator:
         commanded (at most full power), never divided by zero.
         """
         if effectiveness is None:
-            self._effectiveness[:] = 1.0
+            if not self._nominal:
+                self._effectiveness[:] = 1.0
+                self._nominal = True
             return
         self._effectiveness[:] = [clip(e, MIN_EFFECTIVENESS, 1.0)
                                   for e in floats(effectiveness, 4)]
+        self._nominal = False
 
     @property
     def max_thrust_n(self) -> float:

@@ -32,6 +32,7 @@ from numba import njit
 
 from fcu.control import attitude_reference as reference_module
 from fcu.control import position as position_module
+from fcu.control.allocation import PAR_SIZE as ALLOC_PAR_SIZE
 from fcu.control.allocation import REPORT_SIZE, Allocator, allocate_tick, mix_tick
 from fcu.control.attitude_lqr import AttitudeLQR, lqr_tick
 from fcu.control.attitude_pd import AttitudePD, pd_tick
@@ -42,6 +43,7 @@ from fcu.control.attitude_reference import (
     reference_of,
 )
 from fcu.control.dob import NoDob, _DiscreteDob, dob_tick
+from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
 from fcu.control.position import PositionController, position_tick
 from fcu.control.registry import AttitudeLaw, ControlAllocator, DisturbanceObserver
 from fcu.control.scalar import py_max, py_min
@@ -92,39 +94,56 @@ def crash_measures(euler_rad: np.ndarray, ref_euler_rad: np.ndarray, pos_ned: np
     out[OUT_COLLECTIVE] = thrust_n / full_thrust_n
 
 
+# the index vector of a chain's workspace: where each part's parameters and states start
+(I_POS_PAR, I_POS_INTEGRAL, I_REF_PAR, I_REF_STATE, I_LAW_PAR, I_LAW_PAR_END, I_LAW_STATE,
+ I_LAW_STATE_END, I_LEAD_PAR, I_LEAD_STATE, I_ALLOC_PAR, I_EFFECTIVENESS, I_MIXER, I_AM, I_BM,
+ I_AT, I_BT, I_CM, I_DM, I_CT, I_XM, I_XT, I_PREV_MEAS, I_N_XM, I_N_XT, I_LAW_KIND,
+ I_DOB_KIND) = range(27)
+INDEX_SIZE = 27
+
+
 @njit(cache=True, error_model="numpy")
-def control_tick(pos_par: np.ndarray, pos_integral: np.ndarray, ref_par: np.ndarray,
-                 ref_state: np.ndarray, law_kind: int, law_par: np.ndarray,
-                 law_state: np.ndarray, lead_par: np.ndarray, lead_state: np.ndarray,
-                 dob_kind: int, am: np.ndarray, bm: np.ndarray, at: np.ndarray,
-                 bt: np.ndarray, cm: np.ndarray, dm: np.ndarray, ct: np.ndarray,
-                 xm: np.ndarray, xt: np.ndarray, prev_meas: np.ndarray, alloc_par: np.ndarray,
-                 effectiveness: np.ndarray, mixer: np.ndarray, full_thrust_n: float,
-                 dob_run: bool, pos_ned: np.ndarray, vel_ned: np.ndarray,
-                 euler_rad: np.ndarray, rate_frd: np.ndarray, ref_pos: np.ndarray,
-                 ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float,
-                 torque_applied: np.ndarray, out: np.ndarray) -> None:
+def _matrix(ws: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
+    """The (rows, cols) matrix stored row-major in ``ws`` from ``start`` (a contiguous copy,
+    as the BLAS products want)."""
+    return np.ascontiguousarray(ws[start:start + rows * cols]).reshape((rows, cols))
+
+
+@njit(cache=True, error_model="numpy")
+def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run: bool,
+                 pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
+                 rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
+                 ref_acc: np.ndarray, yaw_ref: float, torque_applied: np.ndarray,
+                 out: np.ndarray) -> None:
     """One flying tick of the chain of the module docstring into ``out`` (``OUT_*``).
 
-    ``out[OUT_D_HAT:OUT_D_HAT + 3]`` must hold the DOB estimate already unless ``dob_run``
-    (zeros without a DOB; the observer's own first step after a reset). The parts' states
-    (position integral, reference filter, law integrals and lead, DOB) advance in place.
+    ``ws`` holds the parts' parameters and states where ``idx`` (``I_*``) says; the states
+    (position integral, reference filter, law integrals and lead, DOB, effectiveness) advance
+    in place. ``out[OUT_D_HAT:OUT_D_HAT + 3]`` must hold the DOB estimate already unless
+    ``dob_run`` (zeros without a DOB; the observer's own first step after a reset).
     """
     # position loop, eq. 5.1-5.4: U1, roll_d, pitch_d, mu
     pos_out = np.empty(position_module.OUT_SIZE)
-    position_tick(pos_par, pos_integral, pos_ned, vel_ned, ref_pos, ref_vel, ref_acc, yaw_ref,
-                  pos_out)
+    position_tick(ws[idx[I_POS_PAR]:idx[I_POS_PAR] + position_module.PAR_SIZE],
+                  ws[idx[I_POS_INTEGRAL]:idx[I_POS_INTEGRAL] + 3], pos_ned, vel_ned, ref_pos,
+                  ref_vel, ref_acc, yaw_ref, pos_out)
     thrust_n = pos_out[position_module.OUT_THRUST]
     # the attitude reference: (roll_d, pitch_d, psi_d) through the second-order filter
     reference = np.empty(reference_module.OUT_SIZE)
-    reference_filter_tick(ref_par, ref_state, pos_out[position_module.OUT_ROLL],
+    reference_filter_tick(ws[idx[I_REF_PAR]:idx[I_REF_PAR] + reference_module.PAR_SIZE],
+                          ws[idx[I_REF_STATE]:idx[I_REF_STATE] + reference_module.STATE_SIZE],
+                          pos_out[position_module.OUT_ROLL],
                           pos_out[position_module.OUT_PITCH], yaw_ref, reference)
     ref_euler = reference[reference_module.OUT_EULER:reference_module.OUT_EULER + 3]
     ref_rate = reference[reference_module.OUT_RATE:reference_module.OUT_RATE + 3]
     ref_accel = reference[reference_module.OUT_ACC:reference_module.OUT_ACC + 3]
     # the attitude law (eq. 5.6 or 5.9) through the motor lead
     torque = np.empty(3)
-    if law_kind == LAW_LQR:
+    law_par = ws[idx[I_LAW_PAR]:idx[I_LAW_PAR_END]]
+    law_state = ws[idx[I_LAW_STATE]:idx[I_LAW_STATE_END]]
+    lead_par = ws[idx[I_LEAD_PAR]:idx[I_LEAD_PAR] + LEAD_PAR_SIZE]
+    lead_state = ws[idx[I_LEAD_STATE]:idx[I_LEAD_STATE] + 3]
+    if idx[I_LAW_KIND] == LAW_LQR:
         lqr_tick(law_par, law_state, lead_par, lead_state, euler_rad, rate_frd, ref_euler,
                  ref_rate, ref_accel, torque)
     else:
@@ -133,16 +152,24 @@ def control_tick(pos_par: np.ndarray, pos_integral: np.ndarray, ref_par: np.ndar
     # the DOB (eq. 6.27-6.30) on the torque applied over the interval just ended
     d_hat = np.empty(3)
     if dob_run:
-        dob_tick(dob_kind == DOB_AB, am, bm, at, bt, cm, dm, ct, xm, xt, prev_meas,
-                 euler_rad, rate_frd, torque_applied, d_hat)
+        n_m, n_t = idx[I_N_XM], idx[I_N_XT]
+        dob_tick(idx[I_DOB_KIND] == DOB_AB, _matrix(ws, idx[I_AM], n_m, n_m),
+                 _matrix(ws, idx[I_BM], n_m, 3), _matrix(ws, idx[I_AT], n_t, n_t),
+                 _matrix(ws, idx[I_BT], n_t, 3), _matrix(ws, idx[I_CM], 3, n_m),
+                 _matrix(ws, idx[I_DM], 3, 3), _matrix(ws, idx[I_CT], 3, n_t),
+                 ws[idx[I_XM]:idx[I_XM] + n_m], ws[idx[I_XT]:idx[I_XT] + n_t],
+                 ws[idx[I_PREV_MEAS]:idx[I_PREV_MEAS] + 3], euler_rad, rate_frd,
+                 torque_applied, d_hat)
     else:
         d_hat[:] = out[OUT_D_HAT:OUT_D_HAT + 3]
     # tau = tau_controller - d_hat, then the allocation (inverse of eq. 3.2) and eq. 3.2 back
+    effectiveness = ws[idx[I_EFFECTIVENESS]:idx[I_EFFECTIVENESS] + 4]
     report = np.empty(REPORT_SIZE)
     pwm = np.empty(4)
-    allocate_tick(alloc_par, effectiveness, thrust_n, torque[0] - d_hat[0],
-                  torque[1] - d_hat[1], torque[2] - d_hat[2], pwm, report)
-    wrench = mix_tick(mixer, effectiveness, pwm)
+    allocate_tick(ws[idx[I_ALLOC_PAR]:idx[I_ALLOC_PAR] + ALLOC_PAR_SIZE], effectiveness,
+                  thrust_n, torque[0] - d_hat[0], torque[1] - d_hat[1], torque[2] - d_hat[2],
+                  pwm, report)
+    wrench = mix_tick(_matrix(ws, idx[I_MIXER], 4, 4), effectiveness, pwm)
     for i in range(3):
         out[OUT_TORQUE_CMD + i] = torque[i] - d_hat[i]
         out[OUT_D_HAT + i] = d_hat[i]
@@ -152,9 +179,6 @@ def control_tick(pos_par: np.ndarray, pos_integral: np.ndarray, ref_par: np.ndar
     out[OUT_THRUST] = thrust_n
     out[OUT_REF:OUT_REF + reference_module.OUT_SIZE] = reference
     crash_measures(euler_rad, ref_euler, pos_ned, vel_ned, thrust_n, full_thrust_n, out)
-
-
-_EMPTY_1 = np.zeros(1)
 
 
 def _law_kind(law: AttitudeLaw) -> int:
@@ -173,6 +197,37 @@ def _dob_kind(dob: DisturbanceObserver) -> int:
     return DOB_OTHER
 
 
+class _Workspace:
+    """Builds a chain's workspace: the parts' parameters copied in, their states adopted
+    (the part's array replaced by a view of the workspace holding the same values, so the
+    part's own ``step`` and ``reset`` go on reading and writing it)."""
+
+    def __init__(self) -> None:
+        self.blocks: list[np.ndarray] = []
+        self.adopted: list[tuple[object, str, int]] = []
+        self.size = 0
+
+    def put(self, values: np.ndarray) -> int:
+        """Append a copy of ``values`` (flattened, row-major); returns its offset."""
+        start = self.size
+        flat = np.ascontiguousarray(values, dtype=float).reshape(-1)
+        self.blocks.append(flat)
+        self.size += flat.size
+        return start
+
+    def adopt(self, owner: object, name: str) -> int:
+        """Append ``owner.name`` (a 1-D state array) and adopt it when :meth:`build` runs."""
+        start = self.put(getattr(owner, name))
+        self.adopted.append((owner, name, start))
+        return start
+
+    def build(self) -> np.ndarray:
+        ws = np.concatenate(self.blocks) if self.blocks else np.zeros(0)
+        for owner, name, start in self.adopted:
+            setattr(owner, name, ws[start:start + getattr(owner, name).size])
+        return ws
+
+
 class ControlChain:
     """The parts of one autopilot's flying control chain, stepped by :func:`control_tick`.
 
@@ -188,8 +243,10 @@ class ControlChain:
     full_thrust_n : float
         N, collective thrust at full PWM (the crash check's collective scale).
 
-    The chain holds the parts' parameter and state arrays; the parts reset them in place,
-    so a chain stays bound to its parts across resets.
+    The chain packs the parts' parameters and states into one workspace (one argument for
+    the compiled call instead of some thirty): parameters are copied, state arrays adopted
+    (the parts' arrays become views of the workspace, so the parts' own ``step`` and
+    ``reset``, which update their states in place, keep working on the same numbers).
     """
 
     def __init__(self, position: PositionController, reference_filter: AttitudeReferenceFilter,
@@ -205,22 +262,40 @@ class ControlChain:
         self._dob_kind = dob_kind
         self.compiled = (law_kind != LAW_OTHER and dob_kind != DOB_OTHER
                          and isinstance(allocator, Allocator))
+        self._ws = np.zeros(0)
+        self._idx = np.zeros(INDEX_SIZE, dtype=np.int64)
         if not self.compiled:
             return
         assert isinstance(law, (AttitudeLQR, AttitudePD)) and isinstance(allocator, Allocator)
-        if isinstance(dob, _DiscreteDob):
-            matrices = (dob._k_am, dob._k_bm, dob._k_at, dob._k_bt, dob._k_cm, dob._k_dm,
-                        dob._k_ct)
-            dob_state = (dob._xm, dob._xt, dob._prev_meas)
+        w, idx = _Workspace(), self._idx
+        idx[I_LAW_KIND], idx[I_DOB_KIND] = law_kind, dob_kind
+        idx[I_POS_PAR] = w.put(position._par)
+        idx[I_POS_INTEGRAL] = w.adopt(position, "_integral")
+        idx[I_REF_PAR] = w.put(reference_filter._par)
+        idx[I_REF_STATE] = w.adopt(reference_filter, "_state")
+        idx[I_LAW_PAR] = w.put(law._par)
+        idx[I_LAW_PAR_END] = w.size
+        idx[I_LAW_STATE] = w.adopt(law, "_state")
+        idx[I_LAW_STATE_END] = w.size
+        idx[I_LEAD_PAR] = w.put(law._lead_par)
+        if law.lead is not None:  # the lead's state is the law's lead state
+            idx[I_LEAD_STATE] = w.adopt(law.lead, "state")
+            w.adopted.append((law, "_lead_state", int(idx[I_LEAD_STATE])))
         else:
-            empty_2 = np.zeros((1, 1))
-            matrices = (empty_2,) * 7
-            dob_state = (_EMPTY_1, _EMPTY_1, np.zeros(3))
-        # control_tick's arguments that stay the same from tick to tick
-        self._bound = (position._par, position._integral, reference_filter._par,
-                       reference_filter._state, law_kind, law._par, law._state, law._lead_par,
-                       law._lead_state, dob_kind, *matrices, *dob_state, allocator._par,
-                       allocator._effectiveness, allocator._mixer_c, self.full_thrust_n)
+            idx[I_LEAD_STATE] = w.adopt(law, "_lead_state")
+        idx[I_ALLOC_PAR] = w.put(allocator._par)
+        idx[I_EFFECTIVENESS] = w.adopt(allocator, "_effectiveness")
+        idx[I_MIXER] = w.put(allocator._mixer_c)
+        if isinstance(dob, _DiscreteDob):
+            idx[I_N_XM], idx[I_N_XT] = dob._xm.size, dob._xt.size
+            for i, matrix in zip((I_AM, I_BM, I_AT, I_BT, I_CM, I_DM, I_CT),
+                                 (dob._k_am, dob._k_bm, dob._k_at, dob._k_bt, dob._k_cm,
+                                  dob._k_dm, dob._k_ct), strict=True):
+                idx[i] = w.put(matrix)
+            idx[I_XM] = w.adopt(dob, "_xm")
+            idx[I_XT] = w.adopt(dob, "_xt")
+            idx[I_PREV_MEAS] = w.adopt(dob, "_prev_meas")
+        self._ws = w.build()
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
              rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
@@ -253,8 +328,9 @@ class ControlChain:
             # the observer's first step after a reset starts it at rest (numpy, once)
             out[OUT_D_HAT:OUT_D_HAT + 3] = dob.start(euler_rad, rate_frd)  # type: ignore
             dob_run = False
-        control_tick(*self._bound, dob_run, pos_ned, vel_ned, euler_rad, rate_frd, ref_pos,
-                     ref_vel, ref_acc, yaw_ref, torque_applied, out)
+        control_tick(self._ws, self._idx, self.full_thrust_n, dob_run, pos_ned, vel_ned,
+                     euler_rad, rate_frd, ref_pos, ref_vel, ref_acc, yaw_ref, torque_applied,
+                     out)
         return out
 
     def _step_parts(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,

@@ -69,13 +69,21 @@ STATE_SIZE = 6
 THRUST_LOSS, CRASH = 1, 2
 
 
+# the measures a tick is checked on, in this order (CrashCheck.check)
+ALT, VEL_DOWN, SPEED, LEAN, ATTITUDE_ERROR, COLLECTIVE = range(6)
+MEASURES_SIZE = 6
+
+
 @njit(cache=True, error_model="numpy")
 def crash_tick(par: np.ndarray, state: np.ndarray, time_s: float, contact_leg: bool,
-               alt_m: float, vel_down_m_s: float, speed_m_s: float, lean_rad: float,
-               attitude_error_rad: float, collective: float) -> int:
-    """One flying tick of the checks of the module docstring (arguments as
-    :meth:`CrashCheck.step`'s; ``contact_leg``: the leg is neither a take-off nor a landing);
-    advances ``state`` and returns ``THRUST_LOSS | CRASH`` bits for what fired."""
+               measures: np.ndarray) -> int:
+    """One flying tick of the checks of the module docstring on ``measures`` (``ALT``...
+    ``COLLECTIVE``, as :meth:`CrashCheck.step`'s arguments; ``contact_leg``: the leg is
+    neither a take-off nor a landing); advances ``state`` and returns ``THRUST_LOSS | CRASH``
+    bits for what fired."""
+    alt_m, vel_down_m_s, speed_m_s = measures[ALT], measures[VEL_DOWN], measures[SPEED]
+    lean_rad, attitude_error_rad = measures[LEAN], measures[ATTITUDE_ERROR]
+    collective = measures[COLLECTIVE]
     if vel_down_m_s > par[_P_IMPACT_SPEED]:
         state[_FAST_DESCENT] = time_s
     found = 0
@@ -167,17 +175,24 @@ class CrashCheck:
         if not flying:
             self.reset()
             return []
-        found = crash_tick(self._par, self._state, float(time_s),
-                           leg not in ("takeoff", "land"), float(alt_m), float(vel_down_m_s),
-                           float(speed_m_s), float(lean_rad), float(attitude_error_rad),
-                           float(collective))
+        return self.check(time_s, leg not in ("takeoff", "land"), np.array(
+            [alt_m, vel_down_m_s, speed_m_s, lean_rad, attitude_error_rad, collective],
+            dtype=float))
+
+    def check(self, time_s: float, contact_leg: bool, measures: np.ndarray
+              ) -> list[DetectionRecord]:
+        """One tick in flight (:meth:`step` with ``flying`` true) on ``measures`` (shape (6,):
+        ``alt_m``, ``vel_down_m_s``, ``speed_m_s``, ``lean_rad``, ``attitude_error_rad``,
+        ``collective`` in that order); ``contact_leg``: the leg is neither a take-off nor a
+        landing (the ground-contact check applies)."""
+        found = crash_tick(self._par, self._state, time_s, contact_leg, measures)
         if not found:
             return []
         out = []
         if found & THRUST_LOSS:
             out.append(DetectionRecord(time_s=time_s, action="detected", kind="thrust_loss",
-                                       magnitude=collective))
+                                       magnitude=float(measures[COLLECTIVE])))
         if found & CRASH:
             out.append(DetectionRecord(time_s=time_s, action="detected", kind="crash",
-                                       magnitude=attitude_error_rad))
+                                       magnitude=float(measures[ATTITUDE_ERROR])))
         return out
