@@ -31,7 +31,7 @@ def _chain(law: str, dob: str) -> control_chain.ControlChain:
 def _inputs(seed: int, n: int) -> list[tuple[np.ndarray, ...]]:
     """A wandering estimate around a hover 1 m up, a moving reference, a yaw past +-pi."""
     rng = np.random.default_rng(seed)
-    ticks = []
+    ticks: list[tuple[np.ndarray, ...]] = []
     for k in range(n):
         t = k * DT
         pos = np.array([0.3 * np.sin(t), 0.2 * np.cos(0.7 * t), -1.0]) + rng.normal(0, 0.05, 3)
@@ -48,8 +48,8 @@ def _inputs(seed: int, n: int) -> list[tuple[np.ndarray, ...]]:
 _EFFECTIVENESS = np.array([1.0, 1.0, 0.6, 1.0])
 
 
-@pytest.mark.parametrize(("law", "dob"), list(itertools.product(("pd", "lqg"),
-                                                           ("none", "vbdob", "abdob"))))
+@pytest.mark.parametrize(("law", "dob"),
+                         list(itertools.product(("pd", "lqg"), ("none", "vbdob", "abdob"))))
 def test_the_compiled_chain_is_the_parts_stepped_in_turn(law: str, dob: str) -> None:
     compiled, parts = _chain(law, dob), _chain(law, dob)
     parts.compiled = False  # the same chain through the parts' own step methods
