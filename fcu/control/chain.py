@@ -64,6 +64,7 @@ OUT_D_HAT = 8  # N*m, DOB estimate (3; zeros without a DOB)
 OUT_REF = 11  # attitude reference, reference_filter_tick's layout (9)
 OUT_ACCEL = 20  # m/s^2 NED, mu after the limits (3)
 OUT_TORQUE_APPLIED = 23  # N*m, what the PWM asks of the airframe, eq. 3.2 (3)
+# the crash check's measures, in fcu.monitoring.crash_check's order (ALT...COLLECTIVE)
 OUT_ALT = 26  # m, estimated altitude (up)
 OUT_VEL_DOWN = 27  # m/s, estimated vertical speed (+ down)
 OUT_SPEED = 28  # m/s, estimated speed |v|
@@ -71,7 +72,6 @@ OUT_LEAN = 29  # rad, angle of the body z axis from the vertical
 OUT_ATT_ERROR = 30  # rad, larger of the roll and pitch errors against the reference
 OUT_COLLECTIVE = 31  # U1 as a fraction of full thrust
 OUT_SIZE = 32
-MEASURES_SIZE = OUT_SIZE  # crash_measures writes OUT_ALT..OUT_COLLECTIVE of such a vector
 
 _EULER = OUT_REF + reference_module.OUT_EULER
 _RATE = OUT_REF + reference_module.OUT_RATE

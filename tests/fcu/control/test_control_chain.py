@@ -14,6 +14,7 @@ from fcu.control import chain as control_chain
 from fcu.control.attitude_reference import AttitudeReferenceFilter
 from fcu.control.position import PositionController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
+from fcu.monitoring import crash_check
 
 CONFIG = AutopilotConfig()
 DT = 1.0 / CONFIG.loop_rate_hz  # s
@@ -93,3 +94,12 @@ def test_the_chain_reports_what_the_crash_check_reads() -> None:
         max(abs(ref.euler_rad[0] - 0.3), abs(ref.euler_rad[1] + 0.4)), rel=1e-15)
     assert out[control_chain.OUT_COLLECTIVE] == pytest.approx(
         out[control_chain.OUT_THRUST] / FULL_THRUST_N, rel=1e-15)
+
+
+def test_the_measures_are_laid_out_as_the_crash_check_reads_them() -> None:
+    offsets = [control_chain.OUT_ALT, control_chain.OUT_VEL_DOWN, control_chain.OUT_SPEED,
+               control_chain.OUT_LEAN, control_chain.OUT_ATT_ERROR, control_chain.OUT_COLLECTIVE]
+    named = [crash_check.ALT, crash_check.VEL_DOWN, crash_check.SPEED, crash_check.LEAN,
+             crash_check.ATTITUDE_ERROR, crash_check.COLLECTIVE]
+    assert [o - control_chain.OUT_ALT for o in offsets] == named
+    assert len(offsets) == crash_check.MEASURES_SIZE
