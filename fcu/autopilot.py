@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fcu.config import AutopilotConfig
+from fcu.control import chain as control_chain
 from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
 from fcu.control.position import PositionCommand, PositionController
 from fcu.control.reduced_attitude import SPINNING_POSITION_GAINS, ReducedAttitudeController
@@ -190,6 +191,10 @@ class Autopilot:
         self.attitude.reset()
         self.attitude_filter.reset()
         self.dob.reset()
+        # the parts flown with all rotors, stepped together (fcu.control.chain)
+        self._chain = control_chain.ControlChain(self.position, self.attitude_filter,
+                                                 self.attitude, self.dob, self.allocator,
+                                                 self._full_thrust_n)
 
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, samples: Iterable[SensorSampleLike]) -> np.ndarray:
@@ -249,11 +254,25 @@ class Autopilot:
         ref = nav.reference
         assert ref is not None
         lost = self._lost_motor(time_s)
-        position = self.position if lost is None else self.position_spinning
-        cmd: PositionCommand = position.step(estimate.pos_ned, estimate.vel_ned, ref.pos_ned,
-                                             ref.vel_ned, ref.acc_ned, ref.yaw_rad)
-        att_ref = self.attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad))
-        if lost is not None:
+        if lost is None:
+            # position, reference filter, attitude law, DOB, allocation, mix: one compiled call
+            out = self._chain.step(estimate.pos_ned, estimate.vel_ned, estimate.euler_rad,
+                                   estimate.rate_frd, ref.pos_ned, ref.vel_ned, ref.acc_ned,
+                                   ref.yaw_rad, self._torque_applied,
+                                   self._ftc_effectiveness() if self.ftc_active else None)
+            pwm = out[control_chain.OUT_PWM:control_chain.OUT_PWM + 4]
+            thrust_n = float(out[control_chain.OUT_THRUST])
+            torque_cmd = out[control_chain.OUT_TORQUE_CMD:control_chain.OUT_TORQUE_CMD + 3]
+            d_hat = out[control_chain.OUT_D_HAT:control_chain.OUT_D_HAT + 3]
+            att_ref = control_chain.attitude_reference(out)
+            self._torque_applied = out[control_chain.OUT_TORQUE_APPLIED:
+                                       control_chain.OUT_TORQUE_APPLIED + 3]
+        else:
+            cmd: PositionCommand = self.position_spinning.step(
+                estimate.pos_ned, estimate.vel_ned, ref.pos_ned, ref.vel_ned, ref.acc_ned,
+                ref.yaw_rad)
+            att_ref = self.attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad,
+                                                 ref.yaw_rad))
             # relaxed hover: yaw given up, the primary axis steered along the thrust the
             # position loop asks for (fcu.control.reduced_attitude)
             reduced = self._relaxed_hover(time_s, lost, estimate)
@@ -268,18 +287,13 @@ class Autopilot:
             pwm, thrust_n = spin.pwm, spin.collective_n
             torque_cmd = d_hat = np.zeros(3)
             self.allocator.set_effectiveness(None)
-        else:
-            torque = self.attitude.step(estimate.euler_rad, estimate.rate_frd,
-                                        att_ref.euler_rad, att_ref.rate, att_ref.acc)
-            d_hat = self.dob.step(estimate.euler_rad, estimate.rate_frd, self._torque_applied)
-            torque_cmd = torque - d_hat
-            self.allocator.set_effectiveness(self._ftc_effectiveness() if self.ftc_active
-                                             else None)
-            pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
-            thrust_n = cmd.thrust_n
+            _, self._torque_applied = self.allocator.mix(pwm)
+            out = np.zeros(control_chain.OUT_SIZE)
+            control_chain.crash_measures(estimate.euler_rad, att_ref.euler_rad,
+                                         estimate.pos_ned, estimate.vel_ned, thrust_n,
+                                         self._full_thrust_n, out)
         self._thrust_n = thrust_n
-        _, self._torque_applied = self.allocator.mix(pwm)
-        records += self._crash_check(time_s, estimate, att_ref, thrust_n)
+        records += self._crash_check(time_s, out)
         if not self.navigator.armed:  # the crash check disarmed
             pwm = np.zeros(4)
         self._pwm = pwm
@@ -312,10 +326,10 @@ class Autopilot:
             self._motors_blocked = bool(active)
         return records
 
-    def _ftc_effectiveness(self) -> np.ndarray:
+    def _ftc_effectiveness(self) -> np.ndarray | None:
         """Active FTC: per motor, ``1 - LOE`` of the motors the detector has declared or
         suspects now (its estimate, mass change removed, :mod:`fcu.monitoring.motor_faults`),
-        1 for the others.
+        1 for the others; None (nominal) while it declares and suspects none.
 
         Other motors are left nominal: their estimate is noise about zero (turbulence moves
         it by a few per cent), and feeding it to the mixer would shake healthy motors for
@@ -323,11 +337,14 @@ class Autopilot:
         declaration's persistence has run (40 % step: 4.2 cm of height lost, 5.3 cm with
         declared motors only).
         """
+        detector = self.detector
+        if not detector.active and detector.suspected is None:
+            return None
         e = np.ones(4)
-        loe = self.detector.loe
-        motors = set(self.detector.active)
-        if self.detector.suspected is not None:
-            motors.add(self.detector.suspected)
+        loe = detector.loe
+        motors = set(detector.active)
+        if detector.suspected is not None:
+            motors.add(detector.suspected)
         for motor in motors:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
         return e
@@ -442,21 +459,18 @@ class Autopilot:
         return (abs(float(estimate.rate_frd[2])) < cfg.valid_yaw_rate_rad_s
                 and abs(roll) < cfg.valid_tilt_rad and abs(pitch) < cfg.valid_tilt_rad)
 
-    def _crash_check(self, time_s: float, estimate: StateEstimate,
-                     att_ref: AttitudeReference, thrust_n: float) -> list[DetectionRecord]:
-        """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`); a
-        crash disarms (``FS_CRASH_CHECK`` = 1)."""
+    def _crash_check(self, time_s: float, measures: np.ndarray) -> list[DetectionRecord]:
+        """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`) on the
+        tick's ``measures`` (:func:`fcu.control.chain.crash_measures`); a crash disarms
+        (``FS_CRASH_CHECK`` = 1)."""
         nav = self.navigator
-        roll, pitch, _ = estimate.euler_rad.tolist()
-        roll_ref, pitch_ref, _ = att_ref.euler_rad.tolist()
-        error = max(abs(roll_ref - roll), abs(pitch_ref - pitch))
-        lean = math.acos(max(-1.0, min(1.0, math.cos(roll) * math.cos(pitch))))
-        vel = estimate.vel_ned
-        records = self.crash_check.step(
-            time_s, flying=nav.armed and not nav.landed, leg=nav.leg_kind,
-            alt_m=estimate.alt_m, vel_down_m_s=float(vel[2]),
-            speed_m_s=math.sqrt(float(vel.dot(vel))), lean_rad=lean,  # |v|
-            attitude_error_rad=error, collective=thrust_n / self._full_thrust_n)
+        if nav.armed and not nav.landed:
+            records = self.crash_check.check(
+                time_s, nav.leg_kind not in ("takeoff", "land"),
+                measures[control_chain.OUT_ALT:control_chain.OUT_COLLECTIVE + 1])
+        else:  # not flying: the checks restart
+            self.crash_check.reset()
+            records = []
         if records and any(r.kind == "crash" for r in records) and \
                 self.config.crash.action == 1:
             nav.crash("crash: disarming")

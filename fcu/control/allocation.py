@@ -44,12 +44,87 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from fcu.floats import clip, floats
+from fcu.control.scalar import clip, py_max, py_min
+from fcu.floats import floats
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # the kernels compile in those of fcu.control.scalar
 
 _EPS_PWM = 1e-12  # numerical slack on the PWM bounds, far below any physical PWM step
 MIN_EFFECTIVENESS = 0.05  # the least effectiveness the allocation assumes of a motor
+
+
+# Allocator's parameter vector: PWM per N of U1, the PWM patterns per N*m of U2, U3 and U4
+# (four motors each, the columns of the inverse of eq. 3.2), the PWM bounds
+_PER_THRUST, _PER_ROLL, _PER_PITCH, _PER_YAW, _PWM_MIN, _PWM_MAX = 0, 1, 5, 9, 13, 14
+PAR_SIZE = 15
+# allocate_tick's report: s_yaw, s_rp, the collective c and the requested c0 (PWM)
+REPORT_SIZE = 4
+
+
+@njit(cache=True, error_model="numpy")
+def allocate_tick(par: np.ndarray, e: np.ndarray, thrust_n: float, t_roll: float,
+                  t_pitch: float, t_yaw: float, pwm: np.ndarray, report: np.ndarray) -> None:
+    """The strategy of the module docstring: PWM u1..u4 into ``pwm`` (4,) for thrust U1 (N)
+    and torques U2..U4 (N*m) with the effectiveness ``e`` (4,); (s_yaw, s_rp, c, c0) into
+    ``report``."""
+    lo = np.empty(4)
+    hi = np.empty(4)
+    d_rp = np.empty(4)
+    d_yaw = np.empty(4)
+    base = np.empty(4)
+    for i in range(4):
+        lo[i] = par[_PWM_MIN] * e[i]  # bounds on v = e u (module docstring)
+        hi[i] = par[_PWM_MAX] * e[i]
+        d_rp[i] = t_roll * par[_PER_ROLL + i] + t_pitch * par[_PER_PITCH + i]
+        d_yaw[i] = t_yaw * par[_PER_YAW + i]
+    c0 = thrust_n * par[_PER_THRUST]  # requested collective PWM, c = U1/(4K)
+
+    # 0. the whole request fits: exact; 1. else collective and roll/pitch as requested,
+    # yaw scaled to fit
+    fits = True
+    for i in range(4):
+        x = c0 + d_rp[i] + d_yaw[i]
+        if not lo[i] - _EPS_PWM <= x <= hi[i] + _EPS_PWM:
+            fits = False
+    if fits:
+        s_yaw = 1.0
+    else:
+        for i in range(4):
+            base[i] = c0 + d_rp[i]
+        s_yaw = _largest_scale_k(base, d_yaw, lo, hi)
+    if s_yaw >= 0.0:
+        c, s_rp = c0, 1.0
+    else:
+        c_lo = lo[0] - d_rp[0]
+        c_hi = hi[0] - d_rp[0]
+        for i in range(1, 4):
+            c_lo = py_max(c_lo, lo[i] - d_rp[i])
+            c_hi = py_min(c_hi, hi[i] - d_rp[i])
+        if c_lo <= c_hi:
+            # 2. roll/pitch fits the range: shift the collective to the nearest feasible
+            c, s_rp = clip(c0, c_lo, c_hi), 1.0
+        else:
+            # 3. roll/pitch alone exceeds the range: scale it until it fits, no yaw
+            s_rp = _largest_spread_scale(d_rp, lo, hi)
+            c = lo[0] - s_rp * d_rp[0]
+            for i in range(1, 4):
+                c = py_max(c, lo[i] - s_rp * d_rp[i])
+        for i in range(4):
+            base[i] = c + s_rp * d_rp[i]
+        s_yaw = py_max(_largest_scale_k(base, d_yaw, lo, hi), 0.0)  # infeasible (-1): 0
+    for i in range(4):
+        pwm[i] = clip(c + s_rp * d_rp[i] + s_yaw * d_yaw[i], lo[i], hi[i]) / e[i]
+    report[0], report[1], report[2], report[3] = s_yaw, s_rp, c, c0
+
+
+@njit(cache=True, error_model="numpy")
+def mix_tick(mixer: np.ndarray, e: np.ndarray, pwm: np.ndarray) -> np.ndarray:
+    """Eq. 3.2 with the effectiveness: ``[U1, U2, U3, U4] = B diag(e) u`` (N, N*m), (4,)."""
+    return mixer @ (pwm * e)
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,16 +171,17 @@ class Allocator:
         self._per_roll = np.array([0.0, 0.0, 1.0, -1.0]) / (2.0 * kl)  # PWM per N*m of U2
         self._per_pitch = np.array([1.0, -1.0, 0.0, 0.0]) / (2.0 * kl)  # PWM per N*m of U3
         self._per_yaw = np.array([1.0, 1.0, -1.0, -1.0]) / (4.0 * kk)  # PWM per N*m of U4
-        # the same as plain floats, for the per-tick path
-        self._per_thrust_f = float(self._per_thrust[0])
-        self._per_roll_f, self._per_pitch_f, self._per_yaw_f = (
-            self._per_roll.tolist(), self._per_pitch.tolist(), self._per_yaw.tolist())
-        self._effectiveness = [1.0, 1.0, 1.0, 1.0]  # e_i = 1 - gamma_i believed (active FTC)
+        # the same as allocate_tick reads them
+        self._par = np.concatenate([self._per_thrust[:1], self._per_roll, self._per_pitch,
+                                    self._per_yaw, [model.pwm_min, model.pwm_max]])
+        self._mixer_c = np.ascontiguousarray(self._mixer, dtype=float)
+        self._effectiveness = np.ones(4)  # e_i = 1 - gamma_i believed (active FTC)
+        self._nominal = True  # every e_i set to 1 by set_effectiveness(None)
 
     @property
     def effectiveness(self) -> np.ndarray:
         """The per-motor effectiveness the allocation assumes, shape (4,), in (0, 1]."""
-        return np.array(self._effectiveness)
+        return self._effectiveness.copy()
 
     def set_effectiveness(self, effectiveness: np.ndarray | None) -> None:
         """Assume motor i gives ``effectiveness[i]`` of its nominal thrust (None: all 1).
@@ -114,10 +190,13 @@ class Allocator:
         commanded (at most full power), never divided by zero.
         """
         if effectiveness is None:
-            self._effectiveness = [1.0, 1.0, 1.0, 1.0]
+            if not self._nominal:
+                self._effectiveness[:] = 1.0
+                self._nominal = True
             return
-        self._effectiveness = [clip(float(e), MIN_EFFECTIVENESS, 1.0)
-                               for e in floats(effectiveness, 4)]
+        self._effectiveness[:] = [clip(e, MIN_EFFECTIVENESS, 1.0)
+                                  for e in floats(effectiveness, 4)]
+        self._nominal = False
 
     @property
     def max_thrust_n(self) -> float:
@@ -149,81 +228,59 @@ class Allocator:
 
     def _allocate(self, thrust_n: float, torque_nm: np.ndarray
                   ) -> tuple[np.ndarray, float, float, float, float]:
-        """The strategy of the module docstring: (pwm, s_yaw, s_rp, c, c0)."""
-        e = self._effectiveness
-        lo = [self.model.pwm_min * ei for ei in e]  # bounds on v = e u (module docstring)
-        hi = [self.model.pwm_max * ei for ei in e]
-        # four motors in plain floats (numpy's per-call overhead would dominate)
+        """The strategy of the module docstring (:func:`allocate_tick`):
+        (pwm, s_yaw, s_rp, c, c0)."""
         t_roll, t_pitch, t_yaw = floats(torque_nm, 3)
-        c0 = float(thrust_n) * self._per_thrust_f  # requested collective PWM, c = U1/(4K)
-        d_rp = [t_roll * r + t_pitch * p for r, p in zip(self._per_roll_f, self._per_pitch_f,
-                                                          strict=True)]
-        d_yaw = [t_yaw * y for y in self._per_yaw_f]
-
-        # 0. the whole request fits: exact; 1. else collective and roll/pitch as requested,
-        # yaw scaled to fit
-        exact = [c0 + d + y for d, y in zip(d_rp, d_yaw, strict=True)]
-        if all(lo_i - _EPS_PWM <= x <= hi_i + _EPS_PWM
-               for x, lo_i, hi_i in zip(exact, lo, hi, strict=True)):
-            s_yaw: float | None = 1.0
-        else:
-            s_yaw = _largest_scale_f([c0 + d for d in d_rp], d_yaw, lo, hi)
-        if s_yaw is not None:
-            c, s_rp = c0, 1.0
-        else:
-            c_lo = max(lo_i - d for lo_i, d in zip(lo, d_rp, strict=True))
-            c_hi = min(hi_i - d for hi_i, d in zip(hi, d_rp, strict=True))
-            if c_lo <= c_hi:
-                # 2. roll/pitch fits the range: shift the collective to the nearest feasible
-                c, s_rp = clip(c0, c_lo, c_hi), 1.0
-            else:
-                # 3. roll/pitch alone exceeds the range: scale it until it fits, no yaw
-                s_rp = _largest_spread_scale(d_rp, lo, hi)
-                c = max(lo_i - s_rp * d for lo_i, d in zip(lo, d_rp, strict=True))
-            s_yaw = _largest_scale_f([c + s_rp * d for d in d_rp], d_yaw, lo, hi) or 0.0
-        pwm = np.array([clip(c + s_rp * d + s_yaw * y, lo_i, hi_i) / ei
-                        for d, y, lo_i, hi_i, ei in zip(d_rp, d_yaw, lo, hi, e, strict=True)])
+        pwm, report = np.empty(4), np.empty(REPORT_SIZE)
+        allocate_tick(self._par, self._effectiveness, float(thrust_n), t_roll, t_pitch, t_yaw,
+                      pwm, report)
+        s_yaw, s_rp, c, c0 = report.tolist()
         return pwm, s_yaw, s_rp, c, c0
 
     def mix(self, pwm: np.ndarray) -> tuple[float, np.ndarray]:
         """Eq. 3.2: thrust U1 (N) and torques [U2, U3, U4] (N*m, shape (3,)) from PWM u[4],
         with the effectiveness the allocation assumes (``B diag(e) u``)."""
-        u = self._mixer @ (np.asarray(pwm, dtype=float).reshape(4) * self._effectiveness)
-        return float(u[0]), u[1:].copy()
+        u = mix_tick(self._mixer_c, self._effectiveness,
+                     np.ascontiguousarray(pwm, dtype=float).reshape(4))
+        return float(u[0]), u[1:]
 
 
 def _largest_scale(base: np.ndarray, pattern: np.ndarray, lo: float, hi: float) -> float | None:
     """Largest s in [0, 1] with lo <= base + s * pattern <= hi, or None if s = 0 is infeasible."""
     n = len(base)
-    return _largest_scale_f(np.asarray(base, dtype=float).tolist(),
-                            np.asarray(pattern, dtype=float).tolist(), [lo] * n, [hi] * n)
+    s = _largest_scale_k(np.asarray(base, dtype=float), np.asarray(pattern, dtype=float),
+                         np.full(n, float(lo)), np.full(n, float(hi)))
+    return None if s < 0.0 else s
 
 
-def _largest_scale_f(base: list[float], pattern: list[float], lo: list[float],
-                     hi: list[float]) -> float | None:
-    """:func:`_largest_scale` on plain floats, with per-motor bounds."""
-    if any(b < lo_i - _EPS_PWM or b > hi_i + _EPS_PWM
-           for b, lo_i, hi_i in zip(base, lo, hi, strict=True)):
-        return None
+@njit(cache=True, error_model="numpy")
+def _largest_scale_k(base: np.ndarray, pattern: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                     ) -> float:
+    """:func:`_largest_scale` with per-motor bounds; -1 where it returns None."""
+    for i in range(base.size):
+        if base[i] < lo[i] - _EPS_PWM or base[i] > hi[i] + _EPS_PWM:
+            return -1.0
     s = 1.0
-    for b, p, lo_i, hi_i in zip(base, pattern, lo, hi, strict=True):
+    for i in range(base.size):
+        b, p = base[i], pattern[i]
         # |p| <= _EPS_PWM cannot leave the bounds by more than the slack at any s in [0, 1]
         if p > _EPS_PWM:
-            s = min(s, (hi_i - b) / p)
+            s = py_min(s, (hi[i] - b) / p)
         elif p < -_EPS_PWM:
-            s = min(s, (lo_i - b) / p)
+            s = py_min(s, (lo[i] - b) / p)
     return s if s > 0.0 else 0.0
 
 
-def _largest_spread_scale(d: list[float], lo: list[float], hi: list[float]) -> float:
+@njit(cache=True, error_model="numpy")
+def _largest_spread_scale(d: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> float:
     """Largest s in [0, 1] for which some c puts every ``c + s d_i`` in [lo_i, hi_i].
 
     For each pair with ``d_j > d_i``: ``lo_i - s d_i <= hi_j - s d_j``, i.e.
     ``s <= (hi_j - lo_i) / (d_j - d_i)``. With equal bounds this is range / spread.
     """
     s = 1.0
-    for i, d_i in enumerate(d):
-        for j, d_j in enumerate(d):
-            if d_j > d_i:
-                s = min(s, (hi[j] - lo[i]) / (d_j - d_i))
-    return max(s, 0.0)
+    for i in range(d.size):
+        for j in range(d.size):
+            if d[j] > d[i]:
+                s = py_min(s, (hi[j] - lo[i]) / (d[j] - d[i]))
+    return py_max(s, 0.0)

@@ -39,17 +39,22 @@ harmlessly).
 
 A new attitude law is its own module (a :class:`LeadFilteredLaw` subclass, or any class with
 the interface above) plus one line in :mod:`fcu.control.registry`, under a name appended to
-``flightdata.vocabulary.ATTITUDE_LAWS``.
+``flightdata.vocabulary.ATTITUDE_LAWS``. The per-tick arithmetic of each law is a compiled
+kernel of its module (``pd_tick``, ``lqr_tick``) on the law's parameter and state vectors;
+:mod:`fcu.control.chain` calls them inside the autopilot's one compiled control tick and runs
+any other law through its ``step``.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
+from numba import njit
 
+from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
 from fcu.control.motor_lead import MotorLead
-from fcu.floats import floats
 from fcu.model import VehicleModel
 
 
@@ -72,11 +77,12 @@ def euler_rates(euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
     return np.array(_euler_rates(phi, theta, p, q, r))
 
 
+@njit(cache=True, error_model="numpy")
 def _euler_rates(phi: float, theta: float, p: float, q: float, r: float
                  ) -> tuple[float, float, float]:
-    """:func:`euler_rates` on plain floats (the per-tick path)."""
-    # numpy's tan (math.tan may differ in the last bit); sin and cos agree
-    sp, cp, ct, tt = math.sin(phi), math.cos(phi), math.cos(theta), float(np.tan(theta))
+    """:func:`euler_rates` on plain floats (the per-tick path, compiled)."""
+    sp, cp, ct, tt = math.sin(phi), math.cos(phi), math.cos(theta), np.tan(theta)
+    # eq. 3.10: eta_dot = W(phi, theta) omega
     return p + sp * tt * q + cp * tt * r, cp * q - sp * r, (sp * q + cp * r) / ct
 
 
@@ -95,13 +101,19 @@ def check_period(dt_s: float) -> None:
         raise ValueError(f"dt_s = {dt_s!r}: must be > 0")
 
 
-class LeadFilteredLaw:
-    """The frame of an attitude law: plain-float inputs in, the law's torque through the lead.
+LawTick = Callable[..., None]
+"""A law's compiled tick: ``(par, state, lead_par, lead_state, euler_rad, rate_frd,
+ref_euler_rad, ref_rate, ref_acc, out)``, writes the torque (N*m) after the lead to ``out``."""
 
-    A law subclasses it and implements :meth:`_torque` on plain floats; :meth:`step` converts
-    the measurement and reference (and the body rates to Euler-angle rates, eq. 3.10), calls
-    it, and passes the torque through the :class:`MotorLead` unless ``motor_lead_rad_s`` is
-    None.
+
+class LeadFilteredLaw:
+    """The frame of an attitude law: its kernel's torque through the lead.
+
+    A law subclasses it, names its compiled tick (:data:`LawTick`) in ``_tick`` and fills
+    ``_par`` (gains) and ``_state`` (integrators; may stay empty). The tick converts the
+    body rates to Euler-angle rates (eq. 3.10, :func:`_euler_rates`), computes the law's
+    torque and passes it through the :class:`MotorLead` (:func:`~fcu.control.motor_lead.
+    lead_tick`) unless ``motor_lead_rad_s`` is None.
 
     Parameters
     ----------
@@ -113,6 +125,8 @@ class LeadFilteredLaw:
         Target bandwidth of the lead, rad/s; None = no lead.
     """
 
+    _tick: LawTick
+
     def __init__(self, model: VehicleModel, dt_s: float, motor_lead_rad_s: float | None
                  ) -> None:
         check_period(dt_s)
@@ -120,30 +134,30 @@ class LeadFilteredLaw:
         self.dt_s = float(dt_s)
         self.lead = (None if motor_lead_rad_s is None
                      else MotorLead(model.motor_bandwidth, motor_lead_rad_s, self.dt_s))
+        # the lead's parameters and state as the kernels read them (all zeros: no lead)
+        self._lead_par = self.lead.par if self.lead is not None else np.zeros(LEAD_PAR_SIZE)
+        self._lead_state = self.lead.state if self.lead is not None else np.zeros(3)
+        self._par = np.zeros(0)
+        self._state = np.zeros(0)
 
     def reset(self) -> None:
-        """Zero the lead filter."""
+        """Zero the law's integrators and the lead filter."""
+        self._state[:] = 0.0
         if self.lead is not None:
             self.lead.reset()
 
     def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, ref_euler_rad: np.ndarray,
              ref_rate: np.ndarray, ref_acc: np.ndarray) -> np.ndarray:
         """Torques [U2, U3, U4] (N*m), shape (3,); arguments as in the module docstring."""
-        # per axis in plain floats (3-vectors: numpy's overhead would dominate)
-        euler, ref = floats(euler_rad, 3), floats(ref_euler_rad, 3)
-        ref_rate_f, ref_acc_f = floats(ref_rate, 3), floats(ref_acc, 3)
-        p, q, r = floats(rate_frd, 3)
-        rates = _euler_rates(euler[0], euler[1], p, q, r)
-        torque = self._torque(euler, rates, ref, ref_rate_f, ref_acc_f)
-        return np.array(torque if self.lead is None else self.lead._step(torque))
+        out = np.empty(3)
+        type(self)._tick(self._par, self._state, self._lead_par, self._lead_state,
+                         _vec3(euler_rad), _vec3(rate_frd), _vec3(ref_euler_rad),
+                         _vec3(ref_rate), _vec3(ref_acc), out)
+        return out
 
-    def _torque(self, euler: list[float], rates: tuple[float, float, float],
-                ref: list[float], ref_rate: list[float], ref_acc: list[float]) -> list[float]:
-        """The law's torque [U2, U3, U4] (N*m) before the lead, on plain floats.
 
-        Parameters
-        ----------
-        euler, rates : measured angles (rad) and Euler-angle rates (rad/s)
-        ref, ref_rate, ref_acc : reference angles (rad), rates (rad/s), accelerations (rad/s^2)
-        """
-        raise NotImplementedError
+def _vec3(value: np.ndarray) -> np.ndarray:
+    """A float64 3-vector the kernels accept (the array itself when it already is one)."""
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (3,):
+        return value
+    return np.ascontiguousarray(value, dtype=float).reshape(3)

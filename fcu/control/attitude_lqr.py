@@ -8,14 +8,19 @@ Gains come from a discrete design per axis at start-up (:func:`design_axis_lqr`,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from fcu.control.attitude import LeadFilteredLaw, check_axes
+from fcu.control.attitude import LeadFilteredLaw, _euler_rates, check_axes
+from fcu.control.motor_lead import lead_tick
+from fcu.control.scalar import clip, wrap_pi
 from fcu.design_cache import cached_design
-from fcu.floats import clip, wrap_pi
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # lqr_tick compiles in kernels of attitude, motor_lead, scalar
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -123,9 +128,31 @@ def _axis_lqr_arrays(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, ...]
     return a, b, q, r, np.asarray(gain), np.asarray(riccati), np.asarray(poles)
 
 
-@dataclass
-class _LqrState:
-    integral: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # rad*s per axis
+# AttitudeLQR's parameter vector: K per axis (row i = [k_int, k_angle, k_rate]), the inertia
+# diagonal (kg*m^2), the integral clamps |z| <= limit/k_int (rad*s), the period (s)
+_K, _INERTIA, _Z_LIMIT, _DT = 0, 9, 12, 15
+PAR_SIZE = 16
+
+
+@njit(cache=True, error_model="numpy")
+def lqr_tick(par: np.ndarray, z: np.ndarray, lead_par: np.ndarray, lead_state: np.ndarray,
+             euler_rad: np.ndarray, rate_frd: np.ndarray, ref_euler_rad: np.ndarray,
+             ref_rate: np.ndarray, ref_acc: np.ndarray, out: np.ndarray) -> None:
+    """One tick of :class:`AttitudeLQR`: torques [U2, U3, U4] (N*m) by eq. 5.9 through the
+    lead into ``out``; advances the integrals ``z`` (rad*s) and the lead's state."""
+    rates = _euler_rates(euler_rad[0], euler_rad[1], rate_frd[0], rate_frd[1], rate_frd[2])
+    dt = par[_DT]
+    for i in range(3):
+        err = wrap_pi(euler_rad[i] - ref_euler_rad[i])  # angle - ref, rad
+        err_dot = rates[i] - ref_rate[i]  # rad/s
+        k = _K + 3 * i
+        # eq. 5.9: u = r - K x, r = I ref_acc, x = [z, e, e_dot]
+        out[i] = (par[_INERTIA + i] * ref_acc[i]
+                  - (par[k] * z[i] + par[k + 1] * err + par[k + 2] * err_dot))
+        # z[k+1] = z[k] + dt e[k], clamped (anti-windup)
+        z_lim = par[_Z_LIMIT + i]
+        z[i] = clip(z[i] + dt * err, -z_lim, z_lim)
+    lead_tick(lead_par, lead_state, out)
 
 
 class AttitudeLQR(LeadFilteredLaw):
@@ -147,6 +174,8 @@ class AttitudeLQR(LeadFilteredLaw):
         Control period, s (0.01 at 100 Hz).
     """
 
+    _tick = lqr_tick
+
     def __init__(self, model: VehicleModel, weights: LqrWeights | None = None,
                  dt_s: float = 0.01) -> None:
         self.weights = weights if weights is not None else LqrWeights()
@@ -164,11 +193,10 @@ class AttitudeLQR(LeadFilteredLaw):
         with np.errstate(divide="ignore"):
             self._z_limit = np.where(k_int > 0, np.array(w.integral_torque_limit_nm) / k_int,
                                      0.0)
-        # the same as plain floats, for the per-tick path
-        self._k_f = self._k.tolist()
-        self._inertia_f = self._inertia.tolist()
-        self._z_limit_f = self._z_limit.tolist()
-        self._state = _LqrState()
+        # the parameters and integrals (rad*s) as lqr_tick reads them
+        self._par = np.concatenate([self._k.reshape(9), self._inertia, self._z_limit,
+                                    [self.dt_s]])
+        self._state = np.zeros(3)
 
     @property
     def gain(self) -> np.ndarray:
@@ -183,26 +211,4 @@ class AttitudeLQR(LeadFilteredLaw):
     @property
     def integral(self) -> np.ndarray:
         """Current integral states z (rad*s), shape (3,)."""
-        return np.array(self._state.integral)
-
-    def reset(self) -> None:
-        """Zero the integrators and the lead."""
-        self._state = _LqrState()
-        super().reset()
-
-    def _torque(self, euler: list[float], rates: tuple[float, float, float],
-                ref: list[float], ref_rate: list[float], ref_acc: list[float]) -> list[float]:
-        """Torques [U2, U3, U4] (N*m) by eq. 5.9, before the lead; advances the integral."""
-        k, inertia, z_lim, dt = self._k_f, self._inertia_f, self._z_limit_f, self.dt_s
-        z = self._state.integral
-        torque, z_next = [], []
-        for i in range(3):
-            err = wrap_pi(euler[i] - ref[i])  # angle - ref, rad
-            err_dot = rates[i] - ref_rate[i]  # rad/s
-            # eq. 5.9: u = r - K x, r = I ref_acc, x = [z, e, e_dot]
-            torque.append(inertia[i] * ref_acc[i]
-                          - (k[i][0] * z[i] + k[i][1] * err + k[i][2] * err_dot))
-            # z[k+1] = z[k] + dt e[k], clamped (anti-windup)
-            z_next.append(clip(z[i] + dt * err, -z_lim[i], z_lim[i]))
-        self._state.integral = z_next
-        return torque
+        return self._state.copy()

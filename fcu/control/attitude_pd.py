@@ -10,10 +10,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from fcu.control.attitude import LeadFilteredLaw, check_axes
-from fcu.floats import wrap_pi
+from fcu.control.attitude import LeadFilteredLaw, _euler_rates, check_axes
+from fcu.control.motor_lead import lead_tick
+from fcu.control.scalar import wrap_pi
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # pd_tick compiles in kernels of attitude, motor_lead, scalar
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -41,6 +46,26 @@ class AttitudePdGains:
         check_axes("kd", self.kd, positive=True)
 
 
+# AttitudePD's parameter vector: the inertia diagonal (kg*m^2), kp (1/s^2), kd (1/s)
+_INERTIA, _KP, _KD = 0, 3, 6
+PAR_SIZE = 9
+
+
+@njit(cache=True, error_model="numpy")
+def pd_tick(par: np.ndarray, state: np.ndarray, lead_par: np.ndarray, lead_state: np.ndarray,
+            euler_rad: np.ndarray, rate_frd: np.ndarray, ref_euler_rad: np.ndarray,
+            ref_rate: np.ndarray, ref_acc: np.ndarray, out: np.ndarray) -> None:
+    """One tick of :class:`AttitudePD`: torques [U2, U3, U4] (N*m) by eq. 5.6 through the lead
+    into ``out`` (``state`` is unused: the PD has none); advances the lead's state."""
+    rates = _euler_rates(euler_rad[0], euler_rad[1], rate_frd[0], rate_frd[1], rate_frd[2])
+    for i in range(3):
+        e = wrap_pi(ref_euler_rad[i] - euler_rad[i])  # eq. 5.1 (rad)
+        e_dot = ref_rate[i] - rates[i]  # rad/s
+        # eq. 5.6: U = I (ddot_ref + kp e + kd e_dot)
+        out[i] = par[_INERTIA + i] * (ref_acc[i] + par[_KP + i] * e + par[_KD + i] * e_dot)
+    lead_tick(lead_par, lead_state, out)
+
+
 class AttitudePD(LeadFilteredLaw):
     """Eq. 5.6: ``U = I (ref_acc + kp e + kd e_dot)`` per axis, ``e = ref - angle`` (wrapped).
 
@@ -57,6 +82,8 @@ class AttitudePD(LeadFilteredLaw):
         Control period, s (used by the lead only).
     """
 
+    _tick = pd_tick
+
     def __init__(self, model: VehicleModel, gains: AttitudePdGains | None = None,
                  dt_s: float = 0.01) -> None:
         self.gains = gains if gains is not None else AttitudePdGains()
@@ -64,17 +91,4 @@ class AttitudePD(LeadFilteredLaw):
         self._inertia = model.inertia_diag
         self._kp = np.array(self.gains.kp)
         self._kd = np.array(self.gains.kd)
-        self._inertia_f, self._kp_f, self._kd_f = (self._inertia.tolist(), self._kp.tolist(),
-                                                   self._kd.tolist())
-
-    def _torque(self, euler: list[float], rates: tuple[float, float, float],
-                ref: list[float], ref_rate: list[float], ref_acc: list[float]) -> list[float]:
-        """Torques [U2, U3, U4] (N*m) by eq. 5.6, before the lead."""
-        inertia, kp, kd = self._inertia_f, self._kp_f, self._kd_f
-        torque = []
-        for i in range(3):
-            e = wrap_pi(ref[i] - euler[i])  # eq. 5.1 (rad)
-            e_dot = ref_rate[i] - rates[i]  # rad/s
-            # eq. 5.6: U = I (ddot_ref + kp e + kd e_dot)
-            torque.append(inertia[i] * (ref_acc[i] + kp[i] * e + kd[i] * e_dot))
-        return torque
+        self._par = np.concatenate([self._inertia, self._kp, self._kd])  # pd_tick's

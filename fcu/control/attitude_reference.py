@@ -11,10 +11,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from fcu.control.attitude import check_period
+from fcu.control.scalar import wrap_pi
 from fcu.design_cache import cached_design
-from fcu.floats import floats, wrap_pi
+from fcu.floats import floats
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # the kernel compiles in fcu.control.scalar's wrap_pi
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,6 +50,46 @@ def _reference_filter_design(dt_s: float, wf: float, zf: float) -> tuple[np.ndar
                             np.eye(2), np.zeros((2, 1)))
     discrete = control.c2d(continuous, dt_s, method="zoh")
     return np.asarray(discrete.A), np.asarray(discrete.B)
+
+
+# AttitudeReferenceFilter's parameter vector: A (row-major), B, w_f (rad/s), zeta
+_A00, _A01, _A10, _A11, _B0, _B1, _WF, _ZF = range(8)
+PAR_SIZE = 8
+# its state: theta_f (rad, wrapped), theta_f' (rad/s) per axis, then 1 once started
+_ANGLE, _RATE, _STARTED = 0, 3, 6
+STATE_SIZE = 7
+# the kernel's output: reference angles (rad), rates (rad/s), accelerations (rad/s^2)
+OUT_EULER, OUT_RATE, OUT_ACC = 0, 3, 6
+OUT_SIZE = 9
+
+
+@njit(cache=True, error_model="numpy")
+def reference_filter_tick(par: np.ndarray, state: np.ndarray, raw_roll: float,
+                          raw_pitch: float, raw_yaw: float, out: np.ndarray) -> None:
+    """One tick of :class:`AttitudeReferenceFilter` on the raw reference (rad): writes
+    ``out`` (``OUT_*``) and advances ``state``."""
+    if state[_STARTED] == 0.0:  # start at rest on the first input
+        state[_ANGLE], state[_ANGLE + 1], state[_ANGLE + 2] = raw_roll, raw_pitch, raw_yaw
+        state[_RATE:_RATE + 3] = 0.0
+        state[_STARTED] = 1.0
+    wf, zf = par[_WF], par[_ZF]
+    a00, a01, a10, a11, b0, b1 = par[_A00], par[_A01], par[_A10], par[_A11], par[_B0], par[_B1]
+    raw = (raw_roll, raw_pitch, raw_yaw)
+    for i in range(3):
+        th, th_dot = state[_ANGLE + i], state[_RATE + i]
+        # work in coordinates relative to the filter angle: input offset wrapped
+        offset = wrap_pi(raw[i] - th)  # theta_r - theta_f, rad
+        out[OUT_EULER + i] = wrap_pi(th)
+        out[OUT_RATE + i] = th_dot
+        # theta_f'' = w_f^2 (theta_r - theta_f) - 2 zeta w_f theta_f', at the start of the
+        # interval
+        out[OUT_ACC + i] = wf * wf * offset - 2.0 * zf * wf * th_dot
+        # [theta_f, theta_f'][k+1] = A [theta_f, theta_f'][k] + B theta_r[k]  (ZOH), with
+        # theta_r[k] = theta_f[k] + offset so a 2 pi jump of the raw yaw is not followed;
+        # the dynamics are shift-invariant in the angle (A[:, 0] + B = [1, 0]): keep it
+        # wrapped
+        state[_ANGLE + i] = wrap_pi(a00 * th + a01 * th_dot + b0 * (th + offset))
+        state[_RATE + i] = a10 * th + a11 * th_dot + b1 * (th + offset)
 
 
 class AttitudeReferenceFilter:
@@ -88,39 +133,27 @@ class AttitudeReferenceFilter:
         # states [theta_f, theta_f'], input theta_r - (wrapped offset handled in step)
         self._a, b = _reference_filter_design(self.dt_s, wf, zf)
         self._b = b[:, 0]
-        self._a_f, self._b_f = self._a.tolist(), self._b.tolist()
-        self._angle: list[float] | None = None  # theta_f per axis, rad (unwrapped)
-        self._rate = [0.0, 0.0, 0.0]  # theta_f', rad/s
+        self._par = np.array([self._a[0, 0], self._a[0, 1], self._a[1, 0], self._a[1, 1],
+                              self._b[0], self._b[1], wf, zf])
+        self._state = np.zeros(STATE_SIZE)  # not started: starts on the next input
 
     def reset(self, euler_rad: np.ndarray | None = None) -> None:
         """Forget the state; start at rest on ``euler_rad`` (else on the next input)."""
-        self._angle = None if euler_rad is None else floats(euler_rad, 3)
-        self._rate = [0.0, 0.0, 0.0]
+        self._state[:] = 0.0
+        if euler_rad is not None:
+            self._state[_ANGLE:_ANGLE + 3] = floats(euler_rad, 3)
+            self._state[_STARTED] = 1.0
 
     def step(self, ref_euler_rad: np.ndarray | Sequence[float]) -> AttitudeReference:
         """Filter one raw reference [roll, pitch, yaw] (rad); see the class docstring."""
-        raw = floats(ref_euler_rad, 3)
-        if self._angle is None:
-            self._angle = list(raw)
-        wf, zf = self.bandwidth_rad_s, self.damping
-        (a00, a01), (a10, a11) = self._a_f
-        b0, b1 = self._b_f
-        angle, rate = self._angle, self._rate
-        out_angle, acc, new_angle, new_rate = [], [], [], []
-        for i in range(3):  # per axis, in plain floats
-            th, th_dot = angle[i], rate[i]
-            # work in coordinates relative to the filter angle: input offset wrapped
-            offset = wrap_pi(raw[i] - th)  # theta_r - theta_f, rad
-            # theta_f'' at the start of the interval
-            acc.append(wf * wf * offset - 2.0 * zf * wf * th_dot)
-            out_angle.append(wrap_pi(th))
-            # [theta_f, theta_f'][k+1] = A [theta_f, theta_f'][k] + B theta_r[k]  (ZOH), with
-            # theta_r[k] = theta_f[k] + offset so a 2 pi jump of the raw yaw is not followed;
-            # the dynamics are shift-invariant in the angle (A[:, 0] + B = [1, 0]): keep it
-            # wrapped
-            new_angle.append(wrap_pi(a00 * th + a01 * th_dot + b0 * (th + offset)))
-            new_rate.append(a10 * th + a11 * th_dot + b1 * (th + offset))
-        out = AttitudeReference(euler_rad=np.array(out_angle), rate=np.array(rate),
-                                acc=np.array(acc))
-        self._angle, self._rate = new_angle, new_rate
-        return out
+        roll, pitch, yaw = floats(ref_euler_rad, 3)
+        out = np.empty(OUT_SIZE)
+        reference_filter_tick(self._par, self._state, roll, pitch, yaw, out)
+        return reference_of(out)
+
+
+def reference_of(out: np.ndarray) -> AttitudeReference:
+    """The :class:`AttitudeReference` whose arrays are views of a filter output ``out``
+    (``OUT_*`` layout, which the caller hands over)."""
+    return AttitudeReference(euler_rad=out[OUT_EULER:OUT_EULER + 3],
+                             rate=out[OUT_RATE:OUT_RATE + 3], acc=out[OUT_ACC:OUT_ACC + 3])

@@ -59,9 +59,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
+from fcu.control.scalar import wrap_pi
 from fcu.design_cache import cached_design
-from fcu.floats import floats, wrap_pi
+from fcu.floats import floats
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # dob_tick compiles in fcu.control.scalar's wrap_pi
 
 if TYPE_CHECKING:
     import control
@@ -111,6 +115,31 @@ def dob_update(am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np.ndarray,
     return xm_next, xt_next, d_hat
 
 
+@njit(cache=True, error_model="numpy")
+def dob_tick(abdob: bool, am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np.ndarray,
+             cm: np.ndarray, dm: np.ndarray, ct: np.ndarray, xm: np.ndarray, xt: np.ndarray,
+             prev_meas: np.ndarray, euler_rad: np.ndarray, rate_frd: np.ndarray,
+             tau: np.ndarray, d_hat: np.ndarray) -> None:
+    """One tick of a started observer (:meth:`_DiscreteDob.step` after the first): writes
+    ``d_hat`` (N*m, (3,)) and advances ``xm``, ``xt`` and ``prev_meas`` in place.
+
+    The measurement is the body rate (VbDOB) or, with ``abdob``, the Euler angles unwrapped
+    against the previous measurement (``prev_meas``, which then holds the unwrapped angles).
+    """
+    y = np.empty(3)
+    for i in range(3):
+        if abdob:  # unwrap: u + wrap(e - wrap(u)), so a pass through +/-pi is no 2 pi jump
+            u = prev_meas[i]
+            y[i] = u + wrap_pi(euler_rad[i] - wrap_pi(u))
+        else:
+            y[i] = rate_frd[i]
+    xm_next, xt_next, d = dob_update(am, bm, at, bt, cm, dm, ct, xm, xt, prev_meas, y, tau)
+    xm[:] = xm_next
+    xt[:] = xt_next
+    prev_meas[:] = y
+    d_hat[:] = d
+
+
 _Channel = tuple["control.TransferFunction", "control.TransferFunction"]
 
 
@@ -149,9 +178,11 @@ def _discretise(kind: str, inertia_kgm2: tuple[float, ...], dt_s: float, cutoff_
 class _DiscreteDob:
     """Shared machinery: d_hat = F_meas(z) y + F_torque(z) tau, three axes.
 
-    A concrete observer names its ``kind``, gives its per-axis channels
+    A concrete observer names its ``kind``, which picks the measurement (``"abdob"``: the
+    Euler angles, unwrapped; ``"vbdob"``: the body rates), and gives its per-axis channels
     (:meth:`_channel`: the measurement filter ``Q G_n^-1`` and the torque filter ``-Q``,
-    continuous) and picks its measurement (:meth:`_measurement`).
+    continuous). After the first step (:meth:`start`) each tick is the compiled
+    :func:`dob_tick`, which :mod:`fcu.control.chain` also calls directly.
 
     Parameters
     ----------
@@ -195,7 +226,8 @@ class _DiscreteDob:
                 self._am, self._bm, self._at, self._bt, self._cm, self._dm, self._ct))
         self._xm = np.zeros(self._am.shape[0])
         self._xt = np.zeros(self._at.shape[0])
-        self._prev_meas: np.ndarray | None = None
+        self._prev_meas = np.zeros(3)  # y[k-1] (AbDOB: the unwrapped angles, rad)
+        self.started = False  # False until the first step has initialised the states
 
     @property
     def channels(self) -> list[_Channel]:
@@ -220,9 +252,10 @@ class _DiscreteDob:
 
     def reset(self) -> None:
         """Forget the filter state; the next step re-initialises at rest on its measurement."""
-        self._xm = np.zeros(self._am.shape[0])
-        self._xt = np.zeros(self._at.shape[0])
-        self._prev_meas = None
+        self._xm[:] = 0.0
+        self._xt[:] = 0.0
+        self._prev_meas[:] = 0.0
+        self.started = False
 
     @staticmethod
     def _channel(inertia_kgm2: float, w: float
@@ -231,27 +264,31 @@ class _DiscreteDob:
         Q-filter bandwidth w (rad/s), continuous, before the motor model."""
         raise NotImplementedError
 
-    def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
-        """The measured y of this observer's nominal plant, shape (3,)."""
-        raise NotImplementedError
-
     def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray,
              torque_applied_nm: np.ndarray) -> np.ndarray:
         """Estimate d_hat (N*m), shape (3,); see the module docstring for the timing."""
-        y = self._measurement(euler_rad, rate_frd)
-        if self._prev_meas is None:
-            # start at rest on the first measurement: no derivative kick from y(0) != 0
-            self._xm = self._xm_per_meas @ y
-            self._prev_meas = y
-            # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]   (D_tau = 0)
-            return self._cm @ self._xm + self._dm @ y + self._ct @ self._xt
+        euler = np.array(floats(euler_rad, 3))
+        rate = np.array(floats(rate_frd, 3))
+        if not self.started:
+            return self.start(euler, rate)
         tau = np.asarray(torque_applied_nm, dtype=float).reshape(3)
-        # x[k] = A x[k-1] + B u[k-1] for each channel; d_hat[k] (dob_update)
-        self._xm, self._xt, d_hat = dob_update(
-            self._k_am, self._k_bm, self._k_at, self._k_bt, self._k_cm, self._k_dm, self._k_ct,
-            self._xm, self._xt, self._prev_meas, y, tau)
-        self._prev_meas = y
+        d_hat = np.empty(3)
+        # x[k] = A x[k-1] + B u[k-1] for each channel; d_hat[k] (dob_tick, dob_update)
+        dob_tick(self.kind == "abdob", self._k_am, self._k_bm, self._k_at, self._k_bt,
+                 self._k_cm, self._k_dm, self._k_ct, self._xm, self._xt, self._prev_meas,
+                 euler, rate, tau, d_hat)
         return d_hat
+
+    def start(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
+        """The first step after a reset: start at rest on the measurement (no derivative kick
+        from y(0) != 0); returns d_hat (N*m), shape (3,)."""
+        y = (np.array(floats(euler_rad, 3)) if self.kind == "abdob"
+             else np.array(floats(rate_frd, 3)))
+        self._xm[:] = self._xm_per_meas @ y
+        self._prev_meas[:] = y
+        self.started = True
+        # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]   (D_tau = 0)
+        return self._cm @ self._xm + self._dm @ y + self._ct @ self._xt
 
 
 class AccelerationDob(_DiscreteDob):
@@ -264,11 +301,6 @@ class AccelerationDob(_DiscreteDob):
 
     kind = "abdob"
 
-    def __init__(self, model: VehicleModel, dt_s: float = 0.01, cutoff_rad_s: float = 5.0,
-                 motor_bandwidth_rad_s: float | None = None) -> None:
-        super().__init__(model, dt_s, cutoff_rad_s, motor_bandwidth_rad_s)
-        self._unwrapped: list[float] | None = None  # rad, per axis
-
     @staticmethod
     def _channel(inertia_kgm2: float, w: float
                  ) -> tuple[control.TransferFunction, control.TransferFunction]:
@@ -277,20 +309,6 @@ class AccelerationDob(_DiscreteDob):
         den = [1.0, 2.0 * w, w * w]  # (s + w)^2, eq. 6.28 with the missing s restored
         return (control.tf([inertia_kgm2 * w * w, 0.0, 0.0], den),  # Q I s^2
                 control.tf([-w * w], den))  # -Q
-
-    def reset(self) -> None:
-        """Forget the filter state and the angle unwrapping."""
-        super().reset()
-        self._unwrapped = None
-
-    def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
-        euler = floats(euler_rad, 3)
-        if self._unwrapped is None:
-            self._unwrapped = euler
-        else:
-            self._unwrapped = [u + wrap_pi(e - wrap_pi(u))
-                               for u, e in zip(self._unwrapped, euler, strict=True)]
-        return np.array(self._unwrapped)
 
 
 class VelocityDob(_DiscreteDob):
@@ -310,9 +328,6 @@ class VelocityDob(_DiscreteDob):
         den = [1.0, w]  # s + w, eq. 6.30
         return (control.tf([inertia_kgm2 * w, 0.0], den),  # Q I s
                 control.tf([-w], den))  # -Q
-
-    def _measurement(self, euler_rad: np.ndarray, rate_frd: np.ndarray) -> np.ndarray:
-        return np.asarray(rate_frd, dtype=float).reshape(3).copy()
 
 
 _KINDS: dict[str, type[_DiscreteDob]] = {dob.kind: dob for dob in (AccelerationDob, VelocityDob)}

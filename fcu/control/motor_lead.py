@@ -20,12 +20,37 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numba import njit
 
 from fcu.design_cache import cached_design
 from fcu.floats import floats
 
 if TYPE_CHECKING:
     import control
+
+
+# the lead's parameter vector: its first-order realisation A, B, C, D, then 1 when the lead
+# is in the loop (0: the torque passes unchanged, the laws without a lead)
+_A, _B, _C, _D, _ON = range(5)
+PAR_SIZE = 5
+
+
+@njit(cache=True, error_model="numpy")
+def lead_tick(par: np.ndarray, x: np.ndarray, u: np.ndarray) -> None:
+    """One tick of :class:`MotorLead` on the torque ``u`` (N*m, (3,)), in place (``u``
+    becomes the lead's output); ``x`` is the filter state per axis. Passes ``u`` unchanged
+    when ``par`` says the lead is off."""
+    if par[_ON] == 0.0:
+        return
+    a, b, c, d = par[_A], par[_B], par[_C], par[_D]
+    for i in range(3):
+        y = c * x[i] + d * u[i]  # y[k] = C x[k] + D u[k]
+        x[i] = a * x[i] + b * u[i]  # x[k+1] = A x[k] + B u[k]
+        u[i] = y
+
+
+NO_LEAD = np.zeros(PAR_SIZE)  # the parameters of an absent lead
+NO_LEAD.setflags(write=False)
 
 
 class MotorLead:
@@ -59,7 +84,8 @@ class MotorLead:
         self._num, self._den, realisation = _lead_design(
             float(motor_bandwidth_rad_s), float(target_bandwidth_rad_s), self.dt_s)
         self._a, self._b, self._c, self._d = (float(v) for v in realisation)
-        self._x = [0.0, 0.0, 0.0]  # filter state per axis
+        self.par = np.array([self._a, self._b, self._c, self._d, 1.0])  # lead_tick's
+        self.state = np.zeros(3)  # filter state per axis
 
     @property
     def transfer_function(self) -> control.TransferFunction:
@@ -75,18 +101,13 @@ class MotorLead:
 
     def reset(self) -> None:
         """Zero the filter state."""
-        self._x = [0.0, 0.0, 0.0]
+        self.state[:] = 0.0
 
     def step(self, torque_nm: np.ndarray) -> np.ndarray:
         """Lead-filtered torque (N*m), shape (3,)."""
-        return np.array(self._step(floats(torque_nm, 3)))
-
-    def _step(self, u: list[float]) -> list[float]:
-        """:meth:`step` on plain floats."""
-        a, b, c, d, x = self._a, self._b, self._c, self._d, self._x
-        y = [c * x[i] + d * u[i] for i in range(3)]  # y[k] = C x[k] + D u[k]
-        self._x = [a * x[i] + b * u[i] for i in range(3)]  # x[k+1] = A x[k] + B u[k]
-        return y
+        u = np.array(floats(torque_nm, 3))
+        lead_tick(self.par, self.state, u)
+        return u
 
 
 # The controller designs (_lead_design here, the LQR's and the reference filter's) call

@@ -54,9 +54,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from fcu.floats import clip, floats, sign
+from fcu.control.scalar import clip, py_max, py_min
+from fcu.floats import floats
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # the kernels compile in those of fcu.control.scalar
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -140,6 +145,7 @@ def attitude_from_specific_force(force_ned: np.ndarray, yaw_rad: float
     return _attitude_from_force(f0, f1, f2, float(yaw_rad))
 
 
+@njit(cache=True, error_model="numpy")
 def _attitude_from_force(f0: float, f1: float, f2: float, yaw_rad: float
                          ) -> tuple[float, float]:
     """:func:`attitude_from_specific_force` on plain floats (the per-tick path)."""
@@ -150,13 +156,78 @@ def _attitude_from_force(f0: float, f1: float, f2: float, yaw_rad: float
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     b0, b1, b2 = -f0 / norm, -f1 / norm, -f2 / norm  # desired body z axis in NED
     v_x, v_y, v_z = c * b0 + s * b1, -s * b0 + c * b1, b2  # v = Rz(psi)^T b
-    roll = float(np.arcsin(clip(-v_y, -1.0, 1.0)))  # v_y = -sin(phi)
-    pitch = float(np.arctan2(v_x, v_z))  # v_x/v_z = tan(theta)
+    roll = np.arcsin(clip(-v_y, -1.0, 1.0))  # v_y = -sin(phi)
+    pitch = np.arctan2(v_x, v_z)  # v_x/v_z = tan(theta)
     return roll, pitch
+
+
+# PositionController's parameter vector (``_par``), as the kernels read it
+_KP, _KD, _KI, _Z_LIMIT = 0, 3, 6, 9  # three each, per NED axis
+_MASS, _GRAVITY, _DT, _UP_MIN, _UP_MAX, _TAN_TILT_MAX = 12, 13, 14, 15, 16, 17
+PAR_SIZE = 18
+# the kernel's output vector: U1 (N), roll_d, pitch_d (rad), mu after the limits (m/s^2, NED)
+OUT_THRUST, OUT_ROLL, OUT_PITCH, OUT_MU = 0, 1, 2, 3
+OUT_SIZE = 6
+
+
+@njit(cache=True, error_model="numpy")
+def limit_accel(par: np.ndarray, mu0: float, mu1: float, mu2: float
+                ) -> tuple[float, float, float]:
+    """Apply the vertical, tilt and total-thrust limits to mu (m/s^2, NED) (module
+    docstring, "Limits")."""
+    up_max = par[_UP_MAX]
+    # 1. vertical specific force (up) -f_z = g - mu_z within the thrust range
+    g = par[_GRAVITY]
+    up = clip(g - mu2, par[_UP_MIN], up_max)
+    out2 = g - up
+    # 2. horizontal: tilt limit, then the remaining thrust budget
+    horiz = np.hypot(mu0, mu1)
+    budget = up * par[_TAN_TILT_MAX]
+    # (thrust_max / m)^2 - up^2 (x**2 and x*x round alike)
+    budget = py_min(budget, math.sqrt(py_max(up_max * up_max - up * up, 0.0)))
+    if horiz > budget:
+        scale = budget / horiz
+        return mu0 * scale, mu1 * scale, out2
+    return mu0, mu1, out2
+
+
+@njit(cache=True, error_model="numpy")
+def position_tick(par: np.ndarray, integral: np.ndarray, pos_ned: np.ndarray,
+                  vel_ned: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
+                  ref_acc: np.ndarray, yaw_ref: float, out: np.ndarray) -> None:
+    """One tick of eq. 5.3/5.4: writes ``out`` (``OUT_*``) and advances ``integral`` (m*s)."""
+    dt = par[_DT]
+    e = np.empty(3)
+    z = np.empty(3)
+    mu_free = np.empty(3)
+    for i in range(3):
+        e[i] = ref_pos[i] - pos_ned[i]  # eq. 5.1
+        e_dot = ref_vel[i] - vel_ned[i]  # eq. 5.2
+        z_lim = par[_Z_LIMIT + i]
+        z[i] = clip(integral[i] + e[i] * dt, -z_lim, z_lim)
+        # eq. 5.3: mu = ref_acc + kp e + kd e_dot + ki int e
+        mu_free[i] = (ref_acc[i] + par[_KP + i] * e[i] + par[_KD + i] * e_dot
+                      + par[_KI + i] * z[i])
+    mu0, mu1, mu2 = limit_accel(par, mu_free[0], mu_free[1], mu_free[2])
+    mu = (mu0, mu1, mu2)
+    # conditional integration: where limited, do not integrate deeper into the limit
+    for i in range(3):
+        limited = abs(mu[i] - mu_free[i]) > 1e-12
+        deeper = limited and np.sign(e[i]) == np.sign(mu_free[i] - mu[i])
+        if not deeper:
+            integral[i] = z[i]
+    # f = mu - g e3; U1 = m |f|; body z along -f (eq. 5.4, module docstring)
+    f0, f1, f2 = mu0 - 0.0, mu1 - 0.0, mu2 - par[_GRAVITY]
+    out[OUT_THRUST] = par[_MASS] * math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
+    out[OUT_ROLL], out[OUT_PITCH] = _attitude_from_force(f0, f1, f2, yaw_ref)
+    out[OUT_MU], out[OUT_MU + 1], out[OUT_MU + 2] = mu0, mu1, mu2
 
 
 class PositionController:
     """PID position controller with feed-forward (eq. 5.3) and thrust/tilt inversion (eq. 5.4).
+
+    The per-tick arithmetic is the compiled :func:`position_tick` on the parameter vector
+    ``_par`` and the integral state, which :mod:`fcu.control.chain` also drives directly.
 
     Parameters
     ----------
@@ -183,21 +254,24 @@ class PositionController:
         # |ki z| <= limit  <=>  |z| <= limit / ki (unbounded where ki = 0: z stays 0 there)
         with np.errstate(divide="ignore"):
             self._z_limit = np.where(self._ki > 0, np.array(g.integral_limit) / self._ki, 0.0)
-        # the same as plain floats, for the per-tick path
-        self._kp_f, self._kd_f, self._ki_f = (self._kp.tolist(), self._kd.tolist(),
-                                              self._ki.tolist())
-        self._z_limit_f = self._z_limit.tolist()
-        self._tan_tilt_max = float(np.tan(self.gains.tilt_max_rad))
-        self._integral_f = [0.0, 0.0, 0.0]  # m*s, int (ref_pos - pos) dt
+        m = model.mass
+        par = np.empty(PAR_SIZE)
+        par[_KP:_KP + 3], par[_KD:_KD + 3], par[_KI:_KI + 3] = self._kp, self._kd, self._ki
+        par[_Z_LIMIT:_Z_LIMIT + 3] = self._z_limit
+        par[_MASS], par[_GRAVITY], par[_DT] = m, model.gravity, self.dt_s
+        par[_UP_MIN], par[_UP_MAX] = self.thrust_min_n / m, self.thrust_max_n / m
+        par[_TAN_TILT_MAX] = float(np.tan(self.gains.tilt_max_rad))
+        self._par = par
+        self._integral = np.zeros(3)  # m*s, int (ref_pos - pos) dt
 
     @property
     def integral(self) -> np.ndarray:
         """Integral of the position error, m*s, NED, shape (3,)."""
-        return np.array(self._integral_f)
+        return self._integral.copy()
 
     def reset(self) -> None:
         """Zero the integrator."""
-        self._integral_f = [0.0, 0.0, 0.0]
+        self._integral[:] = 0.0
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, ref_pos: np.ndarray,
              ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float) -> PositionCommand:
@@ -212,48 +286,22 @@ class PositionController:
         yaw_ref : float
             Yaw reference psi_d, rad (used to resolve the tilt into roll and pitch).
         """
-        m, g, dt = self.model.mass, self.model.gravity, self.dt_s
-        # per axis in plain floats (3-vectors: numpy's overhead would dominate)
-        p, v = floats(pos_ned, 3), floats(vel_ned, 3)
-        rp, rv, ra = floats(ref_pos, 3), floats(ref_vel, 3), floats(ref_acc, 3)
-        kp, kd, ki, z_lim = self._kp_f, self._kd_f, self._ki_f, self._z_limit_f
-        e = [rp[i] - p[i] for i in range(3)]  # eq. 5.1
-        e_dot = [rv[i] - v[i] for i in range(3)]  # eq. 5.2
-        integral = self._integral_f
-        z = [clip(integral[i] + e[i] * dt, -z_lim[i], z_lim[i]) for i in range(3)]
-        # eq. 5.3: mu = ref_acc + kp e + kd e_dot + ki int e
-        mu_free = [ra[i] + kp[i] * e[i] + kd[i] * e_dot[i] + ki[i] * z[i] for i in range(3)]
-        mu = self._limit_f(mu_free)
-        # conditional integration: where limited, do not integrate deeper into the limit
-        new_integral = []
-        for i in range(3):
-            limited = abs(mu[i] - mu_free[i]) > 1e-12
-            deeper = limited and sign(e[i]) == sign(mu_free[i] - mu[i])
-            new_integral.append(integral[i] if deeper else z[i])
-        self._integral_f = new_integral
-        # f = mu - g e3; U1 = m |f|; body z along -f (eq. 5.4, module docstring)
-        f0, f1, f2 = mu[0] - 0.0, mu[1] - 0.0, mu[2] - g
-        thrust = m * math.sqrt(f0 * f0 + f1 * f1 + f2 * f2)
-        roll, pitch = _attitude_from_force(f0, f1, f2, float(yaw_ref))
-        return PositionCommand(thrust_n=thrust, roll_ref_rad=roll, pitch_ref_rad=pitch,
-                               accel_cmd_ned=np.array(mu))
+        out = np.empty(OUT_SIZE)
+        position_tick(self._par, self._integral, _vec(pos_ned), _vec(vel_ned), _vec(ref_pos),
+                      _vec(ref_vel), _vec(ref_acc), float(yaw_ref), out)
+        return PositionCommand(thrust_n=float(out[OUT_THRUST]),
+                               roll_ref_rad=float(out[OUT_ROLL]),
+                               pitch_ref_rad=float(out[OUT_PITCH]),
+                               accel_cmd_ned=out[OUT_MU:OUT_MU + 3])
 
     def _limit(self, mu: np.ndarray) -> np.ndarray:
         """Apply the vertical, tilt and total-thrust limits to mu (m/s^2, NED)."""
-        return np.array(self._limit_f(floats(mu, 3)))
+        mu0, mu1, mu2 = floats(mu, 3)
+        return np.array(limit_accel(self._par, mu0, mu1, mu2))
 
-    def _limit_f(self, mu: list[float]) -> list[float]:
-        """:meth:`_limit` on plain floats."""
-        m, g = self.model.mass, self.model.gravity
-        out = list(mu)
-        # 1. vertical specific force (up) -f_z = g - mu_z within the thrust range
-        up = clip(g - mu[2], self.thrust_min_n / m, self.thrust_max_n / m)
-        out[2] = g - up
-        # 2. horizontal: tilt limit, then the remaining thrust budget
-        horiz = float(np.hypot(mu[0], mu[1]))
-        budget = up * self._tan_tilt_max
-        budget = min(budget, math.sqrt(max((self.thrust_max_n / m) ** 2 - up**2, 0.0)))
-        if horiz > budget:
-            scale = budget / horiz
-            out[0], out[1] = mu[0] * scale, mu[1] * scale
-        return out
+
+def _vec(value: np.ndarray) -> np.ndarray:
+    """A float64 3-vector the kernels accept (the array itself when it already is one)."""
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (3,):
+        return value
+    return np.ascontiguousarray(value, dtype=float).reshape(3)

@@ -28,6 +28,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+from numba import njit
+
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
 
@@ -56,6 +59,74 @@ class CrashCheckConfig:
             require(finite(value) and value > 0, name, value, "must be a number > 0")
 
 
+# CrashCheck's state vector (times in s; NaN: not running)
+_ANGLE_SINCE, _CONTACT_SINCE, _FAST_DESCENT, _THRUST_SINCE, _THRUST_WARNED, _CRASHED = range(6)
+STATE_SIZE = 6
+# its parameter vector
+(_P_ANGLE, _P_ANGLE_TIME, _P_IMPACT_SPEED, _P_IMPACT_WINDOW, _P_CONTACT_TIME, _P_GROUND_ALT,
+ _P_THROTTLE, _P_DESCENT, _P_THRUST_TIME, _P_THRUST_ERROR) = range(10)
+# what crash_tick found: bits of its return value
+THRUST_LOSS, CRASH = 1, 2
+
+
+# the measures a tick is checked on, in this order (CrashCheck.check)
+ALT, VEL_DOWN, SPEED, LEAN, ATTITUDE_ERROR, COLLECTIVE = range(6)
+MEASURES_SIZE = 6
+
+
+@njit(cache=True, error_model="numpy")
+def crash_tick(par: np.ndarray, state: np.ndarray, time_s: float, contact_leg: bool,
+               measures: np.ndarray) -> int:
+    """One flying tick of the checks of the module docstring on ``measures`` (``ALT``...
+    ``COLLECTIVE``, as :meth:`CrashCheck.step`'s arguments; ``contact_leg``: the leg is
+    neither a take-off nor a landing); advances ``state`` and returns ``THRUST_LOSS | CRASH``
+    bits for what fired."""
+    alt_m, vel_down_m_s, speed_m_s = measures[ALT], measures[VEL_DOWN], measures[SPEED]
+    lean_rad, attitude_error_rad = measures[LEAN], measures[ATTITUDE_ERROR]
+    collective = measures[COLLECTIVE]
+    if vel_down_m_s > par[_P_IMPACT_SPEED]:
+        state[_FAST_DESCENT] = time_s
+    found = 0
+    if state[_THRUST_WARNED] == 0.0:
+        # thrust loss: collective high, descending, attitude fine, for thrust_loss_time_s
+        if (collective > par[_P_THROTTLE] and vel_down_m_s > par[_P_DESCENT]
+                and attitude_error_rad < par[_P_THRUST_ERROR]):
+            if math.isnan(state[_THRUST_SINCE]):
+                state[_THRUST_SINCE] = time_s
+            if time_s - state[_THRUST_SINCE] >= par[_P_THRUST_TIME] - 1e-9:
+                state[_THRUST_WARNED] = 1.0
+                found |= THRUST_LOSS
+        else:
+            state[_THRUST_SINCE] = np.nan
+    if state[_CRASHED] != 0.0:
+        return found
+    angle = par[_P_ANGLE]
+    # attitude: lean and attitude error both above angle_deg for angle_time_s
+    if lean_rad > angle and attitude_error_rad > angle:
+        if math.isnan(state[_ANGLE_SINCE]):
+            state[_ANGLE_SINCE] = time_s
+        if time_s - state[_ANGLE_SINCE] >= par[_P_ANGLE_TIME] - 1e-9:
+            state[_CRASHED] = 1.0
+            return found | CRASH
+    else:
+        state[_ANGLE_SINCE] = np.nan
+    on_ground = alt_m < par[_P_GROUND_ALT]
+    # impact: on the ground within impact_window_s of a fast descent
+    if on_ground and time_s - state[_FAST_DESCENT] <= par[_P_IMPACT_WINDOW] + 1e-9:
+        state[_CRASHED] = 1.0
+        return found | CRASH
+    # ground contact in a flying leg for contact_time_s
+    if on_ground and speed_m_s < 0.1 and contact_leg:
+        if math.isnan(state[_CONTACT_SINCE]):
+            state[_CONTACT_SINCE] = time_s
+        if time_s - state[_CONTACT_SINCE] >= par[_P_CONTACT_TIME] - 1e-9:
+            state[_CRASHED] = 1.0
+            return found | CRASH
+    else:
+        state[_CONTACT_SINCE] = np.nan
+    return found
+
+
 class CrashCheck:
     """The checks of the module docstring, fed once per tick."""
 
@@ -63,16 +134,22 @@ class CrashCheck:
         self.config = config
         self._angle_rad = math.radians(config.angle_deg)
         self._thrust_loss_error_rad = math.radians(15.0)
+        cfg = config
+        self._par = np.array([self._angle_rad, cfg.angle_time_s, cfg.impact_speed_m_s,
+                              cfg.impact_window_s, cfg.contact_time_s, cfg.ground_alt_m,
+                              cfg.thrust_loss_throttle, cfg.thrust_loss_descent_m_s,
+                              cfg.thrust_loss_time_s, self._thrust_loss_error_rad])
+        self._state = np.empty(STATE_SIZE)
         self.reset()
 
     def reset(self) -> None:
         """A new flight: timers and the once-per-flight warning restart."""
-        self._angle_since: float | None = None
-        self._contact_since: float | None = None
-        self._fast_descent_s = -math.inf
-        self._thrust_since: float | None = None
-        self._thrust_warned = False
-        self.crashed = False
+        self._state[:] = (math.nan, math.nan, -math.inf, math.nan, 0.0, 0.0)
+
+    @property
+    def crashed(self) -> bool:
+        """A crash was detected in this flight."""
+        return bool(self._state[_CRASHED])
 
     def step(self, time_s: float, *, flying: bool, leg: str, alt_m: float,
              vel_down_m_s: float, speed_m_s: float, lean_rad: float,
@@ -95,53 +172,27 @@ class CrashCheck:
         collective : float
             Commanded collective thrust as a fraction of full thrust.
         """
-        cfg = self.config
         if not flying:
             self.reset()
             return []
-        if vel_down_m_s > cfg.impact_speed_m_s:
-            self._fast_descent_s = time_s
-        out: list[DetectionRecord] = []
-        if not self._thrust_warned:
-            self._thrust_loss(out, time_s, vel_down_m_s, attitude_error_rad, collective)
-        if self.crashed:
-            return out
-        angle = self._angle_rad
-        if lean_rad > angle and attitude_error_rad > angle:
-            if self._angle_since is None:
-                self._angle_since = time_s
-            if time_s - self._angle_since >= cfg.angle_time_s - 1e-9:
-                return out + self._crash(time_s, attitude_error_rad)
-        else:
-            self._angle_since = None
-        on_ground = alt_m < cfg.ground_alt_m
-        if on_ground and time_s - self._fast_descent_s <= cfg.impact_window_s + 1e-9:
-            return out + self._crash(time_s, attitude_error_rad)
-        if on_ground and speed_m_s < 0.1 and leg not in ("takeoff", "land"):
-            if self._contact_since is None:
-                self._contact_since = time_s
-            if time_s - self._contact_since >= cfg.contact_time_s - 1e-9:
-                return out + self._crash(time_s, attitude_error_rad)
-        else:
-            self._contact_since = None
+        return self.check(time_s, leg not in ("takeoff", "land"), np.array(
+            [alt_m, vel_down_m_s, speed_m_s, lean_rad, attitude_error_rad, collective],
+            dtype=float))
+
+    def check(self, time_s: float, contact_leg: bool, measures: np.ndarray
+              ) -> list[DetectionRecord]:
+        """One tick in flight (:meth:`step` with ``flying`` true) on ``measures`` (shape (6,):
+        ``alt_m``, ``vel_down_m_s``, ``speed_m_s``, ``lean_rad``, ``attitude_error_rad``,
+        ``collective`` in that order); ``contact_leg``: the leg is neither a take-off nor a
+        landing (the ground-contact check applies)."""
+        found = crash_tick(self._par, self._state, time_s, contact_leg, measures)
+        if not found:
+            return []
+        out = []
+        if found & THRUST_LOSS:
+            out.append(DetectionRecord(time_s=time_s, action="detected", kind="thrust_loss",
+                                       magnitude=float(measures[COLLECTIVE])))
+        if found & CRASH:
+            out.append(DetectionRecord(time_s=time_s, action="detected", kind="crash",
+                                       magnitude=float(measures[ATTITUDE_ERROR])))
         return out
-
-    def _crash(self, time_s: float, attitude_error_rad: float) -> list[DetectionRecord]:
-        self.crashed = True
-        return [DetectionRecord(time_s=time_s, action="detected", kind="crash",
-                                magnitude=attitude_error_rad)]
-
-    def _thrust_loss(self, out: list[DetectionRecord], time_s: float, vel_down_m_s: float,
-                     attitude_error_rad: float, collective: float) -> None:
-        """The thrust-loss warning, once per flight (appended to ``out``)."""
-        cfg = self.config
-        if collective > cfg.thrust_loss_throttle and vel_down_m_s > \
-                cfg.thrust_loss_descent_m_s and attitude_error_rad < self._thrust_loss_error_rad:
-            if self._thrust_since is None:
-                self._thrust_since = time_s
-            if time_s - self._thrust_since >= cfg.thrust_loss_time_s - 1e-9:
-                self._thrust_warned = True
-                out.append(DetectionRecord(time_s=time_s, action="detected", kind="thrust_loss",
-                                           magnitude=collective))
-        else:
-            self._thrust_since = None

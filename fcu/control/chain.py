@@ -1,0 +1,364 @@
+"""The autopilot's control chain in one compiled call per tick.
+
+In flight, every tick runs::
+
+    PositionController (eq. 5.3, 5.4)      --> U1, roll_d, pitch_d, mu
+    AttitudeReferenceFilter                --> reference angles, rates, accelerations
+    attitude law (PD eq. 5.6 | LQR eq. 5.7-5.10) through the motor lead --> torque
+    disturbance observer (AbDOB eq. 6.27-6.28 | VbDOB eq. 6.29-6.30)    --> d_hat
+    allocator (inverse of eq. 3.2, attitude first) on torque - d_hat    --> PWM u1..u4
+    mixer (eq. 3.2, B diag(e) u)           --> torque applied, fed to the DOB next tick
+    crash-check measures (lean, attitude error, speed, collective)
+
+:func:`control_tick` is that sequence, calling each part's own kernel (``position_tick``,
+``reference_filter_tick``, ``pd_tick`` / ``lqr_tick``, ``dob_tick``, ``allocate_tick``,
+``mix_tick``) on the parts' parameter and state vectors, which stay the parts' own: their
+objects keep the gains (designed at construction), ``reset()``, the telemetry properties and
+a ``step`` that runs the same kernel alone. A :class:`ControlChain` binds one set of parts;
+its :meth:`~ControlChain.step` returns one fresh vector laid out by the ``OUT_*`` offsets
+below (views of it stand in for the per-part result objects).
+
+Parts other than the registered ones (a law, observer or allocator added through
+:mod:`fcu.control.registry` without a kernel) run through their ``step`` / ``allocate`` /
+``mix`` methods in the same order, into the same vector.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from fcu.control import attitude_reference as reference_module
+from fcu.control import position as position_module
+from fcu.control.allocation import PAR_SIZE as ALLOC_PAR_SIZE
+from fcu.control.allocation import REPORT_SIZE, Allocator, allocate_tick, mix_tick
+from fcu.control.attitude_lqr import AttitudeLQR, lqr_tick
+from fcu.control.attitude_pd import AttitudePD, pd_tick
+from fcu.control.attitude_reference import (
+    AttitudeReference,
+    AttitudeReferenceFilter,
+    reference_filter_tick,
+    reference_of,
+)
+from fcu.control.dob import NoDob, _DiscreteDob, dob_tick
+from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
+from fcu.control.position import PositionController, position_tick
+from fcu.control.registry import AttitudeLaw, ControlAllocator, DisturbanceObserver
+from fcu.control.scalar import py_max, py_min
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # control_tick compiles in the kernels of the parts' modules
+
+__all__ = ["ControlChain", "attitude_reference", "control_tick", "crash_measures"]
+
+LAW_OTHER, LAW_PD, LAW_LQR = 0, 1, 2
+DOB_NONE, DOB_VB, DOB_AB, DOB_OTHER = 0, 1, 2, 3
+
+# the output vector of a tick
+OUT_PWM = 0  # PWM u1..u4 commanded (4)
+OUT_THRUST = 4  # N, U1 commanded
+OUT_TORQUE_CMD = 5  # N*m, torque allocated, after the DOB compensation (3)
+OUT_D_HAT = 8  # N*m, DOB estimate (3; zeros without a DOB)
+OUT_REF = 11  # attitude reference, reference_filter_tick's layout (9)
+OUT_ACCEL = 20  # m/s^2 NED, mu after the limits (3)
+OUT_TORQUE_APPLIED = 23  # N*m, what the PWM asks of the airframe, eq. 3.2 (3)
+# the crash check's measures, in fcu.monitoring.crash_check's order (ALT...COLLECTIVE)
+OUT_ALT = 26  # m, estimated altitude (up)
+OUT_VEL_DOWN = 27  # m/s, estimated vertical speed (+ down)
+OUT_SPEED = 28  # m/s, estimated speed |v|
+OUT_LEAN = 29  # rad, angle of the body z axis from the vertical
+OUT_ATT_ERROR = 30  # rad, larger of the roll and pitch errors against the reference
+OUT_COLLECTIVE = 31  # U1 as a fraction of full thrust
+OUT_SIZE = 32
+
+_EULER = OUT_REF + reference_module.OUT_EULER
+_RATE = OUT_REF + reference_module.OUT_RATE
+_ACC = OUT_REF + reference_module.OUT_ACC
+
+
+@njit(cache=True, error_model="numpy")
+def crash_measures(euler_rad: np.ndarray, ref_euler_rad: np.ndarray, pos_ned: np.ndarray,
+                   vel_ned: np.ndarray, thrust_n: float, full_thrust_n: float,
+                   out: np.ndarray) -> None:
+    """What the crash check reads (:mod:`fcu.monitoring.crash_check`), into ``out[OUT_ALT:
+    OUT_COLLECTIVE + 1]``."""
+    roll, pitch = euler_rad[0], euler_rad[1]
+    out[OUT_ALT] = -pos_ned[2]
+    out[OUT_VEL_DOWN] = vel_ned[2]
+    out[OUT_SPEED] = math.sqrt(np.dot(vel_ned, vel_ned))  # |v|
+    # lean = acos(cos(phi) cos(theta)): the body z axis against the vertical
+    out[OUT_LEAN] = math.acos(py_max(-1.0, py_min(1.0, math.cos(roll) * math.cos(pitch))))
+    out[OUT_ATT_ERROR] = py_max(abs(ref_euler_rad[0] - roll), abs(ref_euler_rad[1] - pitch))
+    out[OUT_COLLECTIVE] = thrust_n / full_thrust_n
+
+
+# the index vector of a chain's workspace: where each part's parameters and states start
+(I_POS_PAR, I_POS_INTEGRAL, I_REF_PAR, I_REF_STATE, I_LAW_PAR, I_LAW_PAR_END, I_LAW_STATE,
+ I_LAW_STATE_END, I_LEAD_PAR, I_LEAD_STATE, I_ALLOC_PAR, I_EFFECTIVENESS, I_MIXER, I_AM, I_BM,
+ I_AT, I_BT, I_CM, I_DM, I_CT, I_XM, I_XT, I_PREV_MEAS, I_N_XM, I_N_XT, I_LAW_KIND,
+ I_DOB_KIND) = range(27)
+INDEX_SIZE = 27
+
+
+@njit(cache=True, error_model="numpy")
+def _matrix(ws: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
+    """The (rows, cols) matrix stored row-major in ``ws`` from ``start`` (a contiguous copy,
+    as the BLAS products want)."""
+    return np.ascontiguousarray(ws[start:start + rows * cols]).reshape((rows, cols))
+
+
+@njit(cache=True, error_model="numpy")
+def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run: bool,
+                 pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
+                 rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
+                 ref_acc: np.ndarray, yaw_ref: float, torque_applied: np.ndarray,
+                 out: np.ndarray) -> None:
+    """One flying tick of the chain of the module docstring into ``out`` (``OUT_*``).
+
+    ``ws`` holds the parts' parameters and states where ``idx`` (``I_*``) says; the states
+    (position integral, reference filter, law integrals and lead, DOB, effectiveness) advance
+    in place. ``out[OUT_D_HAT:OUT_D_HAT + 3]`` must hold the DOB estimate already unless
+    ``dob_run`` (zeros without a DOB; the observer's own first step after a reset).
+    """
+    # position loop, eq. 5.1-5.4: U1, roll_d, pitch_d, mu
+    pos_out = np.empty(position_module.OUT_SIZE)
+    position_tick(ws[idx[I_POS_PAR]:idx[I_POS_PAR] + position_module.PAR_SIZE],
+                  ws[idx[I_POS_INTEGRAL]:idx[I_POS_INTEGRAL] + 3], pos_ned, vel_ned, ref_pos,
+                  ref_vel, ref_acc, yaw_ref, pos_out)
+    thrust_n = pos_out[position_module.OUT_THRUST]
+    # the attitude reference: (roll_d, pitch_d, psi_d) through the second-order filter
+    reference = np.empty(reference_module.OUT_SIZE)
+    reference_filter_tick(ws[idx[I_REF_PAR]:idx[I_REF_PAR] + reference_module.PAR_SIZE],
+                          ws[idx[I_REF_STATE]:idx[I_REF_STATE] + reference_module.STATE_SIZE],
+                          pos_out[position_module.OUT_ROLL],
+                          pos_out[position_module.OUT_PITCH], yaw_ref, reference)
+    ref_euler = reference[reference_module.OUT_EULER:reference_module.OUT_EULER + 3]
+    ref_rate = reference[reference_module.OUT_RATE:reference_module.OUT_RATE + 3]
+    ref_accel = reference[reference_module.OUT_ACC:reference_module.OUT_ACC + 3]
+    # the attitude law (eq. 5.6 or 5.9) through the motor lead
+    torque = np.empty(3)
+    law_par = ws[idx[I_LAW_PAR]:idx[I_LAW_PAR_END]]
+    law_state = ws[idx[I_LAW_STATE]:idx[I_LAW_STATE_END]]
+    lead_par = ws[idx[I_LEAD_PAR]:idx[I_LEAD_PAR] + LEAD_PAR_SIZE]
+    lead_state = ws[idx[I_LEAD_STATE]:idx[I_LEAD_STATE] + 3]
+    if idx[I_LAW_KIND] == LAW_LQR:
+        lqr_tick(law_par, law_state, lead_par, lead_state, euler_rad, rate_frd, ref_euler,
+                 ref_rate, ref_accel, torque)
+    else:
+        pd_tick(law_par, law_state, lead_par, lead_state, euler_rad, rate_frd, ref_euler,
+                ref_rate, ref_accel, torque)
+    # the DOB (eq. 6.27-6.30) on the torque applied over the interval just ended
+    d_hat = np.empty(3)
+    if dob_run:
+        n_m, n_t = idx[I_N_XM], idx[I_N_XT]
+        dob_tick(idx[I_DOB_KIND] == DOB_AB, _matrix(ws, idx[I_AM], n_m, n_m),
+                 _matrix(ws, idx[I_BM], n_m, 3), _matrix(ws, idx[I_AT], n_t, n_t),
+                 _matrix(ws, idx[I_BT], n_t, 3), _matrix(ws, idx[I_CM], 3, n_m),
+                 _matrix(ws, idx[I_DM], 3, 3), _matrix(ws, idx[I_CT], 3, n_t),
+                 ws[idx[I_XM]:idx[I_XM] + n_m], ws[idx[I_XT]:idx[I_XT] + n_t],
+                 ws[idx[I_PREV_MEAS]:idx[I_PREV_MEAS] + 3], euler_rad, rate_frd,
+                 torque_applied, d_hat)
+    else:
+        d_hat[:] = out[OUT_D_HAT:OUT_D_HAT + 3]
+    # tau = tau_controller - d_hat, then the allocation (inverse of eq. 3.2) and eq. 3.2 back
+    effectiveness = ws[idx[I_EFFECTIVENESS]:idx[I_EFFECTIVENESS] + 4]
+    report = np.empty(REPORT_SIZE)
+    pwm = np.empty(4)
+    allocate_tick(ws[idx[I_ALLOC_PAR]:idx[I_ALLOC_PAR] + ALLOC_PAR_SIZE], effectiveness,
+                  thrust_n, torque[0] - d_hat[0], torque[1] - d_hat[1], torque[2] - d_hat[2],
+                  pwm, report)
+    wrench = mix_tick(_matrix(ws, idx[I_MIXER], 4, 4), effectiveness, pwm)
+    for i in range(3):
+        out[OUT_TORQUE_CMD + i] = torque[i] - d_hat[i]
+        out[OUT_D_HAT + i] = d_hat[i]
+        out[OUT_ACCEL + i] = pos_out[position_module.OUT_MU + i]
+        out[OUT_TORQUE_APPLIED + i] = wrench[1 + i]
+    out[OUT_PWM:OUT_PWM + 4] = pwm
+    out[OUT_THRUST] = thrust_n
+    out[OUT_REF:OUT_REF + reference_module.OUT_SIZE] = reference
+    crash_measures(euler_rad, ref_euler, pos_ned, vel_ned, thrust_n, full_thrust_n, out)
+
+
+def _law_kind(law: AttitudeLaw) -> int:
+    if isinstance(law, AttitudeLQR):
+        return LAW_LQR
+    if isinstance(law, AttitudePD):
+        return LAW_PD
+    return LAW_OTHER
+
+
+def _dob_kind(dob: DisturbanceObserver) -> int:
+    if isinstance(dob, NoDob):
+        return DOB_NONE
+    if isinstance(dob, _DiscreteDob) and dob.kind in ("abdob", "vbdob"):
+        return DOB_AB if dob.kind == "abdob" else DOB_VB
+    return DOB_OTHER
+
+
+class _Workspace:
+    """Builds a chain's workspace: the parts' parameters copied in, their states adopted
+    (the part's array replaced by a view of the workspace holding the same values, so the
+    part's own ``step`` and ``reset`` go on reading and writing it)."""
+
+    def __init__(self) -> None:
+        self.blocks: list[np.ndarray] = []
+        self.adopted: list[tuple[object, str, int]] = []
+        self.size = 0
+
+    def put(self, values: np.ndarray) -> int:
+        """Append a copy of ``values`` (flattened, row-major); returns its offset."""
+        start = self.size
+        flat = np.ascontiguousarray(values, dtype=float).reshape(-1)
+        self.blocks.append(flat)
+        self.size += flat.size
+        return start
+
+    def adopt(self, owner: object, name: str) -> int:
+        """Append ``owner.name`` (a 1-D state array) and adopt it when :meth:`build` runs."""
+        start = self.put(getattr(owner, name))
+        self.adopted.append((owner, name, start))
+        return start
+
+    def build(self) -> np.ndarray:
+        ws = np.concatenate(self.blocks) if self.blocks else np.zeros(0)
+        for owner, name, start in self.adopted:
+            setattr(owner, name, ws[start:start + getattr(owner, name).size])
+        return ws
+
+
+class ControlChain:
+    """The parts of one autopilot's flying control chain, stepped by :func:`control_tick`.
+
+    Parameters
+    ----------
+    position : PositionController
+        The position loop flown with all rotors.
+    reference_filter : AttitudeReferenceFilter
+        Shapes the attitude reference.
+    law, dob, allocator
+        The attitude law, disturbance observer and allocator the configuration names
+        (:mod:`fcu.control.registry`).
+    full_thrust_n : float
+        N, collective thrust at full PWM (the crash check's collective scale).
+
+    The chain packs the parts' parameters and states into one workspace (one argument for
+    the compiled call instead of some thirty): parameters are copied, state arrays adopted
+    (the parts' arrays become views of the workspace, so the parts' own ``step`` and
+    ``reset``, which update their states in place, keep working on the same numbers).
+    """
+
+    def __init__(self, position: PositionController, reference_filter: AttitudeReferenceFilter,
+                 law: AttitudeLaw, dob: DisturbanceObserver, allocator: ControlAllocator,
+                 full_thrust_n: float) -> None:
+        self.position = position
+        self.reference_filter = reference_filter
+        self.law = law
+        self.dob = dob
+        self.allocator = allocator
+        self.full_thrust_n = float(full_thrust_n)
+        law_kind, dob_kind = _law_kind(law), _dob_kind(dob)
+        self._dob_kind = dob_kind
+        self.compiled = (law_kind != LAW_OTHER and dob_kind != DOB_OTHER
+                         and isinstance(allocator, Allocator))
+        self._ws = np.zeros(0)
+        self._idx = np.zeros(INDEX_SIZE, dtype=np.int64)
+        if not self.compiled:
+            return
+        assert isinstance(law, (AttitudeLQR, AttitudePD)) and isinstance(allocator, Allocator)
+        w, idx = _Workspace(), self._idx
+        idx[I_LAW_KIND], idx[I_DOB_KIND] = law_kind, dob_kind
+        idx[I_POS_PAR] = w.put(position._par)
+        idx[I_POS_INTEGRAL] = w.adopt(position, "_integral")
+        idx[I_REF_PAR] = w.put(reference_filter._par)
+        idx[I_REF_STATE] = w.adopt(reference_filter, "_state")
+        idx[I_LAW_PAR] = w.put(law._par)
+        idx[I_LAW_PAR_END] = w.size
+        idx[I_LAW_STATE] = w.adopt(law, "_state")
+        idx[I_LAW_STATE_END] = w.size
+        idx[I_LEAD_PAR] = w.put(law._lead_par)
+        if law.lead is not None:  # the lead's state is the law's lead state
+            idx[I_LEAD_STATE] = w.adopt(law.lead, "state")
+            w.adopted.append((law, "_lead_state", int(idx[I_LEAD_STATE])))
+        else:
+            idx[I_LEAD_STATE] = w.adopt(law, "_lead_state")
+        idx[I_ALLOC_PAR] = w.put(allocator._par)
+        idx[I_EFFECTIVENESS] = w.adopt(allocator, "_effectiveness")
+        idx[I_MIXER] = w.put(allocator._mixer_c)
+        if isinstance(dob, _DiscreteDob):
+            idx[I_N_XM], idx[I_N_XT] = dob._xm.size, dob._xt.size
+            for i, matrix in zip((I_AM, I_BM, I_AT, I_BT, I_CM, I_DM, I_CT),
+                                 (dob._k_am, dob._k_bm, dob._k_at, dob._k_bt, dob._k_cm,
+                                  dob._k_dm, dob._k_ct), strict=True):
+                idx[i] = w.put(matrix)
+            idx[I_XM] = w.adopt(dob, "_xm")
+            idx[I_XT] = w.adopt(dob, "_xt")
+            idx[I_PREV_MEAS] = w.adopt(dob, "_prev_meas")
+        self._ws = w.build()
+
+    def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
+             rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
+             ref_acc: np.ndarray, yaw_ref: float, torque_applied: np.ndarray,
+             effectiveness: np.ndarray | None) -> np.ndarray:
+        """One flying tick; returns a fresh vector laid out by ``OUT_*``.
+
+        Parameters
+        ----------
+        pos_ned, vel_ned, euler_rad, rate_frd : numpy.ndarray
+            Estimated position (m), velocity (m/s), attitude (rad) and body rates (rad/s), (3,).
+        ref_pos, ref_vel, ref_acc : numpy.ndarray
+            Position reference (m), its velocity (m/s) and acceleration (m/s^2), NED, (3,).
+        yaw_ref : float
+            Yaw reference, rad.
+        torque_applied : numpy.ndarray
+            N*m, torque the previous tick's PWM asked for (eq. 3.2), (3,).
+        effectiveness : numpy.ndarray or None
+            Per-motor effectiveness for the allocation (active FTC), (4,); None: nominal.
+        """
+        self.allocator.set_effectiveness(effectiveness)
+        out = np.zeros(OUT_SIZE)
+        if not self.compiled:
+            self._step_parts(pos_ned, vel_ned, euler_rad, rate_frd, ref_pos, ref_vel, ref_acc,
+                             yaw_ref, torque_applied, out)
+            return out
+        dob = self.dob
+        dob_run = self._dob_kind != DOB_NONE
+        if dob_run and not dob.started:  # type: ignore[attr-defined]
+            # the observer's first step after a reset starts it at rest (numpy, once)
+            out[OUT_D_HAT:OUT_D_HAT + 3] = dob.start(euler_rad, rate_frd)  # type: ignore
+            dob_run = False
+        control_tick(self._ws, self._idx, self.full_thrust_n, dob_run, pos_ned, vel_ned,
+                     euler_rad, rate_frd, ref_pos, ref_vel, ref_acc, yaw_ref, torque_applied,
+                     out)
+        return out
+
+    def _step_parts(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
+                    rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
+                    ref_acc: np.ndarray, yaw_ref: float, torque_applied: np.ndarray,
+                    out: np.ndarray) -> None:
+        """:func:`control_tick` through the parts' methods (parts without a kernel)."""
+        cmd = self.position.step(pos_ned, vel_ned, ref_pos, ref_vel, ref_acc, yaw_ref)
+        att_ref = self.reference_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad, yaw_ref))
+        torque = self.law.step(euler_rad, rate_frd, att_ref.euler_rad, att_ref.rate,
+                               att_ref.acc)
+        d_hat = self.dob.step(euler_rad, rate_frd, torque_applied)
+        torque_cmd = torque - d_hat
+        pwm = self.allocator.allocate(cmd.thrust_n, torque_cmd)
+        _, applied = self.allocator.mix(pwm)
+        out[OUT_PWM:OUT_PWM + 4] = pwm
+        out[OUT_THRUST] = cmd.thrust_n
+        out[OUT_TORQUE_CMD:OUT_TORQUE_CMD + 3] = torque_cmd
+        out[OUT_D_HAT:OUT_D_HAT + 3] = d_hat
+        out[_EULER:_EULER + 3] = att_ref.euler_rad
+        out[_RATE:_RATE + 3] = att_ref.rate
+        out[_ACC:_ACC + 3] = att_ref.acc
+        out[OUT_ACCEL:OUT_ACCEL + 3] = cmd.accel_cmd_ned
+        out[OUT_TORQUE_APPLIED:OUT_TORQUE_APPLIED + 3] = applied
+        crash_measures(euler_rad, att_ref.euler_rad, pos_ned, vel_ned, cmd.thrust_n,
+                       self.full_thrust_n, out)
+
+
+def attitude_reference(out: np.ndarray) -> AttitudeReference:
+    """The attitude reference of a tick's output ``out`` (views of it, no copies)."""
+    return reference_of(out[OUT_REF:OUT_REF + reference_module.OUT_SIZE])

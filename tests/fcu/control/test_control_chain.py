@@ -1,0 +1,105 @@
+"""The compiled control chain (fcu.control.chain) is the parts stepped one after the other,
+to the bit: the position loop, the reference filter, the attitude law with its lead, the DOB
+on the previous tick's mixed torque, the allocation with the FTC effectiveness and the mix."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from fcu.config import AutopilotConfig
+from fcu.control import chain as control_chain
+from fcu.control.attitude_reference import AttitudeReferenceFilter
+from fcu.control.position import PositionController
+from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
+from fcu.monitoring import crash_check
+
+CONFIG = AutopilotConfig()
+DT = 1.0 / CONFIG.loop_rate_hz  # s
+FULL_THRUST_N = 4.0 * CONFIG.model.thrust_gain * CONFIG.model.pwm_max
+
+
+def _chain(law: str, dob: str) -> control_chain.ControlChain:
+    return control_chain.ControlChain(
+        PositionController(CONFIG.model, CONFIG.position, DT),
+        AttitudeReferenceFilter(DT, CONFIG.attitude_ref_bandwidth_rad_s),
+        ATTITUDE_LAW_REGISTRY.factory(law)(CONFIG, DT), DOB_REGISTRY.factory(dob)(CONFIG, DT),
+        ALLOCATOR_REGISTRY.factory("attitude_first")(CONFIG, DT), FULL_THRUST_N)
+
+
+def _inputs(seed: int, n: int) -> list[tuple[np.ndarray, ...]]:
+    """A wandering estimate around a hover 1 m up, a moving reference, a yaw past +-pi."""
+    rng = np.random.default_rng(seed)
+    ticks: list[tuple[np.ndarray, ...]] = []
+    for k in range(n):
+        t = k * DT
+        pos = np.array([0.3 * np.sin(t), 0.2 * np.cos(0.7 * t), -1.0]) + rng.normal(0, 0.05, 3)
+        vel = rng.normal(0, 0.3, 3)
+        euler = np.array([*rng.normal(0, 0.1, 2), 3.1 + 0.1 * np.sin(3.0 * t)])
+        euler[2] = (euler[2] + np.pi) % (2 * np.pi) - np.pi
+        rate = rng.normal(0, 0.5, 3)
+        ref = np.array([0.5 * t, 0.0, -1.0]), np.array([0.5, 0.0, 0.0]), rng.normal(0, 1, 3)
+        ticks.append((pos, vel, euler, rate, *ref, np.array([3.1 - 0.01 * k])))
+    return ticks
+
+
+# the motor 3 effectiveness of active FTC from tick 60 on, 1 elsewhere
+_EFFECTIVENESS = np.array([1.0, 1.0, 0.6, 1.0])
+
+
+@pytest.mark.parametrize(("law", "dob"),
+                         list(itertools.product(("pd", "lqg"), ("none", "vbdob", "abdob"))))
+def test_the_compiled_chain_is_the_parts_stepped_in_turn(law: str, dob: str) -> None:
+    compiled, parts = _chain(law, dob), _chain(law, dob)
+    parts.compiled = False  # the same chain through the parts' own step methods
+    applied_c = applied_p = np.zeros(3)
+    saturated = 0
+    for k, (pos, vel, euler, rate, rpos, rvel, racc, yaw) in enumerate(_inputs(7, 200)):
+        eff = _EFFECTIVENESS if k >= 60 else None
+        out_c = compiled.step(pos, vel, euler, rate, rpos, rvel, racc, float(yaw[0]), applied_c,
+                              eff)
+        out_p = parts.step(pos, vel, euler, rate, rpos, rvel, racc, float(yaw[0]), applied_p,
+                           eff)
+        # bit for bit: the same operations in the same order
+        np.testing.assert_array_equal(out_c, out_p)
+        applied_c = out_c[control_chain.OUT_TORQUE_APPLIED:control_chain.OUT_TORQUE_APPLIED + 3]
+        applied_p = out_p[control_chain.OUT_TORQUE_APPLIED:control_chain.OUT_TORQUE_APPLIED + 3]
+        pwm = out_c[control_chain.OUT_PWM:control_chain.OUT_PWM + 4]
+        saturated += bool(np.any(pwm >= CONFIG.model.pwm_max * 0.999))
+    # the inputs are rough enough to reach the allocator's saturation branches too
+    assert saturated > 0
+    # the states the two chains advanced agree as well
+    np.testing.assert_array_equal(compiled.position.integral, parts.position.integral)
+    if dob != "none":
+        np.testing.assert_array_equal(compiled.dob._xm, parts.dob._xm)  # type: ignore
+
+
+def test_the_chain_reports_what_the_crash_check_reads() -> None:
+    chain = _chain("pd", "none")
+    pos, vel = np.array([0.0, 0.0, -2.0]), np.array([3.0, 0.0, 4.0])
+    euler = np.array([0.3, -0.4, 0.0])
+    out = chain.step(pos, vel, euler, np.zeros(3), pos, np.zeros(3), np.zeros(3), 0.0,
+                     np.zeros(3), None)
+    assert out[control_chain.OUT_ALT] == 2.0  # up positive
+    assert out[control_chain.OUT_VEL_DOWN] == 4.0
+    assert out[control_chain.OUT_SPEED] == pytest.approx(5.0, rel=1e-15)  # 3-4-5
+    # lean: acos(cos(phi) cos(theta)) (exact formula; rounding only)
+    assert out[control_chain.OUT_LEAN] == pytest.approx(np.arccos(np.cos(0.3) * np.cos(0.4)),
+                                                        rel=1e-14)
+    # the larger of the roll and pitch errors against the reference the tick computed
+    ref = control_chain.attitude_reference(out)
+    assert out[control_chain.OUT_ATT_ERROR] == pytest.approx(
+        max(abs(ref.euler_rad[0] - 0.3), abs(ref.euler_rad[1] + 0.4)), rel=1e-15)
+    assert out[control_chain.OUT_COLLECTIVE] == pytest.approx(
+        out[control_chain.OUT_THRUST] / FULL_THRUST_N, rel=1e-15)
+
+
+def test_the_measures_are_laid_out_as_the_crash_check_reads_them() -> None:
+    offsets = [control_chain.OUT_ALT, control_chain.OUT_VEL_DOWN, control_chain.OUT_SPEED,
+               control_chain.OUT_LEAN, control_chain.OUT_ATT_ERROR, control_chain.OUT_COLLECTIVE]
+    named = [crash_check.ALT, crash_check.VEL_DOWN, crash_check.SPEED, crash_check.LEAN,
+             crash_check.ATTITUDE_ERROR, crash_check.COLLECTIVE]
+    assert [o - control_chain.OUT_ALT for o in offsets] == named
+    assert len(offsets) == crash_check.MEASURES_SIZE
