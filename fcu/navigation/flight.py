@@ -32,6 +32,8 @@ from fcu.navigation.legs import (
 from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 
+_SHAPE3 = (3,)
+
 
 class FlightLegs:
     """Legs in flight: planning, arrival, landing detection and events (module docstring).
@@ -142,20 +144,30 @@ class FlightLegs:
                        estimator_healthy: bool, on_ground_hint: bool | None) -> float:
         """Advance the clock to ``time_s`` (s) and keep the estimate if it is finite (the
         arguments of :meth:`fcu.navigation.navigator.Navigator.step`); returns the time."""
-        if not finite(time_s):
+        if not (time_s.__class__ is float and math.isfinite(time_s)) and not finite(time_s):
             raise ValueError(f"time_s = {time_s!r}: must be a finite time in s")
         if self._time_s is not None and time_s < self._time_s:
             raise ValueError(f"time_s = {time_s!r}: must not be earlier than the previous "
                              f"step ({self._time_s!r})")
         self._time_s = float(time_s)
-        pos = np.asarray(estimate_pos_ned, dtype=float).reshape(-1)
-        vel = np.asarray(estimate_vel_ned, dtype=float).reshape(-1)
-        good = pos.shape == (3,) and vel.shape == (3,) and all(
-            map(math.isfinite, pos.tolist() + vel.tolist())) and finite(
-            float(estimate_yaw_rad))
+        pos = np.asarray(estimate_pos_ned, dtype=float)
+        vel = np.asarray(estimate_vel_ned, dtype=float)
+        if pos.shape != _SHAPE3:
+            pos = pos.reshape(-1)
+        if vel.shape != _SHAPE3:
+            vel = vel.reshape(-1)
+        yaw = 0.0
+        good = pos.shape == _SHAPE3 and vel.shape == _SHAPE3
+        if good:
+            yaw = float(estimate_yaw_rad)
+            x0, x1, x2 = pos.tolist()
+            v0, v1, v2 = vel.tolist()
+            # a finite sum has finite terms; a sum of finite floats may still overflow
+            good = math.isfinite(x0 + x1 + x2 + v0 + v1 + v2 + yaw) or all(
+                map(math.isfinite, (x0, x1, x2, v0, v1, v2, yaw)))
         if good:
             self._est_pos_ned, self._est_vel_ned = pos.copy(), vel.copy()
-            self._est_yaw_rad = float(estimate_yaw_rad)
+            self._est_yaw_rad = yaw
             self._has_estimate = True
         self._estimator_healthy = bool(estimator_healthy) and good
         self._on_ground_hint = on_ground_hint
