@@ -199,9 +199,15 @@ class Navigator(MissionExecution):
             return last  # nothing happened and the reference is the same object: reuse
         else:
             events = ()
-        out = NavOutput(reference=reference, armed=self._armed, mode=self._mode,
-                        landed=not self._flying, landed_state=landed_state,
-                        failsafe=bool(self._failsafes), events=events)
+        out = object.__new__(NavOutput)  # NavOutput(...) without its frozen __setattr__s
+        fields = out.__dict__
+        fields["reference"] = reference
+        fields["armed"] = self._armed
+        fields["mode"] = self._mode
+        fields["landed"] = not self._flying
+        fields["landed_state"] = landed_state
+        fields["failsafe"] = bool(self._failsafes)
+        fields["events"] = events
         self._output = out if not events else None
         return out
 
