@@ -250,7 +250,8 @@ class Autopilot:
             self.crash_check.step(time_s, flying=False, leg="", alt_m=0.0, vel_down_m_s=0.0,
                                   speed_m_s=0.0, lean_rad=0.0, attitude_error_rad=0.0,
                                   collective=0.0)
-            self._publish(records)
+            if records:
+                self._publish(records)
             self._keep_status(time_s, estimate, nav, None, None, 0.0, _ZERO3, _ZERO3)
             return self._pwm
         if not self._flying:  # take-off: start from the current attitude, forget ground contact
@@ -295,7 +296,8 @@ class Autopilot:
         if not self.navigator.armed:  # the crash check disarmed
             pwm = np.zeros(4)
         self._pwm = pwm
-        self._publish(records)
+        if records:
+            self._publish(records)
         self._keep_status(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat)
         return pwm
 
@@ -495,10 +497,15 @@ class Autopilot:
         if self._status is None and self._status_parts is not None:
             (time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat, pwm, loe,
              active, mass_change_kg, excluded, lost) = self._status_parts
-            self._status = AutopilotStatus(
-                time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat, pwm, loe,
-                (1 in active, 2 in active, 3 in active, 4 in active), mass_change_kg,
-                excluded, lost)
+            # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls
+            status = object.__new__(AutopilotStatus)
+            status.__dict__.update(
+                time_s=time_s, estimate=estimate, nav=nav, reference=ref,
+                attitude_reference=att_ref, thrust_cmd_n=thrust_n, torque_cmd_nm=torque_cmd,
+                disturbance_nm=d_hat, pwm=pwm, loe_estimate=loe,
+                fault_detected=(1 in active, 2 in active, 3 in active, 4 in active),
+                mass_change_kg=mass_change_kg, excluded_sensors=excluded, motors_lost=lost)
+            self._status = status
         return self._status
 
     @property
