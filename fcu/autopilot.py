@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +62,9 @@ from flightdata.vocabulary import BATTERY_SENSOR, FTC_MODES, SENSORS
 # AutopilotConfig is defined in fcu.config; named here too because it is the configuration
 # of this module's Autopilot
 __all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus"]
+
+_ZERO3 = np.zeros(3)  # the torques of a tick that does not fly (shared: read-only)
+_ZERO3.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -147,6 +151,9 @@ class Autopilot:
         noise = self.estimator.noise
         self._sensor_noise = {name: float(getattr(noise, name)) for name in SENSORS}
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
+        # the hover regime's bounds (detector settings), read twice a tick
+        self._valid_yaw_rate_rad_s = cfg.detector.valid_yaw_rate_rad_s
+        self._valid_tilt_rad = cfg.detector.valid_tilt_rad
         self.crash_check = CrashCheck(cfg.crash)
         self._full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max  # N, the collective's scale
         self.ftc_active = cfg.ftc == "active"
@@ -171,7 +178,8 @@ class Autopilot:
         self._torque_applied = np.zeros(3)
         self._thrust_n = 0.0  # N, collective commanded at the last tick
         self._events: list[AutopilotEvent] = []
-        self._status: AutopilotStatus | None = None
+        self._status: AutopilotStatus | None = None  # built from _status_parts when read
+        self._status_parts: tuple[Any, ...] | None = None  # the latest tick's (_keep_status)
         self._flying = False
         self._motor_lost_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the lost motor while in relaxed hover
@@ -218,18 +226,23 @@ class Autopilot:
                                                    excluded=excluded, reject=reject)
         records = health.step(time_s, batches, self.estimator.screening, reject,
                               self._sensor_noise)
-        healthy = all(map(math.isfinite, estimate.pos_ned.tolist()))
+        x, y, z = estimate.pos_ned.tolist()
+        # a finite sum has finite terms (a sum of finite floats may overflow: then each)
+        healthy = math.isfinite(x + y + z) or all(map(math.isfinite, (x, y, z)))
         # ArduCopter's throttle-at-minimum test: asking for much less than hover thrust
         low_thrust = self._thrust_n < 0.75 * self.model.mass * self.model.gravity
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
                                   float(estimate.euler_rad[2]), estimator_healthy=healthy,
                                   on_ground_hint=True if low_thrust else None,
                                   position_fix=health.position_fix)
-        for ev in nav.events:
-            self._events.append(AutopilotEvent(ev.time_s, ev.kind, ev.text, ev.severity,
-                                               seq=ev.seq))
+        if nav.events:
+            for ev in nav.events:
+                self._events.append(AutopilotEvent(ev.time_s, ev.kind, ev.text, ev.severity,
+                                                   seq=ev.seq))
         flying = nav.reference is not None
-        records += self._motor_evidence(time_s, estimate, nav, flying)
+        motor_records = self._motor_evidence(time_s, estimate, nav, flying)
+        if motor_records:
+            records += motor_records
         if not flying:
             if self._flying:
                 self._reset_controllers()
@@ -242,9 +255,9 @@ class Autopilot:
             self.crash_check.step(time_s, flying=False, leg="", alt_m=0.0, vel_down_m_s=0.0,
                                   speed_m_s=0.0, lean_rad=0.0, attitude_error_rad=0.0,
                                   collective=0.0)
-            self._publish(records)
-            self._status = self._make_status(time_s, estimate, nav, None, None, 0.0,
-                                             np.zeros(3), np.zeros(3))
+            if records:
+                self._publish(records)
+            self._keep_status(time_s, estimate, nav, None, None, 0.0, _ZERO3, _ZERO3)
             return self._pwm
         if not self._flying:  # take-off: start from the current attitude, forget ground contact
             self._loe_at_spin = None
@@ -297,9 +310,9 @@ class Autopilot:
         if not self.navigator.armed:  # the crash check disarmed
             pwm = np.zeros(4)
         self._pwm = pwm
-        self._publish(records)
-        self._status = self._make_status(time_s, estimate, nav, ref, att_ref, thrust_n,
-                                         torque_cmd, d_hat)
+        if records:
+            self._publish(records)
+        self._keep_status(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat)
         return pwm
 
     # ------------------------------------------------------------------ monitoring
@@ -454,10 +467,9 @@ class Autopilot:
 
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""
-        cfg = self.config.detector
         roll, pitch, _ = estimate.euler_rad.tolist()
-        return (abs(float(estimate.rate_frd[2])) < cfg.valid_yaw_rate_rad_s
-                and abs(roll) < cfg.valid_tilt_rad and abs(pitch) < cfg.valid_tilt_rad)
+        return (abs(float(estimate.rate_frd[2])) < self._valid_yaw_rate_rad_s
+                and abs(roll) < self._valid_tilt_rad and abs(pitch) < self._valid_tilt_rad)
 
     def _crash_check(self, time_s: float, measures: np.ndarray) -> list[DetectionRecord]:
         """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`) on the
@@ -480,25 +492,34 @@ class Autopilot:
         for record in records:
             self._events.append(AutopilotEvent.of(record))
 
-    def _make_status(self, time_s: float, estimate: StateEstimate, nav: NavOutput,
+    def _keep_status(self, time_s: float, estimate: StateEstimate, nav: NavOutput,
                      ref: Reference | None, att_ref: AttitudeReference | None,
-                     thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray
-                     ) -> AutopilotStatus:
+                     thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray) -> None:
+        """What the tick computed, for :attr:`status` to build when (if) it is read."""
         detector = self.detector
         loe = detector.loe if self._loe_at_spin is None else self._loe_at_spin
-        return AutopilotStatus(time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
-                               d_hat, self._pwm, loe, self._detected(),
-                               detector.mass_change_kg, self.sensor_health.excluded,
-                               detector.lost)
-
-    def _detected(self) -> tuple[bool, bool, bool, bool]:
-        active = self.detector.active
-        return (1 in active, 2 in active, 3 in active, 4 in active)
+        self._status_parts = (time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
+                              d_hat, self._pwm, loe, detector.active,
+                              detector.mass_change_kg, self.sensor_health.excluded,
+                              detector.lost)
+        self._status = None
 
     # ------------------------------------------------------------------ observation
     @property
     def status(self) -> AutopilotStatus | None:
-        """What the last tick computed (None before the first tick)."""
+        """What the last tick computed (None before the first tick); built on first read."""
+        if self._status is None and self._status_parts is not None:
+            (time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat, pwm, loe,
+             active, mass_change_kg, excluded, lost) = self._status_parts
+            # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls
+            status = object.__new__(AutopilotStatus)
+            status.__dict__.update(
+                time_s=time_s, estimate=estimate, nav=nav, reference=ref,
+                attitude_reference=att_ref, thrust_cmd_n=thrust_n, torque_cmd_nm=torque_cmd,
+                disturbance_nm=d_hat, pwm=pwm, loe_estimate=loe,
+                fault_detected=(1 in active, 2 in active, 3 in active, 4 in active),
+                mass_change_kg=mass_change_kg, excluded_sensors=excluded, motors_lost=lost)
+            self._status = status
         return self._status
 
     @property

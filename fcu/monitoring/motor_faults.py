@@ -177,6 +177,54 @@ class MotorEvidence:
 
 
 @njit(cache=True, error_model="numpy")
+def _fit_into(d: np.ndarray, var: np.ndarray, motors: np.ndarray, k: int,
+              scratch: np.ndarray, f: np.ndarray) -> float:
+    """:func:`weighted_fit` over the first ``k`` of ``motors`` without allocating: ``f[:k]``
+    receives the fit, ``scratch`` (at least 41 floats) the intermediate products; returns
+    the weighted residual sum of squares."""
+    # scratch: w 0:3, b 3:6, A (3 x k, row stride 4) 6:18, [A' A | A' b] (k x k+1,
+    # row stride 5) 18:38
+    for i in range(3):
+        scratch[i] = 1.0 / math.sqrt(var[i])  # w = Sigma^-1/2
+        scratch[3 + i] = d[i] * scratch[i]  # b = Sigma^-1/2 d
+        for j in range(k):
+            scratch[6 + 4 * i + j] = SIGNATURES[i, motors[j]] * scratch[i]  # A = Sigma^-1/2 M_S
+    # augmented normal equations [A' A | A' b]
+    for p in range(k):
+        for q in range(k):
+            scratch[18 + 5 * p + q] = (scratch[6 + p] * scratch[6 + q]
+                                       + scratch[10 + p] * scratch[10 + q]
+                                       + scratch[14 + p] * scratch[14 + q])
+        scratch[18 + 5 * p + k] = (scratch[6 + p] * scratch[3] + scratch[10 + p] * scratch[4]
+                                   + scratch[14 + p] * scratch[5])
+    for c in range(k):  # elimination, the largest pivot of column c first
+        pivot = c
+        for r in range(c + 1, k):
+            if abs(scratch[18 + 5 * r + c]) > abs(scratch[18 + 5 * pivot + c]):
+                pivot = r
+        if pivot != c:
+            for q in range(k + 1):
+                scratch[18 + 5 * c + q], scratch[18 + 5 * pivot + q] = \
+                    scratch[18 + 5 * pivot + q], scratch[18 + 5 * c + q]
+        for r in range(c + 1, k):
+            factor = scratch[18 + 5 * r + c] / scratch[18 + 5 * c + c]
+            for q in range(c, k + 1):
+                scratch[18 + 5 * r + q] -= factor * scratch[18 + 5 * c + q]
+    for c in range(k - 1, -1, -1):  # back substitution
+        acc = scratch[18 + 5 * c + k]
+        for q in range(c + 1, k):
+            acc -= scratch[18 + 5 * c + q] * f[q]
+        f[c] = acc / scratch[18 + 5 * c + c]
+    rss = 0.0  # |b - A f|^2
+    for i in range(3):
+        r_i = scratch[3 + i]
+        for j in range(k):
+            r_i -= scratch[6 + 4 * i + j] * f[j]
+        rss += r_i * r_i
+    return rss
+
+
+@njit(cache=True, error_model="numpy")
 def weighted_fit(d: np.ndarray, var: np.ndarray, motors: np.ndarray
                  ) -> tuple[np.ndarray, float]:
     """``f = argmin (d - M_S f)' Sigma^-1 (d - M_S f)`` over the signatures of ``motors``
@@ -184,52 +232,26 @@ def weighted_fit(d: np.ndarray, var: np.ndarray, motors: np.ndarray
 
     With ``A = Sigma^-1/2 M_S`` and ``b = Sigma^-1/2 d``: the normal equations
     ``(A' A) f = A' b`` (the signatures of distinct motors are independent), solved by
-    Gaussian elimination with partial pivoting; ``RSS = |b - A f|^2``. Written out in loops:
-    at most 3 unknowns, where a BLAS or LAPACK call costs more than the arithmetic.
+    Gaussian elimination with partial pivoting; ``RSS = |b - A f|^2``. Written out in loops
+    (:func:`_fit_into`, which the detector's tick calls on its own workspace): at most 3
+    unknowns, where a BLAS or LAPACK call costs more than the arithmetic.
     """
     k = motors.shape[0]
-    w = np.empty(3)
-    b = np.empty(3)
-    a = np.empty((3, k))
-    for i in range(3):
-        w[i] = 1.0 / math.sqrt(var[i])
-        b[i] = d[i] * w[i]
-        for j in range(k):
-            a[i, j] = SIGNATURES[i, motors[j]] * w[i]
-    # augmented normal equations [A' A | A' b]
-    n_mat = np.empty((k, k + 1))
-    for p in range(k):
-        for q in range(k):
-            n_mat[p, q] = a[0, p] * a[0, q] + a[1, p] * a[1, q] + a[2, p] * a[2, q]
-        n_mat[p, k] = a[0, p] * b[0] + a[1, p] * b[1] + a[2, p] * b[2]
-    for c in range(k):  # elimination, the largest pivot of column c first
-        pivot = c
-        for r in range(c + 1, k):
-            if abs(n_mat[r, c]) > abs(n_mat[pivot, c]):
-                pivot = r
-        if pivot != c:
-            for q in range(k + 1):
-                n_mat[c, q], n_mat[pivot, q] = n_mat[pivot, q], n_mat[c, q]
-        for r in range(c + 1, k):
-            factor = n_mat[r, c] / n_mat[c, c]
-            for q in range(c, k + 1):
-                n_mat[r, q] -= factor * n_mat[c, q]
     f = np.empty(k)
-    for c in range(k - 1, -1, -1):  # back substitution
-        acc = n_mat[c, k]
-        for q in range(c + 1, k):
-            acc -= n_mat[c, q] * f[q]
-        f[c] = acc / n_mat[c, c]
-    rss = 0.0
-    for i in range(3):
-        r_i = b[i]
-        for j in range(k):
-            r_i -= a[i, j] * f[j]
-        rss += r_i * r_i
+    rss = _fit_into(d, var, motors, k, np.empty(_FIT_SCRATCH), f)
     return f, rss
 
 
-# the detector's scalar state, one float array (MotorFaultDetector._state)
+# the detector's float workspace, one array (MotorFaultDetector._work): views of it are the
+# low-passed PWM u, the measured excitation Sigma (diagonal), its floor, the scalar state and
+# the settings the kernel reads
+_W_U = slice(0, 4)
+_W_VAR = slice(4, 7)
+_W_FLOOR = slice(7, 10)
+_W_STATE = slice(10, 16)
+_W_PARAMS = slice(16, 27)
+_W_SIZE = 27
+# the scalar state (indices into the _W_STATE view)
 _E = 0  # PWM, common-mode thrust deficit per motor, e
 _MASS_KG = 1  # kg, mass change dm = 4 K e / g
 _N_LEARNED = 2  # ticks of excitation learned
@@ -237,68 +259,88 @@ _MASS_VAR = 3  # kg^2, measured spread of the common mode, s_m^2
 _MASS_N = 4  # ticks of that spread learned
 _HALF = 5  # 1 while a motor is half suspected (the latest tick that looked)
 _STATE_SIZE = 6
-# the settings the kernel reads, one float array (MotorFaultDetector._params)
+# the settings (indices into the _W_PARAMS view)
 _DT, _U_HOVER, _K, _G, _COMMON_TAU, _NOISE_TAU, _THRESHOLD, _SIGNIFICANCE, _MASS_THRESHOLD, \
     _MASS_SIGMAS, _MASS_SETTLE = range(11)
+# the detector's integer workspace (MotorFaultDetector._iwork): the mass history's ring
+# buffer (first slot, count), the number k of declared motors, then the declared motors
+# (0..3, in declaration order) and room for one candidate after them
+_I_FIRST, _I_COUNT, _I_DECLARED, _I_MOTORS = 0, 1, 2, 3
+_I_SIZE = 8
+_FIT_SCRATCH = 41  # floats _fit_into works in
+# the kernel's own scratch: _fit_into's, then the fits f0 and f, deficit and d
+_S_F0, _S_F, _S_DEFICIT, _S_D, _S_SIZE = 41, 45, 49, 53, 56
 _MASS_WINDOW_S = 0.5  # s, over which the mass estimate must have settled
 _MASS_VAR_FLOOR = 0.01 ** 2  # kg^2, the least spread of the common mode (10 g)
 
 
 @njit(cache=True, error_model="numpy")
-def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndarray,
-                   var: np.ndarray, floor_var: np.ndarray, declared: np.ndarray,
-                   state: np.ndarray, history: np.ndarray, ring: np.ndarray,
-                   params: np.ndarray, isolate: bool, evidence: bool, learn: bool,
-                   settling: bool, mass_reported: bool, loe: np.ndarray
+def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, work: np.ndarray,
+                   iwork: np.ndarray, history: np.ndarray, isolate: bool, evidence: bool,
+                   learn: bool, settling: bool, mass_reported: bool, loe: np.ndarray
                    ) -> tuple[int, float, float, bool, float]:
     """The detector's arithmetic for one tick (module docstring, steps 1 and 2 and the mass
     change's spread and settling), compiled; the decisions stay with the caller.
 
-    Updates in place the low-passed PWM ``u``, the measured excitation ``var`` (Sigma's
-    diagonal), ``state`` (indices ``_E``...) and the mass history ``history`` (rows time s,
-    dm kg; ring buffer, ``ring`` = [first, count]). ``declared`` holds the declared motors
-    (0..3) in declaration order; ``isolate`` is False once a motor is lost or three are
-    declared (a fourth is not identifiable). Writes the per-motor LOE ``delta`` into ``loe``
-    (an array returned to Python would cost more than the tick's arithmetic).
+    Updates in place, in the float workspace ``work`` (``_W_*``), the low-passed PWM ``u``,
+    the measured excitation ``var`` (Sigma's diagonal) and the scalar state (``_E``...),
+    and the mass history ``history`` (rows time s, dm kg; a ring buffer whose first slot
+    and count are in ``iwork``). ``iwork`` holds the declared motors (0..3) in declaration
+    order; ``isolate`` is False once a motor is lost or three are declared (a fourth is not
+    identifiable). Writes the per-motor LOE ``delta`` into ``loe`` (an array returned to
+    Python would cost more than the tick's arithmetic). One allocation: the scratch.
 
     Returns the strongest suspected motor (0..3, -1 for none) with its GLR statistic T and
     LOE, whether the mass estimate has settled and the mass threshold
     ``max(mass_threshold_kg, mass_sigmas s_m)`` (before this tick's spread update).
     """
+    u = work[_W_U]
+    var = work[_W_VAR]
+    floor_var = work[_W_FLOOR]
+    state = work[_W_STATE]
+    params = work[_W_PARAMS]
+    motors = iwork[_I_MOTORS:]
+    k = iwork[_I_DECLARED]
+    scratch = np.empty(_S_SIZE)
+    fit_work = scratch[:_FIT_SCRATCH]
+    f0 = scratch[_S_F0:_S_F]
+    f = scratch[_S_F:_S_DEFICIT]
+    deficit = scratch[_S_DEFICIT:_S_D]
+    d = scratch[_S_D:_S_SIZE]
     dt = params[_DT]
     u_hover = params[_U_HOVER]
     threshold = params[_THRESHOLD]
     significance = params[_SIGNIFICANCE]
-    # u: PWM low-passed over _PWM_FILTER_S
+    # u: PWM low-passed over _PWM_FILTER_S, u = u + a (max(pwm, 1e-4) - u)
     a = min(1.0, dt / _PWM_FILTER_S)
-    u[:] = u + a * (np.maximum(pwm, 1e-4) - u)
+    for j in range(4):
+        p = pwm[j]
+        u[j] = u[j] + a * ((p if p > 1e-4 or p != p else 1e-4) - u[j])
     # gamma_i u_i, PWM units; d = M a with a_i = gamma_i u_i / u_h: no common mode
-    deficit = gamma * u
-    d = np.zeros(3)
+    for j in range(4):
+        deficit[j] = gamma[j] * u[j]
     for i in range(3):
+        acc = 0.0
         for j in range(4):
-            d[i] += SIGNATURES[i, j] * (deficit[j] / u_hover)
-    k = declared.shape[0]
-    is_declared = np.zeros(4, dtype=np.bool_)
+            acc += SIGNATURES[i, j] * (deficit[j] / u_hover)
+        d[i] = acc
+    is_declared = 0  # bit j: motor j declared
     for i in range(k):
-        is_declared[declared[i]] = True
+        is_declared |= 1 << motors[i]
 
     # step 2: GLR of one more fault on each motor j, T_j = RSS(declared) - RSS(declared + j)
     best, best_t, best_loe = -1, 0.0, 0.0
     half_now = False
     fitted = False
-    f0 = np.zeros(0)
     if evidence or learn:
         if isolate:
-            f0, rss0 = weighted_fit(d, var, declared)
+            rss0 = _fit_into(d, var, motors, k, fit_work, f0)
             fitted = True
-            motors = np.empty(k + 1, dtype=np.int64)
-            motors[:k] = declared
             for j in range(4):
-                if is_declared[j]:
+                if is_declared & (1 << j):
                     continue
-                motors[k] = j
-                f, rss = weighted_fit(d, var, motors)
+                motors[k] = j  # the candidate after the declared ones
+                rss = _fit_into(d, var, motors, k + 1, fit_work, f)
                 loe_j = f[k] * u_hover / u[j]  # LOE_j = f_j u_h / u_j
                 t = rss0 - rss
                 if loe_j > 0.5 * threshold and t > 0.25 * significance:
@@ -314,30 +356,39 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
         n = 0
         total = 0.0
         for j in range(4):
-            if not is_declared[j]:
+            if not is_declared & (1 << j):
                 total += deficit[j]
                 n += 1
-        raw = total / n if n > 0 else deficit.min()
+        if n > 0:
+            raw = total / n
+        else:
+            raw = deficit[0]
+            for j in range(1, 4):
+                if deficit[j] < raw or deficit[j] != deficit[j]:
+                    raw = deficit[j]
         state[_E] += min(1.0, dt / params[_COMMON_TAU]) * (raw - state[_E])
     e = state[_E]
     state[_MASS_KG] = 4.0 * params[_K] * e / params[_G]  # dm = 4 K e / g
-    loe[:] = np.clip(deficit / u - e / u, 0.0, 1.0)  # delta_i = gamma_i - e / u_i
+    for j in range(4):  # delta_i = gamma_i - e / u_i, clipped to [0, 1]
+        x = deficit[j] / u[j] - e / u[j]
+        loe[j] = x if x != x else min(max(x, 0.0), 1.0)
 
     # measured excitation: Sigma from the residual of d after the declared faults, fast
     # attack _ATTACK_S, slow decay noise_tau_s, unbiased while young, floored
     if not half_now and learn and not settling:
         if not fitted:
-            f0, _ = weighted_fit(d, var, declared)
-        res = d.copy()  # d - M_declared f
-        for i in range(3):
-            for j in range(k):
-                res[i] -= SIGNATURES[i, declared[j]] * f0[j]
+            _fit_into(d, var, motors, k, fit_work, f0)
         state[_N_LEARNED] += 1.0
         up = max(dt / _ATTACK_S, 1.0 / state[_N_LEARNED])
         down = max(dt / params[_NOISE_TAU], 1.0 / state[_N_LEARNED])
-        sq = res * res
-        rate = np.where(sq > var, up, down)
-        var[:] = np.maximum(var + rate * (sq - var), floor_var)
+        for i in range(3):
+            res = d[i]  # d - M_declared f
+            for j in range(k):
+                res -= SIGNATURES[i, motors[j]] * f0[j]
+            sq = res * res
+            rate = up if sq > var[i] else down
+            v = var[i] + rate * (sq - var[i])
+            var[i] = v if v > floor_var[i] or v != v else floor_var[i]
 
     # the mass change's threshold max(mass_threshold_kg, mass_sigmas s_m), its spread s_m
     # (learned while nothing is reported, |dm| < mass_threshold_kg and nothing is half
@@ -348,7 +399,7 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
     settled = False
     capacity = history.shape[1]
     if not evidence:
-        ring[1] = 0
+        iwork[_I_COUNT] = 0
     else:
         if not mass_reported and abs(dm) < params[_MASS_THRESHOLD] and not half:
             state[_MASS_N] += 1.0
@@ -358,22 +409,23 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, u: np.ndar
             state[_MASS_VAR] = max(state[_MASS_VAR] + rate_m * (sq_m - state[_MASS_VAR]),
                                    _MASS_VAR_FLOOR)
         if half:  # the common mode is held: no news about the mass
-            ring[1] = 0
+            iwork[_I_COUNT] = 0
         else:
-            if ring[1] == capacity:  # ticks faster than the capacity allows: forget the oldest
-                ring[0] = (ring[0] + 1) % capacity
-                ring[1] -= 1
-            slot = (ring[0] + ring[1]) % capacity
+            if iwork[_I_COUNT] == capacity:  # ticks faster than the capacity allows: forget
+                iwork[_I_FIRST] = (iwork[_I_FIRST] + 1) % capacity  # the oldest
+                iwork[_I_COUNT] -= 1
+            slot = (iwork[_I_FIRST] + iwork[_I_COUNT]) % capacity
             history[0, slot] = time_s
             history[1, slot] = dm
-            ring[1] += 1
-        while ring[1] > 0 and history[0, ring[0]] < time_s - _MASS_WINDOW_S - 1e-9:
-            ring[0] = (ring[0] + 1) % capacity
-            ring[1] -= 1
-        count = ring[1]
+            iwork[_I_COUNT] += 1
+        while iwork[_I_COUNT] > 0 and \
+                history[0, iwork[_I_FIRST]] < time_s - _MASS_WINDOW_S - 1e-9:
+            iwork[_I_FIRST] = (iwork[_I_FIRST] + 1) % capacity
+            iwork[_I_COUNT] -= 1
+        count = iwork[_I_COUNT]
         if count > 1:
-            first = ring[0]
-            last = (ring[0] + count - 1) % capacity
+            first = iwork[_I_FIRST]
+            last = (first + count - 1) % capacity
             low = high = history[1, first]
             for i in range(1, count):
                 v = history[1, (first + i) % capacity]
@@ -403,26 +455,32 @@ class MotorFaultDetector:
         self.config = config
         self.dt_s = float(dt_s)
         self._u_hover = model.hover_pwm
-        self._floor_var = np.square(np.array(config.noise_floor, dtype=float))
+        # the kernel's workspaces (_W_*, _I_*); the attributes below are views of them
+        self._work = np.zeros(_W_SIZE)
+        self._iwork = np.zeros(_I_SIZE, dtype=np.int64)
+        self._u = self._work[_W_U]
+        self._var = self._work[_W_VAR]
+        self._floor_var = self._work[_W_FLOOR]
+        self._state = self._work[_W_STATE]
+        self._params = self._work[_W_PARAMS]
+        self._floor_var[:] = np.square(np.array(config.noise_floor, dtype=float))
         self._calm_var = _CALM_RATIO**2 * self._floor_var
-        params = np.zeros(11)
-        params[[_DT, _U_HOVER, _K, _G, _COMMON_TAU, _NOISE_TAU, _THRESHOLD, _SIGNIFICANCE,
-                _MASS_THRESHOLD, _MASS_SIGMAS, _MASS_SETTLE]] = (
+        self._params[[_DT, _U_HOVER, _K, _G, _COMMON_TAU, _NOISE_TAU, _THRESHOLD,
+                      _SIGNIFICANCE, _MASS_THRESHOLD, _MASS_SIGMAS, _MASS_SETTLE]] = (
             self.dt_s, model.hover_pwm, model.thrust_gain, model.gravity, config.common_tau_s,
             config.noise_tau_s, config.threshold, config.significance,
             config.mass_threshold_kg, config.mass_sigmas, config.mass_settle_kg)
-        self._params = params
         # the mass history holds 0.5 s of ticks; room for ticks up to 4 times faster
         self._history = np.zeros((2, 4 * math.ceil(_MASS_WINDOW_S / self.dt_s) + 8))
         self.reset()
 
     def reset(self) -> None:
         """Forget every fault, the learned excitation and the timers."""
-        self._var = self._floor_var.copy()
-        self._u = np.full(4, self._u_hover)
-        self._state = np.zeros(_STATE_SIZE)
+        self._var[:] = self._floor_var
+        self._u[:] = self._u_hover
+        self._state[:] = 0.0
         self._state[_MASS_VAR] = _MASS_VAR_FLOOR
-        self._ring = np.zeros(2, dtype=np.int64)  # mass history: first slot, count
+        self._iwork[:] = 0  # mass history: no slot used; no motor declared
         self._declared: list[int] = []  # motor indices 0..3, in declaration order
         self._lost: set[int] = set()
         self._suspect: int | None = None
@@ -437,7 +495,9 @@ class MotorFaultDetector:
 
     def _declarations_changed(self) -> None:
         """Refresh what follows from the declared and lost motors (read every tick)."""
-        self._declared_idx = np.array(self._declared, dtype=np.int64)
+        k = len(self._declared)
+        self._iwork[_I_DECLARED] = k
+        self._iwork[_I_MOTORS:_I_MOTORS + k] = self._declared
         self._isolate = not self._lost and len(self._declared) < 3
         self._active = tuple(sorted(j + 1 for j in self._declared))
         self._lost_motors = tuple(sorted(j + 1 for j in self._lost))
@@ -469,9 +529,8 @@ class MotorFaultDetector:
         settling = time_s - self._last_declared_s < self.config.settle_s
         self._loe = np.empty(4)  # a new one every tick: the previous one may be kept
         best, t, loe, settled, mass_threshold = _detector_tick(
-            time_s, gamma, pwm, self._u, self._var, self._floor_var,
-            self._declared_idx, self._state, self._history, self._ring, self._params,
-            self._isolate, evidence, learn, settling, self._mass_reported, self._loe)
+            time_s, gamma, pwm, self._work, self._iwork, self._history, self._isolate,
+            evidence, learn, settling, self._mass_reported, self._loe)
         if not evidence:
             self._suspect = None
             self._recover_since.clear()

@@ -32,6 +32,8 @@ from fcu.navigation.legs import (
 from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 
+_SHAPE3 = (3,)
+
 
 class FlightLegs:
     """Legs in flight: planning, arrival, landing detection and events (module docstring).
@@ -56,8 +58,9 @@ class FlightLegs:
         """On the ground, nothing known yet; home and speeds from the configuration."""
         cfg = self.config
         self._time_s: float | None = None
-        self._est_pos_ned = np.zeros(3)
-        self._est_vel_ned = np.zeros(3)
+        # the latest finite estimate, m and m/s NED, as floats (arrays: _est_pos_ned...)
+        self._est_pos_f: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._est_vel_f: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._est_yaw_rad = 0.0
         self._has_estimate = False
         self._estimator_healthy = False
@@ -142,24 +145,44 @@ class FlightLegs:
                        estimator_healthy: bool, on_ground_hint: bool | None) -> float:
         """Advance the clock to ``time_s`` (s) and keep the estimate if it is finite (the
         arguments of :meth:`fcu.navigation.navigator.Navigator.step`); returns the time."""
-        if not finite(time_s):
+        if not (time_s.__class__ is float and math.isfinite(time_s)) and not finite(time_s):
             raise ValueError(f"time_s = {time_s!r}: must be a finite time in s")
         if self._time_s is not None and time_s < self._time_s:
             raise ValueError(f"time_s = {time_s!r}: must not be earlier than the previous "
                              f"step ({self._time_s!r})")
         self._time_s = float(time_s)
-        pos = np.asarray(estimate_pos_ned, dtype=float).reshape(-1)
-        vel = np.asarray(estimate_vel_ned, dtype=float).reshape(-1)
-        good = pos.shape == (3,) and vel.shape == (3,) and all(
-            map(math.isfinite, pos.tolist() + vel.tolist())) and finite(
-            float(estimate_yaw_rad))
+        pos = np.asarray(estimate_pos_ned, dtype=float)
+        vel = np.asarray(estimate_vel_ned, dtype=float)
+        if pos.shape != _SHAPE3:
+            pos = pos.reshape(-1)
+        if vel.shape != _SHAPE3:
+            vel = vel.reshape(-1)
+        if pos.shape == _SHAPE3 and vel.shape == _SHAPE3:
+            yaw = float(estimate_yaw_rad)
+            x0, x1, x2 = pos.tolist()
+            v0, v1, v2 = vel.tolist()
+            # a finite sum has finite terms; a sum of finite floats may still overflow
+            good = math.isfinite(x0 + x1 + x2 + v0 + v1 + v2 + yaw) or all(
+                map(math.isfinite, (x0, x1, x2, v0, v1, v2, yaw)))
+        else:
+            good = False
         if good:
-            self._est_pos_ned, self._est_vel_ned = pos.copy(), vel.copy()
-            self._est_yaw_rad = float(estimate_yaw_rad)
+            self._est_pos_f, self._est_vel_f = (x0, x1, x2), (v0, v1, v2)
+            self._est_yaw_rad = yaw
             self._has_estimate = True
         self._estimator_healthy = bool(estimator_healthy) and good
         self._on_ground_hint = on_ground_hint
         return self._time_s
+
+    @property
+    def _est_pos_ned(self) -> np.ndarray:
+        """The latest finite position estimate, m, NED (a new array)."""
+        return np.array(self._est_pos_f)
+
+    @property
+    def _est_vel_ned(self) -> np.ndarray:
+        """The latest finite velocity estimate, m/s, NED (a new array)."""
+        return np.array(self._est_vel_f)
 
     # ------------------------------------------------------------------ legs
     def _reference(self, time_s: float) -> Reference:
@@ -184,6 +207,10 @@ class FlightLegs:
         Transitions can chain within one step (zero-length legs, DO items), at most
         ``max_transitions`` of them.
         """
+        leg = self._leg
+        if leg is not None and leg.reached_s is None and leg.kind != "land" and \
+                t < leg.arrival_s - TIME_TOL_S:
+            return  # on the way (what the loop's first pass concludes)
         for _ in range(max_transitions):
             leg = self._leg
             if leg is None or leg.kind in ("manual", "hold"):

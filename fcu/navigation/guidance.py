@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import bisect
 import math
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -58,6 +59,8 @@ def wrap_pi(angle_rad: float) -> float:
 
 _ZERO3 = np.zeros(3)
 _ZERO3.setflags(write=False)
+_pack9 = struct.Struct("9d").pack  # nine float64, native order (np.frombuffer's default)
+_from_bytes = np.frombuffer  # over bytes: a read-only float64 array, no copy
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,14 +134,32 @@ class Reference:
         return cls._assemble(pos_ned, _ZERO3, _ZERO3, yaw_rad, 0.0)
 
     @classmethod
+    def _from_cubic(cls, px: float, py: float, pz: float, vx: float, vy: float, vz: float,
+                    ax: float, ay: float, az: float, yaw_rad: float,
+                    yaw_rate_rad_s: float) -> Reference:
+        """:meth:`_from_floats` for the nine floats of a guidance tick, given one by one
+        (a cubic's or a ramp's)."""
+        if not math.isfinite(px + py + pz + vx + vy + vz + ax + ay + az + yaw_rad
+                             + yaw_rate_rad_s):  # (a sum of finite floats may overflow)
+            return cls._from_floats([px, py, pz], [vx, vy, vz], [ax, ay, az], yaw_rad,
+                                    yaw_rate_rad_s)
+        # one read-only buffer (bytes) for the three vectors: half the cost of an array
+        # built from nested tuples and then locked
+        rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
+        return cls._assemble(rows[0:3], rows[3:6], rows[6:9], yaw_rad, yaw_rate_rad_s)
+
+    @classmethod
     def _assemble(cls, pos_ned: np.ndarray, vel_ned: np.ndarray, acc_ned: np.ndarray,
                   yaw_rad: float, yaw_rate_rad_s: float) -> Reference:
         ref = object.__new__(cls)
-        object.__setattr__(ref, "pos_ned", pos_ned)
-        object.__setattr__(ref, "vel_ned", vel_ned)
-        object.__setattr__(ref, "acc_ned", acc_ned)
-        object.__setattr__(ref, "yaw_rad", wrap_pi(float(yaw_rad)))
-        object.__setattr__(ref, "yaw_rate_rad_s", float(yaw_rate_rad_s))
+        # the fields straight into the instance's dict: what the frozen dataclass's own
+        # __init__ does through object.__setattr__, at half the cost
+        fields = ref.__dict__
+        fields["pos_ned"] = pos_ned
+        fields["vel_ned"] = vel_ned
+        fields["acc_ned"] = acc_ned
+        fields["yaw_rad"] = wrap_pi(float(yaw_rad))
+        fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
         return ref
 
 
@@ -234,8 +255,12 @@ class CubicSegment:
         object.__setattr__(self, "start_pos_ned", _vec3(self.start_pos_ned, "start_pos_ned"))
         object.__setattr__(self, "end_pos_ned", _vec3(self.end_pos_ned, "end_pos_ned"))
         # per-tick constants of evaluate(), as plain floats
-        object.__setattr__(self, "_start_f", self.start_pos_ned.tolist())
-        object.__setattr__(self, "_delta_f", (self.end_pos_ned - self.start_pos_ned).tolist())
+        object.__setattr__(self, "_start_f", tuple(self.start_pos_ned.tolist()))
+        object.__setattr__(self, "_delta_f",
+                           tuple((self.end_pos_ned - self.start_pos_ned).tolist()))
+        object.__setattr__(self, "_dyaw", wrap_pi(self.end_yaw_rad - self.start_yaw_rad))
+        object.__setattr__(self, "_end_s", self.t0_s + self.duration_s)
+        object.__setattr__(self, "_duration_sq", self.duration_s**2)  # T^2
         object.__setattr__(self, "_end_ref", None)  # the hold at the end, once built
 
     @property
@@ -253,9 +278,9 @@ class CubicSegment:
 
     def evaluate(self, time_s: float) -> Reference:
         """Reference at ``time_s`` (s); clamped to the end points outside the segment."""
-        dyaw = wrap_pi(self.end_yaw_rad - self.start_yaw_rad)
+        dyaw: float = self._dyaw  # type: ignore[attr-defined]
         T = self.duration_s
-        if T == 0.0 or time_s >= self.t0_s + T:
+        if T == 0.0 or time_s >= self._end_s:  # type: ignore[attr-defined]
             end_ref: Reference | None = self._end_ref  # type: ignore[attr-defined]
             if end_ref is None:  # the same reference every time: build it once
                 end_ref = Reference._hold_checked(self.end_pos_ned, self.start_yaw_rad + dyaw)
@@ -264,14 +289,16 @@ class CubicSegment:
         if time_s < self.t0_s:
             return Reference._hold_checked(self.start_pos_ned, self.start_yaw_rad)
         s = (time_s - self.t0_s) / T
-        h = 3.0 * s**2 - 2.0 * s**3  # shape function
-        dh = (6.0 * s - 6.0 * s**2) / T  # dh/dt
-        ddh = (6.0 - 12.0 * s) / T**2  # d2h/dt2
+        s_sq = s**2
+        h = 3.0 * s_sq - 2.0 * s**3  # shape function
+        dh = (6.0 * s - 6.0 * s_sq) / T  # dh/dt
+        ddh = (6.0 - 12.0 * s) / self._duration_sq  # type: ignore[attr-defined]  # d2h/dt2
         # p = p0 + (p1 - p0) h,  v = (p1 - p0) dh/dt,  a = (p1 - p0) d2h/dt2  (plain floats)
-        p0, delta = self._start_f, self._delta_f  # type: ignore[attr-defined]
-        return Reference._from_floats([p0[i] + delta[i] * h for i in range(3)],
-                                      [d * dh for d in delta], [d * ddh for d in delta],
-                                      self.start_yaw_rad + dyaw * h, dyaw * dh)
+        p0x, p0y, p0z = self._start_f  # type: ignore[attr-defined]
+        dx, dy, dz = self._delta_f  # type: ignore[attr-defined]
+        return Reference._from_cubic(p0x + dx * h, p0y + dy * h, p0z + dz * h,
+                                     dx * dh, dy * dh, dz * dh, dx * ddh, dy * ddh, dz * ddh,
+                                     self.start_yaw_rad + dyaw * h, dyaw * dh)
 
 
 @dataclass(frozen=True, eq=False)
@@ -319,6 +346,9 @@ class RampSegment:
         _check_times(self.t0_s, self.duration_s, allow_inf=True)
         object.__setattr__(self, "start_pos_ned", _vec3(self.start_pos_ned, "start_pos_ned"))
         object.__setattr__(self, "vel_ned", _vec3(self.vel_ned, "vel_ned"))
+        # per-tick constants of evaluate(), as plain floats
+        object.__setattr__(self, "_start_f", tuple(self.start_pos_ned.tolist()))
+        object.__setattr__(self, "_vel_f", tuple(self.vel_ned.tolist()))
 
     @property
     def end_time_s(self) -> float:
@@ -334,9 +364,10 @@ class RampSegment:
                                   self.yaw_rad)
         # p = p0 + v (t - t0)  (plain floats)
         dt_s = time_s - self.t0_s
-        p0, vel = self.start_pos_ned.tolist(), self.vel_ned.tolist()
-        return Reference._from_floats([p0[i] + vel[i] * dt_s for i in range(3)], vel,
-                                      [0.0, 0.0, 0.0], self.yaw_rad, 0.0)
+        p0x, p0y, p0z = self._start_f  # type: ignore[attr-defined]
+        vx, vy, vz = self._vel_f  # type: ignore[attr-defined]
+        return Reference._from_cubic(p0x + vx * dt_s, p0y + vy * dt_s, p0z + vz * dt_s,
+                                     vx, vy, vz, 0.0, 0.0, 0.0, self.yaw_rad, 0.0)
 
 
 Segment = CubicSegment | HoldSegment | RampSegment
@@ -436,7 +467,8 @@ class Trajectory:
             if self._after_ref is None:
                 self._after_ref = self._segments[-1].evaluate(self._end_s).at_rest()
             return self._after_ref
-        return self._segments[self.segment_index(time_s)].evaluate(time_s)
+        # start <= time_s < end: segment_index() without its clamps, which cannot apply
+        return self._segments[bisect.bisect_right(self._starts_s, time_s) - 1].evaluate(time_s)
 
     @classmethod
     def from_waypoints(cls, t0_s: float, start_pos_ned: np.ndarray | Sequence[float],

@@ -131,6 +131,7 @@ class Navigator(MissionExecution):
         self._blockers: dict[str, str] = {}
         self._position_fix = True
         self._fix_lost_s: float | None = None
+        self._output: NavOutput | None = None  # the latest step's, while it had no events
         self._mission.reset_progress()
 
     @property
@@ -180,17 +181,35 @@ class Navigator(MissionExecution):
         """
         t = self._take_estimate(time_s, estimate_pos_ned, estimate_vel_ned, estimate_yaw_rad,
                                 estimator_healthy, on_ground_hint)
-        self._watch_position_fix(t, position_fix)
+        if position_fix is not self._position_fix or not position_fix:
+            self._watch_position_fix(t, position_fix)
         if self._armed and self._flying:
             self._run_flight(t, len(self._mission.items) + 8)
         elif self._armed:
             self._run_ground(t)
         reference = self._reference(t) if self._armed and self._flying else None
-        events = tuple(self._events)
-        self._events.clear()
-        return NavOutput(reference=reference, armed=self._armed, mode=self._mode,
-                         landed=not self._flying, landed_state=self.landed_state,
-                         failsafe=bool(self._failsafes), events=events)
+        landed_state = self.landed_state
+        last = self._output
+        if self._events:
+            events = tuple(self._events)
+            self._events.clear()
+        elif (last is not None and last.reference is reference and last.armed is self._armed
+              and last.mode is self._mode and last.landed_state is landed_state
+              and last.failsafe is bool(self._failsafes)):
+            return last  # nothing happened and the reference is the same object: reuse
+        else:
+            events = ()
+        out = object.__new__(NavOutput)  # NavOutput(...) without its frozen __setattr__s
+        fields = out.__dict__
+        fields["reference"] = reference
+        fields["armed"] = self._armed
+        fields["mode"] = self._mode
+        fields["landed"] = not self._flying
+        fields["landed_state"] = landed_state
+        fields["failsafe"] = bool(self._failsafes)
+        fields["events"] = events
+        self._output = out if not events else None
+        return out
 
     def _mission_running(self) -> bool:
         return self._mode == Mode.AUTO
@@ -216,7 +235,11 @@ class Navigator(MissionExecution):
             self.trigger_failsafe("position", "land")
 
     def _reference(self, time_s: float) -> Reference:
-        ref = super()._reference(time_s)
+        leg = self._leg
+        if leg is not None and leg.trajectory is not None and leg.kind != "manual":
+            ref = leg.trajectory.evaluate(time_s)  # Leg.reference() of a trajectory leg
+        else:
+            ref = super()._reference(time_s)
         if self._position_fix:
             return ref
         # no position fix: the horizontal references follow the estimate (no horizontal

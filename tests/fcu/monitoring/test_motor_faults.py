@@ -81,3 +81,21 @@ def test_an_equal_deficit_on_all_motors_is_a_mass_change() -> None:
     # no motor loss: LOE = gamma - e / u is what the low-pass of e has left after 10 time
     # constants, 0.2 exp(-10) = 9e-6
     assert detector.active == () and detector.loe.max() < 2e-5
+
+
+def test_reset_forgets_everything_the_workspaces_hold() -> None:
+    detector, records = fly(np.array([0.0, 0.0, 0.3, 0.0]), 2.0)
+    assert records and detector.active == (3,)
+    detector.reset()
+    assert detector.active == () and detector.mass_change_kg == 0.0
+    pwm = np.full(4, MODEL.hover_pwm)
+    again = []
+    for tick in range(1, round(2.0 / DT_S) + 1):
+        again += detector.step(tick * DT_S, np.array([0.0, 0.0, 0.3, 0.0]), pwm,
+                               evidence=True, learn=True)
+    fresh, fresh_records = fly(np.array([0.0, 0.0, 0.3, 0.0]), 2.0)
+    # after reset() the same inputs give the same conclusions, bit for bit
+    assert again == fresh_records
+    np.testing.assert_array_equal(detector.loe, fresh.loe)
+    np.testing.assert_array_equal(detector.evidence.noise, fresh.evidence.noise)
+    assert detector.mass_change_kg == fresh.mass_change_kg

@@ -21,6 +21,7 @@ from fcu.navigation.guidance import (
     landing_trajectory,
     leg_duration_s,
     takeoff_trajectory,
+    wrap_pi,
 )
 from flightdata.mission import thesis_mission
 
@@ -228,3 +229,49 @@ def test_thesis_mission_data_gives_the_documented_timeline() -> None:
         assert any(seg.t0_s < fault_s < seg.end_time_s for seg in legs)
         assert ref.pos_ned[2] == pytest.approx(-0.6)
         assert np.linalg.norm(ref.vel_ned) > 0.01  # m/s; at least 7 % of the leg's peak
+
+
+def test_cubic_reference_is_the_closed_form_bit_for_bit_read_only_and_its_own() -> None:
+    start, end = np.array([0.5, -1.0, -0.2]), np.array([2.0, 0.25, -1.5])
+    seg = CubicSegment(1.0, 3.0, start, end, 0.3, -0.4)
+    refs = [seg.evaluate(t) for t in (1.5, 2.2, 3.7)]
+    for t, ref in zip((1.5, 2.2, 3.7), refs, strict=True):
+        # the module docstring's formulas, written out here in the same order of operations
+        s = (t - 1.0) / 3.0
+        h, dh, ddh = 3.0 * s**2 - 2.0 * s**3, (6.0 * s - 6.0 * s**2) / 3.0, \
+            (6.0 - 12.0 * s) / 3.0**2
+        delta, dyaw = end - start, wrap_pi(-0.4 - 0.3)
+        public = Reference(pos_ned=start + delta * h, vel_ned=delta * dh, acc_ned=delta * ddh,
+                           yaw_rad=0.3 + dyaw * h, yaw_rate_rad_s=dyaw * dh)
+        for name in ("pos_ned", "vel_ned", "acc_ned"):
+            value = getattr(ref, name)
+            np.testing.assert_array_equal(value, getattr(public, name))
+            assert value.shape == (3,) and value.dtype == np.float64
+            with pytest.raises(ValueError):  # read-only
+                value[0] = 0.0
+        assert (ref.yaw_rad, ref.yaw_rate_rad_s) == (public.yaw_rad, public.yaw_rate_rad_s)
+    # each evaluation owns its vectors: the earlier ones did not move
+    assert refs[0].pos_ned[0] < refs[1].pos_ned[0] < refs[2].pos_ned[0]
+
+
+def test_a_non_finite_cubic_reference_raises_the_public_error() -> None:
+    seg = CubicSegment(0.0, 1.0, np.zeros(3), np.array([1.0, 0.0, 0.0]))
+    with pytest.raises(ValueError, match="yaw_rad"):
+        Reference._from_cubic(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0)
+    with pytest.raises(ValueError, match="vel_ned"):
+        Reference._from_cubic(0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    # huge finite values whose sum overflows are still a valid reference
+    big = Reference._from_cubic(1e308, 1e308, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    np.testing.assert_array_equal(big.pos_ned, [1e308, 1e308, 0.0])
+    assert seg.evaluate(0.5).pos_ned[0] == 0.5
+
+
+def test_ramp_reference_is_the_constant_velocity_line() -> None:
+    ramp = RampSegment(2.0, math.inf, np.array([1.0, 2.0, -0.5]), np.array([0.0, 0.0, 0.1]),
+                       yaw_rad=0.2)
+    ref = ramp.evaluate(4.5)
+    np.testing.assert_array_equal(ref.pos_ned, [1.0 + 0.0 * 2.5, 2.0 + 0.0 * 2.5,
+                                                -0.5 + 0.1 * 2.5])
+    np.testing.assert_array_equal(ref.vel_ned, [0.0, 0.0, 0.1])
+    np.testing.assert_array_equal(ref.acc_ned, 0.0)
+    assert ref.yaw_rad == wrap_pi(0.2)

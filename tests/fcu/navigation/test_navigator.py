@@ -537,3 +537,24 @@ def test_step_rejects_time_going_backwards_and_reset_restores_boot_state() -> No
     assert not f.nav.armed and f.nav.landed and f.nav.mode == Mode.STABILIZE
     out = f.nav.step(0.0, np.zeros(3), np.zeros(3), 0.0)
     assert out.reference is None and out.events == ()
+
+
+def test_step_output_is_reused_only_while_nothing_changes() -> None:
+    f = airborne(1.0)
+    hold = [f.tick() for _ in range(3)]
+    # hovering at the take-off target: the same reference object, hence the same output
+    assert hold[1] is hold[0] and hold[2] is hold[0] and hold[0].events == ()
+    assert f.nav.go_to((1.0, 0.0, -1.0)).accepted
+    moving = [f.tick() for _ in range(3)]
+    assert moving[0].events and moving[0] is not hold[0]  # the go-to's event
+    assert moving[1] is not moving[0] and moving[2] is not moving[1]
+    # each tick's reference keeps its values: later ticks do not overwrite them
+    xs = [ref(o).pos_ned[0] for o in moving]
+    assert xs[0] < xs[1] < xs[2]
+    for out in (hold[0], *moving):
+        public = NavOutput(reference=out.reference, armed=out.armed, mode=out.mode,
+                           landed=out.landed, landed_state=out.landed_state,
+                           failsafe=out.failsafe, events=out.events)
+        assert vars(out) == vars(public)
+    assert f.nav.set_mode(Mode.LOITER).accepted
+    assert f.tick().mode == Mode.LOITER  # a change of mode is a new output
