@@ -328,6 +328,8 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, on_grou
     for i in range(N):
         estimate[i] = x[i]
         estimate[N + i] = p_mat[i, i]
+    # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
+    estimate[YAW_INDEX] = (estimate[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
     return estimate, screen, on_ground, last
 
 
@@ -448,9 +450,10 @@ class ExtendedKalmanEstimator(TickEstimator):
                                                    p0.astype(float))
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+              excluded: np.ndarray, reject: bool) -> FloatArray:
         """Predict to ``time_s`` (s), screen the tick's measurements and update with those
-        that pass, in one compiled call (:func:`ekf_tick`)."""
+        that pass, in one compiled call (:func:`ekf_tick`); returns the estimate, shape (32,)
+        (:meth:`TickEstimator._tick`)."""
         dt = time_s - self._time_s
         if dt < -1e-9:
             raise ValueError(f"time_s = {time_s!r}: earlier than the previous tick "
@@ -467,7 +470,7 @@ class ExtendedKalmanEstimator(TickEstimator):
         self._innovations = None if last >= 0 else {}
         if last >= 0:
             self._updated = (cs, last, time_s)
-        return estimate[:N], estimate[N:]
+        return estimate
 
     def _update_parts(self, cs: ChannelSet, c: int) -> tuple[FloatArray, ...]:
         """(y, S, S^-1, K, z) of channel ``c``'s update at the latest tick (copies)."""

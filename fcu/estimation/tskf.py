@@ -172,8 +172,8 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
     -------
     estimate, screen, on_ground, accel_power, m
         ``x_hat`` (eq. 6.25) and the diagonal of its covariance (eq. 6.26), shape (32,)
-        (fresh); the screening; the ground flag; the innovation power; the rows of the
-        update (0: none).
+        (fresh; yaw wrapped to [-pi, pi)); the screening; the ground flag; the innovation
+        power; the rows of the update (0: none).
     """
     x_bar = work[_XB:_XB + N]
     p_x = work[_PX:_PX + N * N].reshape(N, N)
@@ -275,6 +275,8 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
     # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
     estimate = np.empty(2 * N)
     tskf_output_into(estimate, x_bar, p_x, gamma, p_gamma, v)
+    # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
+    estimate[YAW_INDEX] = (estimate[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
     return estimate, screen, on_ground, accel_power, m
 
 
@@ -441,9 +443,10 @@ class TwoStageKalmanFilter(TickEstimator):
         self._estimate = StateEstimate._from_owned(self._time_s, x_hat, p_diag)
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+              excluded: np.ndarray, reject: bool) -> FloatArray:
         """Advance to ``time_s`` and update with the tick's measurements, in one compiled call
-        (:func:`tskf_tick`); returns ``x_hat_{k|k}`` (eq. 6.25) and the diagonal of eq. 6.26.
+        (:func:`tskf_tick`); returns ``x_hat_{k|k}`` (eq. 6.25, yaw wrapped) and the diagonal
+        of eq. 6.26, one array of shape (32,).
 
         ``time_s`` is the previous tick's plus a whole number of ``dt_s`` (within 25 % of
         ``dt_s``); zero steps (same time) update only.
@@ -464,7 +467,7 @@ class TwoStageKalmanFilter(TickEstimator):
                       cs.noise))
         self.gamma_raw = gamma
         self._keep_screening(cs, screen)
-        return estimate[:N], estimate[N:]
+        return estimate
 
     # ---- the workspace, read (copies) ------------------------------------------------------
     def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:
