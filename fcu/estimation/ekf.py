@@ -31,9 +31,10 @@ from numba import njit
 
 from fcu.estimation import screening
 from fcu.estimation.ekf_model import (
-    discrete_transition,
-    model_derivative,
-    model_jacobian,
+    TRANSITION_SCRATCH,
+    discrete_transition_into,
+    model_derivative_into,
+    model_jacobian_into,
     pack_params,
 )
 from fcu.estimation.estimator import (
@@ -46,11 +47,14 @@ from fcu.estimation.estimator import (
     StateEstimate,
     TickEstimator,
 )
+from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
+from fcu.estimation.small_matrix import mul_sparse_left, symmetrize, transpose_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
 
-drop_stale_kernels(__file__)  # ekf_tick compiles in the kernels of ekf_model and screening
+# ekf_tick compiles in the kernels of ekf_model, screening, kalman_update and small_matrix
+drop_stale_kernels(__file__)
 
 if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view is asked for
     from fcu.estimation.ekf_filterpy import QuadrotorEKF
@@ -60,7 +64,8 @@ if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view 
 def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
                   r_mat: FloatArray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                               np.ndarray]:
-    """Kalman measurement update for a given innovation (the maths of filterpy's update).
+    """Kalman measurement update for a given innovation (the maths of filterpy's update):
+    :func:`kalman_update_into` on copies.
 
     Parameters
     ----------
@@ -79,20 +84,14 @@ def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatA
     -------
     x_post, p_post, s_mat, s_inv, k_gain : ndarrays, shapes (n,), (n, n), (m, m), (m, m), (n, m)
     """
-    # P H'
-    pht = p_mat @ h_mat.T
-    # S = H P H' + R
-    s_mat = h_mat @ pht + r_mat
-    # S^-1
-    s_inv = np.linalg.inv(s_mat)
-    # K = P H' S^-1
-    k_gain = pht @ s_inv
-    # x = x + K y
-    x_post = x + k_gain @ y
-    # P = (I - K H) P (I - K H)' + K R K'   (Joseph form)
-    ikh = np.eye(x.shape[0]) - k_gain @ h_mat
-    p_post = ikh @ p_mat @ ikh.T + k_gain @ r_mat @ k_gain.T
-    p_post = 0.5 * (p_post + p_post.T)
+    n, m = x.shape[0], y.shape[0]
+    x_post = x.copy()
+    p_post = p_mat.copy()
+    s_mat = np.empty((m, m))
+    s_inv = np.empty((m, m))
+    k_gain = np.empty((n, m))
+    kalman_update_into(x_post, p_post, y, h_mat, r_mat, s_mat, s_inv, k_gain,
+                       np.empty(UPDATE_SCRATCH))
     return x_post, p_post, s_mat, s_inv, k_gain
 
 
@@ -100,118 +99,46 @@ def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatA
 def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
                        p: FloatArray, on_ground: bool, qc_diag: FloatArray
                        ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """One filterpy ``predict`` of the EKF in a single compiled call.
+    """One filterpy ``predict`` of the EKF in a single compiled call
+    (:func:`predict_covariance_into` on copies).
 
     Returns ``x_{k+1|k}`` (RK4, yaw wrapped to [-pi, pi)), ``F``, ``Q``
     (:func:`discrete_transition`) and ``P_{k+1|k} = F P F' + Q``.
     """
-    # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
-    x_next, f_mat, q_mat = discrete_transition(x, u, dt, p, on_ground, qc_diag)
-    x_next[YAW_INDEX] = (x_next[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
-    # P = F P F' + Q
-    p_next = (f_mat @ p_mat) @ f_mat.T + q_mat
+    x_next = x.copy()
+    p_next = p_mat.copy()
+    f_mat = np.empty((N, N))
+    q_mat = np.empty((N, N))
+    predict_covariance_into(x_next, p_next, u, dt, p, on_ground, qc_diag, f_mat, q_mat,
+                            np.empty(TRANSITION_SCRATCH))
     return x_next, f_mat, q_mat, p_next
 
 
 @njit(cache=True, error_model="numpy")
-def channel_update(x: FloatArray, p_mat: FloatArray, z: FloatArray, sel: FloatArray,
-                   delta: float, u: FloatArray, p: FloatArray, on_ground: bool,
-                   r_mat: FloatArray, wrap_yaw: bool, picks: bool = False
-                   ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-                              FloatArray, float]:
-    """One sequential measurement update of a channel ``h(x) = S (x - delta f(x, u))``.
+def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
+                            p: FloatArray, on_ground: bool, qc_diag: FloatArray,
+                            f_mat: FloatArray, q_mat: FloatArray, scratch: FloatArray) -> None:
+    """One filterpy ``predict`` in place: ``x`` (16,), ``p_mat`` (16, 16) become the prior,
+    ``F`` and ``Q`` are written to ``f_mat``, ``q_mat`` (``scratch``: shape
+    :data:`~fcu.estimation.ekf_model.TRANSITION_SCRATCH`).
 
-    One of the estimator's sequential updates in one compiled call (module docstring,
-    "Measurements"): ``H = S (I - delta A(x))`` (``S`` when ``|delta| < 1e-9``),
-    ``y = z - h(x)`` (yaw wrapped when ``wrap_yaw``), :func:`kalman_update`, posterior yaw
-    wrapped, and the NIS (``picks``: as for :func:`~fcu.estimation.estimator.select`).
-
-    Returns
-    -------
-    x_post, p_post, y, s_mat, s_inv, k_gain, nis
-        Shapes (16,), (16, 16), (m,), (m, m), (m, m), (16, m); ``nis = y' S^-1 y``.
+    ``F`` is block upper triangular like ``A``: ``F P F'`` is taken as ``F (F P)'`` (``P``
+    symmetric), two products by the sparse ``F``.
     """
-    if abs(delta) < 1e-9:
-        h_mat = sel
-        hx = screening.select(sel, x, picks)
-    else:
-        # H = S (I - delta A(x))
-        h_mat = sel - delta * screening.select(sel, model_jacobian(x, p, on_ground), picks)
-        # h(x) = S (x - delta f(x, u))
-        hx = screening.select(sel, x - delta * model_derivative(x, u, p, on_ground), picks)
-    # y = z - h(x)  (attitude: yaw difference wrapped)
-    y = z - hx
-    if wrap_yaw:
-        y[2] = (y[2] + math.pi) % (2.0 * math.pi) - math.pi
-    # K = P H' (H P H' + R)^-1;  x = x + K y;  P = (I-KH) P (I-KH)' + K R K'
-    x_post, p_post, s_mat, s_inv, k_gain = kalman_update(x, p_mat, y, h_mat, r_mat)
-    x_post[YAW_INDEX] = (x_post[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
-    # NIS = y' S^-1 y
-    nis = y @ s_inv @ y
-    return x_post, p_post, y, s_mat, s_inv, k_gain, nis
-
-
-@njit(cache=True, error_model="numpy")
-def sequential_updates(x: FloatArray, p_mat: FloatArray, u: FloatArray, p: FloatArray,
-                       on_ground: bool, sel_stack: FloatArray, layout: np.ndarray,
-                       noise: FloatArray, counts: np.ndarray, deltas: FloatArray,
-                       z_stack: FloatArray
-                       ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
-                                  FloatArray, FloatArray, int]:
-    """A tick's sequential updates, channel after channel, each by :func:`channel_update`.
-
-    Parameters
-    ----------
-    x, p_mat : ndarrays, shapes (16,), (16, 16)
-        Prior state and covariance.
-    u, p, on_ground
-        As for :func:`channel_update`.
-    sel_stack, layout, noise : ndarrays
-        The channels (:class:`~fcu.estimation.estimator.ChannelSet`): selections ``S``
-        stacked in update order, each channel's rows and yaw flag, its noise variance of one
-        sample (divided by the count) and model error (not), so
-        ``R = (sample_var / count + model_var) I``.
-    counts : ndarray of int, shape (n_ch,)
-        Samples averaged into each channel's measurement; 0 = no update this tick.
-    deltas : ndarray, shape (n_ch,)
-        How long before the tick each channel's batch was taken, s.
-    z_stack : ndarray, shape (rows_total,)
-        The measurements (entries of channels without an update are ignored).
-
-    Returns
-    -------
-    x_post, p_post, y_stack, s_stack, nis, s_inv, k_gain, last
-        Posterior; innovations stacked like ``z_stack``; each channel's ``S`` in the
-        top-left block of ``s_stack[c]`` (shape (n_ch, m_max, m_max)); each NIS; ``S^-1`` and
-        ``K`` of the last update; the index of the last channel updated (-1: none).
-    """
-    n_ch = layout.shape[0]
-    m_max = 1
-    for c in range(n_ch):
-        m_max = max(m_max, layout[c, screening.ROW1] - layout[c, screening.ROW0])
-    y_stack = np.zeros(z_stack.shape[0])
-    s_stack = np.zeros((n_ch, m_max, m_max))
-    nis = np.zeros(n_ch)
-    s_inv = np.zeros((0, 0))
-    k_gain = np.zeros((x.shape[0], 0))
-    last = -1
-    for c in range(n_ch):
-        if counts[c] <= 0:
-            continue
-        i0, i1 = layout[c, screening.ROW0], layout[c, screening.ROW1]
-        m = i1 - i0
-        # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
-        r_mat = np.zeros((m, m))
-        for i in range(m):
-            r_mat[i, i] = screening.noise_var(noise, c, counts[c])
-        x, p_mat, y, s_mat, s_inv, k_gain, nis[c] = channel_update(
-            x, p_mat, z_stack[i0:i1].copy(), np.ascontiguousarray(sel_stack[i0:i1]),
-            deltas[c], u, p, on_ground, r_mat, layout[c, screening.WRAP_YAW] != 0,
-            layout[c, screening.PICKS] != 0)
-        y_stack[i0:i1] = y
-        s_stack[c, :m, :m] = s_mat
-        last = c
-    return x, p_mat, y_stack, s_stack, nis, s_inv, k_gain, last
+    # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
+    discrete_transition_into(x, f_mat, q_mat, x, u, dt, p, on_ground, qc_diag, scratch)
+    x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    fp, fp_t = scratch[0], scratch[1]
+    # F P
+    mul_sparse_left(fp, f_mat, p_mat)
+    # (F P)' = P F'
+    transpose_into(fp_t, fp)
+    # P = F (P F') + Q, made symmetric
+    mul_sparse_left(p_mat, f_mat, fp_t)
+    for i in range(N):
+        for j in range(N):
+            p_mat[i, j] += q_mat[i, j]
+    symmetrize(p_mat)
 
 
 # ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
@@ -231,14 +158,27 @@ _COUNTS = _NIS + MAX_CHANNELS  # samples applied (0: not updated)
 _S_INV = _COUNTS + MAX_CHANNELS  # the last update's S^-1 (m x m, row-major, stride MAX_ROWS)
 _K = _S_INV + MAX_ROWS * MAX_ROWS  # and K (N x m, stride MAX_ROWS)
 WORK_SIZE = _K + N * MAX_ROWS
+# scratch of ekf_tick (no state: only within a tick)
+_SC_TRANSITION = 0  # discrete_transition_into's (8 x N x N)
+_SC_UPDATE = _SC_TRANSITION + 8 * NN  # kalman_update_into's
+_SC_JAC = _SC_UPDATE + UPDATE_SCRATCH  # A at the update's x (N x N)
+_SC_XD = _SC_JAC + NN  # f at the update's x (N)
+_SC_H = _SC_XD + N  # H (MAX_ROWS x N)
+_SC_HX = _SC_H + MAX_ROWS * N  # h(x), then y (MAX_ROWS each)
+_SC_Y = _SC_HX + MAX_ROWS
+_SC_R = _SC_Y + MAX_ROWS  # R (MAX_ROWS x MAX_ROWS)
+_SC_S = _SC_R + MAX_ROWS * MAX_ROWS  # S, S^-1 (MAX_ROWS x MAX_ROWS each)
+_SC_S_INV = _SC_S + MAX_ROWS * MAX_ROWS
+_SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K (N x MAX_ROWS)
+SCRATCH_SIZE = _SC_K + N * MAX_ROWS
 
 
 @njit(cache=True, error_model="numpy")
-def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArray, dt: float,
-             dt_max: float, p: FloatArray, qc_diag: FloatArray, ground: FloatArray,
-             meas: FloatArray, time_s: float, excluded: np.ndarray, reject: bool,
-             sel_stack: FloatArray, layout: np.ndarray, noise: FloatArray
-             ) -> tuple[FloatArray, FloatArray, bool, bool, int]:
+def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, on_ground: bool,
+             u: FloatArray, dt: float, dt_max: float, p: FloatArray, qc_diag: FloatArray,
+             ground: FloatArray, meas: FloatArray, time_s: float, excluded: np.ndarray,
+             reject: bool, sel_stack: FloatArray, layout: np.ndarray, noise: FloatArray
+             ) -> tuple[FloatArray, FloatArray, bool, int]:
     """One tick of the estimator in one compiled call: predict, screen, update.
 
     Parameters
@@ -252,6 +192,8 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
     s_stack : ndarray, shape (MAX_CHANNELS, MAX_ROWS, MAX_ROWS)
         Written with the updates: each channel's innovation covariance ``S`` (top-left
         block).
+    scratch : ndarray, shape (SCRATCH_SIZE,)
+        Room for the tick's intermediate results (nothing kept from tick to tick).
     on_ground : bool
         Whether the previous prediction held the vehicle on the ground (kept when there is
         nothing to predict).
@@ -273,66 +215,122 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, on_ground: bool, u: FloatArr
 
     Returns
     -------
-    estimate, screen, on_ground, predicted, last
+    estimate, screen, on_ground, last
         The posterior state and its covariance diagonal, shape (32,) (fresh: the estimate's
-        own); the screening (:func:`~fcu.estimation.screening.screen_channels`); the
-        ground flag used; whether there was a prediction; the last channel updated (-1:
-        none).
+        own; yaw wrapped to [-pi, pi)); the screening
+        (:func:`~fcu.estimation.screening.screen_channels`); the ground flag used; the last
+        channel updated (-1: none).
     """
-    x = work[_X:_X + N].copy()
-    p_mat = work[_P:_P + NN].reshape(N, N).copy()
-    predicted = dt > 1e-9
-    if predicted:
+    x = work[_X:_X + N]
+    p_mat = work[_P:_P + NN].reshape(N, N)
+    if dt > 1e-9:
         # a longer gap than dt_max: several equal RK4 steps
         n_sub = max(1, math.ceil(dt / dt_max - 1e-6))
         on_ground = screening.on_ground_at(x, ground)
+        f_mat = work[_F:_F + NN].reshape(N, N)
+        q_mat = work[_Q:_Q + NN].reshape(N, N)
+        sc_tr = scratch[_SC_TRANSITION:_SC_TRANSITION + 8 * NN].reshape(8, N, N)
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
-            x, f_mat, q_mat, p_mat = predict_covariance(x, p_mat, u, dt / n_sub, p, on_ground,
-                                                        qc_diag)
-            work[_F:_F + NN] = f_mat.ravel()
-            work[_Q:_Q + NN] = q_mat.ravel()
-    work[_X_PRIOR:_X_PRIOR + N] = x
-    work[_P_PRIOR:_P_PRIOR + NN] = p_mat.ravel()
+            predict_covariance_into(x, p_mat, u, dt / n_sub, p, on_ground, qc_diag, f_mat,
+                                    q_mat, sc_tr)
+    for i in range(N + NN):  # the prior: x, P
+        work[_X_PRIOR + i] = work[_X + i]
     # screened against the prior; on the ground the accelerometer is skipped
-    screen, status = screening.screen_channels(x, p_mat, meas, sel_stack, layout, noise, excluded,
-                                     on_ground, reject)
+    screen, status = screening.screen_channels(x, p_mat, meas, sel_stack, layout, noise,
+                                               excluded, on_ground, reject)
     n_ch = layout.shape[0]
-    counts = np.zeros(n_ch, dtype=np.int64)
-    deltas = np.zeros(n_ch)
-    z_stack = np.zeros(sel_stack.shape[0])
+    n_rows = sel_stack.shape[0]
+    last = -1
     for c in range(n_ch):
         if status[c] == screening.APPLIED:
-            counts[c] = int(meas[c, screening.COUNT])
-            # s, how long before the tick the batch was taken
-            deltas[c] = time_s - meas[c, screening.TIME]
-            i0, i1 = layout[c, screening.ROW0], layout[c, screening.ROW1]
-            z_stack[i0:i1] = meas[c, screening.VALUE:screening.VALUE + i1 - i0]
+            last = c
+    if last >= 0:  # this tick's updates replace the latest tick's that had some
+        for i in range(n_rows):
+            work[_Y + i] = 0.0
+            work[_Z + i] = 0.0
+        for c in range(n_ch):
+            work[_NIS + c] = 0.0
+            work[_COUNTS + c] = 0.0
+        s_stack[:, :, :] = 0.0
+    sc_update = scratch[_SC_UPDATE:_SC_UPDATE + UPDATE_SCRATCH]
+    jac = scratch[_SC_JAC:_SC_JAC + NN].reshape(N, N)
+    xd = scratch[_SC_XD:_SC_XD + N]
     # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
     # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
-    x, p_mat, y_stack, s_all, nis, s_inv, k_gain, last = sequential_updates(
-        x, p_mat, u, p, on_ground, sel_stack, layout, noise, counts, deltas, z_stack)
-    work[_X:_X + N] = x
-    work[_P:_P + NN] = p_mat.ravel()
-    if last >= 0:  # the updates (a tick without any keeps the latest tick's that had some)
-        n_rows = sel_stack.shape[0]
-        work[_Y:_Y + n_rows] = y_stack
-        work[_Z:_Z + n_rows] = z_stack
-        work[_NIS:_NIS + n_ch] = nis
-        work[_COUNTS:_COUNTS + n_ch] = counts
-        m = s_inv.shape[0]
-        for i in range(m):
-            for j in range(m):
-                work[_S_INV + MAX_ROWS * i + j] = s_inv[i, j]
-        for i in range(N):
-            for j in range(m):
-                work[_K + MAX_ROWS * i + j] = k_gain[i, j]
-        s_stack[:] = 0.0
-        s_stack[:n_ch, :s_all.shape[1], :s_all.shape[2]] = s_all
+    for c in range(n_ch):
+        if status[c] != screening.APPLIED:
+            continue
+        i0, i1 = layout[c, screening.ROW0], layout[c, screening.ROW1]
+        m = i1 - i0
+        count = meas[c, screening.COUNT]
+        # s, how long before the tick the batch was taken
+        delta = time_s - meas[c, screening.TIME]
+        sel = sel_stack[i0:i1]
+        h_mat = scratch[_SC_H:_SC_H + m * N].reshape(m, N)
+        hx = scratch[_SC_HX:_SC_HX + m]
+        y = scratch[_SC_Y:_SC_Y + m]
+        r_mat = scratch[_SC_R:_SC_R + m * m].reshape(m, m)
+        s_mat = scratch[_SC_S:_SC_S + m * m].reshape(m, m)
+        s_inv = scratch[_SC_S_INV:_SC_S_INV + m * m].reshape(m, m)
+        k_gain = scratch[_SC_K:_SC_K + N * m].reshape(N, m)
+        mapped = abs(delta) >= 1e-9
+        if mapped:
+            model_jacobian_into(jac, x, p, on_ground)
+            model_derivative_into(xd, x, u, p, on_ground)
+        for r in range(m):
+            # H = S (I - delta A(x)) (S when delta = 0);  h(x) = S (x - delta f(x, u))
+            acc = 0.0
+            for j in range(N):
+                h_mat[r, j] = sel[r, j]
+            for k in range(N):
+                s_rk = sel[r, k]
+                if s_rk == 0.0:
+                    continue
+                if mapped:
+                    acc += s_rk * (x[k] - delta * xd[k])
+                    for j in range(N):
+                        h_mat[r, j] -= delta * (s_rk * jac[k, j])
+                else:
+                    acc += s_rk * x[k]
+            hx[r] = acc
+            # y = z - h(x)
+            y[r] = meas[c, screening.VALUE + r] - acc
+            # R = sigma^2 / n for the mean of n samples (+ model error, not reduced)
+            for q in range(m):
+                r_mat[r, q] = 0.0
+            r_mat[r, r] = screening.noise_var(noise, c, count)
+        if layout[c, screening.WRAP_YAW] != 0:  # attitude: yaw difference wrapped
+            y[2] = (y[2] + math.pi) % (2.0 * math.pi) - math.pi
+        # K = P H' (H P H' + R)^-1;  x = x + K y;  P = (I-KH) P (I-KH)' + K R K'
+        kalman_update_into(x, p_mat, y, h_mat, r_mat, s_mat, s_inv, k_gain, sc_update)
+        x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+        # NIS = y' S^-1 y
+        nis = 0.0
+        for r in range(m):
+            for q in range(m):
+                nis += y[r] * s_inv[r, q] * y[q]
+        work[_NIS + c] = nis
+        work[_COUNTS + c] = count
+        for r in range(m):
+            work[_Y + i0 + r] = y[r]
+            work[_Z + i0 + r] = meas[c, screening.VALUE + r]
+            for q in range(m):
+                s_stack[c, r, q] = s_mat[r, q]
+        if c == last:  # the last update's S^-1 and K
+            for r in range(m):
+                for q in range(m):
+                    work[_S_INV + MAX_ROWS * r + q] = s_inv[r, q]
+            for i in range(N):
+                for r in range(m):
+                    work[_K + MAX_ROWS * i + r] = k_gain[i, r]
     estimate = np.empty(2 * N)
-    estimate[:N] = x
-    estimate[N:] = np.diag(p_mat)
-    return estimate, screen, on_ground, predicted, last
+    for i in range(N):
+        estimate[i] = x[i]
+        estimate[N + i] = p_mat[i, i]
+    # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
+    estimate[YAW_INDEX] = (estimate[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    return estimate, screen, on_ground, last
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -438,6 +436,7 @@ class ExtendedKalmanEstimator(TickEstimator):
         # x, P, priors, F, Q and the latest updates, as ekf_tick keeps them
         self._work = np.zeros(WORK_SIZE)
         self._s_stack = np.zeros((MAX_CHANNELS, MAX_ROWS, MAX_ROWS))
+        self._scratch = np.zeros(SCRATCH_SIZE)
         w = self._work
         w[_X:_X + N] = w[_X_PRIOR:_X_PRIOR + N] = x0
         w[_P:_P + NN] = w[_P_PRIOR:_P_PRIOR + NN] = np.diag(p0).ravel()
@@ -451,16 +450,18 @@ class ExtendedKalmanEstimator(TickEstimator):
                                                    p0.astype(float))
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+              excluded: np.ndarray, reject: bool) -> FloatArray:
         """Predict to ``time_s`` (s), screen the tick's measurements and update with those
-        that pass, in one compiled call (:func:`ekf_tick`)."""
+        that pass, in one compiled call (:func:`ekf_tick`); returns the estimate, shape (32,)
+        (:meth:`TickEstimator._tick`)."""
         dt = time_s - self._time_s
         if dt < -1e-9:
             raise ValueError(f"time_s = {time_s!r}: earlier than the previous tick "
                              f"({self._time_s!r})")
         cs = channel_set
-        estimate, screen, self._on_ground, _, last = ekf_tick(
-            self._work, self._s_stack, self._on_ground, u, dt, self.dt_s, self._params,
+        estimate, screen, self._on_ground, last = ekf_tick(
+            self._work, self._s_stack, self._scratch, self._on_ground, u, dt, self.dt_s,
+            self._params,
             self._qc_diag, self._ground, meas, time_s, excluded, reject, cs.sel_stack,
             cs.layout, cs.noise)
         self._keep_screening(cs, screen)
@@ -469,7 +470,7 @@ class ExtendedKalmanEstimator(TickEstimator):
         self._innovations = None if last >= 0 else {}
         if last >= 0:
             self._updated = (cs, last, time_s)
-        return estimate[:N], estimate[N:]
+        return estimate
 
     def _update_parts(self, cs: ChannelSet, c: int) -> tuple[FloatArray, ...]:
         """(y, S, S^-1, K, z) of channel ``c``'s update at the latest tick (copies)."""

@@ -61,8 +61,12 @@ import math
 import numpy as np
 from numba import njit
 
+from fcu.estimation.small_matrix import mul_sparse_left, symmetrize
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # discrete_transition compiles in the kernels of small_matrix
 
 # ---- packed parameter vector of the numba kernels ------------------------------------------
 _P_K, _P_W, _P_L, _P_KPSI, _P_M, _P_G, _P_IXX, _P_IYY, _P_IZZ = range(9)
@@ -84,7 +88,18 @@ def pack_params(model: VehicleModel) -> FloatArray:
 @njit(cache=True, error_model="numpy")
 def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
                      on_ground: bool) -> FloatArray:
-    """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring).
+    """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring), shape
+    (16,): :func:`model_derivative_into` into a fresh array."""
+    xd = np.empty(16)
+    model_derivative_into(xd, x, u, p, on_ground)
+    return xd
+
+
+@njit(cache=True, error_model="numpy")
+def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: FloatArray,
+                          on_ground: bool) -> None:
+    """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring), written
+    into ``xd``.
 
     Parameters
     ----------
@@ -97,10 +112,8 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
     on_ground : bool
         The ground holds the vehicle: no translational or angular acceleration.
 
-    Returns
-    -------
-    ndarray, shape (16,)
-        State derivative, SI units per second.
+    xd : ndarray, shape (16,)
+        Written: the state derivative, SI units per second.
     """
     k, w, arm, kpsi, m, g = p[0], p[1], p[2], p[3], p[4], p[5]
     ixx, iyy, izz = p[6], p[7], p[8]
@@ -110,7 +123,6 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
     sphi, cphi = math.sin(phi), math.cos(phi)
     sth, cth = math.sin(th), math.cos(th)
     spsi, cpsi = math.sin(psi), math.cos(psi)
-    xd = np.zeros(16)
     # dp/dt = v
     xd[0] = x[3]
     xd[1] = x[4]
@@ -121,6 +133,8 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
         xd[3] = a * (cpsi * sth * cphi + spsi * sphi)
         xd[4] = a * (spsi * sth * cphi - cpsi * sphi)
         xd[5] = g + a * cth * cphi
+    else:
+        xd[3] = xd[4] = xd[5] = 0.0
     # deta/dt = W(phi, theta) omega
     xd[6] = pr + (qr * sphi + rr * cphi) * sth / cth
     xd[7] = qr * cphi - rr * sphi
@@ -130,17 +144,30 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
         xd[9] = ((iyy - izz) * qr * rr + arm * (t3 - t4)) / ixx
         xd[10] = ((izz - ixx) * pr * rr + arm * (t1 - t2)) / iyy
         xd[11] = ((ixx - iyy) * pr * qr + kpsi * (t1 + t2 - t3 - t4)) / izz
+    else:
+        xd[9] = xd[10] = xd[11] = 0.0
     # dT/dt = w (K u - T)
     for i in range(4):
         xd[12 + i] = w * (k * u[i] - x[12 + i])
-    return xd
 
 
 @njit(cache=True, error_model="numpy")
 def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
-    """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, shape (16, 16).
+    """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, shape (16, 16)
+    (:func:`model_jacobian_into` into a fresh array)."""
+    a = np.empty((16, 16))
+    model_jacobian_into(a, x, p, on_ground)
+    return a
 
-    (``df/du`` is not needed: the input is known.)
+
+@njit(cache=True, error_model="numpy")
+def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: bool) -> None:
+    """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, written into ``a``
+    (16, 16). (``df/du`` is not needed: the input is known.)
+
+    Its pattern: ``A`` is block upper triangular in the state order (positions follow the
+    velocities, velocities the attitude and thrusts, attitude the rates, rates the thrusts,
+    thrusts their commands), about 50 of its 256 entries non-zero.
     """
     w, arm, kpsi, m = p[1], p[2], p[3], p[4]
     ixx, iyy, izz = p[6], p[7], p[8]
@@ -150,7 +177,7 @@ def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
     sphi, cphi = math.sin(phi), math.cos(phi)
     sth, cth = math.sin(th), math.cos(th)
     spsi, cpsi = math.sin(psi), math.cos(psi)
-    a = np.zeros((16, 16))
+    a[:, :] = 0.0
     # d(dp/dt)/dv = I
     a[0, 3] = 1.0
     a[1, 4] = 1.0
@@ -208,18 +235,45 @@ def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
     # d(dT/dt)/dT = -w I
     for i in range(4):
         a[12 + i, 12 + i] = -w
-    return a
 
 
 @njit(cache=True, error_model="numpy")
 def rk4_step(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
              on_ground: bool) -> FloatArray:
-    """One RK4 step of :func:`model_derivative` over ``dt`` s with ``u`` held; shape (16,)."""
-    k1 = model_derivative(x, u, p, on_ground)
-    k2 = model_derivative(x + 0.5 * dt * k1, u, p, on_ground)
-    k3 = model_derivative(x + 0.5 * dt * k2, u, p, on_ground)
-    k4 = model_derivative(x + dt * k3, u, p, on_ground)
-    return x + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    """One RK4 step of :func:`model_derivative` over ``dt`` s with ``u`` held; shape (16,)
+    (:func:`rk4_step_into` into a fresh array)."""
+    x_next = np.empty(16)
+    rk4_step_into(x_next, x, u, dt, p, on_ground, np.empty((5, 16)))
+    return x_next
+
+
+@njit(cache=True, error_model="numpy")
+def rk4_step_into(x_next: FloatArray, x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
+                  on_ground: bool, stages: FloatArray) -> None:
+    """One RK4 step of :func:`model_derivative` over ``dt`` s with ``u`` held, written into
+    ``x_next`` (16,) (``stages``: scratch, (5, 16); ``x_next`` may be ``x``)."""
+    k1, k2, k3, k4, xs = stages[0], stages[1], stages[2], stages[3], stages[4]
+    n = x.shape[0]
+    half = 0.5 * dt
+    # k1 = f(x);  k2 = f(x + dt/2 k1);  k3 = f(x + dt/2 k2);  k4 = f(x + dt k3)
+    model_derivative_into(k1, x, u, p, on_ground)
+    for i in range(n):
+        xs[i] = x[i] + half * k1[i]
+    model_derivative_into(k2, xs, u, p, on_ground)
+    for i in range(n):
+        xs[i] = x[i] + half * k2[i]
+    model_derivative_into(k3, xs, u, p, on_ground)
+    for i in range(n):
+        xs[i] = x[i] + dt * k3[i]
+    model_derivative_into(k4, xs, u, p, on_ground)
+    # x_next = x + dt/6 (k1 + 2 k2 + 2 k3 + k4)
+    sixth = dt / 6.0
+    for i in range(n):
+        x_next[i] = x[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+
+
+TRANSITION_SCRATCH = (8, 16, 16)
+"""Shape of the scratch :func:`discrete_transition_into` works in."""
 
 
 @njit(cache=True, error_model="numpy")
@@ -253,17 +307,38 @@ def discrete_transition(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
         ``Q = dt sum_j w_j Phi(c_j dt) Qc Phi(c_j dt)'`` (3-point Gauss-Legendre on [0, 1]),
         ``Phi(s) = sum_{n<=4} (A s)^n / n!``.
     """
+    x_next = np.empty(16)
+    f_mat = np.empty((16, 16))
+    q_mat = np.empty((16, 16))
+    discrete_transition_into(x_next, f_mat, q_mat, x, u, dt, p, on_ground, qc_diag,
+                             np.empty(TRANSITION_SCRATCH))
+    return x_next, f_mat, q_mat
+
+
+@njit(cache=True, error_model="numpy")
+def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: FloatArray,
+                             x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
+                             on_ground: bool, qc_diag: FloatArray, scratch: FloatArray) -> None:
+    """:func:`discrete_transition` written into ``x_next`` (16,), ``f_mat`` and ``q_mat``
+    (16, 16), with ``scratch`` of shape :data:`TRANSITION_SCRATCH` (``x_next`` may be ``x``).
+
+    The powers of ``A dt`` are products by the sparse ``A dt`` (zeros skipped); ``Phi`` is
+    block upper triangular like ``A``, and its zeros are skipped in ``Phi Qc Phi'``.
+    """
     n = 16
-    x_next = rk4_step(x, u, dt, p, on_ground)
-    ad = model_jacobian(x, p, on_ground)
-    ad *= dt  # A dt
-    ad2 = ad @ ad
-    ad3 = ad2 @ ad
-    ad4 = ad3 @ ad
-    # (the element-wise sums below are written as loops: the same operations in the same
-    # order as the matrix expressions in the comments, without their temporaries)
+    ad, ad2, ad3, ad4 = scratch[0], scratch[1], scratch[2], scratch[3]
+    phi, phi_t = scratch[4], scratch[5]
+    # A at x_{k|k}, before x_next (which may be x) is written
+    model_jacobian_into(ad, x, p, on_ground)
+    rk4_step_into(x_next, x, u, dt, p, on_ground, scratch[6, :5])
+    for i in range(n):
+        for j in range(n):
+            ad[i, j] *= dt  # A dt
+    # (A dt)^2 = (A dt) (A dt);  (A dt)^3 = (A dt)^2 (A dt);  (A dt)^4 = (A dt)^3 (A dt)
+    mul_sparse_left(ad2, ad, ad)
+    mul_sparse_left(ad3, ad2, ad)
+    mul_sparse_left(ad4, ad3, ad)
     # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24
-    f_mat = np.empty((n, n))
     for i in range(n):
         for j in range(n):
             eye_ij = 1.0 if i == j else 0.0
@@ -271,9 +346,9 @@ def discrete_transition(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
                            + ad4[i, j] / 24.0)
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
-    q_mat = np.zeros((n, n))
-    phi = np.empty((n, n))
-    phi_qc = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            q_mat[i, j] = 0.0
     r = math.sqrt(0.6) / 2.0
     for c, weight in ((0.5 - r, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + r, 5.0 / 18.0)):
         c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
@@ -284,20 +359,31 @@ def discrete_transition(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
                 phi_ij = (eye_ij + ad[i, j] * c + ad2[i, j] * c2 + ad3[i, j] * c3
                           + ad4[i, j] * c4)
                 phi[i, j] = phi_ij
-                phi_qc[i, j] = phi_ij * qc_diag[j]  # Phi Qc (Qc diagonal)
-        # Q += w Phi Qc Phi'
-        term = phi_qc @ phi.T
+                phi_t[j, i] = phi_ij
+        # Q += w Phi Qc Phi':  Q[i, :] += (w Phi[i, k] Qc[k]) Phi'[k, :]  (Qc diagonal)
         for i in range(n):
-            for j in range(n):
-                q_mat[i, j] += weight * term[i, j]
-    q_mat *= dt
-    return x_next, f_mat, q_mat
+            for k in range(n):
+                phi_ik = phi[i, k]
+                if phi_ik != 0.0:
+                    coef = weight * phi_ik * qc_diag[k]
+                    for j in range(n):
+                        q_mat[i, j] += coef * phi_t[k, j]
+    # Q *= dt, made exactly symmetric
+    for i in range(n):
+        for j in range(n):
+            q_mat[i, j] *= dt
+    symmetrize(q_mat)
 
 
 __all__ = [
+    "TRANSITION_SCRATCH",
     "discrete_transition",
+    "discrete_transition_into",
     "model_derivative",
+    "model_derivative_into",
     "model_jacobian",
+    "model_jacobian_into",
     "pack_params",
     "rk4_step",
+    "rk4_step_into",
 ]

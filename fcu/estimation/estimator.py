@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Iterable, Mapping
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -67,20 +67,21 @@ from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
 from flightdata.vocabulary import HEIGHT_SOURCES
 
+_FLOAT64 = np.dtype(np.float64)
+
 GATE_PROBABILITY = 1e-9
 """Probability that a consistent measurement exceeds its NIS gate (about 6 sigma)."""
 
-@dataclass(frozen=True, slots=True)
-class ChannelCheck:
+class ChannelCheck(NamedTuple):
     """One sensor's measurement at one tick, screened against the prior (module docstring).
+
+    Built every tick for every sensor that delivered a batch, so it is a light immutable
+    record: the residual and its variance are views of the tick's screening table
+    (:func:`~fcu.estimation.screening.screen_channels`), taken when read.
 
     Attributes
     ----------
     sensor : str
-    residual : ndarray, shape (m,)
-        ``nu = z - S x_prior`` (yaw wrapped), sensor units.
-    variance : ndarray, shape (m,)
-        ``diag(S P_prior S' + R)``, sensor units squared.
     nis : float
         ``nu' (S P_prior S' + R)^-1 nu``.
     gate : float
@@ -88,14 +89,34 @@ class ChannelCheck:
     status : {"applied", "rejected", "excluded", "skipped"}
         Used in the update; a lone outlier this tick; excluded by the health monitor; not
         usable now (the accelerometer on the ground).
+    screen : ndarray
+        The tick's screening table (its layout in :func:`screen_channels`).
+    row0, row1, n_rows : int
+        The sensor's rows in it, and the rows of all channels.
+    residual : ndarray, shape (m,)
+        ``nu = z - S x_prior`` (yaw wrapped), sensor units.
+    variance : ndarray, shape (m,)
+        ``diag(S P_prior S' + R)``, sensor units squared.
     """
 
     sensor: str
-    residual: FloatArray
-    variance: FloatArray
     nis: float
     gate: float
     status: ChannelStatus
+    screen: FloatArray
+    row0: int
+    row1: int
+    n_rows: int
+
+    @property
+    def residual(self) -> FloatArray:
+        """``nu = z - S x_prior`` (yaw wrapped), shape (m,), sensor units (a view)."""
+        return self.screen[self.row0:self.row1]
+
+    @property
+    def variance(self) -> FloatArray:
+        """``diag(S P_prior S' + R)``, shape (m,), sensor units squared (a view)."""
+        return self.screen[self.n_rows + self.row0:self.n_rows + self.row1]
 
     @property
     def outlier(self) -> bool:
@@ -227,6 +248,10 @@ class ChannelSet:
                                dtype=np.int64)
         self.noise = np.array([(c.sample_var, c.model_var, c.gate) for c in channels])
         self.rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self.layout[:, :2]]
+        self.n_rows = int(self.sel_stack.shape[0])
+        # what a ChannelCheck takes of each channel: sensor, NIS gate, rows
+        self.checks = [(c.sensor, c.gate, i0, i1)
+                       for c, (i0, i1) in zip(channels, self.rows_list, strict=True)]
         # what _measurements reads of each sensor's batch value, and the padding after it
         self._reads = [(c.sensor, c.value_slice, [0.0] * (MEAS_WIDTH - VALUE - c.rows))
                        for c in channels]
@@ -376,14 +401,13 @@ class TickEstimator:
             checks: dict[str, ChannelCheck] = {}
             if self._screen_out is not None:
                 cs, screen = self._screen_out
-                n_rows, n_ch = cs.sel_stack.shape[0], len(cs.channels)
+                n_rows, n_ch = cs.n_rows, len(cs.channels)
                 tail = screen[2 * n_rows:].tolist()  # NIS, then status codes
-                for c, (ch, (i0, i1)) in enumerate(zip(cs.channels, cs.rows_list, strict=True)):
+                for c, (sensor, gate, i0, i1) in enumerate(cs.checks):
                     code = int(tail[n_ch + c])
                     if code != ABSENT:
-                        checks[ch.sensor] = ChannelCheck(
-                            ch.sensor, screen[i0:i1], screen[n_rows + i0:n_rows + i1],
-                            tail[c], ch.gate, STATUS_NAMES[code])
+                        checks[sensor] = ChannelCheck(sensor, tail[c], gate, STATUS_NAMES[code],
+                                                      screen, i0, i1, n_rows)
             self._screening = checks
         return self._screening
 
@@ -435,21 +459,23 @@ class TickEstimator:
         are ignored), so that several estimators can share one grouping."""
         time_s = float(time_s)
         cs = self._set
-        x_est, p_diag = self._tick(time_s, np.asarray(pwm_applied, dtype=float).reshape(4), cs,
-                                   cs.measurements(batches), cs.exclusion(excluded),
-                                   bool(reject))
+        u = pwm_applied
+        if type(u) is not np.ndarray or u.dtype is not _FLOAT64 or u.shape != (4,):
+            u = np.asarray(pwm_applied, dtype=float).reshape(4)
+        estimate = self._tick(time_s, u, cs, cs.measurements(batches),
+                              cs.exclusion(excluded), bool(reject))
         self._time_s = time_s
-        self._estimate = StateEstimate._from_owned(time_s, x_est, p_diag)
-        return self._estimate
+        self._estimate = est = StateEstimate._from_tick(time_s, estimate)
+        return est
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+              excluded: np.ndarray, reject: bool) -> FloatArray:
         """The filter's tick from its latest (at :attr:`time_s`) to ``time_s`` (s), with the
         PWM ``u`` (4,) held, the channels of the current height source, the tick's
         measurement table (:meth:`ChannelSet.measurements`), the channels excluded (bool per
         channel) and whether a lone outlier may be rejected; keeps the screening
-        (:meth:`_keep_screening`) and returns the estimate's state and covariance diagonal
-        (fresh arrays, shape (16,))."""
+        (:meth:`_keep_screening`) and returns the estimate's state (yaw wrapped to
+        [-pi, pi)) and covariance diagonal, one fresh array of shape (32,)."""
         raise NotImplementedError
 
     @property

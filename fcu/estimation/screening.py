@@ -10,7 +10,11 @@ import math
 import numpy as np
 from numba import njit
 
+from fcu.estimation.small_matrix import mul_sparse_left, spd_quadratic
 from fcu.estimation.state import Z_INDEX, FloatArray
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # screen_channel compiles in the kernels of small_matrix
 
 ChannelStatus = str  # "applied" | "rejected" | "excluded" | "skipped"
 
@@ -32,24 +36,61 @@ def select(sel: FloatArray, a: FloatArray, picks: bool) -> FloatArray:
 
 @njit(cache=True, error_model="numpy")
 def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatArray,
-                   r_var: float, wrap_yaw: bool, picks: bool = False
-                   ) -> tuple[FloatArray, FloatArray, float]:
+                   r_var: float, wrap_yaw: bool) -> tuple[FloatArray, FloatArray, float]:
     """One channel's screening against the prior (module docstring), compiled.
 
     Returns ``nu = z - S x`` (third entry wrapped to [-pi, pi) when ``wrap_yaw``), the
     diagonal of ``S P S' + R`` (``R = r_var I``) and ``NIS = nu' (S P S' + R)^-1 nu``
-    (``picks``: as for :func:`select`).
+    (:func:`screen_channel_into` into fresh arrays).
     """
-    nu = z - select(sel, x, picks)
+    m = sel.shape[0]
+    nu = np.empty(m)
+    var = np.empty(m)
+    nis = screen_channel_into(nu, var, sel, z, x, p_mat, r_var, wrap_yaw,
+                              np.empty(SCREEN_SCRATCH))
+    return nu, var, nis
+
+
+SCREEN_SCRATCH = 4 * 16 * 16 + 16
+"""Size of the scratch :func:`screen_channel_into` works in (channels of up to 16 rows)."""
+
+
+@njit(cache=True, error_model="numpy")
+def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: FloatArray,
+                        x: FloatArray, p_mat: FloatArray, r_var: float, wrap_yaw: bool,
+                        scratch: FloatArray) -> float:
+    """:func:`screen_channel` written into ``nu`` and ``var`` (m,); returns the NIS
+    (``scratch``: at least :data:`SCREEN_SCRATCH` entries)."""
+    m, n = sel.shape
+    sp = scratch[:m * n].reshape(m, n)
+    s_mat = scratch[16 * 16:16 * 16 + m * m].reshape(m, m)
+    low = scratch[2 * 16 * 16:2 * 16 * 16 + m * m].reshape(m, m)
+    tmp = scratch[4 * 16 * 16:4 * 16 * 16 + m]
+    # nu = z - S x   (zero entries of S skipped)
+    for r in range(m):
+        acc = 0.0
+        for k in range(n):
+            s_rk = sel[r, k]
+            if s_rk != 0.0:
+                acc += s_rk * x[k]
+        nu[r] = z[r] - acc
     if wrap_yaw:
         nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
-    # S P S' (picks: S (S P)' = (S P) S', each entry a product by +-1)
-    s_mat = select(sel, select(sel, p_mat, picks).T.copy(), picks).T.copy() if picks else (
-        sel @ p_mat @ sel.T)
-    for i in range(s_mat.shape[0]):
-        s_mat[i, i] += r_var
-    nis = float(nu @ np.linalg.solve(s_mat, nu))
-    return nu, np.diag(s_mat).copy(), nis
+    # S P
+    mul_sparse_left(sp, sel, p_mat)
+    # S P S' + R
+    for r in range(m):
+        for q in range(m):
+            acc = 0.0
+            for k in range(n):
+                s_qk = sel[q, k]
+                if s_qk != 0.0:
+                    acc += sp[r, k] * s_qk
+            s_mat[r, q] = acc
+        s_mat[r, r] += r_var
+        var[r] = s_mat[r, r]
+    # NIS = nu' (S P S' + R)^-1 nu
+    return spd_quadratic(s_mat, m, nu, low, tmp)
 
 
 # ---- one tick's screening of every channel, compiled ----------------------------------------
@@ -121,10 +162,9 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
     screen = np.zeros(2 * n_rows + 2 * n_ch)
-    nu_stack = screen[:n_rows]
-    var_stack = screen[n_rows:2 * n_rows]
     nis = screen[2 * n_rows:2 * n_rows + n_ch]
     status = np.full(n_ch, ABSENT, dtype=np.int64)
+    scratch = np.empty(SCREEN_SCRATCH)
     n_outliers = 0
     outlier = -1
     for c in range(n_ch):
@@ -134,11 +174,10 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
         i0, i1 = layout[c, ROW0], layout[c, ROW1]
         r_var = noise_var(noise, c, count)
         # nu = z - S x;  diag(S P S' + R);  NIS = nu' (S P S' + R)^-1 nu
-        nu, var, nis[c] = screen_channel(
-            np.ascontiguousarray(sel_stack[i0:i1]), meas[c, VALUE:VALUE + i1 - i0].copy(),
-            x, p_mat, r_var, layout[c, WRAP_YAW] != 0, layout[c, PICKS] != 0)
-        nu_stack[i0:i1] = nu
-        var_stack[i0:i1] = var
+        nis[c] = screen_channel_into(
+            screen[i0:i1], screen[n_rows + i0:n_rows + i1], sel_stack[i0:i1],
+            meas[c, VALUE:VALUE + i1 - i0], x, p_mat, r_var, layout[c, WRAP_YAW] != 0,
+            scratch)
         if excluded[c]:
             status[c] = EXCLUDED
         elif on_ground and layout[c, IS_ACCEL] != 0:

@@ -169,6 +169,23 @@ class StateEstimate:
         return cls(float(time_s), x[POS], x[VEL], euler, x[RATE], x[THRUST], covariance_diag)
 
     @classmethod
+    def _from_tick(cls, time_s: float, estimate: FloatArray) -> StateEstimate:
+        """The estimate of a filter's tick kernel: ``estimate`` (float64, shape (32,), fresh,
+        held by no one else) holds the state, yaw already wrapped to [-pi, pi), then the
+        covariance diagonal; the fields are slices of it, set without the dataclass's
+        checks (the constructor of a frozen dataclass sets each field through
+        ``object.__setattr__``)."""
+        est = _NEW_OBJECT(cls)
+        _SET_TIME(est, time_s)
+        _SET_POS(est, estimate[0:3])
+        _SET_VEL(est, estimate[3:6])
+        _SET_EULER(est, estimate[6:9])
+        _SET_RATE(est, estimate[9:12])
+        _SET_THRUST(est, estimate[12:16])
+        _SET_COV(est, estimate[16:32])
+        return est
+
+    @classmethod
     def from_vector(cls, time_s: float, x: ArrayLikeFloat,
                     covariance_diag: ArrayLikeFloat) -> StateEstimate:
         """Build an estimate from a state vector ``x`` (16,) and a covariance diagonal (16,)."""
@@ -179,6 +196,14 @@ class StateEstimate:
         euler[2] = wrap_pi(float(euler[2]))
         return cls(time_s=float(time_s), pos_ned=xv[POS], vel_ned=xv[VEL], euler_rad=euler,
                    rate_frd=xv[RATE], thrust_n=xv[THRUST], covariance_diag=pv)
+
+
+# the slots of StateEstimate, set directly by StateEstimate._from_tick
+_NEW_OBJECT = object.__new__
+(_SET_TIME, _SET_POS, _SET_VEL, _SET_EULER, _SET_RATE, _SET_THRUST, _SET_COV) = (
+    getattr(StateEstimate, name).__set__
+    for name in ("time_s", "pos_ned", "vel_ned", "euler_rad", "rate_frd", "thrust_n",
+                 "covariance_diag"))
 
 
 @dataclass(frozen=True, slots=True)

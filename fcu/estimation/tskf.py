@@ -50,8 +50,15 @@ from fcu.estimation.estimator import (
     StateEstimate,
     TickEstimator,
 )
-from fcu.estimation.state import STATE_DIM, FloatArray
-from fcu.estimation.tskf_algebra import tskf_correct, tskf_output, tskf_predict
+from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
+from fcu.estimation.tskf_algebra import (
+    PREDICT_SCRATCH,
+    TSKF_UPDATE_SCRATCH,
+    tskf_output,
+    tskf_output_into,
+    tskf_predict_into,
+    tskf_update_into,
+)
 from fcu.estimation.tskf_model import (
     N_MOTORS,
     LinearHoverModel,
@@ -62,7 +69,8 @@ from fcu.floats import clip
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
 
-drop_stale_kernels(__file__)  # tskf_tick compiles in the kernels of tskf_algebra and screening
+# tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
+drop_stale_kernels(__file__)
 
 
 class _ChannelSet(ChannelSet):
@@ -98,28 +106,34 @@ _RES_COV = _RES + MAX_M  # S_bar (m x m)
 _INN = _RES_COV + MAX_M * MAX_M  # innovation r - H gamma (m)
 _INN_COV = _INN + MAX_M  # its covariance (m x m)
 WORK_SIZE = _INN_COV + MAX_M * MAX_M
+# scratch of tskf_tick (no state: only within a tick)
+_SC_PREDICT = 0  # tskf_predict_into's
+_SC_UPDATE = _SC_PREDICT + PREDICT_SCRATCH  # tskf_update_into's
+_SC_X_HAT = _SC_UPDATE + TSKF_UPDATE_SCRATCH  # x_hat and its covariance's diagonal (2 N)
+_SC_P_HAT = _SC_X_HAT + 2 * N  # its covariance (N x N)
+_SC_C = _SC_P_HAT + N * N  # C (MAX_M x N)
+_SC_Y = _SC_C + MAX_M * N  # y, then r (MAX_M)
+_SC_R_DIAG = _SC_Y + MAX_M  # diagonal of R (MAX_M)
+_SC_ROW_DELTA = _SC_R_DIAG + MAX_M  # delta of each row (MAX_M)
+SCRATCH_SIZE = _SC_ROW_DELTA + MAX_M
 
 
 @njit(cache=True, error_model="numpy")
-def _store(work: FloatArray, at: int, arr: FloatArray) -> None:
-    """Write ``arr`` (any shape, row-major) into ``work`` from ``at``."""
-    work[at:at + arr.size] = arr.ravel()
-
-
-@njit(cache=True, error_model="numpy")
-def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
-              on_ground: bool, accel_power: float, a_d: FloatArray, b_d: FloatArray,
-              g_d: FloatArray, q_d: FloatArray, q_gamma: float, ground: FloatArray,
-              dt_s: float, meas: FloatArray, time_s: float, excluded: np.ndarray,
-              reject: bool, sel_stack: FloatArray, sel_a: FloatArray, sel_b: FloatArray,
-              sel_g: FloatArray, mapped: np.ndarray, layout: np.ndarray, noise: FloatArray
-              ) -> tuple[FloatArray, FloatArray, FloatArray, bool, float, int]:
+def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray,
+              gamma: FloatArray, on_ground: bool, accel_power: float, a_d: FloatArray,
+              b_d: FloatArray, g_d: FloatArray, q_d: FloatArray, q_gamma: float,
+              ground: FloatArray, dt_s: float, meas: FloatArray, time_s: float,
+              excluded: np.ndarray, reject: bool, sel_stack: FloatArray, sel_a: FloatArray,
+              sel_b: FloatArray, sel_g: FloatArray, mapped: np.ndarray, layout: np.ndarray,
+              noise: FloatArray) -> tuple[FloatArray, FloatArray, bool, float, int]:
     """One tick of the TSKF in one compiled call (class and module docstrings).
 
-    ``n_steps`` time updates (:func:`tskf_predict`, each with the flight or ground model by
-    the ground test on ``x_hat``), the screening of the tick's measurements against the prior
-    (:func:`~fcu.estimation.screening.screen_channels`), the accelerometer's innovation power,
-    and one stacked measurement update of the channels applied (:func:`tskf_correct`).
+    ``n_steps`` time updates (:func:`~fcu.estimation.tskf_algebra.tskf_predict_into`, each
+    with the flight or ground model by the ground test on ``x_hat``), the screening of the
+    tick's measurements against the prior
+    (:func:`~fcu.estimation.screening.screen_channels`), the accelerometer's innovation
+    power, and one stacked measurement update of the channels applied
+    (:func:`~fcu.estimation.tskf_algebra.tskf_update_into`).
 
     Parameters
     ----------
@@ -132,8 +146,10 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
         ``x_bar``, ``P^x``, ``P^gamma``, ``V`` (eq. 6.14, 6.18, 6.19, 6.24); written are the
         new ones, the priors (eq. 6.11, 6.15, 6.16, 6.22), and the update's residual,
         ``S_bar``, innovation and its covariance (first ``m`` rows).
+    scratch : ndarray, shape (SCRATCH_SIZE,)
+        Room for the tick's intermediate results (nothing kept from tick to tick).
     gamma : ndarray, shape (4,)
-        ``gamma_hat`` of the previous tick (eq. 6.13).
+        ``gamma_hat`` (eq. 6.13), updated in place.
     on_ground : bool
         The previous time update's ground flag (kept when ``n_steps`` is 0).
     accel_power : float
@@ -154,32 +170,49 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
 
     Returns
     -------
-    estimate, screen, gamma, on_ground, accel_power, m
-        ``x_hat`` (eq. 6.25) and the diagonal of its covariance (eq. 6.26), shape (32,); the
-        screening; ``gamma_hat`` (fresh arrays); the ground flag; the innovation power; the
-        rows of the update (0: none).
+    estimate, screen, on_ground, accel_power, m
+        ``x_hat`` (eq. 6.25) and the diagonal of its covariance (eq. 6.26), shape (32,)
+        (fresh; yaw wrapped to [-pi, pi)); the screening; the ground flag; the innovation
+        power; the rows of the update (0: none).
     """
-    x_bar = work[_XB:_XB + N].copy()
-    p_x = work[_PX:_PX + N * N].reshape(N, N).copy()
-    p_gamma = work[_PG:_PG + G * G].reshape(G, G).copy()
-    v = work[_V:_V + N * G].reshape(N, G).copy()
+    x_bar = work[_XB:_XB + N]
+    p_x = work[_PX:_PX + N * N].reshape(N, N)
+    p_gamma = work[_PG:_PG + G * G].reshape(G, G)
+    v = work[_V:_V + N * G].reshape(N, G)
+    x_hat = scratch[_SC_X_HAT:_SC_X_HAT + N]
+    sc_predict = scratch[_SC_PREDICT:_SC_PREDICT + PREDICT_SCRATCH]
     for _ in range(n_steps):
         # x_hat = x_bar + V gamma_hat (eq. 6.25): the ground test picks the model
-        on_ground = screening.on_ground_at(x_bar + v @ gamma, ground)
+        for i in range(N):
+            acc = 0.0
+            for g in range(G):
+                acc += v[i, g] * gamma[g]
+            x_hat[i] = x_bar[i] + acc
+        on_ground = screening.on_ground_at(x_hat, ground)
         g = 1 if on_ground else 0
         # eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22; Q^gamma = 0 on the ground
-        x_bar, p_x, p_gamma, v = tskf_predict(a_d[g], b_d[g], g_d[g], q_d[g],
-                                              0.0 if on_ground else q_gamma, u, x_bar, p_x,
-                                              gamma, p_gamma, v)
-    _store(work, _PRIOR + _XB, x_bar)
-    _store(work, _PRIOR + _PX, p_x)
-    _store(work, _PRIOR + _PG, p_gamma)
-    _store(work, _PRIOR + _V, v)
+        tskf_predict_into(a_d[g], b_d[g], g_d[g], q_d[g], 0.0 if on_ground else q_gamma, u,
+                          x_bar, p_x, gamma, p_gamma, v, sc_predict)
+    for i in range(_PRIOR):  # the priors: x_bar, P^x, P^gamma, V
+        work[_PRIOR + i] = work[i]
     # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
     # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
-    screen, status = screening.screen_channels(
-        x_bar + v @ gamma, v @ p_gamma @ v.T + p_x, meas, sel_stack, layout, noise, excluded,
-        on_ground, reject)
+    out = scratch[_SC_X_HAT:_SC_X_HAT + 2 * N]  # x_hat, then the diagonal (overwritten)
+    tskf_output_into(out, x_bar, p_x, gamma, p_gamma, v)
+    p_hat = scratch[_SC_P_HAT:_SC_P_HAT + N * N].reshape(N, N)
+    for i in range(N):
+        for g in range(G):
+            acc = 0.0
+            for h in range(G):
+                acc += v[i, h] * p_gamma[h, g]
+            out[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
+        for j in range(N):
+            acc = p_x[i, j]
+            for g in range(G):
+                acc += out[N + g] * v[j, g]
+            p_hat[i, j] = acc
+    screen, status = screening.screen_channels(x_hat, p_hat, meas, sel_stack, layout, noise,
+                                               excluded, on_ground, reject)
     n_ch = layout.shape[0]
     m = 0
     for c in range(n_ch):
@@ -193,11 +226,9 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
                 accel_power += rate * (sq - accel_power)
     if m > 0:
         g = 1 if on_ground else 0
-        sel = np.empty((m, N))
-        sel_ac = np.empty((m, N))
-        row_delta = np.empty(m)
-        y = np.empty(m)
-        r_diag = np.empty(m)
+        c_mat = scratch[_SC_C:_SC_C + m * N].reshape(m, N)
+        y = scratch[_SC_Y:_SC_Y + m]
+        r_diag = scratch[_SC_R_DIAG:_SC_R_DIAG + m]
         yaw_row = -1
         k = 0
         for c in range(n_ch):
@@ -210,39 +241,43 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, gamma: FloatArray,
             r_var = screening.noise_var(noise, c, meas[c, screening.COUNT])
             if layout[c, screening.IS_ACCEL] != 0 and accel_power > r_var:
                 r_var = accel_power  # adaptive: the measured innovation power (class doc)
-            shift = np.zeros(i1 - i0)
-            if mapped[c]:
-                # y = S x(t - delta) = C x - delta S (B_c u + g_c): move the known part over
-                shift = delta * (np.ascontiguousarray(sel_b[g, i0:i1]) @ u + sel_g[g, i0:i1])
             for i in range(i1 - i0):
-                sel[k] = sel_stack[i0 + i]
-                sel_ac[k] = sel_a[g, i0 + i]
-                row_delta[k] = delta
+                for j in range(N):
+                    c_mat[k, j] = sel_stack[i0 + i, j] - delta * sel_a[g, i0 + i, j]
                 y[k] = meas[c, screening.VALUE + i]
                 if mapped[c]:
-                    y[k] += shift[i]
+                    # y = S x(t - delta) = C x - delta S (B_c u + g_c): move the known part over
+                    acc = 0.0
+                    for q in range(G):
+                        acc += sel_b[g, i0 + i, q] * u[q]
+                    y[k] += delta * (acc + sel_g[g, i0 + i])
                 r_diag[k] = r_var
                 if layout[c, screening.WRAP_YAW] != 0 and i == 2:
                     yaw_row = k
                 k += 1
-        # r = y - C x_bar (yaw wrapped); eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24 (tskf_update)
-        (x_bar, p_x, gamma, p_gamma, v, residual_cov, innovation, innovation_cov,
-         residual) = tskf_correct(sel, sel_ac, row_delta, y, r_diag, yaw_row, x_bar, p_x,
-                                  gamma, p_gamma, v)
-        _store(work, _RES, residual)
-        _store(work, _RES_COV, residual_cov)
-        _store(work, _INN, innovation)
-        _store(work, _INN_COV, innovation_cov)
-    _store(work, _XB, x_bar)
-    _store(work, _PX, p_x)
-    _store(work, _PG, p_gamma)
-    _store(work, _V, v)
+        # r_{k+1} = y_{k+1} - C_{k+1} x_bar_{k+1|k}   (yaw wrapped)
+        res = work[_RES:_RES + m]
+        for i in range(m):
+            acc = 0.0
+            for j in range(N):
+                c_ij = c_mat[i, j]
+                if c_ij != 0.0:
+                    acc += c_ij * x_bar[j]
+            res[i] = y[i] - acc
+        if yaw_row >= 0:
+            res[yaw_row] = (res[yaw_row] + math.pi) % (2.0 * math.pi) - math.pi
+        # eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24
+        tskf_update_into(c_mat, res, r_diag, x_bar, p_x, gamma, p_gamma, v,
+                         work[_RES_COV:_RES_COV + m * m].reshape(m, m), work[_INN:_INN + m],
+                         work[_INN_COV:_INN_COV + m * m].reshape(m, m),
+                         scratch[_SC_UPDATE:_SC_UPDATE + TSKF_UPDATE_SCRATCH])
+        x_bar[YAW_INDEX] = (x_bar[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
     # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
-    x_hat, p_diag = tskf_output(x_bar, p_x, gamma, p_gamma, v)
     estimate = np.empty(2 * N)
-    estimate[:N] = x_hat
-    estimate[N:] = p_diag
-    return estimate, screen, gamma.copy(), on_ground, accel_power, m
+    tskf_output_into(estimate, x_bar, p_x, gamma, p_gamma, v)
+    # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
+    estimate[YAW_INDEX] = (estimate[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    return estimate, screen, on_ground, accel_power, m
 
 
 def _workspace_array(at: int, shape: tuple[int | str, ...], doc: str) -> property:
@@ -393,6 +428,7 @@ class TwoStageKalmanFilter(TickEstimator):
         # coupling V_{k|k} (eq. 6.24), their priors and the update's residual and innovation,
         # as tskf_tick keeps them (read through the properties below)
         self._work = np.zeros(WORK_SIZE)
+        self._scratch = np.zeros(SCRATCH_SIZE)
         for at in (0, _PRIOR):
             self._work[at + _XB:at + _XB + N] = x0
             self._work[at + _PX:at + _PX + N * N] = np.diag(p0).ravel()
@@ -407,9 +443,10 @@ class TwoStageKalmanFilter(TickEstimator):
         self._estimate = StateEstimate._from_owned(self._time_s, x_hat, p_diag)
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> tuple[FloatArray, FloatArray]:
+              excluded: np.ndarray, reject: bool) -> FloatArray:
         """Advance to ``time_s`` and update with the tick's measurements, in one compiled call
-        (:func:`tskf_tick`); returns ``x_hat_{k|k}`` (eq. 6.25) and the diagonal of eq. 6.26.
+        (:func:`tskf_tick`); returns ``x_hat_{k|k}`` (eq. 6.25, yaw wrapped) and the diagonal
+        of eq. 6.26, one array of shape (32,).
 
         ``time_s`` is the previous tick's plus a whole number of ``dt_s`` (within 25 % of
         ``dt_s``); zero steps (same time) update only.
@@ -421,14 +458,16 @@ class TwoStageKalmanFilter(TickEstimator):
                              f"{self.dt_s} s and was last stepped at {self._time_s!r} s; "
                              "call it at whole multiples of dt_s")
         cs = self._sets[self._height_source]
-        estimate, screen, self.gamma_raw, self.on_ground, self._accel_power, self._m = (
-            tskf_tick(n_steps, u, self._work, self.gamma_raw, self.on_ground,
+        gamma = self.gamma_raw.copy()  # updated in place: gamma_raw is a fresh array each tick
+        estimate, screen, self.on_ground, self._accel_power, self._m = (
+            tskf_tick(n_steps, u, self._work, self._scratch, gamma, self.on_ground,
                       self._accel_power, self._a_d, self._b_d, self._g_d, self._q_d,
                       self.q_gamma, self._ground, self.dt_s, meas, time_s, excluded, reject,
                       cs.sel_stack, cs.sel_a, cs.sel_b, cs.sel_g, cs.mapped, cs.layout,
                       cs.noise))
+        self.gamma_raw = gamma
         self._keep_screening(cs, screen)
-        return estimate[:N], estimate[N:]
+        return estimate
 
     # ---- the workspace, read (copies) ------------------------------------------------------
     def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:

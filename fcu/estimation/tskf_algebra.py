@@ -1,28 +1,45 @@
-"""The Two-Stage Kalman Filter's algebra, compiled: time update of both stages, measurement
-update, the stacked correction of a tick and the outputs (eq. 6.10-6.26).
+"""The Two-Stage Kalman Filter's algebra, compiled and in place: time update of both stages,
+measurement update and the outputs (eq. 6.10-6.26).
 
 :mod:`fcu.estimation.tskf` runs them, a tick at a time, in :func:`fcu.estimation.tskf.tskf_tick`
 (whose cached kernels are dropped when this module changes: :mod:`flightdata.kernel_cache`).
+The matrices are small (16 states, 4 biases, at most 16 measurement rows) and sparse (the
+discrete hover model, the measurement rows): the products skip zero entries of their left
+factor (:mod:`fcu.estimation.small_matrix`) and nothing is allocated.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
-from fcu.estimation.state import YAW_INDEX, FloatArray
+from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
+from fcu.estimation.small_matrix import (
+    mul_sparse_left,
+    spd_inverse,
+    symmetrize,
+    transpose_into,
+)
+from fcu.estimation.state import FloatArray
+from flightdata.kernel_cache import drop_stale_kernels
 
-__all__ = ["tskf_correct", "tskf_output", "tskf_predict", "tskf_update"]
+drop_stale_kernels(__file__)  # compiles in the kernels of kalman_update and small_matrix
+
+__all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output_into",
+           "tskf_predict_into", "tskf_update_into"]
+
+PREDICT_SCRATCH = 2 * 16 * 16 + 4 * 16 * 4 + 4 * 4 * 4 + 16
+"""Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
+TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 3 * 16 * 16 + 3 * 16 * 4 + 2 * 16 * 16
+"""Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
 
 
 @njit(cache=True, error_model="numpy")
-def tskf_predict(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatArray,
-                 q_gamma: float, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
-                 gamma: FloatArray, p_gamma: FloatArray,
-                 v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Time update of both stages (eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22).
+def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatArray,
+                      q_gamma: float, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
+                      gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
+                      scratch: FloatArray) -> None:
+    """Time update of both stages (eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22), in place.
 
     Parameters
     ----------
@@ -33,42 +50,111 @@ def tskf_predict(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatArray,
     u : ndarray, shape (4,)
         PWM held over the step.
     x_bar, p_x : ndarrays, shapes (n,), (n, n)
-        Bias-free posterior ``x_bar_{k|k}``, ``P^x_{k|k}``.
-    gamma, p_gamma : ndarrays, shapes (4,), (4, 4)
-        ``gamma_hat_{k|k}``, ``P^gamma_{k|k}``.
+        Bias-free posterior ``x_bar_{k|k}``, ``P^x_{k|k}``; become ``x_bar_{k+1|k}``,
+        ``P^x_{k+1|k}``.
+    gamma : ndarray, shape (4,)
+        ``gamma_hat_{k|k}`` (``gamma_hat_{k+1|k} = gamma_hat_{k|k}``, eq. 6.10).
+    p_gamma : ndarray, shape (4, 4)
+        ``P^gamma_{k|k}``; becomes ``P^gamma_{k+1|k}``.
     v : ndarray, shape (n, 4)
-        ``V_{k|k}``.
-
-    Returns
-    -------
-    x_bar_pred, p_x_pred, p_gamma_pred, v_pred
-        ``x_bar_{k+1|k}``, ``P^x_{k+1|k}``, ``P^gamma_{k+1|k}``, ``V_{k+1|k}``
-        (``gamma_hat_{k+1|k} = gamma_hat_{k|k}``, eq. 6.10).
+        ``V_{k|k}``; becomes ``V_{k+1|k}``.
+    scratch : ndarray
+        At least :data:`PREDICT_SCRATCH` entries.
     """
-    n_g = gamma.shape[0]
-    # E_k = -B_k diag(u_k)   (eq. 6.6, discrete)
-    e = -b * u
-    # W_k = A_k V_{k|k} + E_k   (eq. 6.21)
-    w = a @ v + e
+    n, n_g = v.shape
+    o = 0
+    ap = scratch[o:o + n * n].reshape(n, n)
+    o += n * n
+    ap_t = scratch[o:o + n * n].reshape(n, n)
+    o += n * n
+    w = scratch[o:o + n * n_g].reshape(n, n_g)
+    o += n * n_g
+    wp = scratch[o:o + n * n_g].reshape(n, n_g)
+    o += n * n_g
+    v_pred = scratch[o:o + n * n_g].reshape(n, n_g)
+    o += n * n_g
+    vp = scratch[o:o + n * n_g].reshape(n, n_g)
+    o += n * n_g
+    p_gamma_pred = scratch[o:o + n_g * n_g].reshape(n_g, n_g)
+    o += n_g * n_g
+    pgp_inv = scratch[o:o + n_g * n_g].reshape(n_g, n_g)
+    o += n_g * n_g
+    low = scratch[o:o + 2 * n_g * n_g].reshape(2, n_g, n_g)
+    o += 2 * n_g * n_g
+    x_pred = scratch[o:o + n]
+    # W_k = A_k V_{k|k} + E_k,  E_k = -B_k diag(u_k)   (eq. 6.21, 6.6 discrete)
+    mul_sparse_left(w, a, v)
+    for i in range(n):
+        for g in range(n_g):
+            w[i, g] += -b[i, g] * u[g]
     # P^gamma_{k+1|k} = P^gamma_{k|k} + Q^gamma   (eq. 6.11)
-    p_gamma_pred = p_gamma + q_gamma * np.eye(n_g)
+    for g in range(n_g):
+        for h in range(n_g):
+            p_gamma_pred[g, h] = p_gamma[g, h]
+        p_gamma_pred[g, g] += q_gamma
+    # W P^gamma_{k|k}
+    for i in range(n):
+        for g in range(n_g):
+            acc = 0.0
+            for h in range(n_g):
+                acc += w[i, h] * p_gamma[h, g]
+            wp[i, g] = acc
     # V_{k+1|k} = W_k P^gamma_{k|k} (P^gamma_{k+1|k})^-1   (eq. 6.22)
-    v_pred = np.ascontiguousarray(np.linalg.solve(p_gamma_pred, (w @ p_gamma).T).T)
-    # x_bar_{k+1|k} = A x_bar + B u + g_k + W gamma_hat - V_{k+1|k} gamma_hat   (eq. 6.15)
-    x_bar_pred = a @ x_bar + b @ u + g_d + (w - v_pred) @ gamma
+    spd_inverse(p_gamma_pred, n_g, pgp_inv, low[0], low[1])
+    for i in range(n):
+        for g in range(n_g):
+            acc = 0.0
+            for h in range(n_g):
+                acc += wp[i, h] * pgp_inv[h, g]
+            v_pred[i, g] = acc
+    # x_bar_{k+1|k} = A x_bar + B u + g_k + (W - V_{k+1|k}) gamma_hat   (eq. 6.15)
+    for i in range(n):
+        acc = 0.0
+        for k in range(n):
+            a_ik = a[i, k]
+            if a_ik != 0.0:
+                acc += a_ik * x_bar[k]
+        for g in range(n_g):
+            acc += b[i, g] * u[g]
+        acc += g_d[i]
+        for g in range(n_g):
+            acc += (w[i, g] - v_pred[i, g]) * gamma[g]
+        x_pred[i] = acc
+    for i in range(n):
+        x_bar[i] = x_pred[i]
+    # V_{k+1|k} P^gamma_{k+1|k}
+    for i in range(n):
+        for g in range(n_g):
+            acc = 0.0
+            for h in range(n_g):
+                acc += v_pred[i, h] * p_gamma_pred[h, g]
+            vp[i, g] = acc
+    # A P^x A' = A (A P^x)'   (P^x symmetric; two products by the sparse A)
+    mul_sparse_left(ap, a, p_x)
+    transpose_into(ap_t, ap)
+    mul_sparse_left(p_x, a, ap_t)
     # P^x_{k+1|k} = A P^x A' + Q^x + W P^gamma_{k|k} W' - V P^gamma_{k+1|k} V'   (eq. 6.16)
-    p_x_pred = (a @ p_x @ a.T + q_x + w @ p_gamma @ w.T
-                - v_pred @ p_gamma_pred @ v_pred.T)
-    p_x_pred = 0.5 * (p_x_pred + p_x_pred.T)
-    return x_bar_pred, p_x_pred, p_gamma_pred, v_pred
+    for i in range(n):
+        for j in range(n):
+            acc = q_x[i, j]
+            for g in range(n_g):
+                acc += wp[i, g] * w[j, g] - vp[i, g] * v_pred[j, g]
+            p_x[i, j] += acc
+    symmetrize(p_x)
+    for g in range(n_g):
+        for h in range(n_g):
+            p_gamma[g, h] = p_gamma_pred[g, h]
+    for i in range(n):
+        for g in range(n_g):
+            v[i, g] = v_pred[i, g]
 
 
 @njit(cache=True, error_model="numpy")
-def tskf_update(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: FloatArray,
-                p_x: FloatArray, gamma: FloatArray, p_gamma: FloatArray,
-                v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
-                                        FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Measurement update of both stages (eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24).
+def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: FloatArray,
+                     p_x: FloatArray, gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
+                     s_bar: FloatArray, innovation: FloatArray, s_gamma: FloatArray,
+                     scratch: FloatArray) -> None:
+    """Measurement update of both stages (eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24), in place.
 
     Parameters
     ----------
@@ -80,104 +166,119 @@ def tskf_update(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: FloatAr
         Diagonal of ``R_{k+1}``.
     x_bar, p_x, gamma, p_gamma, v : ndarrays
         Priors ``x_bar_{k+1|k}``, ``P^x_{k+1|k}``, ``gamma_hat_{k+1|k}``,
-        ``P^gamma_{k+1|k}``, ``V_{k+1|k}``.
-
-    Returns
-    -------
-    x_bar_post, p_x_post, gamma_post, p_gamma_post, v_post, s_bar, innovation, s_gamma
-        Posteriors, ``S_bar_{k+1}`` (eq. 6.20), the full innovation
+        ``P^gamma_{k+1|k}``, ``V_{k+1|k}``; become the posteriors.
+    s_bar, innovation, s_gamma : ndarrays, shapes (m, m), (m,), (m, m)
+        Written: ``S_bar_{k+1}`` (eq. 6.20), the full innovation
         ``r - H gamma_hat_{k+1|k}`` and its covariance ``H P^gamma H' + S_bar``.
+    scratch : ndarray
+        At least :data:`TSKF_UPDATE_SCRATCH` entries.
     """
-    n = x_bar.shape[0]
+    m, n = c.shape
     n_g = gamma.shape[0]
-    r_mat = np.diag(r_diag)
-    pct = p_x @ c.T
-    # S_bar_{k+1} = C P^x_{k+1|k} C' + R   (eq. 6.20)
-    s_bar = c @ pct + r_mat
-    # K^x = P^x_{k+1|k} C' S_bar^-1   (eq. 6.17)
-    k_x = np.ascontiguousarray(np.linalg.solve(s_bar, np.ascontiguousarray(pct.T)).T)
-    # x_bar_{k+1|k+1} = x_bar_{k+1|k} + K^x r   (eq. 6.18)
-    x_bar_post = x_bar + k_x @ r
-    # P^x_{k+1|k+1} = (I - K^x C) P^x_{k+1|k}   (eq. 6.19, Joseph form: symmetric, PSD)
-    ikc = np.eye(n) - k_x @ c
-    p_x_post = ikc @ p_x @ ikc.T + k_x @ r_mat @ k_x.T
-    p_x_post = 0.5 * (p_x_post + p_x_post.T)
-    # H_{k+1|k} = C_{k+1} V_{k+1|k}   (eq. 6.23)
-    h = c @ v
+    o = UPDATE_SCRATCH
+    r_mat = scratch[o:o + m * m].reshape(m, m)
+    o += 16 * 16
+    k_x = scratch[o:o + n * m].reshape(n, m)
+    o += 16 * 16
+    h = scratch[o:o + m * n_g].reshape(m, n_g)
+    o += 16 * n_g
+    hp = scratch[o:o + m * n_g].reshape(m, n_g)
+    o += 16 * n_g
+    k_g = scratch[o:o + n_g * m].reshape(n_g, m)
+    o += 16 * n_g
+    s_inv = scratch[o:o + m * m].reshape(m, m)
+    o += 16 * 16
+    low = scratch[o:o + 2 * m * m].reshape(2, m, m)
+    for i in range(m):
+        for j in range(m):
+            r_mat[i, j] = 0.0
+        r_mat[i, i] = r_diag[i]
+    # H_{k+1|k} = C_{k+1} V_{k+1|k}   (eq. 6.23), with the prior V
+    mul_sparse_left(h, c, v)
+    # S_bar = C P^x C' + R (eq. 6.20);  K^x = P^x C' S_bar^-1 (eq. 6.17);
+    # x_bar += K^x r (eq. 6.18);  P^x = (I - K^x C) P^x (I - K^x C)' + K^x R K^x'
+    # (eq. 6.19, Joseph form: symmetric, PSD)
+    kalman_update_into(x_bar, p_x, r, c, r_mat, s_bar, s_inv, k_x, scratch)
+    # H P^gamma
+    for i in range(m):
+        for g in range(n_g):
+            acc = 0.0
+            for q in range(n_g):
+                acc += h[i, q] * p_gamma[q, g]
+            hp[i, g] = acc
+    # H P^gamma H' + S_bar
+    for i in range(m):
+        for j in range(m):
+            acc = s_bar[i, j]
+            for g in range(n_g):
+                acc += hp[i, g] * h[j, g]
+            s_gamma[i, j] = acc
     # K^gamma = P^gamma H' (H P^gamma H' + S_bar)^-1   (eq. 6.12)
-    s_gamma = h @ p_gamma @ h.T + s_bar
-    k_g = np.ascontiguousarray(np.linalg.solve(s_gamma, h @ p_gamma).T)
-    # gamma_hat_{k+1|k+1} = gamma_hat_{k+1|k} + K^gamma (r - H gamma_hat_{k+1|k})   (eq. 6.13)
-    innovation = r - h @ gamma
-    gamma_post = gamma + k_g @ innovation
-    # P^gamma_{k+1|k+1} = (I - K^gamma H) P^gamma_{k+1|k}   (eq. 6.14)
-    p_gamma_post = (np.eye(n_g) - k_g @ h) @ p_gamma
-    p_gamma_post = 0.5 * (p_gamma_post + p_gamma_post.T)
+    spd_inverse(s_gamma, m, s_inv, low[0], low[1])
+    for g in range(n_g):
+        for j in range(m):
+            acc = 0.0
+            for i in range(m):
+                acc += hp[i, g] * s_inv[i, j]
+            k_g[g, j] = acc
+    # innovation = r - H gamma_hat_{k+1|k}
+    for i in range(m):
+        acc = 0.0
+        for g in range(n_g):
+            acc += h[i, g] * gamma[g]
+        innovation[i] = r[i] - acc
+    # gamma_hat_{k+1|k+1} = gamma_hat_{k+1|k} + K^gamma innovation   (eq. 6.13)
+    for g in range(n_g):
+        acc = 0.0
+        for i in range(m):
+            acc += k_g[g, i] * innovation[i]
+        gamma[g] += acc
+    # P^gamma_{k+1|k+1} = (I - K^gamma H) P^gamma_{k+1|k} = P^gamma - K^gamma (H P^gamma)
+    # (eq. 6.14), made symmetric
+    for g in range(n_g):
+        for q in range(n_g):
+            acc = 0.0
+            for i in range(m):
+                acc += k_g[g, i] * hp[i, q]
+            p_gamma[g, q] -= acc
+    symmetrize(p_gamma)
     # V_{k+1|k+1} = V_{k+1|k} - K^x H   (eq. 6.24)
-    v_post = v - k_x @ h
-    return x_bar_post, p_x_post, gamma_post, p_gamma_post, v_post, s_bar, innovation, s_gamma
-
-
-@njit(cache=True, error_model="numpy")
-def tskf_correct(sel: FloatArray, sel_a: FloatArray, row_delta: FloatArray, y: FloatArray,
-                 r_diag: FloatArray, yaw_row: int, x_bar: FloatArray, p_x: FloatArray,
-                 gamma: FloatArray, p_gamma: FloatArray,
-                 v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray,
-                                         FloatArray, FloatArray, FloatArray, FloatArray,
-                                         FloatArray]:
-    """One tick's stacked measurement update in one compiled call (module docstring).
-
-    Parameters
-    ----------
-    sel, sel_a : ndarrays, shape (m, n)
-        Stacked selections ``S`` of the measurements that arrived and ``S A_c``.
-    row_delta : ndarray, shape (m,)
-        Per row, how long before the tick its batch was taken (``delta``, s).
-    y : ndarray, shape (m,)
-        The stacked measurements.
-    r_diag : ndarray, shape (m,)
-        Diagonal of ``R_{k+1}``.
-    yaw_row : int
-        Row holding the yaw measurement (its residual is wrapped), or -1.
-    x_bar, p_x, gamma, p_gamma, v : ndarrays
-        Priors, as for :func:`tskf_update`.
-
-    Returns
-    -------
-    The outputs of :func:`tskf_update` (posterior yaw wrapped to [-pi, pi)), then the
-    residual ``r_{k+1}``.
-    """
-    # C = S (I - delta A_c): each row mapped back to its batch's mean sample time
-    c = sel - row_delta.reshape(-1, 1) * sel_a
-    # r_{k+1} = y_{k+1} - C_{k+1} x_bar_{k+1|k}   (yaw wrapped)
-    r = y - c @ x_bar
-    if yaw_row >= 0:
-        r[yaw_row] = (r[yaw_row] + math.pi) % (2.0 * math.pi) - math.pi
-    # eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24
-    (x_bar_post, p_x_post, gamma_post, p_gamma_post, v_post, s_bar, innovation,
-     s_gamma) = tskf_update(c, r, r_diag, x_bar, p_x, gamma, p_gamma, v)
-    x_bar_post[YAW_INDEX] = (x_bar_post[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
-    return (x_bar_post, p_x_post, gamma_post, p_gamma_post, v_post, s_bar, innovation,
-            s_gamma, r)
+    for i in range(n):
+        for g in range(n_g):
+            acc = 0.0
+            for j in range(m):
+                acc += k_x[i, j] * h[j, g]
+            v[i, g] -= acc
 
 
 @njit(cache=True, error_model="numpy")
 def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: FloatArray,
                 v: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Compensated estimate (eq. 6.25) and the diagonal of its covariance (eq. 6.26).
+    """Compensated estimate (eq. 6.25) and the diagonal of its covariance (eq. 6.26), fresh
+    arrays of shape (n,) (:func:`tskf_output_into`)."""
+    n = x_bar.shape[0]
+    out = np.empty(2 * n)
+    tskf_output_into(out, x_bar, p_x, gamma, p_gamma, v)
+    return out[:n], out[n:]
 
-    Returns ``x_hat = x_bar + V gamma_hat``, shape (n,), and
-    ``diag(V P^gamma V' + P^x)``, shape (n,).
-    """
-    # x_hat = x_bar + V gamma_hat   (eq. 6.25)
-    x_hat = x_bar + v @ gamma
-    # P = V P^gamma V' + P^x   (eq. 6.26): diagonal only, diag(V P^g V')_i = sum_j (V P^g)_ij V_ij
-    vp = v @ p_gamma
+
+@njit(cache=True, error_model="numpy")
+def tskf_output_into(out: FloatArray, x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray,
+                     p_gamma: FloatArray, v: FloatArray) -> None:
+    """Write ``x_hat = x_bar + V gamma_hat`` (eq. 6.25) to ``out[:n]`` and
+    ``diag(V P^gamma V' + P^x)`` (eq. 6.26) to ``out[n:2n]``."""
     n, n_g = v.shape
-    p_diag = np.empty(n)
     for i in range(n):
-        acc = vp[i, 0] * v[i, 0]
-        for j in range(1, n_g):
-            acc += vp[i, j] * v[i, j]
-        p_diag[i] = p_x[i, i] + acc
-    return x_hat, p_diag
+        # x_hat = x_bar + V gamma_hat   (eq. 6.25)
+        acc = 0.0
+        for g in range(n_g):
+            acc += v[i, g] * gamma[g]
+        out[i] = x_bar[i] + acc
+        # P = V P^gamma V' + P^x   (eq. 6.26), diagonal: sum_g (V P^gamma)_ig V_ig
+        acc = 0.0
+        for g in range(n_g):
+            vp = 0.0
+            for h in range(n_g):
+                vp += v[i, h] * p_gamma[h, g]
+            acc += vp * v[i, g]
+        out[n + i] = p_x[i, i] + acc

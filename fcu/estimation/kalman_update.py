@@ -1,0 +1,98 @@
+"""The Kalman measurement update both filters run, compiled and in place.
+
+:func:`kalman_update_into` is the EKF's sequential update of one channel
+(:mod:`fcu.estimation.ekf`) and the TSKF's bias-free stage, eq. 6.17-6.20
+(:mod:`fcu.estimation.tskf`). Its products run over the rank-m structure of an update of m
+rows (m <= 16), with zero entries of ``H`` skipped: a measurement row picks one or a few
+state entries.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from fcu.estimation.small_matrix import mul_sparse_left, spd_inverse, symmetrize
+from fcu.estimation.state import FloatArray
+from flightdata.kernel_cache import drop_stale_kernels
+
+drop_stale_kernels(__file__)  # kalman_update_into compiles in the kernels of small_matrix
+
+__all__ = ["UPDATE_SCRATCH", "kalman_update_into"]
+
+UPDATE_SCRATCH = 4 * 16 * 16
+"""Size of the scratch :func:`kalman_update_into` works in (n, m <= 16)."""
+
+
+@njit(cache=True, error_model="numpy")
+def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
+                       r_mat: FloatArray, s_mat: FloatArray, s_inv: FloatArray,
+                       k_gain: FloatArray, scratch: FloatArray) -> None:
+    """Kalman measurement update in place: ``x`` (n,) and ``p_mat`` (n, n) become the
+    posterior; ``S``, ``S^-1`` (m, m) and ``K`` (n, m) are written to the top-left blocks of
+    ``s_mat``, ``s_inv``, ``k_gain`` (``scratch``: :data:`UPDATE_SCRATCH` entries, n <= 16).
+
+    ``y`` (m,), ``h_mat`` (m, n) and ``r_mat`` (m, m) as for :func:`kalman_update`. The
+    products run over the rank-m structure of the update (zero entries of ``H`` skipped):
+    the Joseph form is evaluated as ``M = P - K (H P)``, ``P = M - (M H') K' + K R K'``,
+    which is ``(I - K H) P (I - K H)' + K R K'`` without its n x n x n products.
+    """
+    n, m = p_mat.shape[0], y.shape[0]
+    ut = scratch[:m * n].reshape(m, n)
+    m_mat = scratch[16 * 16:16 * 16 + n * n].reshape(n, n)
+    low = scratch[2 * 16 * 16:2 * 16 * 16 + m * m].reshape(m, m)
+    low_inv = scratch[2 * 16 * 16 + m * m:2 * 16 * 16 + 2 * m * m].reshape(m, m)
+    g = scratch[3 * 16 * 16:3 * 16 * 16 + n * m].reshape(n, m)
+    # (P H')' = H P   (P symmetric)
+    mul_sparse_left(ut, h_mat, p_mat)
+    # S = H P H' + R
+    for r in range(m):
+        for q in range(m):
+            acc = 0.0
+            for k in range(n):
+                h_qk = h_mat[q, k]
+                if h_qk != 0.0:
+                    acc += ut[r, k] * h_qk
+            s_mat[r, q] = acc + r_mat[r, q]
+    # S^-1
+    spd_inverse(s_mat, m, s_inv, low, low_inv)
+    # K = P H' S^-1
+    for i in range(n):
+        for r in range(m):
+            acc = 0.0
+            for q in range(m):
+                acc += ut[q, i] * s_inv[q, r]
+            k_gain[i, r] = acc
+    # x = x + K y
+    for i in range(n):
+        acc = 0.0
+        for r in range(m):
+            acc += k_gain[i, r] * y[r]
+        x[i] += acc
+    # M = (I - K H) P = P - K (H P)
+    for i in range(n):
+        for j in range(n):
+            m_mat[i, j] = p_mat[i, j]
+        for r in range(m):
+            kir = k_gain[i, r]
+            for j in range(n):
+                m_mat[i, j] -= kir * ut[r, j]
+    # G = M H'
+    for i in range(n):
+        for r in range(m):
+            acc = 0.0
+            for k in range(n):
+                h_rk = h_mat[r, k]
+                if h_rk != 0.0:
+                    acc += m_mat[i, k] * h_rk
+            g[i, r] = acc
+    # P = M (I - K H)' + K R K' = M + (K R - M H') K'   (Joseph form), made symmetric
+    for i in range(n):
+        for j in range(n):
+            p_mat[i, j] = m_mat[i, j]
+        for r in range(m):
+            kr = -g[i, r]
+            for q in range(m):
+                kr += k_gain[i, q] * r_mat[q, r]
+            for j in range(n):
+                p_mat[i, j] += kr * k_gain[j, r]
+    symmetrize(p_mat)

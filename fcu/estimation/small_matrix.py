@@ -1,0 +1,119 @@
+"""Small dense matrix kernels for the filters' compiled ticks (no allocation, no BLAS).
+
+The filters' matrices are 16 x 16 or smaller, and most of them are sparse with a fixed
+pattern (the EKF's Jacobian and its series, the TSKF's discrete model, the measurement rows).
+At that size a BLAS call costs more in its set-up than in its arithmetic, so these kernels
+work in place on preallocated buffers, skip zero entries of the left factor, and run their
+inner loops along rows (``out[i, :] += a[i, k] b[k, :]``), which the compiler vectorises.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from fcu.estimation.state import FloatArray
+
+__all__ = ["mul_sparse_left", "spd_inverse", "spd_quadratic", "symmetrize", "transpose_into"]
+
+
+@njit(cache=True, error_model="numpy")
+def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
+    """``out = a b`` for ``a`` (n, k) with many zeros, ``b`` (k, w); ``out`` (n, w) must not
+    share memory with ``a`` or ``b``."""
+    n, kk = a.shape
+    w = b.shape[1]
+    for i in range(n):
+        for j in range(w):
+            out[i, j] = 0.0
+        # out[i, :] = sum_k a[i, k] b[k, :]   (zero a[i, k] skipped)
+        for k in range(kk):
+            aik = a[i, k]
+            if aik != 0.0:
+                for j in range(w):
+                    out[i, j] += aik * b[k, j]
+
+
+@njit(cache=True, error_model="numpy")
+def transpose_into(out: FloatArray, a: FloatArray) -> None:
+    """``out = a'`` (``out`` must not share memory with ``a``)."""
+    n, w = a.shape
+    for i in range(n):
+        for j in range(w):
+            out[j, i] = a[i, j]
+
+
+@njit(cache=True, error_model="numpy")
+def symmetrize(a: FloatArray) -> None:
+    """``a = (a + a') / 2`` in place (square ``a``)."""
+    n = a.shape[0]
+    for i in range(n):
+        for j in range(i + 1, n):
+            v = 0.5 * (a[i, j] + a[j, i])
+            a[i, j] = v
+            a[j, i] = v
+
+
+@njit(cache=True, error_model="numpy")
+def _cholesky(a: FloatArray, m: int, low: FloatArray) -> None:
+    """Lower Cholesky factor of the top-left (m, m) block of ``a`` into ``low``:
+    ``a = L L'`` (``a`` symmetric positive definite)."""
+    for j in range(m):
+        s = a[j, j]
+        for k in range(j):
+            s -= low[j, k] * low[j, k]
+        d = math.sqrt(s)
+        low[j, j] = d
+        for i in range(j + 1, m):
+            s = a[i, j]
+            for k in range(j):
+                s -= low[i, k] * low[j, k]
+            low[i, j] = s / d
+        for i in range(j):
+            low[i, j] = 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def spd_inverse(a: FloatArray, m: int, out: FloatArray, low: FloatArray,
+                low_inv: FloatArray) -> None:
+    """Inverse of the symmetric positive definite top-left (m, m) block of ``a``, written to
+    the top-left block of ``out`` (``low``, ``low_inv``: scratch of at least (m, m)).
+
+    ``a = L L'`` (Cholesky), ``a^-1 = L^-T L^-1``; the result is exactly symmetric.
+    """
+    _cholesky(a, m, low)
+    # L^-1, lower triangular, by forward substitution column by column
+    for j in range(m):
+        low_inv[j, j] = 1.0 / low[j, j]
+        for i in range(j + 1, m):
+            s = 0.0
+            for k in range(j, i):
+                s -= low[i, k] * low_inv[k, j]
+            low_inv[i, j] = s / low[i, i]
+    # a^-1 = L^-T L^-1:  out[i, j] = sum_{k >= max(i, j)} L^-1[k, i] L^-1[k, j]
+    for i in range(m):
+        for j in range(i, m):
+            s = 0.0
+            for k in range(j, m):
+                s += low_inv[k, i] * low_inv[k, j]
+            out[i, j] = s
+            out[j, i] = s
+
+
+@njit(cache=True, error_model="numpy")
+def spd_quadratic(a: FloatArray, m: int, v: FloatArray, low: FloatArray,
+                  tmp: FloatArray) -> float:
+    """``v' a^-1 v`` for the symmetric positive definite top-left (m, m) block of ``a``:
+    ``a = L L'``, ``w = L^-1 v``, ``v' a^-1 v = w' w`` (``low`` (m, m), ``tmp`` (m,):
+    scratch)."""
+    _cholesky(a, m, low)
+    # w = L^-1 v   (forward substitution)
+    acc = 0.0
+    for i in range(m):
+        s = v[i]
+        for k in range(i):
+            s -= low[i, k] * tmp[k]
+        tmp[i] = s / low[i, i]
+        acc += tmp[i] * tmp[i]
+    return acc

@@ -1,0 +1,61 @@
+"""The small matrix kernels of the filters' ticks against numpy's dense algebra."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fcu.estimation.ekf import EkfProcessNoise
+from fcu.estimation.ekf_model import model_jacobian, pack_params
+from fcu.estimation.small_matrix import (
+    mul_sparse_left,
+    spd_inverse,
+    spd_quadratic,
+    symmetrize,
+    transpose_into,
+)
+from fcu.model import VehicleModel
+
+RNG = np.random.default_rng(3)
+
+
+def _spd(m: int) -> np.ndarray:
+    a = RNG.normal(size=(m, m))
+    return a @ a.T + m * np.eye(m)
+
+
+def test_sparse_product_is_the_matrix_product() -> None:
+    x = np.zeros(16)
+    x[12:16] = 3.5
+    x[6:12] = [0.05, -0.04, 0.3, 0.2, -0.1, 0.05]
+    a = model_jacobian(x, pack_params(VehicleModel()), False) * 0.01  # the filters' pattern
+    b = RNG.normal(size=(16, 16))
+    out = np.full((16, 16), np.nan)  # every entry must be written
+    mul_sparse_left(out, a, b)
+    # same products, summed in another order: agreement to rounding
+    np.testing.assert_allclose(out, a @ b, rtol=1e-13, atol=1e-15)
+    assert np.count_nonzero(a) < 64  # the case the kernel is for: mostly zeros
+
+
+def test_spd_inverse_and_quadratic_form() -> None:
+    for m in (1, 2, 3, 10):
+        s = _spd(m)
+        out = np.full((m, m), np.nan)
+        spd_inverse(s, m, out, np.empty((m, m)), np.empty((m, m)))
+        # Cholesky against LU: agreement to rounding on a well-conditioned matrix
+        np.testing.assert_allclose(out, np.linalg.inv(s), rtol=1e-12, atol=1e-15)
+        np.testing.assert_array_equal(out, out.T)  # symmetric by construction
+        v = RNG.normal(size=m)
+        quad = spd_quadratic(s, m, v, np.empty((m, m)), np.empty(m))
+        assert abs(quad - v @ np.linalg.solve(s, v)) < 1e-12 * abs(quad)
+
+
+def test_transpose_and_symmetrize() -> None:
+    a = RNG.normal(size=(16, 4))
+    out = np.empty((4, 16))
+    transpose_into(out, a)
+    np.testing.assert_array_equal(out, a.T)
+    q = np.diag(EkfProcessNoise().diagonal()) + RNG.normal(size=(16, 16))
+    ref = 0.5 * (q + q.T)
+    symmetrize(q)
+    np.testing.assert_array_equal(q, q.T)
+    np.testing.assert_allclose(q, ref, rtol=1e-15)
