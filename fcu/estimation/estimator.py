@@ -36,8 +36,8 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.special import chdtri
 
+from fcu.estimation.chi_square import chi_square_isf
 from fcu.estimation.screening import (
     ABSENT,
     MEAS_WIDTH,
@@ -192,7 +192,7 @@ class Channel:
         self.picks = bool(np.all(np.sum(self.selection != 0.0, axis=1) == 1)
                           and np.all(np.abs(self.selection[self.selection != 0.0]) == 1.0))
         # NIS gate: chi-square quantile of m degrees of freedom at GATE_PROBABILITY
-        self.gate = float(chdtri(self.rows, GATE_PROBABILITY))  # chi-square isf
+        self.gate = chi_square_isf(GATE_PROBABILITY, self.rows)
 
 
 def common_channels(height_source: str, model: VehicleModel, accel_model_sigma: float | None

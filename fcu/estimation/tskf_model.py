@@ -48,9 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.linalg import expm
 
-from fcu.design_cache import cont2discrete
+from fcu.design_cache import cached_design, cont2discrete
 from fcu.estimation.estimator import ProcessNoiseDensities
 from fcu.estimation.state import EULER, POS, RATE, STATE_DIM, THRUST, VEL, FloatArray
 from fcu.model import VehicleModel
@@ -156,16 +155,7 @@ def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
     a_d, b_ext_d, _, _, _ = cont2discrete((a, b_ext, np.eye(STATE_DIM),
                                            np.zeros((STATE_DIM, N_MOTORS + 1))),
                                           dt_s, method="zoh")
-    # Van Loan: expm([[-A, Qc], [0, A']] dt) = [[., Phi^-1 Qd], [0, Phi']]
-    n = STATE_DIM
-    vl = np.zeros((2 * n, 2 * n))
-    vl[:n, :n] = -a
-    vl[:n, n:] = np.diag(qc_diag)
-    vl[n:, n:] = a.T
-    e = expm(vl * dt_s)
-    phi = e[n:, n:].T
-    q_d = phi @ e[:n, n:]
-    q_d = 0.5 * (q_d + q_d.T)
+    (q_d,) = van_loan_noise(a, np.asarray(qc_diag, dtype=float), float(dt_s))
 
     def contiguous(arr: ArrayLike) -> FloatArray:
         return np.ascontiguousarray(arr, dtype=float)
@@ -173,6 +163,24 @@ def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
     return LinearHoverModel(a_c=contiguous(a), b_c=contiguous(b), g_c=contiguous(gc),
                             a_d=contiguous(a_d), b_d=contiguous(b_ext_d[:, :N_MOTORS]),
                             g_d=contiguous(b_ext_d[:, N_MOTORS]), q_d=contiguous(q_d))
+
+
+@cached_design  # made once per configuration and kept (fcu.design_cache)
+def van_loan_noise(a: FloatArray, qc_diag: FloatArray, dt_s: float) -> tuple[FloatArray]:
+    """``Qd = int_0^dt e^(A s) Qc e^(A' s) ds`` by Van Loan's method (scipy's ``expm``,
+    imported only when the design cache misses), made exactly symmetric."""
+    from scipy.linalg import expm
+
+    # Van Loan: expm([[-A, Qc], [0, A']] dt) = [[., Phi^-1 Qd], [0, Phi']]
+    n = a.shape[0]
+    vl = np.zeros((2 * n, 2 * n))
+    vl[:n, :n] = -a
+    vl[:n, n:] = np.diag(qc_diag)
+    vl[n:, n:] = a.T
+    e = expm(vl * dt_s)
+    phi = e[n:, n:].T
+    q_d = phi @ e[:n, n:]
+    return (0.5 * (q_d + q_d.T),)
 
 
 @functools.lru_cache(maxsize=16)
@@ -196,4 +204,5 @@ __all__ = [
     "TskfProcessNoise",
     "hover_model",
     "shared_hover_model",
+    "van_loan_noise",
 ]
