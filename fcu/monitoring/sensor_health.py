@@ -28,6 +28,10 @@ deviations plus ``max_speed`` times the tick of the previous one (garbage jumps)
 repeated (a frozen one must change again). An inconsistent barometer must come back within
 half the limit.
 
+The repeat and jump tests of the tick's batches run as one compiled call
+(:func:`watch_values`) over the averaged table the autopilot's grouping produced
+(:class:`fcu.estimation.state.GroupedSamples`), with each sensor's bookkeeping in one array.
+
 Rejections count, and sensors are frozen, only in flight: on the ground a touchdown or a
 disarm moves the vehicle in ways no estimator model follows.
 
@@ -46,10 +50,14 @@ from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numpy as np
+from numba import njit
+
 from fcu.estimation.estimator import ChannelCheck
-from fcu.estimation.state import SampleBatch
+from fcu.estimation.state import GroupedSamples, SampleBatch
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
+from flightdata.vocabulary import SENSORS
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -80,18 +88,88 @@ class SensorHealthConfig:
 
 @dataclass(slots=True)
 class _Watch:
-    """Bookkeeping of one sensor."""
+    """Bookkeeping of one sensor (its repeat and jump state: row ``index`` of the watch
+    table, :data:`WATCH_COLUMNS`)."""
 
+    index: int  # row of the sensor in the watch table
     excluded_as: str | None = None  # detection kind while excluded
     excluded_s: float = 0.0
     rejections: int = 0
     last_rejected_s: float = -math.inf
-    last_value: list[float] | None = None
-    last_time_s: float = 0.0
-    same: int = 0
-    jumped: bool = False  # the latest batch jumped from the one before
-    frozen_since_s: float = 0.0
     good_since_s: float | None = None
+
+
+# the watch table: one row per sensor, these columns (counts and flags as exact floats)
+LAST_VALUE = 0  # 0:3, the latest batch value (its first entries)
+HAS_LAST = 3  # 1: a batch was seen
+LAST_TIME = 4  # s, tick of the latest batch
+SAME = 5  # -, consecutive batches equal to the one before
+JUMPED = 6  # 1: the latest batch jumped from the one before
+FROZEN_SINCE = 7  # s, tick at which the repeats began
+SIGMA = 8  # sensor unit, one sample's noise, 1 sigma
+WATCH_COLUMNS = 9
+_MAX_SENSORS = 8  # rows of the watch table (the SENSORS first)
+
+
+@njit(cache=True, error_model="numpy")
+def watch_values(time_s: float, table: np.ndarray, rows: np.ndarray, axes: np.ndarray,
+                 watched: np.ndarray, watch: np.ndarray, jump_sigma: float, max_speed: float,
+                 yaw_row: int) -> None:
+    """Repeats (frozen) and jumps (garbage) of one tick's batch values, every sensor at once.
+
+    Parameters
+    ----------
+    time_s : float
+        Tick time, s.
+    table : ndarray, shape (n_slots, w + 3)
+        The tick's averaged samples (:class:`fcu.estimation.state.GroupedSamples`
+        ``table``): value entries, then mean time, count (0: no batch) and first index.
+    rows : ndarray of int, shape (n_watch,)
+        Each watched sensor's slot in ``table``; -1: none.
+    axes : ndarray of int, shape (n_watch,)
+        Entries of each sensor's value (at most 3 are compared).
+    watched : ndarray of bool, shape (n_watch,)
+        The sensors checked this tick (those the estimator screened).
+    watch : ndarray, shape (n_watch, WATCH_COLUMNS)
+        The watch table (module constants), updated in place.
+    jump_sigma, max_speed : float
+        A change beyond ``jump_sigma sigma + max_speed (t - t_last)`` is a jump.
+    yaw_row : int
+        The sensor whose third entry is an angle (its change wrapped to [-pi, pi)), or -1.
+    """
+    w = table.shape[1] - 3
+    for i in range(rows.shape[0]):
+        r = rows[i]
+        if not watched[i] or r < 0 or table[r, w + 1] <= 0.0:
+            continue  # not screened, or no batch this tick
+        n = min(axes[i], 3)
+        had = watch[i, HAS_LAST] != 0.0
+        equal = had
+        for a in range(n):
+            equal = equal and table[r, a] == watch[i, LAST_VALUE + a]
+        if equal:
+            if watch[i, SAME] == 0.0:
+                watch[i, FROZEN_SINCE] = time_s
+            watch[i, SAME] += 1.0
+            watch[i, JUMPED] = 0.0
+        else:
+            watch[i, SAME] = 0.0
+            if had:
+                # limit = jump_sigma sigma + max_speed (t - t_last); a jump: some |change| > limit
+                limit = jump_sigma * watch[i, SIGMA] + max_speed * (time_s - watch[i, LAST_TIME])
+                hi = -math.inf
+                lo = math.inf
+                for a in range(n):
+                    change = table[r, a] - watch[i, LAST_VALUE + a]
+                    if i == yaw_row and a == 2:
+                        change = (change + math.pi) % (2.0 * math.pi) - math.pi
+                    hi = max(hi, change)
+                    lo = min(lo, change)
+                watch[i, JUMPED] = 1.0 if (hi > limit or lo < -limit) else 0.0
+        for a in range(n):
+            watch[i, LAST_VALUE + a] = table[r, a]
+        watch[i, HAS_LAST] = 1.0
+        watch[i, LAST_TIME] = time_s
 
 
 # the sensor each height source reads
@@ -116,6 +194,13 @@ class SensorHealth:
     def reset(self) -> None:
         """Every sensor trusted, every check restarted."""
         self._watch: dict[str, _Watch] = {}
+        self._rows_of: dict[str, int] = {name: i for i, name in enumerate(SENSORS)}
+        self._table = np.zeros((_MAX_SENSORS, WATCH_COLUMNS))
+        self._yaw_row = self._rows_of["mocap_att"]
+        self._axes = np.full(_MAX_SENSORS, 3, dtype=np.int64)
+        self._noise: Mapping[str, float] | None = None  # the noise the SIGMA column holds
+        self._slot_rows: dict[tuple[str, ...], np.ndarray] = {}  # table slots -> rows
+        self._watched: dict[tuple[str, ...], np.ndarray] = {}  # screened sensors -> mask
         # the cross-check's window: tick times and baro alt - mocap alt, m
         self._cross_t: deque[float] = deque()
         self._cross_v: deque[float] = deque()
@@ -125,8 +210,20 @@ class SensorHealth:
     def _w(self, sensor: str) -> _Watch:
         w = self._watch.get(sensor)
         if w is None:
-            w = self._watch[sensor] = _Watch()
+            w = self._watch[sensor] = _Watch(self._row(sensor))
         return w
+
+    def _row(self, sensor: str) -> int:
+        """The watch-table row of ``sensor`` (sensors outside SENSORS get the next free)."""
+        i = self._rows_of.get(sensor)
+        if i is None:
+            i = len(self._rows_of)
+            if i >= _MAX_SENSORS:
+                raise ValueError(f"sensor {sensor!r}: at most {_MAX_SENSORS} sensors watched")
+            self._rows_of[sensor] = i
+            self._noise = None
+            self._slot_rows.clear()
+        return i
 
     def _exclusions_changed(self) -> None:
         """Refresh what follows from the excluded sensors (read every tick)."""
@@ -154,16 +251,29 @@ class SensorHealth:
         """
         records: list[DetectionRecord] = []
         watch = self._watch
+        cfg = self.config
+        names = tuple(screening)
+        watched = self._watched.get(names)
+        if watched is None:
+            watched = self._watched[names] = np.zeros(_MAX_SENSORS, dtype=np.bool_)
+            for sensor in names:
+                watched[self._row(sensor)] = True
+        if noise is not self._noise:
+            for sensor, i in self._rows_of.items():
+                self._table[i, SIGMA] = noise.get(sensor, 0.0)
+            self._noise = noise
+        table, rows = self._tick_table(batches)
+        watch_values(time_s, table, rows, self._axes, watched, self._table, cfg.jump_sigma,
+                     cfg.max_speed, self._yaw_row)
+        state = self._table.tolist()
         for sensor, check in screening.items():
             w = watch.get(sensor) or self._w(sensor)
-            batch = batches.get(sensor)
-            if batch is not None:
-                self._watch_value(time_s, w, batch, noise.get(sensor, 0.0),
-                                  sensor == "mocap_att")
+            row = state[w.index]
+            same = row[SAME]
             if airborne:
-                if w.same >= self.config.frozen_ticks:
+                if same >= cfg.frozen_ticks:
                     self._exclude(records, time_s, sensor, w, "sensor_frozen",
-                                  time_s - w.frozen_since_s)
+                                  time_s - row[FROZEN_SINCE])
                 if check.status != "rejected":
                     w.rejections = 0
                 else:
@@ -173,9 +283,33 @@ class SensorHealth:
             kind = w.excluded_as
             if kind is not None and kind != "sensor_inconsistent":
                 # (the cross-check re-admits an inconsistent barometer)
-                self._recovery(records, time_s, sensor, w, kind, check)
+                self._recovery(records, time_s, sensor, w, kind, check,
+                               same == 0.0 and row[JUMPED] == 0.0)
         self._cross_check(records, time_s, batches)
         return records
+
+    def _tick_table(self, batches: Mapping[str, SampleBatch]) -> tuple[np.ndarray, np.ndarray]:
+        """The tick's batch values as :func:`watch_values` reads them: the grouping's own
+        table when ``batches`` carries one, else one built from the batches."""
+        if isinstance(batches, GroupedSamples):
+            rows = self._slot_rows.get(batches.slot_names)
+            if rows is None:
+                rows = np.full(_MAX_SENSORS, -1, dtype=np.int64)
+                for slot, sensor in enumerate(batches.slot_names):
+                    i = self._row(sensor)
+                    rows[i] = slot
+                    self._axes[i] = batches.slot_axes[slot]
+                self._slot_rows[batches.slot_names] = rows
+            return batches.table, rows
+        table = np.zeros((_MAX_SENSORS, 6))
+        rows = np.arange(_MAX_SENSORS, dtype=np.int64)
+        for sensor, batch in batches.items():
+            i = self._row(sensor)
+            value = np.asarray(batch.value, dtype=float).reshape(-1)[:3]
+            self._axes[i] = value.shape[0]
+            table[i, :value.shape[0]] = value
+            table[i, 4] = 1.0  # count: a batch
+        return table, rows
 
     def _exclude(self, records: list[DetectionRecord], time_s: float, sensor: str, w: _Watch,
                  kind: str, magnitude: float) -> None:
@@ -185,30 +319,6 @@ class SensorHealth:
         self._exclusions_changed()
         records.append(DetectionRecord(time_s=time_s, action="detected", kind=kind,
                                        sensor=sensor, magnitude=magnitude))
-
-    def _watch_value(self, time_s: float, w: _Watch, batch: SampleBatch,
-                     sigma: float, yaw_last: bool) -> None:
-        """Repeats (frozen) and jumps (garbage) of the batch values (``yaw_last``: the third
-        entry is an angle, its change wrapped to [-pi, pi))."""
-        value = batch.value.tolist()
-        last = w.last_value
-        if last is not None and value == last:
-            if w.same == 0:
-                w.frozen_since_s = time_s
-            w.same += 1
-            w.jumped = False
-        else:
-            w.same = 0
-            if last is not None:
-                limit = self.config.jump_sigma * sigma + self.config.max_speed * (
-                    time_s - w.last_time_s)
-                change = [a - b for a, b in zip(value, last, strict=True)]
-                if yaw_last:
-                    change[2] = (change[2] + math.pi) % (2.0 * math.pi) - math.pi
-                # some |change| > limit
-                w.jumped = max(change) > limit or min(change) < -limit
-        w.last_value = value
-        w.last_time_s = time_s
 
     def _rejected(self, records: list[DetectionRecord], time_s: float, sensor: str,
                   w: _Watch, check: ChannelCheck) -> None:
@@ -220,9 +330,10 @@ class SensorHealth:
             self._exclude(records, time_s, sensor, w, "sensor_rejected", check.nis)
 
     def _recovery(self, records: list[DetectionRecord], time_s: float, sensor: str,
-                  w: _Watch, kind: str, check: ChannelCheck) -> None:
-        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``."""
-        consistent = check.nis <= check.gate and w.same == 0 and not w.jumped
+                  w: _Watch, kind: str, check: ChannelCheck, self_consistent: bool) -> None:
+        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``
+        (``self_consistent``: its latest batch neither repeated nor jumped)."""
+        consistent = check.nis <= check.gate and self_consistent
         if not consistent:
             w.good_since_s = None
             return
