@@ -112,9 +112,8 @@ _MAX_SENSORS = 8  # rows of the watch table (the SENSORS first)
 
 
 @njit(cache=True, error_model="numpy")
-def watch_values(time_s: float, table: np.ndarray, rows: np.ndarray, axes: np.ndarray,
-                 watched: np.ndarray, watch: np.ndarray, jump_sigma: float, max_speed: float,
-                 yaw_row: int) -> None:
+def watch_values(time_s: float, table: np.ndarray, plan: np.ndarray, watch: np.ndarray,
+                 limits: np.ndarray) -> None:
     """Repeats (frozen) and jumps (garbage) of one tick's batch values, every sensor at once.
 
     Parameters
@@ -124,23 +123,23 @@ def watch_values(time_s: float, table: np.ndarray, rows: np.ndarray, axes: np.nd
     table : ndarray, shape (n_slots, w + 3)
         The tick's averaged samples (:class:`fcu.estimation.state.GroupedSamples`
         ``table``): value entries, then mean time, count (0: no batch) and first index.
-    rows : ndarray of int, shape (n_watch,)
-        Each watched sensor's slot in ``table``; -1: none.
-    axes : ndarray of int, shape (n_watch,)
-        Entries of each sensor's value (at most 3 are compared).
-    watched : ndarray of bool, shape (n_watch,)
-        The sensors checked this tick (those the estimator screened).
+    plan : ndarray of int, shape (3, n_watch)
+        Per sensor (watch-table row): its slot in ``table`` (-1: none), the entries of its
+        value (at most 3 are compared), and 1 when it is checked this tick (the estimator
+        screened it), else 0.
     watch : ndarray, shape (n_watch, WATCH_COLUMNS)
         The watch table (module constants), updated in place.
-    jump_sigma, max_speed : float
-        A change beyond ``jump_sigma sigma + max_speed (t - t_last)`` is a jump.
-    yaw_row : int
-        The sensor whose third entry is an angle (its change wrapped to [-pi, pi)), or -1.
+    limits : ndarray, shape (3,)
+        ``jump_sigma``, ``max_speed`` (a change beyond ``jump_sigma sigma + max_speed
+        (t - t_last)`` is a jump) and the row of the sensor whose third entry is an angle
+        (its change wrapped to [-pi, pi)), -1 for none.
     """
+    jump_sigma, max_speed, yaw_row = limits[0], limits[1], int(limits[2])
+    rows, axes, watched = plan[0], plan[1], plan[2]
     w = table.shape[1] - 3
     for i in range(rows.shape[0]):
         r = rows[i]
-        if not watched[i] or r < 0 or table[r, w + 1] <= 0.0:
+        if watched[i] == 0 or r < 0 or table[r, w + 1] <= 0.0:
             continue  # not screened, or no batch this tick
         n = min(axes[i], 3)
         had = watch[i, HAS_LAST] != 0.0
@@ -196,11 +195,11 @@ class SensorHealth:
         self._watch: dict[str, _Watch] = {}
         self._rows_of: dict[str, int] = {name: i for i, name in enumerate(SENSORS)}
         self._table = np.zeros((_MAX_SENSORS, WATCH_COLUMNS))
-        self._yaw_row = self._rows_of["mocap_att"]
-        self._axes = np.full(_MAX_SENSORS, 3, dtype=np.int64)
+        cfg = self.config
+        self._limits = np.array([cfg.jump_sigma, cfg.max_speed, self._rows_of["mocap_att"]])
         self._noise: Mapping[str, float] | None = None  # the noise the SIGMA column holds
-        self._slot_rows: dict[tuple[str, ...], np.ndarray] = {}  # table slots -> rows
-        self._watched: dict[tuple[str, ...], np.ndarray] = {}  # screened sensors -> mask
+        # watch_values' plan by (table slots, screened sensors)
+        self._plans: dict[tuple[tuple[str, ...], tuple[str, ...]], np.ndarray] = {}
         # the cross-check's window: tick times and baro alt - mocap alt, m
         self._cross_t: deque[float] = deque()
         self._cross_v: deque[float] = deque()
@@ -222,7 +221,6 @@ class SensorHealth:
                 raise ValueError(f"sensor {sensor!r}: at most {_MAX_SENSORS} sensors watched")
             self._rows_of[sensor] = i
             self._noise = None
-            self._slot_rows.clear()
         return i
 
     def _exclusions_changed(self) -> None:
@@ -252,28 +250,21 @@ class SensorHealth:
         records: list[DetectionRecord] = []
         watch = self._watch
         cfg = self.config
-        names = tuple(screening)
-        watched = self._watched.get(names)
-        if watched is None:
-            watched = self._watched[names] = np.zeros(_MAX_SENSORS, dtype=np.bool_)
-            for sensor in names:
-                watched[self._row(sensor)] = True
-        if noise is not self._noise:
+        table, plan = self._plan(batches, tuple(screening))
+        if noise is not self._noise:  # (a sensor new to the table clears _noise)
             for sensor, i in self._rows_of.items():
                 self._table[i, SIGMA] = noise.get(sensor, 0.0)
             self._noise = noise
-        table, rows = self._tick_table(batches)
-        watch_values(time_s, table, rows, self._axes, watched, self._table, cfg.jump_sigma,
-                     cfg.max_speed, self._yaw_row)
-        state = self._table.tolist()
+        watch_values(time_s, table, plan, self._table, self._limits)
+        state = self._table[:, SAME:FROZEN_SINCE + 1].tolist()  # SAME, JUMPED, FROZEN_SINCE
         for sensor, check in screening.items():
             w = watch.get(sensor) or self._w(sensor)
             row = state[w.index]
-            same = row[SAME]
+            same = row[0]
             if airborne:
                 if same >= cfg.frozen_ticks:
                     self._exclude(records, time_s, sensor, w, "sensor_frozen",
-                                  time_s - row[FROZEN_SINCE])
+                                  time_s - row[2])
                 if check.status != "rejected":
                     w.rejections = 0
                 else:
@@ -284,32 +275,42 @@ class SensorHealth:
             if kind is not None and kind != "sensor_inconsistent":
                 # (the cross-check re-admits an inconsistent barometer)
                 self._recovery(records, time_s, sensor, w, kind, check,
-                               same == 0.0 and row[JUMPED] == 0.0)
+                               same == 0.0 and row[1] == 0.0)
         self._cross_check(records, time_s, batches)
         return records
 
-    def _tick_table(self, batches: Mapping[str, SampleBatch]) -> tuple[np.ndarray, np.ndarray]:
-        """The tick's batch values as :func:`watch_values` reads them: the grouping's own
-        table when ``batches`` carries one, else one built from the batches."""
+    def _plan(self, batches: Mapping[str, SampleBatch], screened: tuple[str, ...]
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """The tick's batch values and :func:`watch_values`' plan for them: the grouping's
+        own table when ``batches`` carries one, else one built from the batches."""
         if isinstance(batches, GroupedSamples):
-            rows = self._slot_rows.get(batches.slot_names)
-            if rows is None:
-                rows = np.full(_MAX_SENSORS, -1, dtype=np.int64)
+            key = (batches.slot_names, screened)
+            plan = self._plans.get(key)
+            if plan is None:
+                plan = self._plans[key] = self._new_plan(screened)
                 for slot, sensor in enumerate(batches.slot_names):
                     i = self._row(sensor)
-                    rows[i] = slot
-                    self._axes[i] = batches.slot_axes[slot]
-                self._slot_rows[batches.slot_names] = rows
-            return batches.table, rows
+                    plan[0, i] = slot
+                    plan[1, i] = batches.slot_axes[slot]
+            return batches.table, plan
+        plan = self._new_plan(screened)
         table = np.zeros((_MAX_SENSORS, 6))
-        rows = np.arange(_MAX_SENSORS, dtype=np.int64)
         for sensor, batch in batches.items():
             i = self._row(sensor)
             value = np.asarray(batch.value, dtype=float).reshape(-1)[:3]
-            self._axes[i] = value.shape[0]
+            plan[0, i] = i
+            plan[1, i] = value.shape[0]
             table[i, :value.shape[0]] = value
             table[i, 4] = 1.0  # count: a batch
-        return table, rows
+        return table, plan
+
+    def _new_plan(self, screened: tuple[str, ...]) -> np.ndarray:
+        """A plan (:func:`watch_values`) with no slots, checking the ``screened`` sensors."""
+        plan = np.zeros((3, _MAX_SENSORS), dtype=np.int64)
+        plan[0] = -1
+        for sensor in screened:
+            plan[2, self._row(sensor)] = 1
+        return plan
 
     def _exclude(self, records: list[DetectionRecord], time_s: float, sensor: str, w: _Watch,
                  kind: str, magnitude: float) -> None:
