@@ -121,10 +121,10 @@ class TickLog:
         k = self.n
         if k == self._rows.shape[0]:
             self._grow(k + _CHUNK_TICKS)
-        x = world.plant.state
+        x = world.plant.state.tolist()
         t = world.time_s
-        pos = x[0:3].tolist()
-        euler = euler_from_quat(x[6:10].tolist()).tolist()
+        pos = x[0:3]
+        euler = euler_from_quat(x[6:10]).tolist()
         if (status.reference is not None and status.attitude_reference is not None
                 and not world.plant.on_ground):
             self.flying[k] = True
