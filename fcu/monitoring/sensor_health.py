@@ -28,10 +28,6 @@ deviations plus ``max_speed`` times the tick of the previous one (garbage jumps)
 repeated (a frozen one must change again). An inconsistent barometer must come back within
 half the limit.
 
-The repeat and jump tests of the tick's batches run as one compiled call
-(:func:`watch_values`) over the averaged table the autopilot's grouping produced
-(:class:`fcu.estimation.state.GroupedSamples`), with each sensor's bookkeeping in one array.
-
 Rejections count, and sensors are frozen, only in flight: on the ground a touchdown or a
 disarm moves the vehicle in ways no estimator model follows.
 
@@ -50,14 +46,10 @@ from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-import numpy as np
-from numba import njit
-
 from fcu.estimation.estimator import ChannelCheck
-from fcu.estimation.state import GroupedSamples, SampleBatch
+from fcu.estimation.state import SampleBatch
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
-from flightdata.vocabulary import SENSORS
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -88,87 +80,18 @@ class SensorHealthConfig:
 
 @dataclass(slots=True)
 class _Watch:
-    """Bookkeeping of one sensor (its repeat and jump state: row ``index`` of the watch
-    table, :data:`WATCH_COLUMNS`)."""
+    """Bookkeeping of one sensor."""
 
-    index: int  # row of the sensor in the watch table
     excluded_as: str | None = None  # detection kind while excluded
     excluded_s: float = 0.0
     rejections: int = 0
     last_rejected_s: float = -math.inf
+    last_value: list[float] | None = None
+    last_time_s: float = 0.0
+    same: int = 0
+    jumped: bool = False  # the latest batch jumped from the one before
+    frozen_since_s: float = 0.0
     good_since_s: float | None = None
-
-
-# the watch table: one row per sensor, these columns (counts and flags as exact floats)
-LAST_VALUE = 0  # 0:3, the latest batch value (its first entries)
-HAS_LAST = 3  # 1: a batch was seen
-LAST_TIME = 4  # s, tick of the latest batch
-SAME = 5  # -, consecutive batches equal to the one before
-JUMPED = 6  # 1: the latest batch jumped from the one before
-FROZEN_SINCE = 7  # s, tick at which the repeats began
-SIGMA = 8  # sensor unit, one sample's noise, 1 sigma
-WATCH_COLUMNS = 9
-_MAX_SENSORS = 8  # rows of the watch table (the SENSORS first)
-
-
-@njit(cache=True, error_model="numpy")
-def watch_values(time_s: float, table: np.ndarray, plan: np.ndarray, watch: np.ndarray,
-                 limits: np.ndarray) -> None:
-    """Repeats (frozen) and jumps (garbage) of one tick's batch values, every sensor at once.
-
-    Parameters
-    ----------
-    time_s : float
-        Tick time, s.
-    table : ndarray, shape (n_slots, w + 3)
-        The tick's averaged samples (:class:`fcu.estimation.state.GroupedSamples`
-        ``table``): value entries, then mean time, count (0: no batch) and first index.
-    plan : ndarray of int, shape (3, n_watch)
-        Per sensor (watch-table row): its slot in ``table`` (-1: none), the entries of its
-        value (at most 3 are compared), and 1 when it is checked this tick (the estimator
-        screened it), else 0.
-    watch : ndarray, shape (n_watch, WATCH_COLUMNS)
-        The watch table (module constants), updated in place.
-    limits : ndarray, shape (3,)
-        ``jump_sigma``, ``max_speed`` (a change beyond ``jump_sigma sigma + max_speed
-        (t - t_last)`` is a jump) and the row of the sensor whose third entry is an angle
-        (its change wrapped to [-pi, pi)), -1 for none.
-    """
-    jump_sigma, max_speed, yaw_row = limits[0], limits[1], int(limits[2])
-    rows, axes, watched = plan[0], plan[1], plan[2]
-    w = table.shape[1] - 3
-    for i in range(rows.shape[0]):
-        r = rows[i]
-        if watched[i] == 0 or r < 0 or table[r, w + 1] <= 0.0:
-            continue  # not screened, or no batch this tick
-        n = min(axes[i], 3)
-        had = watch[i, HAS_LAST] != 0.0
-        equal = had
-        for a in range(n):
-            equal = equal and table[r, a] == watch[i, LAST_VALUE + a]
-        if equal:
-            if watch[i, SAME] == 0.0:
-                watch[i, FROZEN_SINCE] = time_s
-            watch[i, SAME] += 1.0
-            watch[i, JUMPED] = 0.0
-        else:
-            watch[i, SAME] = 0.0
-            if had:
-                # limit = jump_sigma sigma + max_speed (t - t_last); a jump: some |change| > limit
-                limit = jump_sigma * watch[i, SIGMA] + max_speed * (time_s - watch[i, LAST_TIME])
-                hi = -math.inf
-                lo = math.inf
-                for a in range(n):
-                    change = table[r, a] - watch[i, LAST_VALUE + a]
-                    if i == yaw_row and a == 2:
-                        change = (change + math.pi) % (2.0 * math.pi) - math.pi
-                    hi = max(hi, change)
-                    lo = min(lo, change)
-                watch[i, JUMPED] = 1.0 if (hi > limit or lo < -limit) else 0.0
-        for a in range(n):
-            watch[i, LAST_VALUE + a] = table[r, a]
-        watch[i, HAS_LAST] = 1.0
-        watch[i, LAST_TIME] = time_s
 
 
 # the sensor each height source reads
@@ -193,13 +116,6 @@ class SensorHealth:
     def reset(self) -> None:
         """Every sensor trusted, every check restarted."""
         self._watch: dict[str, _Watch] = {}
-        self._rows_of: dict[str, int] = {name: i for i, name in enumerate(SENSORS)}
-        self._table = np.zeros((_MAX_SENSORS, WATCH_COLUMNS))
-        cfg = self.config
-        self._limits = np.array([cfg.jump_sigma, cfg.max_speed, self._rows_of["mocap_att"]])
-        self._noise: Mapping[str, float] | None = None  # the noise the SIGMA column holds
-        # watch_values' plan by (table slots, screened sensors)
-        self._plans: dict[tuple[tuple[str, ...], tuple[str, ...]], np.ndarray] = {}
         # the cross-check's window: tick times and baro alt - mocap alt, m
         self._cross_t: deque[float] = deque()
         self._cross_v: deque[float] = deque()
@@ -209,19 +125,8 @@ class SensorHealth:
     def _w(self, sensor: str) -> _Watch:
         w = self._watch.get(sensor)
         if w is None:
-            w = self._watch[sensor] = _Watch(self._row(sensor))
+            w = self._watch[sensor] = _Watch()
         return w
-
-    def _row(self, sensor: str) -> int:
-        """The watch-table row of ``sensor`` (sensors outside SENSORS get the next free)."""
-        i = self._rows_of.get(sensor)
-        if i is None:
-            i = len(self._rows_of)
-            if i >= _MAX_SENSORS:
-                raise ValueError(f"sensor {sensor!r}: at most {_MAX_SENSORS} sensors watched")
-            self._rows_of[sensor] = i
-            self._noise = None
-        return i
 
     def _exclusions_changed(self) -> None:
         """Refresh what follows from the excluded sensors (read every tick)."""
@@ -249,22 +154,16 @@ class SensorHealth:
         """
         records: list[DetectionRecord] = []
         watch = self._watch
-        cfg = self.config
-        table, plan = self._plan(batches, tuple(screening))
-        if noise is not self._noise:  # (a sensor new to the table clears _noise)
-            for sensor, i in self._rows_of.items():
-                self._table[i, SIGMA] = noise.get(sensor, 0.0)
-            self._noise = noise
-        watch_values(time_s, table, plan, self._table, self._limits)
-        state = self._table[:, SAME:FROZEN_SINCE + 1].tolist()  # SAME, JUMPED, FROZEN_SINCE
         for sensor, check in screening.items():
             w = watch.get(sensor) or self._w(sensor)
-            row = state[w.index]
-            same = row[0]
+            batch = batches.get(sensor)
+            if batch is not None:
+                self._watch_value(time_s, w, batch, noise.get(sensor, 0.0),
+                                  sensor == "mocap_att")
             if airborne:
-                if same >= cfg.frozen_ticks:
+                if w.same >= self.config.frozen_ticks:
                     self._exclude(records, time_s, sensor, w, "sensor_frozen",
-                                  time_s - row[2])
+                                  time_s - w.frozen_since_s)
                 if check.status != "rejected":
                     w.rejections = 0
                 else:
@@ -274,43 +173,9 @@ class SensorHealth:
             kind = w.excluded_as
             if kind is not None and kind != "sensor_inconsistent":
                 # (the cross-check re-admits an inconsistent barometer)
-                self._recovery(records, time_s, sensor, w, kind, check,
-                               same == 0.0 and row[1] == 0.0)
+                self._recovery(records, time_s, sensor, w, kind, check)
         self._cross_check(records, time_s, batches)
         return records
-
-    def _plan(self, batches: Mapping[str, SampleBatch], screened: tuple[str, ...]
-              ) -> tuple[np.ndarray, np.ndarray]:
-        """The tick's batch values and :func:`watch_values`' plan for them: the grouping's
-        own table when ``batches`` carries one, else one built from the batches."""
-        if isinstance(batches, GroupedSamples):
-            key = (batches.slot_names, screened)
-            plan = self._plans.get(key)
-            if plan is None:
-                plan = self._plans[key] = self._new_plan(screened)
-                for slot, sensor in enumerate(batches.slot_names):
-                    i = self._row(sensor)
-                    plan[0, i] = slot
-                    plan[1, i] = batches.slot_axes[slot]
-            return batches.table, plan
-        plan = self._new_plan(screened)
-        table = np.zeros((_MAX_SENSORS, 6))
-        for sensor, batch in batches.items():
-            i = self._row(sensor)
-            value = np.asarray(batch.value, dtype=float).reshape(-1)[:3]
-            plan[0, i] = i
-            plan[1, i] = value.shape[0]
-            table[i, :value.shape[0]] = value
-            table[i, 4] = 1.0  # count: a batch
-        return table, plan
-
-    def _new_plan(self, screened: tuple[str, ...]) -> np.ndarray:
-        """A plan (:func:`watch_values`) with no slots, checking the ``screened`` sensors."""
-        plan = np.zeros((3, _MAX_SENSORS), dtype=np.int64)
-        plan[0] = -1
-        for sensor in screened:
-            plan[2, self._row(sensor)] = 1
-        return plan
 
     def _exclude(self, records: list[DetectionRecord], time_s: float, sensor: str, w: _Watch,
                  kind: str, magnitude: float) -> None:
@@ -320,6 +185,30 @@ class SensorHealth:
         self._exclusions_changed()
         records.append(DetectionRecord(time_s=time_s, action="detected", kind=kind,
                                        sensor=sensor, magnitude=magnitude))
+
+    def _watch_value(self, time_s: float, w: _Watch, batch: SampleBatch,
+                     sigma: float, yaw_last: bool) -> None:
+        """Repeats (frozen) and jumps (garbage) of the batch values (``yaw_last``: the third
+        entry is an angle, its change wrapped to [-pi, pi))."""
+        value = batch.value.tolist()
+        last = w.last_value
+        if last is not None and value == last:
+            if w.same == 0:
+                w.frozen_since_s = time_s
+            w.same += 1
+            w.jumped = False
+        else:
+            w.same = 0
+            if last is not None:
+                limit = self.config.jump_sigma * sigma + self.config.max_speed * (
+                    time_s - w.last_time_s)
+                change = [a - b for a, b in zip(value, last, strict=True)]
+                if yaw_last:
+                    change[2] = (change[2] + math.pi) % (2.0 * math.pi) - math.pi
+                # some |change| > limit
+                w.jumped = max(change) > limit or min(change) < -limit
+        w.last_value = value
+        w.last_time_s = time_s
 
     def _rejected(self, records: list[DetectionRecord], time_s: float, sensor: str,
                   w: _Watch, check: ChannelCheck) -> None:
@@ -331,10 +220,9 @@ class SensorHealth:
             self._exclude(records, time_s, sensor, w, "sensor_rejected", check.nis)
 
     def _recovery(self, records: list[DetectionRecord], time_s: float, sensor: str,
-                  w: _Watch, kind: str, check: ChannelCheck, self_consistent: bool) -> None:
-        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``
-        (``self_consistent``: its latest batch neither repeated nor jumped)."""
-        consistent = check.nis <= check.gate and self_consistent
+                  w: _Watch, kind: str, check: ChannelCheck) -> None:
+        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``."""
+        consistent = check.nis <= check.gate and w.same == 0 and not w.jumped
         if not consistent:
             w.good_since_s = None
             return

@@ -1,4 +1,4 @@
-"""SensorHealth's repeat and jump checks (compiled over the grouped table) and what follows."""
+"""SensorHealth's repeat check and what follows, on grouped batches and on plain ones."""
 
 from __future__ import annotations
 
@@ -9,15 +9,7 @@ import numpy as np
 from fcu.estimation.estimator import ChannelCheck
 from fcu.estimation.state import group_samples
 from fcu.hal import SensorSample
-from fcu.monitoring.sensor_health import (
-    FROZEN_SINCE,
-    JUMPED,
-    SAME,
-    WATCH_COLUMNS,
-    SensorHealth,
-    SensorHealthConfig,
-    watch_values,
-)
+from fcu.monitoring.sensor_health import SensorHealth, SensorHealthConfig
 
 NOISE = {"gyro": 0.003, "accel": 0.03, "mocap_pos": 0.0005, "mocap_att": 0.002, "baro": 0.02}
 KINDS = frozenset(NOISE)
@@ -49,7 +41,7 @@ def test_a_frozen_position_is_excluded_after_frozen_ticks_repeats_in_flight() ->
     assert not health.position_fix
 
 
-def test_grouped_table_and_plain_batches_watch_alike() -> None:
+def test_grouped_and_plain_batches_are_watched_alike() -> None:
     a = SensorHealth(SensorHealthConfig(), "mocap")
     b = SensorHealth(SensorHealthConfig(), "mocap")
     checks = screening("mocap_pos", "mocap_att", "baro")
@@ -63,24 +55,4 @@ def test_grouped_table_and_plain_batches_watch_alike() -> None:
         plain = dict(grouped)  # the same batches without the table
         assert a.step(t, grouped, checks, k > 10, NOISE) == b.step(t, plain, checks, k > 10,
                                                                     NOISE)
-    np.testing.assert_array_equal(a._table, b._table)
     assert a.excluded == b.excluded == frozenset({"baro"})  # frozen once in flight
-
-
-def test_watch_values_wraps_the_yaw_change_and_flags_jumps() -> None:
-    watch = np.zeros((2, WATCH_COLUMNS))
-    watch[:, 8] = 0.002  # SIGMA column: rad
-    plan = np.array([[0, 1], [3, 3], [1, 1]], dtype=np.int64)  # slots, axes, checked
-    limits = np.array([6.0, 5.0, 0.0])  # jump_sigma, max_speed, row 0 is mocap_att
-    # yaw across +-pi in row 0 (no jump), the same step on a plain sensor in row 1 (a jump)
-    first = np.array([[0.0, 0.0, 3.14, 0.0, 1.0, 0.0], [0.0, 0.0, 3.14, 0.0, 1.0, 1.0]])
-    second = np.array([[0.0, 0.0, -3.14, 0.01, 1.0, 0.0], [0.0, 0.0, -3.14, 0.01, 1.0, 1.0]])
-    watch_values(0.0, first, plan, watch, limits)
-    watch_values(0.01, second, plan, watch, limits)
-    # limit: 6 * 0.002 + 5 * 0.01 = 0.062; the wrapped yaw change is 2 pi - 6.28 = 0.0032
-    assert watch[0, JUMPED] == 0.0 and watch[1, JUMPED] == 1.0
-    watch_values(0.02, second, plan, watch, limits)  # a repeat
-    assert watch[:, SAME].tolist() == [1.0, 1.0] and watch[0, FROZEN_SINCE] == 0.02
-    plan[2, 1] = 0  # row 1 not screened this tick: left alone
-    watch_values(0.03, second, plan, watch, limits)
-    assert watch[:, SAME].tolist() == [2.0, 1.0]
