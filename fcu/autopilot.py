@@ -456,8 +456,10 @@ class Autopilot:
         """The battery monitor (:mod:`fcu.monitoring.battery`) on the power module's reading;
         a rise of its level is announced and triggers the failsafe its action names."""
         volts = amps = None
-        if batch is not None and batch.value.shape[0] >= 2:
-            volts, amps = float(batch.value[0]), float(batch.value[1])
+        if batch is not None:
+            value = batch.value.tolist()
+            if len(value) >= 2:
+                volts, amps = value[0], value[1]
         event = self.battery.step(time_s, volts, amps)
         if event is None:
             return

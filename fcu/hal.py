@@ -44,8 +44,10 @@ class SensorSampleLike(Protocol):
 
 class SensorSampleArrays(Protocol):
     """Structural type of a tick's samples held as arrays rather than one object each (the
-    simulator's sample batch is one); :func:`fcu.estimation.state.group_samples` reads them
-    without an object per sample."""
+    simulator's sample batch is one, the power module's ``battery`` readings among them);
+    :func:`fcu.estimation.state.group_samples` reads them without an object per sample and
+    averages them per kind into one table
+    (:class:`fcu.estimation.state.GroupedSamples`)."""
 
     sensor_names: tuple[str, ...]  # the sensor names sensor_index indexes
     sensor_axes: tuple[int, ...]  # entries of each of those sensors' values

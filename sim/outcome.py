@@ -71,6 +71,7 @@ class MissionArea:
     def __init__(self, points: Iterable[Vector] = ((0.0, 0.0, 0.0),)) -> None:
         self._lo = np.full(3, math.inf)
         self._hi = np.full(3, -math.inf)
+        self._lo_l, self._hi_l = self._lo.tolist(), self._hi.tolist()  # read every tick
         for p in points:
             self.extend(p)
 
@@ -80,6 +81,7 @@ class MissionArea:
         if np.all(np.isfinite(p)):
             self._lo = np.minimum(self._lo, p)
             self._hi = np.maximum(self._hi, p)
+            self._lo_l, self._hi_l = self._lo.tolist(), self._hi.tolist()
 
     def corners(self) -> list[tuple[float, float, float]]:
         """The box's two extreme corners (none while empty), m, NED."""
@@ -90,10 +92,11 @@ class MissionArea:
 
     def outside_m(self, pos_ned: Vector) -> tuple[float, float]:
         """(horizontal distance outside the box, height above its top), m (0 inside)."""
-        p = np.asarray(pos_ned, dtype=float)
-        dx = max(self._lo[0] - p[0], 0.0, p[0] - self._hi[0])
-        dy = max(self._lo[1] - p[1], 0.0, p[1] - self._hi[1])
-        above = max(self._lo[2] - p[2], 0.0)  # NED: higher = more negative z
+        x, y, z = (float(v) for v in pos_ned)
+        lo, hi = self._lo_l, self._hi_l
+        dx = max(lo[0] - x, 0.0, x - hi[0])
+        dy = max(lo[1] - y, 0.0, y - hi[1])
+        above = max(lo[2] - z, 0.0)  # NED: higher = more negative z
         return math.hypot(dx, dy), above
 
 
@@ -185,6 +188,11 @@ class OutcomeJudge:
                 self._decide("landed", time_s, "no_flight")
         assert self.outcome is not None
         return self.outcome
+
+    @property
+    def decided(self) -> bool:
+        """An outcome waits to be drained."""
+        return bool(self._new)
 
     def drain(self) -> list[OutcomeRecord]:
         """Outcomes decided since the previous call."""

@@ -57,59 +57,90 @@ class FlightResult:
     interrupted: bool = False  # ended early by Ctrl-C (``fly(..., interruptible=True)``)
 
 
+# the columns of a TickLog row: name, first column, width
+_COLUMNS = (("t", 0, 1), ("pos", 1, 3), ("euler", 4, 3), ("est_pos", 7, 3), ("pwm", 10, 4),
+            ("loe_est", 14, 4), ("loe_injected", 18, 4), ("wind", 22, 3), ("ref_pos", 25, 3),
+            ("ref_euler", 28, 3))
+_WIDTH = 31
+_CHUNK_TICKS = 6000  # rows added when the log is full (60 s at 100 Hz)
+
+
 class TickLog:
     """Preallocated per-tick storage of a headless flight (the runner's and the recorder's).
+
+    One float table, a row per tick, written with one assignment; its columns are the
+    attributes ``t`` (s), ``pos``, ``euler``, ``est_pos``, ``pwm``, ``loe_est``,
+    ``loe_injected``, ``wind``, ``ref_pos`` and ``ref_euler`` (views); ``flying`` and
+    ``free_flight`` are bool columns. Full, it grows by a chunk of rows.
 
     Parameters
     ----------
     capacity : int
-        Ticks it can hold.
+        Ticks it holds before it first grows.
     pwm_max : float
         Full-power motor command of the airframe (unit duty).
     """
 
+    t: np.ndarray
+    pos: np.ndarray
+    euler: np.ndarray
+    est_pos: np.ndarray
+    pwm: np.ndarray
+    loe_est: np.ndarray
+    loe_injected: np.ndarray
+    wind: np.ndarray
+    ref_pos: np.ndarray
+    ref_euler: np.ndarray
+
     def __init__(self, capacity: int, pwm_max: float) -> None:
-        n = capacity
         self.n = 0
         self.pwm_max = pwm_max
-        self.t = np.zeros(n)
-        self.flying = np.zeros(n, dtype=bool)
-        self.free_flight = np.zeros(n, dtype=bool)
-        self.ref_pos = np.zeros((n, 3))
-        self.pos = np.zeros((n, 3))
-        self.est_pos = np.zeros((n, 3))
-        self.ref_euler = np.zeros((n, 3))
-        self.euler = np.zeros((n, 3))
-        self.pwm = np.zeros((n, 4))
-        self.loe_est = np.zeros((n, 4))
-        self.loe_injected = np.zeros((n, 4))
-        self.wind = np.zeros((n, 3))
+        self._rows = np.zeros((0, _WIDTH))
+        self.flying = np.zeros(0, dtype=bool)
+        self.free_flight = np.zeros(0, dtype=bool)
+        self._grow(max(capacity, 1))
 
-    def append(self, world: World, autopilot: Autopilot) -> None:
-        """Store the tick just flown: truth, estimate, references, commands, wind."""
+    def _grow(self, capacity: int) -> None:
+        """Room for ``capacity`` rows, the rows so far kept."""
+        k = self.n
+        rows = np.zeros((capacity, _WIDTH))
+        rows[:k] = self._rows[:k]
+        flying = np.zeros(capacity, dtype=bool)
+        flying[:k] = self.flying[:k]
+        free_flight = np.zeros(capacity, dtype=bool)
+        free_flight[:k] = self.free_flight[:k]
+        self._rows, self.flying, self.free_flight = rows, flying, free_flight
+        for name, first, width in _COLUMNS:
+            setattr(self, name, rows[:, first] if name == "t" else rows[:, first:first + width])
+
+    def append(self, world: World, autopilot: Autopilot) -> list[float]:
+        """Store the tick just flown: truth, estimate, references, commands, wind; returns
+        the true attitude (roll, pitch, yaw, rad) stored."""
         status = autopilot.status
         assert status is not None
-        x = world.plant.state
-        t = world.time_s
         k = self.n
-        self.t[k] = t
-        self.pos[k] = x[0:3]
-        self.euler[k] = euler_from_quat(x[6:10])
-        self.est_pos[k] = status.estimate.pos_ned
-        self.pwm[k] = status.pwm
-        self.loe_est[k] = status.loe_estimate
-        self.loe_injected[k] = world.faults.true_loe(t)
-        self.wind[k] = world.wind_ned
+        if k == self._rows.shape[0]:
+            self._grow(k + _CHUNK_TICKS)
+        x = world.plant.state.tolist()
+        t = world.time_s
+        pos = x[0:3]
+        euler = euler_from_quat(x[6:10]).tolist()
         if (status.reference is not None and status.attitude_reference is not None
                 and not world.plant.on_ground):
             self.flying[k] = True
             self.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
-            self.ref_pos[k] = status.reference.pos_ned
-            self.ref_euler[k] = status.attitude_reference.euler_rad
+            ref_pos = status.reference.pos_ned.tolist()
+            ref_euler = np.asarray(status.attitude_reference.euler_rad, dtype=float).tolist()
         else:
-            self.ref_pos[k] = self.pos[k]
-            self.ref_euler[k] = self.euler[k]
+            self.flying[k] = self.free_flight[k] = False
+            ref_pos, ref_euler = pos, euler
+        # one row: t, pos, euler, est_pos, pwm, loe_est, loe_injected, wind, ref_pos, ref_euler
+        self._rows[k] = [t, *pos, *euler, *status.estimate.pos_ned.tolist(),
+                         *status.pwm.tolist(), *status.loe_estimate.tolist(),
+                         *world.faults.true_loe(t).tolist(), *world.wind_ned.tolist(),
+                         *ref_pos, *ref_euler]
         self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
+        return euler
 
     def series(self, events: Sequence[tuple[float, str, str]] = (),
                faults: Sequence[FaultRecord] = ()) -> FlightSeries:
@@ -181,8 +212,8 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     try:
         for _ in range(n_ticks):
             stack.tick()
-            rec.append(world, autopilot)
-            flight.collect(stack)
+            euler_rad = rec.append(world, autopilot)
+            flight.collect(stack, euler_rad)
             if on_tick is not None:
                 on_tick(world, autopilot)
             if stop.requested:
@@ -218,8 +249,9 @@ class _Records:
         if self._on_event is not None:
             self._on_event(time_s, source, text)
 
-    def collect(self, stack: SimulatedStack) -> None:
-        """The tick's autopilot and world events, and the truth for the outcome judge."""
+    def collect(self, stack: SimulatedStack, euler_rad: Sequence[float]) -> None:
+        """The tick's autopilot and world events, and the truth for the outcome judge (the
+        true attitude ``euler_rad``, rad, the log computed)."""
         world, autopilot = stack.world, stack.autopilot
         autopilot_events, world_events = stack.drain_events()
         for ev in autopilot_events:
@@ -235,10 +267,10 @@ class _Records:
                 self.event(wev.time_s, "sim", wev.description)
                 if wev.kind in ("touchdown", "crash"):
                     touchdowns.append((wev.time_s, wev.speed_m_s))
-        x = world.plant.state
-        self.judge.observe(world.time_s, x[0:3], euler_from_quat(x[6:10]),
+        self.judge.observe(world.time_s, world.plant.state[0:3].tolist(), euler_rad,
                            world.plant.on_ground, touchdowns, autopilot.navigator.armed)
-        self._outcomes()
+        if self.judge.decided:
+            self._outcomes()
 
     def _outcomes(self) -> None:
         for outcome in self.judge.drain():

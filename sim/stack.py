@@ -5,8 +5,8 @@ allows, the vehicle process (:mod:`sim.vehicle`) paced against the wall clock wi
 MAVLink endpoint serviced between ticks::
 
     first_tick():  pwm = autopilot.step(0.0, [])                   # boot, before any plant step
-    tick():        samples = world.step(pwm, steps_per_tick)       # plant at plant_rate_hz
-                   samples += world.battery.drain_samples()        # power module (10 Hz)
+    tick():        samples = world.step(pwm, steps_per_tick)       # plant at plant_rate_hz,
+                                                                    # power module at 10 Hz
                    pwm     = autopilot.step(world.time_s, samples)  # autopilot at loop_rate_hz
 
 The PWM computed at a tick is held (zero-order hold) over the next ``steps_per_tick`` plant
@@ -16,7 +16,6 @@ into the world happen between ticks, so a run depends only on the tick at which 
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -98,9 +97,7 @@ class SimulatedStack:
     def tick(self) -> None:
         """``steps_per_tick`` plant steps holding the PWM, then one autopilot step."""
         self.samples = samples = self.world.step(self.pwm, self.steps_per_tick)
-        power = self.world.battery.drain_samples()  # the power module's, beside the sensors'
-        self.pwm = self.autopilot.step(self.world.time_s,
-                                       itertools.chain(samples, power) if power else samples)
+        self.pwm = self.autopilot.step(self.world.time_s, samples)
         self.ticks += 1
 
     def drain_events(self) -> tuple[list[AutopilotEvent], list[WorldEvent]]:

@@ -232,23 +232,56 @@ class Innovation:
     nis: float
 
 
-@dataclass(frozen=True, slots=True)
 class SampleBatch:
     """The samples of one sensor kind within one tick, reduced to one measurement.
+
+    A plain record (one is made per kind and tick: a frozen dataclass costs three times as
+    much to build); treat it as read-only.
 
     Attributes
     ----------
     value : ndarray, shape (n,)
-        Mean of the sample values (angles averaged without wrap-around jumps), sensor units.
+        Mean of the sample values (angles averaged without wrap-around jumps), sensor units;
+        from :func:`group_samples`, a view of :attr:`GroupedSamples.table`.
     time_s : float
         Mean sample time, s.
     count : int
         Number of samples averaged.
     """
 
-    value: FloatArray
-    time_s: float
-    count: int
+    __slots__ = ("count", "time_s", "value")
+
+    def __init__(self, value: FloatArray, time_s: float, count: int) -> None:
+        self.value = value
+        self.time_s = time_s
+        self.count = count
+
+    def __repr__(self) -> str:
+        return (f"SampleBatch(value={self.value.tolist()!r}, time_s={self.time_s!r}, "
+                f"count={self.count!r})")
+
+
+class GroupedSamples(dict[str, SampleBatch]):
+    """One tick's samples averaged per kind (:func:`group_samples`): a dict of
+    :class:`SampleBatch` by sensor kind, in the order of their first samples, that also
+    carries the arrays the batches are views of, for readers that want no object per kind.
+
+    Attributes
+    ----------
+    table : ndarray, shape (n_slots, w + 3)
+        :func:`group_sample_arrays`'s output: per slot the mean value (first ``axes[slot]``
+        entries), the mean time (column ``w``), the count (``w + 1``, 0: no batch) and the
+        index of its first sample (``w + 2``).
+    slot_names : tuple of str
+        The sensor kind of each slot (row of ``table``).
+    slot_axes : tuple of int
+        The value entries of each slot.
+    """
+
+    __slots__ = ("slot_axes", "slot_names", "table")
+    table: FloatArray
+    slot_names: tuple[str, ...]
+    slot_axes: tuple[int, ...]
 
 
 @njit(cache=True, error_model="numpy")
@@ -327,19 +360,20 @@ def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: Fl
 @functools.lru_cache(maxsize=64)
 def _slots(sensor_names: tuple[str, ...], sensor_axes: tuple[int, ...],
            kinds: frozenset[str] | tuple[str, ...]
-           ) -> tuple[np.ndarray, np.ndarray, int, tuple[str, ...]]:
+           ) -> tuple[np.ndarray, np.ndarray, int, tuple[str, ...], tuple[int, ...]]:
     """:func:`group_sample_arrays`'s ``slot_of``, ``axes`` and ``yaw_slot`` for samples of
-    ``sensor_names`` (with ``sensor_axes`` entries) keeping ``kinds``, and the slots' names."""
+    ``sensor_names`` (with ``sensor_axes`` entries) keeping ``kinds``, the slots' names and
+    their axes."""
     names = tuple(n for n in sensor_names if n in kinds)
     slot_of = np.array([names.index(n) if n in names else -1 for n in sensor_names],
                        dtype=np.int64)
     axes = np.array([sensor_axes[sensor_names.index(n)] for n in names], dtype=np.int64)
     yaw_slot = names.index("mocap_att") if "mocap_att" in names else -1
-    return slot_of, axes, yaw_slot, names
+    return slot_of, axes, yaw_slot, names, tuple(axes.tolist())
 
 
 def group_samples(samples: Iterable[SensorSampleLike],
-                  kinds: Collection[str] = SENSORS) -> dict[str, SampleBatch]:
+                  kinds: Collection[str] = SENSORS) -> GroupedSamples:
     """Average one tick's samples per sensor kind.
 
     Parameters
@@ -353,27 +387,35 @@ def group_samples(samples: Iterable[SensorSampleLike],
 
     Returns
     -------
-    dict of str to SampleBatch
-        One batch per kept sensor kind that delivered at least one usable sample, in the
-        order of their first samples. The ``mocap_att`` yaw is averaged as offsets from the
-        first reading, so readings on both sides of +-pi average correctly (result wrapped to
-        [-pi, pi)).
+    GroupedSamples
+        A dict of one :class:`SampleBatch` per kept sensor kind that delivered at least one
+        usable sample, in the order of their first samples, with the arrays behind them. The
+        ``mocap_att`` yaw is averaged as offsets from the first reading, so readings on both
+        sides of +-pi average correctly (result wrapped to [-pi, pi)).
     """
     if hasattr(samples, "sensor_axes"):  # SensorSampleArrays (the protocol's test is slow)
         arrays = cast(SensorSampleArrays, samples)
-        slot_of, axes, yaw_slot, names = _slots(
+        slot_of, axes, yaw_slot, names, axes_t = _slots(
             arrays.sensor_names, arrays.sensor_axes,
             kinds if isinstance(kinds, (frozenset, tuple)) else frozenset(kinds))
         index, times, values = arrays.sensor_index, arrays.time_s, arrays.values
     else:
         index, times, values, slot_of, axes, yaw_slot, names = _sample_arrays(samples, kinds)
+        axes_t = tuple(axes.tolist())
     out = group_sample_arrays(index, times, values, slot_of, axes, yaw_slot)
     w = out.shape[1] - 3
     rows = out.tolist()
-    order = sorted((row[w + 2], s) for s, row in enumerate(rows) if row[w + 1] > 0)
-    axes_l = axes.tolist()
-    return {names[s]: SampleBatch(out[s, :axes_l[s]], rows[s][w], int(rows[s][w + 1]))
-            for _, s in order}
+    # the kinds present, in the order of their first samples
+    order = [(row[w + 2], s) for s, row in enumerate(rows) if row[w + 1] > 0]
+    order.sort()
+    grouped = GroupedSamples()
+    for _, s in order:
+        row = rows[s]
+        grouped[names[s]] = SampleBatch(out[s, :axes_t[s]], row[w], int(row[w + 1]))
+    grouped.table = out
+    grouped.slot_names = names
+    grouped.slot_axes = axes_t
+    return grouped
 
 
 def _sample_arrays(samples: Iterable[SensorSampleLike], kinds: Collection[str]

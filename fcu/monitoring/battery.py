@@ -82,6 +82,11 @@ class BatteryMonitor:
 
     def __init__(self, config: BatteryMonitorConfig | None = None) -> None:
         self.config = config if config is not None else BatteryMonitorConfig()
+        cfg = self.config
+        # each level's thresholds, the higher level first (read every tick)
+        self._checks: tuple[tuple[Level, float, float], ...] = (
+            ("critical", cfg.critical_volt_v, cfg.critical_mah),
+            ("low", cfg.low_volt_v, cfg.low_mah))
         self.reset()
 
     def reset(self) -> None:
@@ -137,6 +142,9 @@ class BatteryMonitor:
                                           + current_a * voltage_v) * dt
             self._last_s = time_s
             self.voltage_v, self.current_a = float(voltage_v), float(current_a)
+        if self.level == "critical":
+            return None  # the level only rises, and this is the top (its timers no longer
+            # matter)
         level = self._level(time_s)
         if _RANK[level] <= _RANK[self.level]:
             return None
@@ -148,11 +156,7 @@ class BatteryMonitor:
         return BatteryEvent(time_s, level, action, text)
 
     def _level(self, time_s: float) -> Level:
-        cfg = self.config
-        checks: tuple[tuple[Level, float, float], ...] = (
-            ("critical", cfg.critical_volt_v, cfg.critical_mah),
-            ("low", cfg.low_volt_v, cfg.low_mah))
-        for level, volt, mah in checks:
+        for level, volt, mah in self._checks:
             if self._voltage_below(level, volt, time_s):
                 return level
             if mah > 0.0 and self.remaining_mah < mah:

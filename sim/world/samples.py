@@ -2,7 +2,8 @@
 
 :meth:`sim.world.World.step` returns a :class:`SampleBatch`: the readings of the call in one
 structured array (:data:`SAMPLE_RECORD`), in the order they were taken (by plant step, then in
-:data:`sim.world.fault_types.SENSOR_NAMES` order). It is a sequence of :class:`SensorSample`
+:data:`sim.world.fault_types.SENSOR_NAMES` order), then the power module's readings of the call
+(:mod:`sim.world.battery`). It is a sequence of :class:`SensorSample`
 objects made on demand, so anything that iterates over samples and reads ``.sensor``,
 ``.time_s`` and ``.value`` (the autopilot's ``fcu.hal.SensorSampleLike``) works unchanged;
 code that wants no object per sample reads :attr:`SampleBatch.sensor_index` (into
@@ -19,23 +20,28 @@ from typing import overload
 
 import numpy as np
 
+from flightdata.vocabulary import BATTERY_SENSOR
 from sim.world.fault_types import SENSOR_AXES, SENSOR_NAMES
 
 SAMPLE_RECORD = np.dtype([
-    ("sensor", np.int64),  # -, index into SENSOR_NAMES
+    ("sensor", np.int64),  # -, index into SAMPLE_NAMES
     ("time_s", np.float64),  # s, simulated time of the reading
     ("value", np.float64, (3,)),  # sensor unit; the first SENSOR_AXES[sensor] elements count
 ], align=True)
-"""One reading in a :class:`SampleBatch`; a barometer reading leaves ``value[1:]`` at 0."""
+"""One reading in a :class:`SampleBatch`; a barometer reading leaves ``value[1:]`` at 0, a
+power-module reading ``value[2]``."""
 
-_AXES = tuple(SENSOR_AXES[name] for name in SENSOR_NAMES)
+SAMPLE_NAMES: tuple[str, ...] = (*SENSOR_NAMES, BATTERY_SENSOR)
+"""What a record's ``sensor`` indexes: the world's sensors in their fixed order, then the
+power module (voltage V, current A) at index ``len(SENSOR_NAMES)``."""
+_AXES = (*(SENSOR_AXES[name] for name in SENSOR_NAMES), 2)
 
 
 @dataclass(frozen=True, slots=True)
 class SensorSample:
     """One timestamped sensor reading (matches fcu.hal.SensorSampleLike)."""
 
-    sensor: str  # -, one of SENSOR_NAMES
+    sensor: str  # -, one of SAMPLE_NAMES
     time_s: float  # s, simulated time of the reading
     value: np.ndarray  # sensor unit, layout in sim.world.sensors; treat as read-only
 
@@ -50,7 +56,7 @@ class SampleBatch(Sequence[SensorSample]):
     """
 
     __slots__ = ("records",)
-    sensor_names: tuple[str, ...] = SENSOR_NAMES
+    sensor_names: tuple[str, ...] = SAMPLE_NAMES
     """The names :attr:`sensor_index` indexes (for readers of the arrays)."""
     sensor_axes: tuple[int, ...] = _AXES
     """The entries of each of those sensors' values (the first of a row of :attr:`values`
@@ -77,7 +83,7 @@ class SampleBatch(Sequence[SensorSample]):
         records = np.zeros(len(samples), dtype=SAMPLE_RECORD)
         for j, sample in enumerate(samples):
             value = np.asarray(sample.value, dtype=np.float64).reshape(-1)
-            records[j]["sensor"] = SENSOR_NAMES.index(sample.sensor)
+            records[j]["sensor"] = SAMPLE_NAMES.index(sample.sensor)
             records[j]["time_s"] = sample.time_s
             records[j]["value"][:value.shape[0]] = value
         return cls(records)
@@ -85,7 +91,7 @@ class SampleBatch(Sequence[SensorSample]):
     # ---- arrays, no objects --------------------------------------------------------------
     @property
     def sensor_index(self) -> np.ndarray:
-        """Index into ``SENSOR_NAMES`` of each reading, int64, shape (n,)."""
+        """Index into ``SAMPLE_NAMES`` of each reading, int64, shape (n,)."""
         return self.records["sensor"]
 
     @property
@@ -95,7 +101,8 @@ class SampleBatch(Sequence[SensorSample]):
 
     @property
     def values(self) -> np.ndarray:
-        """Readings, sensor unit, float64, shape (n, 3); a barometer uses column 0 only."""
+        """Readings, sensor unit, float64, shape (n, 3); a barometer uses column 0 only, the
+        power module columns 0 and 1."""
         return self.records["value"]
 
     # ---- the sequence of SensorSample ----------------------------------------------------
@@ -113,11 +120,11 @@ class SampleBatch(Sequence[SensorSample]):
             return SampleBatch(self.records[index])
         rec = self.records[index]
         i = int(rec["sensor"])
-        return SensorSample(SENSOR_NAMES[i], float(rec["time_s"]), rec["value"][:_AXES[i]])
+        return SensorSample(SAMPLE_NAMES[i], float(rec["time_s"]), rec["value"][:_AXES[i]])
 
     def __iter__(self) -> Iterator[SensorSample]:
         values = self.records["value"]
-        names, axes = SENSOR_NAMES, _AXES
+        names, axes = SAMPLE_NAMES, _AXES
         times = self.records["time_s"].tolist()
         for j, i in enumerate(self.records["sensor"].tolist()):
             yield SensorSample(names[i], times[j], values[j, :axes[i]])
@@ -126,4 +133,4 @@ class SampleBatch(Sequence[SensorSample]):
         return f"SampleBatch({len(self)} samples)"
 
 
-__all__ = ["SAMPLE_RECORD", "SampleBatch", "SensorSample"]
+__all__ = ["SAMPLE_NAMES", "SAMPLE_RECORD", "SampleBatch", "SensorSample"]

@@ -13,8 +13,9 @@ Per plant step ``k`` (time ``t_k = k dt``)::
     f_b   = specific_force(x, wind, m)                  # every accel_every steps
     samples += sensors.sample(k + 1, t_{k+1}, x, f_b)   # those due at t_{k+1}, then faults
 
-and once per :meth:`World.step` call the battery discharges at the motors' thrust
-(:mod:`sim.world.battery`).
+and once per :meth:`World.step` call the battery discharges at the motors' thrust and its
+power module's readings due follow the sensors' in the batch (:mod:`sim.world.battery`,
+compiled in both ways of stepping).
 
 Two ways to take a step, one state
 ----------------------------------
@@ -138,7 +139,7 @@ class World:
     sensors : SensorSuite
     battery : Battery
         The flight battery, stepped once per :meth:`step` call; its power-module samples
-        are drained separately (``battery.drain_samples()``), beside the sensor batch.
+        end the call's batch.
     faults : FaultEngine
         Schedule, apply and clear faults here (between steps).
     kernel_state : numpy.ndarray
@@ -187,6 +188,8 @@ class World:
         self._wind_ned[:] = self.wind.mean_ned_m_s
         self._w["was_on_ground"] = self.plant.on_ground
         self._events: list[PlantEvent] = []
+        # power-module readings a call of n steps can hold: n * this, plus 2
+        self._battery_per_step = self.dt_s * self.config.battery.monitor_rate_hz
 
     def reset(self, *, pos_ned: Sequence[float] = (0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> None:
         """Start again at time 0 on (or above) ``pos_ned``: same seed, same run."""
@@ -222,23 +225,26 @@ class World:
         Returns
         -------
         SampleBatch
-            The readings, in the order taken: a sequence of ``SensorSample`` whose values are
-            read-only views of the batch's arrays (:mod:`sim.world.samples`).
+            The readings, in the order taken, then the power module's: a sequence of
+            ``SensorSample`` whose values are read-only views of the batch's arrays
+            (:mod:`sim.world.samples`).
         """
         pwm = np.asarray(pwm_cmd, dtype=np.float64)
         if pwm.shape != (4,):
             raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
         first = m = self._samples_used
-        if first + _N_SENSORS * n_steps > self._samples.shape[0]:
-            self._new_sample_buffer(n_steps)
+        room = _N_SENSORS * n_steps + int(n_steps * self._battery_per_step) + 2
+        if first + room > self._samples.shape[0]:
+            self._new_sample_buffer(room)
             first = m = 0
         if self.stepping == "python":
             for _ in range(n_steps):
                 m = self._step_python(pwm, m)
         else:
             m = self._steps_compiled(pwm, n_steps, m)
+        m = self.battery.step_into(self.time_s, n_steps * self.dt_s,
+                                   self.plant.state[THRUST_N], self._samples, m)
         self._samples_used = m
-        self.battery.step(self.time_s, n_steps * self.dt_s, self.plant.state[THRUST_N])
         return SampleBatch.wrap(self._samples_read_only[first:m])
 
     def _steps_compiled(self, pwm: np.ndarray, n_steps: int, m: int) -> int:
@@ -268,9 +274,10 @@ class World:
             drew = False
         return m
 
-    def _new_sample_buffer(self, n_steps: int) -> None:
-        """Start a new buffer of readings; batches already returned keep theirs (views)."""
-        self._samples = np.empty(max(_SAMPLE_BUFFER, _N_SENSORS * n_steps), dtype=SAMPLE_RECORD)
+    def _new_sample_buffer(self, room: int) -> None:
+        """Start a new buffer of readings (at least ``room``); batches already returned keep
+        theirs (views)."""
+        self._samples = np.empty(max(_SAMPLE_BUFFER, room), dtype=SAMPLE_RECORD)
         self._samples_read_only = self._samples.view()
         self._samples_read_only.flags.writeable = False
         self._sample_columns = (self._samples["sensor"], self._samples["time_s"],

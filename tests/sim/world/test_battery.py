@@ -11,6 +11,7 @@ from flightdata.config import ConfigError
 from sim.world import World, WorldConfig
 from sim.world.battery import (
     AIR_DENSITY_KG_M3,
+    BATTERY_INDEX,
     Battery,
     BatteryConfig,
     open_circuit_voltage,
@@ -109,12 +110,36 @@ def test_the_power_module_samples_at_its_rate_with_seeded_noise() -> None:
 def test_the_world_carries_the_battery_and_its_stream_does_not_shift_the_others() -> None:
     world = World(WorldConfig(), seed=4)
     before = world.step(np.zeros(4), 50)  # 0.1 s on the ground
-    assert len(world.battery.drain_samples()) == 2  # t = 0 and 0.1 s
+    power = before.sensor_index == BATTERY_INDEX
+    assert before.sensor_names[BATTERY_INDEX] == "battery"
+    assert power.sum() == 2 and power[-2:].all()  # t = 0 and 0.1 s, after the sensors'
+    assert np.all(before.time_s[power] == world.time_s)  # stamped at the end of the call
     assert world.battery.state.current_a == pytest.approx(0.5, rel=0.05)  # avionics only
+    assert np.allclose(before.values[power, 1], 0.5, atol=6 * 0.05)  # A, 6 sigma of noise
+    assert world.battery.drain_samples() == []  # the batch has them
     # the sensors' noise comes from the same children of the seed as without a battery
     other = World(WorldConfig(battery=BatteryConfig(voltage_sigma_v=0.5)), seed=4)
     again = other.step(np.zeros(4), 50)
-    assert np.array_equal(before.values, again.values)
+    assert np.array_equal(before.values[~power], again.values[~power])
+    assert not np.array_equal(before.values[power], again.values[power])
+
+
+def test_the_worlds_readings_are_those_of_a_lone_pack_at_the_same_thrusts() -> None:
+    world = World(WorldConfig(), seed=4)
+    # the same pack on its own, on the world's seed child for it (the fourth)
+    alone = Battery(BatteryConfig(), np.random.default_rng(
+        np.random.SeedSequence(4).spawn(4)[3]))
+    readings = []
+    for _ in range(40):  # 0.4 s, the motors spinning up from rest
+        batch = world.step(np.full(4, 0.6), 5)
+        alone.step(world.time_s, 5 * world.dt_s, world.plant.state[13:17])
+        power = batch.sensor_index == BATTERY_INDEX
+        readings += [(t, v) for t, v in zip(batch.time_s[power].tolist(),
+                                             batch.values[power, :2].tolist(), strict=True)]
+    assert [t for t, _ in readings] == pytest.approx([0.01, 0.1, 0.2, 0.3, 0.4])
+    assert readings == [(s.time_s, s.value.tolist()) for s in alone.drain_samples()]
+    assert world.battery.state == alone.state
+    assert world.battery.state.current_a > 1.0  # A: the motors draw more than the avionics
 
 
 @pytest.mark.parametrize(("field", "value"), [("cells", 0), ("capacity_ah", -1.0),

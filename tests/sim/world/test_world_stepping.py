@@ -309,12 +309,14 @@ def test_sample_batch_is_a_sequence_of_samples_with_array_views() -> None:
     batch = world.step(np.zeros(4), 10)
     assert isinstance(batch, SampleBatch)
     samples = list(batch)
-    assert len(samples) == len(batch) == 5 + 5 + 2 + 2 + 1  # 250, 250, 100, 100, 50 Hz
+    # 250, 250, 100, 100, 50 Hz, and the power module's first reading (10 Hz, t = 0)
+    assert len(samples) == len(batch) == 5 + 5 + 2 + 2 + 1 + 1
     ga, mocap = ["gyro", "accel"], ["mocap_pos", "mocap_att"]
-    # by step (2, 4, 5, 6, 8, 10), then in SENSOR_NAMES order
-    assert [s.sensor for s in samples] == ga * 2 + mocap + ga * 3 + mocap + ["baro"]
+    # by step (2, 4, 5, 6, 8, 10), then in SENSOR_NAMES order; the power module last
+    assert [s.sensor for s in samples] == ga * 2 + mocap + ga * 3 + mocap + ["baro", "battery"]
     assert all(isinstance(s, SensorSample) for s in samples)
-    assert batch[-1].sensor == "baro" and batch[-1].value.shape == (1,)
+    assert batch[-2].sensor == "baro" and batch[-2].value.shape == (1,)
+    assert batch[-1].value.shape == (2,) and batch[-1].time_s == world.time_s
     assert batch[0].value.dtype == np.float64 and batch[0].value.ndim == 1
     np.testing.assert_array_equal(batch.time_s, [s.time_s for s in samples])
     np.testing.assert_array_equal(batch.values[0], samples[0].value)

@@ -1,0 +1,58 @@
+"""SensorHealth's repeat check and what follows, on grouped batches and on plain ones."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fcu.estimation.estimator import ChannelCheck
+from fcu.estimation.state import group_samples
+from fcu.hal import SensorSample
+from fcu.monitoring.sensor_health import SensorHealth, SensorHealthConfig
+
+NOISE = {"gyro": 0.003, "accel": 0.03, "mocap_pos": 0.0005, "mocap_att": 0.002, "baro": 0.02}
+KINDS = frozenset(NOISE)
+
+
+def screening(*sensors: str, status: str = "applied") -> dict[str, ChannelCheck]:
+    return {s: ChannelCheck(s, np.zeros(3), np.ones(3), 0.0, 30.0, status) for s in sensors}
+
+
+def tick_samples(time_s: float, pos: list[float], att: list[float]) -> list[SensorSample]:
+    return [SensorSample("mocap_pos", time_s - 0.005, np.array(pos)),
+            SensorSample("mocap_att", time_s - 0.005, np.array(att))]
+
+
+def test_a_frozen_position_is_excluded_after_frozen_ticks_repeats_in_flight() -> None:
+    health = SensorHealth(SensorHealthConfig(frozen_ticks=5), "mocap")
+    checks = screening("mocap_pos", "mocap_att")
+    records = []
+    for k in range(1, 12):
+        t = 0.01 * k
+        att = [0.0, 0.0, 0.001 * k]  # moving: never frozen
+        batches = group_samples(tick_samples(t, [1.0, 2.0, -1.0], att), KINDS)
+        records += health.step(t, batches, checks, True, NOISE)
+    # the repeats begin at the second tick (0.02 s); the fifth repeat is at 0.06 s
+    assert [(r.kind, r.sensor, r.time_s) for r in records] == [
+        ("sensor_frozen", "mocap_pos", 0.06)]
+    assert math.isclose(records[0].magnitude, 0.04)  # s frozen: 0.06 - 0.02
+    assert health.excluded == frozenset({"mocap_pos"})
+    assert not health.position_fix
+
+
+def test_grouped_and_plain_batches_are_watched_alike() -> None:
+    a = SensorHealth(SensorHealthConfig(), "mocap")
+    b = SensorHealth(SensorHealthConfig(), "mocap")
+    checks = screening("mocap_pos", "mocap_att", "baro")
+    rng = np.random.default_rng(3)
+    for k in range(1, 40):
+        t = 0.01 * k
+        pos = (rng.normal(size=3) * (0.01 if k % 7 else 1.0)).tolist()  # a jump every 7
+        samples = [*tick_samples(t, pos, [0.0, 0.0, 3.14 if k % 2 else -3.14]),
+                   SensorSample("baro", t - 0.002, np.array([1.0]))]  # frozen barometer
+        grouped = group_samples(samples, KINDS)
+        plain = dict(grouped)  # the same batches without the table
+        assert a.step(t, grouped, checks, k > 10, NOISE) == b.step(t, plain, checks, k > 10,
+                                                                    NOISE)
+    assert a.excluded == b.excluded == frozenset({"baro"})  # frozen once in flight
