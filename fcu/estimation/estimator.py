@@ -40,8 +40,10 @@ from numpy.typing import ArrayLike
 from fcu.estimation.chi_square import chi_square_isf
 from fcu.estimation.screening import (
     ABSENT,
+    COUNT,
     MEAS_WIDTH,
     STATUS_NAMES,
+    TIME,
     VALUE,
     ChannelStatus,
     noise_var,
@@ -55,6 +57,7 @@ from fcu.estimation.state import (
     THRUST,
     Z_INDEX,
     FloatArray,
+    GroupedSamples,
     InitialUncertainty,
     Innovation,
     SampleBatch,
@@ -257,10 +260,23 @@ class ChannelSet:
                        for c in channels]
         self.no_exclusion = np.zeros(len(channels), dtype=np.bool_)
         self._absent = [0.0] * MEAS_WIDTH
+        self._gathers: dict[tuple[tuple[str, ...], int], np.ndarray] = {}
 
     def measurements(self, batches: Mapping[str, SampleBatch]) -> FloatArray:
         """The tick's measurement table, shape (n_ch, MEAS_WIDTH): per channel the count
-        and mean time of its batch and the entries it measures (zeros without a batch)."""
+        and mean time of its batch and the entries it measures (zeros without a batch).
+
+        Batches grouped by :func:`~fcu.estimation.state.group_samples` are read straight
+        from their table (one gather); other mappings batch by batch."""
+        if isinstance(batches, GroupedSamples):
+            # the table's slots: mean value, mean time (w), count (w + 1); a slot without
+            # samples is all zeros there, as an absent batch reads
+            table = batches.table
+            key = (batches.slot_names, table.shape[1])
+            gather = self._gathers.get(key)
+            if gather is None:
+                gather = self._gathers[key] = self._gather_index(*key)
+            return np.append(table, 0.0)[gather]
         flat: list[float] = []
         get = batches.get
         for sensor, value_slice, pad in self._reads:
@@ -276,6 +292,22 @@ class ChannelSet:
             flat += vals[value_slice]
             flat += pad
         return np.array(flat, dtype=np.float64).reshape(len(self._reads), MEAS_WIDTH)
+
+    def _gather_index(self, slot_names: tuple[str, ...], width: int) -> np.ndarray:
+        """Indices into a flattened grouped table with one zero appended (the padding
+        and absent batches read it) giving :meth:`measurements`' table."""
+        zero = len(slot_names) * width
+        w = width - 3
+        index = np.full((len(self._reads), MEAS_WIDTH), zero, dtype=np.int64)
+        for c, (sensor, value_slice, _) in enumerate(self._reads):
+            if sensor not in slot_names:
+                continue
+            row = slot_names.index(sensor) * width
+            index[c, COUNT] = row + w + 1
+            index[c, TIME] = row + w
+            entries = range(value_slice.start, value_slice.stop)
+            index[c, VALUE:VALUE + len(entries)] = [row + i for i in entries]
+        return index
 
     def exclusion(self, excluded: Collection[str]) -> np.ndarray:
         """Which channels are ``excluded``, bool, shape (n_ch,)."""

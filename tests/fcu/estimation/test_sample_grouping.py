@@ -73,3 +73,24 @@ def test_means_drop_non_finite_samples_and_average_yaw_across_pi() -> None:
         att = batches["mocap_att"].value
         assert abs(att[2] - (-math.pi + 0.1)) < 1e-12  # two roundings of values near pi
         assert att[0] == 0.1
+
+
+def test_measurement_tables_read_from_the_grouped_table_equal_those_read_batch_by_batch(
+) -> None:
+    from fcu.estimation.ekf import ExtendedKalmanEstimator
+    from fcu.estimation.tskf import TwoStageKalmanFilter
+    from fcu.model import VehicleModel
+
+    model = VehicleModel()
+    channel_sets = [est._make_channels(source)  # noqa: SLF001 (the filters' channel sets)
+                    for est in (ExtendedKalmanEstimator(model), TwoStageKalmanFilter(model))
+                    for source in ("mocap", "baro")]
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        samples = random_tick(rng)
+        for grouped in (group_samples(samples), group_samples(ArraySamples(samples))):
+            for channels in channel_sets:
+                fast = channels.measurements(grouped)
+                slow = channels.measurements(dict(grouped))  # a plain mapping: batch by batch
+                assert fast.dtype == slow.dtype and fast.shape == slow.shape
+                np.testing.assert_array_equal(fast, slow)
