@@ -47,7 +47,8 @@ def euler_from_quat(quat_wxyz: Sequence[float] | np.ndarray) -> np.ndarray:
     Roll and yaw are in (-pi, pi], pitch in [-pi/2, pi/2]. At gimbal lock (|pitch| = pi/2,
     where only yaw -/+ roll is defined) roll is returned as 0.
     """
-    w, x, y, z = (float(v) for v in quat_wxyz)
+    w, x, y, z = (quat_wxyz.tolist() if isinstance(quat_wxyz, np.ndarray)
+                  else [float(v) for v in quat_wxyz])
     # sin(theta) = -R[2, 0]; clipped against round-off beyond +-1 at the poles
     s = 2.0 * (w * y - z * x)
     pitch = math.asin(min(1.0, max(-1.0, s)))
