@@ -16,7 +16,10 @@ KINDS = frozenset(NOISE)
 
 
 def screening(*sensors: str, status: str = "applied") -> dict[str, ChannelCheck]:
-    return {s: ChannelCheck(s, np.zeros(3), np.ones(3), 0.0, 30.0, status) for s in sensors}
+    # residual 0 and variance 1 on three rows (the screening table's layout)
+    table = np.concatenate((np.zeros(3), np.ones(3)))
+    return {s: ChannelCheck(sensor=s, nis=0.0, gate=30.0, status=status,
+                            screen=table, row0=0, row1=3, n_rows=3) for s in sensors}
 
 
 def tick_samples(time_s: float, pos: list[float], att: list[float]) -> list[SensorSample]:
