@@ -21,7 +21,7 @@ test: setup
 
 # everything but the whole flights (tests marked slow, see tests/conftest.py)
 test-fast: setup
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -m "not slow" -n auto
 
 lint: setup
 	$(BIN)/ruff check sim fcu gcs flightdata tests

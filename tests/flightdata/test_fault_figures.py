@@ -61,6 +61,7 @@ def test_comparison_figure_draws_each_flight_against_the_first_reference() -> No
     np.testing.assert_allclose(z_ax.lines[2].get_ydata(), 0.6)
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_compare_flies_both_and_writes_the_figure(tmp_path: Path,
                                                   capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["compare", "short_square", "short_square", "--seed", "2",

@@ -171,6 +171,7 @@ def test_trajectory_figure_has_a_3d_and_a_top_view(flight: FlightResult) -> None
     assert (top.get_xlabel(), top.get_ylabel()) == ("east y (m)", "north x (m)")
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_save_figures_writes_non_empty_png_and_pdf(flight: FlightResult, tmp_path: Path) -> None:
     written = save_figures(flight.log, tmp_path / "figs", name="short")
     assert list(written) == list(FIGURE_KINDS)
@@ -182,6 +183,7 @@ def test_save_figures_writes_non_empty_png_and_pdf(flight: FlightResult, tmp_pat
     assert make_figures(flight.log)["xyz"].get_suptitle().endswith("(thesis Figures 7.4-7.6)")
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_figures_are_drawn_without_a_display_or_pyplot(tmp_path: Path) -> None:
     code = (
         "import sys\n"

@@ -200,6 +200,7 @@ loe = 0.3
     return path
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_run_writes_recording_figures_and_a_final_progress_line(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     toml = _write_short_toml(tmp_path / "short.toml", 8.0)
@@ -219,6 +220,7 @@ def test_run_writes_recording_figures_and_a_final_progress_line(
     assert len(list(figs.glob("*.png"))) == 5 and len(list(figs.glob("*.pdf"))) == 5
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_ctrl_c_in_a_run_keeps_the_flight_so_far(tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch,
                                                  capsys: pytest.CaptureFixture[str]) -> None:

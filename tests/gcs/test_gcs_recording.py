@@ -134,6 +134,7 @@ def test_live_recorder_sends_as_the_clock_advances(tmp_path: Path) -> None:
     assert EXPECTED <= columns and SIM_TIMELINE in timelines
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_figures_are_built_headless_from_the_series(series: FlightSeries,
                                                     tmp_path: Path) -> None:
     figs = make_figures(series, name="synthetic")
@@ -157,6 +158,7 @@ def test_figures_are_built_headless_from_the_series(series: FlightSeries,
     assert all(p.stat().st_size > 0 for paths in written.values() for p in paths)
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_report_embeds_the_figures_next_to_the_table(tmp_path: Path) -> None:
     s = synthetic_flight()
     md = write_report(tmp_path / "rep", s.analyzer.report(), s.analyzer.series(), title="T")

@@ -26,6 +26,7 @@ def test_vehicle_timing_log_that_cannot_be_written_is_refused_before_start() -> 
     assert line.startswith("ftc-vehicle: error: --timing-log /proc/nope/t.csv: cannot write: ")
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_vehicle_timing_log_in_a_new_folder_is_written(tmp_path: Path) -> None:
     path = tmp_path / "new" / "t.csv"
     proc = subprocess.run(

@@ -79,6 +79,7 @@ def test_on_the_ground_the_sensors_read_gravity_and_the_home_pressure() -> None:
     assert snap.battery.voltage_v == pytest.approx(12.6, abs=0.05)
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_in_flight_pressure_falls_the_battery_sags_and_the_estimators_agree() -> None:
     v = vehicle()
     run(v, 1.0)
@@ -133,6 +134,7 @@ def test_wind_reaches_the_snapshot_as_the_world_blows_it() -> None:
     assert truth.wind_ned == pytest.approx([0.0, -2.0, 0.0], abs=1e-12)  # from the east
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_battery_failsafe_lands_when_the_capacity_set_by_parameter_runs_low() -> None:
     v = vehicle()
     run(v, 0.5)

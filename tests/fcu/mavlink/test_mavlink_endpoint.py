@@ -64,6 +64,7 @@ def test_packets_are_mavlink2() -> None:
     assert set(starts) == {0xFD}  # MAVLink 2 start byte, every packet
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_set_message_interval_changes_the_rate_in_simulated_time() -> None:
     with Gcs() as gcs:
         vehicle = started(gcs)
@@ -92,6 +93,7 @@ def test_set_message_interval_changes_the_rate_in_simulated_time() -> None:
     assert statistics.median(intervals_ms(restored)) == pytest.approx(50, rel=0.15)
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_request_data_stream_stops_and_restarts_a_group() -> None:
     with Gcs() as gcs:
         vehicle = started(gcs)
@@ -146,6 +148,7 @@ def test_long_statustext_arrives_in_chunks_that_reassemble() -> None:
     assert "".join(c.text for c in chunks) == text
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_garbage_never_stops_heartbeat_or_telemetry() -> None:
     rng = np.random.default_rng(20240611)
     mav = M.MAVLink(None, srcSystem=255, srcComponent=190)

@@ -116,6 +116,7 @@ def test_continue_mission_in_auto() -> None:
     assert not [c for c in vehicle.calls if c[0] == "trigger_failsafe"]
 
 
+@pytest.mark.slow  # a whole flight or figure set: make test only
 def test_failsafe_over_udp_at_50x() -> None:
     with Gcs() as gcs:
         vehicle = started(gcs, speedup=50.0)
