@@ -11,7 +11,13 @@ from __future__ import annotations
 
 from numba import njit
 
-from fcu.estimation.small_matrix import mul_sparse_left, spd_inverse, symmetrize
+from fcu.estimation.small_matrix import (
+    mul_at_into,
+    mul_bt_sparse_into,
+    mul_sparse_left,
+    spd_inverse,
+    symmetrize,
+)
 from fcu.estimation.state import FloatArray
 from flightdata.kernel_cache import drop_stale_kernels
 
@@ -45,23 +51,14 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     # (P H')' = H P   (P symmetric)
     mul_sparse_left(ut, h_mat, p_mat)
     # S = H P H' + R
+    mul_bt_sparse_into(s_mat, ut, h_mat)
     for r in range(m):
         for q in range(m):
-            acc = 0.0
-            for k in range(n):
-                h_qk = h_mat[q, k]
-                if h_qk != 0.0:
-                    acc += ut[r, k] * h_qk
-            s_mat[r, q] = acc + r_mat[r, q]
+            s_mat[r, q] += r_mat[r, q]
     # S^-1
     spd_inverse(s_mat, m, s_inv, low, low_inv)
-    # K = P H' S^-1
-    for i in range(n):
-        for r in range(m):
-            acc = 0.0
-            for q in range(m):
-                acc += ut[q, i] * s_inv[q, r]
-            k_gain[i, r] = acc
+    # K = P H' S^-1 = (H P)' S^-1
+    mul_at_into(k_gain, ut, s_inv)
     # x = x + K y
     for i in range(n):
         acc = 0.0
@@ -77,14 +74,7 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
             for j in range(n):
                 m_mat[i, j] -= kir * ut[r, j]
     # G = M H'
-    for i in range(n):
-        for r in range(m):
-            acc = 0.0
-            for k in range(n):
-                h_rk = h_mat[r, k]
-                if h_rk != 0.0:
-                    acc += m_mat[i, k] * h_rk
-            g[i, r] = acc
+    mul_bt_sparse_into(g, m_mat, h_mat)
     # P = M (I - K H)' + K R K' = M + (K R - M H') K'   (Joseph form), made symmetric
     for i in range(n):
         for j in range(n):

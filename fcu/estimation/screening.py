@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import mul_sparse_left, spd_quadratic
+from fcu.estimation.small_matrix import mul_bt_sparse_into, mul_sparse_left, spd_quadratic
 from fcu.estimation.state import Z_INDEX, FloatArray
 from flightdata.kernel_cache import drop_stale_kernels
 
@@ -79,14 +79,8 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
     # S P
     mul_sparse_left(sp, sel, p_mat)
     # S P S' + R
+    mul_bt_sparse_into(s_mat, sp, sel)
     for r in range(m):
-        for q in range(m):
-            acc = 0.0
-            for k in range(n):
-                s_qk = sel[q, k]
-                if s_qk != 0.0:
-                    acc += sp[r, k] * s_qk
-            s_mat[r, q] = acc
         s_mat[r, r] += r_var
         var[r] = s_mat[r, r]
     # NIS = nu' (S P S' + R)^-1 nu

@@ -15,7 +15,8 @@ from numba import njit
 
 from fcu.estimation.state import FloatArray
 
-__all__ = ["mul_sparse_left", "spd_inverse", "spd_quadratic", "symmetrize", "transpose_into"]
+__all__ = ["mul_at_into", "mul_bt_sparse_into", "mul_into", "mul_sparse_left", "spd_inverse",
+           "spd_quadratic", "symmetrize", "transpose_into"]
 
 
 @njit(cache=True, error_model="numpy")
@@ -33,6 +34,53 @@ def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             if aik != 0.0:
                 for j in range(w):
                     out[i, j] += aik * b[k, j]
+
+
+@njit(cache=True, error_model="numpy")
+def mul_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
+    """``out = a b`` for ``a`` (n, k), ``b`` (k, w) (``out`` (n, w) must not share memory
+    with ``a`` or ``b``)."""
+    n, kk = a.shape
+    w = b.shape[1]
+    for i in range(n):
+        for j in range(w):
+            # out[i, j] = sum_k a[i, k] b[k, j]
+            acc = 0.0
+            for k in range(kk):
+                acc += a[i, k] * b[k, j]
+            out[i, j] = acc
+
+
+@njit(cache=True, error_model="numpy")
+def mul_at_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
+    """``out = a' b`` for ``a`` (k, n), ``b`` (k, w) (``out`` (n, w) must not share memory
+    with ``a`` or ``b``)."""
+    kk, n = a.shape
+    w = b.shape[1]
+    for i in range(n):
+        for j in range(w):
+            # out[i, j] = sum_k a[k, i] b[k, j]
+            acc = 0.0
+            for k in range(kk):
+                acc += a[k, i] * b[k, j]
+            out[i, j] = acc
+
+
+@njit(cache=True, error_model="numpy")
+def mul_bt_sparse_into(out: FloatArray, a: FloatArray, s: FloatArray) -> None:
+    """``out = a s'`` for ``a`` (n, k), ``s`` (w, k) with many zeros (a selection or a
+    measurement matrix; zero entries skipped), ``out`` (n, w) not sharing memory with them."""
+    n, kk = a.shape
+    w = s.shape[0]
+    for i in range(n):
+        for j in range(w):
+            # out[i, j] = sum_k a[i, k] s[j, k]   (zero s[j, k] skipped)
+            acc = 0.0
+            for k in range(kk):
+                s_jk = s[j, k]
+                if s_jk != 0.0:
+                    acc += a[i, k] * s_jk
+            out[i, j] = acc
 
 
 @njit(cache=True, error_model="numpy")

@@ -15,6 +15,8 @@ from numba import njit
 
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
+    mul_at_into,
+    mul_into,
     mul_sparse_left,
     spd_inverse,
     symmetrize,
@@ -93,20 +95,10 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
             p_gamma_pred[g, h] = p_gamma[g, h]
         p_gamma_pred[g, g] += q_gamma
     # W P^gamma_{k|k}
-    for i in range(n):
-        for g in range(n_g):
-            acc = 0.0
-            for h in range(n_g):
-                acc += w[i, h] * p_gamma[h, g]
-            wp[i, g] = acc
+    mul_into(wp, w, p_gamma)
     # V_{k+1|k} = W_k P^gamma_{k|k} (P^gamma_{k+1|k})^-1   (eq. 6.22)
     spd_inverse(p_gamma_pred, n_g, pgp_inv, low[0], low[1])
-    for i in range(n):
-        for g in range(n_g):
-            acc = 0.0
-            for h in range(n_g):
-                acc += wp[i, h] * pgp_inv[h, g]
-            v_pred[i, g] = acc
+    mul_into(v_pred, wp, pgp_inv)
     # x_bar_{k+1|k} = A x_bar + B u + g_k + (W - V_{k+1|k}) gamma_hat   (eq. 6.15)
     for i in range(n):
         acc = 0.0
@@ -123,12 +115,7 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     for i in range(n):
         x_bar[i] = x_pred[i]
     # V_{k+1|k} P^gamma_{k+1|k}
-    for i in range(n):
-        for g in range(n_g):
-            acc = 0.0
-            for h in range(n_g):
-                acc += v_pred[i, h] * p_gamma_pred[h, g]
-            vp[i, g] = acc
+    mul_into(vp, v_pred, p_gamma_pred)
     # A P^x A' = A (A P^x)'   (P^x symmetric; two products by the sparse A)
     mul_sparse_left(ap, a, p_x)
     transpose_into(ap_t, ap)
@@ -200,12 +187,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     # (eq. 6.19, Joseph form: symmetric, PSD)
     kalman_update_into(x_bar, p_x, r, c, r_mat, s_bar, s_inv, k_x, scratch)
     # H P^gamma
-    for i in range(m):
-        for g in range(n_g):
-            acc = 0.0
-            for q in range(n_g):
-                acc += h[i, q] * p_gamma[q, g]
-            hp[i, g] = acc
+    mul_into(hp, h, p_gamma)
     # H P^gamma H' + S_bar
     for i in range(m):
         for j in range(m):
@@ -215,12 +197,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
             s_gamma[i, j] = acc
     # K^gamma = P^gamma H' (H P^gamma H' + S_bar)^-1   (eq. 6.12)
     spd_inverse(s_gamma, m, s_inv, low[0], low[1])
-    for g in range(n_g):
-        for j in range(m):
-            acc = 0.0
-            for i in range(m):
-                acc += hp[i, g] * s_inv[i, j]
-            k_g[g, j] = acc
+    mul_at_into(k_g, hp, s_inv)  # P^gamma H' = (H P^gamma)'
     # innovation = r - H gamma_hat_{k+1|k}
     for i in range(m):
         acc = 0.0

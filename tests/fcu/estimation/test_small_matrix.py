@@ -7,6 +7,9 @@ import numpy as np
 from fcu.estimation.ekf import EkfProcessNoise
 from fcu.estimation.ekf_model import model_jacobian, pack_params
 from fcu.estimation.small_matrix import (
+    mul_at_into,
+    mul_bt_sparse_into,
+    mul_into,
     mul_sparse_left,
     spd_inverse,
     spd_quadratic,
@@ -59,3 +62,26 @@ def test_transpose_and_symmetrize() -> None:
     symmetrize(q)
     np.testing.assert_array_equal(q, q.T)
     np.testing.assert_allclose(q, ref, rtol=1e-15)
+
+
+def test_dense_and_transposed_products_are_the_matrix_products() -> None:
+    for n, k, w in ((16, 4, 4), (3, 16, 4), (4, 3, 3), (1, 1, 1)):
+        a, b = RNG.normal(size=(n, k)), RNG.normal(size=(k, w))
+        out = np.full((n, w), np.nan)  # every entry must be written
+        mul_into(out, a, b)
+        np.testing.assert_allclose(out, a @ b, rtol=1e-13, atol=1e-14)
+        at = np.ascontiguousarray(a.T)
+        out_t = np.full((n, w), np.nan)
+        mul_at_into(out_t, at, b)  # a' b with a given transposed
+        np.testing.assert_array_equal(out_t, out)  # the same sums in the same order
+
+
+def test_product_by_a_sparse_transposed_right_factor() -> None:
+    sel = np.zeros((3, 16))
+    sel[0, 0] = sel[1, 1] = 1.0
+    sel[2, 8] = -1.0  # a selection, as the measurement rows are
+    a = RNG.normal(size=(16, 16))
+    out = np.full((16, 3), np.nan)
+    mul_bt_sparse_into(out, a, sel)
+    np.testing.assert_allclose(out, a @ sel.T, rtol=1e-13, atol=1e-15)
+    np.testing.assert_array_equal(out[:, 2], -a[:, 8])  # one non-zero entry: exact
