@@ -12,6 +12,7 @@ from __future__ import annotations
 from numba import njit
 
 from fcu.estimation.small_matrix import (
+    add_mul_vec,
     mul_at_into,
     mul_bt_sparse_into,
     mul_sparse_left,
@@ -60,11 +61,7 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     # K = P H' S^-1 = (H P)' S^-1
     mul_at_into(k_gain, ut, s_inv)
     # x = x + K y
-    for i in range(n):
-        acc = 0.0
-        for r in range(m):
-            acc += k_gain[i, r] * y[r]
-        x[i] += acc
+    add_mul_vec(x, k_gain, y)
     # M = (I - K H) P = P - K (H P)
     for i in range(n):
         for j in range(n):

@@ -10,7 +10,12 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import mul_bt_sparse_into, mul_sparse_left, spd_quadratic
+from fcu.estimation.small_matrix import (
+    mul_bt_sparse_into,
+    mul_sparse_left,
+    spd_quadratic,
+    sub_mul_vec_into,
+)
 from fcu.estimation.state import Z_INDEX, FloatArray
 from flightdata.kernel_cache import drop_stale_kernels
 
@@ -67,13 +72,7 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
     low = scratch[2 * 16 * 16:2 * 16 * 16 + m * m].reshape(m, m)
     tmp = scratch[4 * 16 * 16:4 * 16 * 16 + m]
     # nu = z - S x   (zero entries of S skipped)
-    for r in range(m):
-        acc = 0.0
-        for k in range(n):
-            s_rk = sel[r, k]
-            if s_rk != 0.0:
-                acc += s_rk * x[k]
-        nu[r] = z[r] - acc
+    sub_mul_vec_into(nu, z, sel, x)
     if wrap_yaw:
         nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
     # S P

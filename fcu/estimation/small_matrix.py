@@ -15,8 +15,8 @@ from numba import njit
 
 from fcu.estimation.state import FloatArray
 
-__all__ = ["mul_at_into", "mul_bt_sparse_into", "mul_into", "mul_sparse_left", "spd_inverse",
-           "spd_quadratic", "symmetrize", "transpose_into"]
+__all__ = ["add_mul_vec", "mul_at_into", "mul_bt_sparse_into", "mul_into", "mul_sparse_left",
+           "spd_inverse", "spd_quadratic", "sub_mul_vec_into", "symmetrize", "transpose_into"]
 
 
 @njit(cache=True, error_model="numpy")
@@ -81,6 +81,32 @@ def mul_bt_sparse_into(out: FloatArray, a: FloatArray, s: FloatArray) -> None:
                 if s_jk != 0.0:
                     acc += a[i, k] * s_jk
             out[i, j] = acc
+
+
+@njit(cache=True, error_model="numpy")
+def sub_mul_vec_into(out: FloatArray, y: FloatArray, a: FloatArray, v: FloatArray) -> None:
+    """``out = y - a v`` for ``a`` (m, n) with many zeros (skipped), ``v`` (n,), ``y`` and
+    ``out`` (m,) (a residual: measurement minus its prediction)."""
+    m, n = a.shape
+    for i in range(m):
+        # (a v)[i] = sum_k a[i, k] v[k]   (zero a[i, k] skipped)
+        acc = 0.0
+        for k in range(n):
+            a_ik = a[i, k]
+            if a_ik != 0.0:
+                acc += a_ik * v[k]
+        out[i] = y[i] - acc
+
+
+@njit(cache=True, error_model="numpy")
+def add_mul_vec(x: FloatArray, k: FloatArray, y: FloatArray) -> None:
+    """``x += k y`` for ``k`` (n, m), ``y`` (m,) (a gain times an innovation)."""
+    n, m = k.shape
+    for i in range(n):
+        acc = 0.0
+        for r in range(m):
+            acc += k[i, r] * y[r]
+        x[i] += acc
 
 
 @njit(cache=True, error_model="numpy")

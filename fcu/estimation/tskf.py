@@ -50,6 +50,7 @@ from fcu.estimation.estimator import (
     StateEstimate,
     TickEstimator,
 )
+from fcu.estimation.small_matrix import sub_mul_vec_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.estimation.tskf_algebra import (
     PREDICT_SCRATCH,
@@ -257,13 +258,7 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
                 k += 1
         # r_{k+1} = y_{k+1} - C_{k+1} x_bar_{k+1|k}   (yaw wrapped)
         res = work[_RES:_RES + m]
-        for i in range(m):
-            acc = 0.0
-            for j in range(N):
-                c_ij = c_mat[i, j]
-                if c_ij != 0.0:
-                    acc += c_ij * x_bar[j]
-            res[i] = y[i] - acc
+        sub_mul_vec_into(res, y, c_mat, x_bar)
         if yaw_row >= 0:
             res[yaw_row] = (res[yaw_row] + math.pi) % (2.0 * math.pi) - math.pi
         # eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24

@@ -15,10 +15,12 @@ from numba import njit
 
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
+    add_mul_vec,
     mul_at_into,
     mul_into,
     mul_sparse_left,
     spd_inverse,
+    sub_mul_vec_into,
     symmetrize,
     transpose_into,
 )
@@ -199,17 +201,9 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     spd_inverse(s_gamma, m, s_inv, low[0], low[1])
     mul_at_into(k_g, hp, s_inv)  # P^gamma H' = (H P^gamma)'
     # innovation = r - H gamma_hat_{k+1|k}
-    for i in range(m):
-        acc = 0.0
-        for g in range(n_g):
-            acc += h[i, g] * gamma[g]
-        innovation[i] = r[i] - acc
+    sub_mul_vec_into(innovation, r, h, gamma)
     # gamma_hat_{k+1|k+1} = gamma_hat_{k+1|k} + K^gamma innovation   (eq. 6.13)
-    for g in range(n_g):
-        acc = 0.0
-        for i in range(m):
-            acc += k_g[g, i] * innovation[i]
-        gamma[g] += acc
+    add_mul_vec(gamma, k_g, innovation)
     # P^gamma_{k+1|k+1} = (I - K^gamma H) P^gamma_{k+1|k} = P^gamma - K^gamma (H P^gamma)
     # (eq. 6.14), made symmetric
     for g in range(n_g):

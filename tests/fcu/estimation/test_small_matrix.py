@@ -7,12 +7,14 @@ import numpy as np
 from fcu.estimation.ekf import EkfProcessNoise
 from fcu.estimation.ekf_model import model_jacobian, pack_params
 from fcu.estimation.small_matrix import (
+    add_mul_vec,
     mul_at_into,
     mul_bt_sparse_into,
     mul_into,
     mul_sparse_left,
     spd_inverse,
     spd_quadratic,
+    sub_mul_vec_into,
     symmetrize,
     transpose_into,
 )
@@ -85,3 +87,16 @@ def test_product_by_a_sparse_transposed_right_factor() -> None:
     mul_bt_sparse_into(out, a, sel)
     np.testing.assert_allclose(out, a @ sel.T, rtol=1e-13, atol=1e-15)
     np.testing.assert_array_equal(out[:, 2], -a[:, 8])  # one non-zero entry: exact
+
+
+def test_residual_and_gain_products_of_vectors() -> None:
+    a = RNG.normal(size=(3, 16))
+    a[:, ::2] = 0.0  # zero entries are skipped
+    v, y = RNG.normal(size=16), RNG.normal(size=3)
+    out = np.full(3, np.nan)
+    sub_mul_vec_into(out, y, a, v)
+    np.testing.assert_allclose(out, y - a @ v, rtol=1e-13, atol=1e-14)
+    k, x = RNG.normal(size=(16, 3)), RNG.normal(size=16)
+    x_after = x.copy()
+    add_mul_vec(x_after, k, y)
+    np.testing.assert_allclose(x_after, x + k @ y, rtol=1e-13, atol=1e-14)
