@@ -75,6 +75,18 @@ MEASURES_SIZE = 6
 
 
 @njit(cache=True, error_model="numpy")
+def _held(state: np.ndarray, since: int, condition: bool, time_s: float, hold_s: float) -> bool:
+    """Whether ``condition`` has held for ``hold_s`` (s) up to ``time_s``; ``state[since]`` keeps
+    when it began (NaN while it does not hold)."""
+    if not condition:
+        state[since] = np.nan
+        return False
+    if math.isnan(state[since]):
+        state[since] = time_s
+    return time_s - state[since] >= hold_s - 1e-9
+
+
+@njit(cache=True, error_model="numpy")
 def crash_tick(par: np.ndarray, state: np.ndarray, time_s: float, contact_leg: bool,
                measures: np.ndarray) -> int:
     """One flying tick of the checks of the module docstring on ``measures`` (``ALT``...
@@ -102,28 +114,20 @@ def crash_tick(par: np.ndarray, state: np.ndarray, time_s: float, contact_leg: b
         return found
     angle = par[_P_ANGLE]
     # attitude: lean and attitude error both above angle_deg for angle_time_s
-    if lean_rad > angle and attitude_error_rad > angle:
-        if math.isnan(state[_ANGLE_SINCE]):
-            state[_ANGLE_SINCE] = time_s
-        if time_s - state[_ANGLE_SINCE] >= par[_P_ANGLE_TIME] - 1e-9:
-            state[_CRASHED] = 1.0
-            return found | CRASH
-    else:
-        state[_ANGLE_SINCE] = np.nan
+    if _held(state, _ANGLE_SINCE, lean_rad > angle and attitude_error_rad > angle, time_s,
+             par[_P_ANGLE_TIME]):
+        state[_CRASHED] = 1.0
+        return found | CRASH
     on_ground = alt_m < par[_P_GROUND_ALT]
     # impact: on the ground within impact_window_s of a fast descent
     if on_ground and time_s - state[_FAST_DESCENT] <= par[_P_IMPACT_WINDOW] + 1e-9:
         state[_CRASHED] = 1.0
         return found | CRASH
     # ground contact in a flying leg for contact_time_s
-    if on_ground and speed_m_s < 0.1 and contact_leg:
-        if math.isnan(state[_CONTACT_SINCE]):
-            state[_CONTACT_SINCE] = time_s
-        if time_s - state[_CONTACT_SINCE] >= par[_P_CONTACT_TIME] - 1e-9:
-            state[_CRASHED] = 1.0
-            return found | CRASH
-    else:
-        state[_CONTACT_SINCE] = np.nan
+    if _held(state, _CONTACT_SINCE, on_ground and speed_m_s < 0.1 and contact_leg, time_s,
+             par[_P_CONTACT_TIME]):
+        state[_CRASHED] = 1.0
+        return found | CRASH
     return found
 
 
