@@ -16,8 +16,9 @@ setup: $(BIN)/.installed
 demo: setup
 	$(BIN)/ftc-gcs demo
 
+# one worker per CPU (at most 4); a module's tests stay on one worker (its fixtures, its ports)
 test: setup
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --maxprocesses 4 --dist loadscope
 
 # everything but the whole flights (tests marked slow, see tests/conftest.py)
 test-fast: setup

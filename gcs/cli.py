@@ -10,7 +10,8 @@ Usage::
                    [--param NAME=VALUE ...]
                    [--out-dir DIR] [--tlog PATH] [--event-log PATH] [--json PATH] [--quiet]
                    [--rerun [URL]] [--rrd PATH] [--figures DIR] [--report DIR]
-                   [--connect-timeout S] [--link-timeout S] [--max-flight-s S] [--timeout S]
+                   [--connect-timeout S] [--ready-timeout S] [--link-timeout S]
+                   [--max-flight-s S] [--timeout S]
     ftc-gcs demo   [--speedup X] [--seed N] [--out-dir DIR] [...fly options]
     ftc-gcs report FLIGHT.tlog [--json PATH] [--rrd PATH] [--figures DIR] [--report DIR]
 
@@ -173,6 +174,9 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                      help=f"wall s to wait for the vehicle's first HEARTBEAT (default "
                      f"{DEFAULT_CONNECT_TIMEOUT_S:g}: a vehicle started at the same time "
                      "needs its start-up)")
+    lim.add_argument("--ready-timeout", type=positive_float, default=30.0, metavar="S",
+                     help="wall s to wait for the vehicle to report ready to arm (pre-arm "
+                     "checks) before trying to arm anyway (default 30)")
     lim.add_argument("--link-timeout", type=positive_float, default=5.0, metavar="S",
                      help="wall s of silence in flight before giving up (default 5)")
     lim.add_argument("--max-flight-s", type=positive_float, default=120.0, metavar="S",
@@ -305,6 +309,7 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
         plan = FlightPlan(mission=mission, faults=faults, params=params,
                           inject_via=args.inject_via, max_flight_s=args.max_flight_s,
                           connect_timeout_s=args.connect_timeout or DEFAULT_CONNECT_TIMEOUT_S,
+                          ready_timeout_s=args.ready_timeout,
                           link_timeout_s=args.link_timeout, wall_timeout_s=args.timeout)
     except (FaultScheduleError, MissionFileError, ValueError) as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)

@@ -45,8 +45,9 @@ def test_refused_arm(tmp_path: Path) -> None:
             gs.upload_mission(thesis_mission())
             gs.set_mode(COPTER_MODE_AUTO)
         proc = subprocess.run(
+            # ready-to-arm cannot come in AUTO: try to arm after 2 s, not the default 30
             gcs_command("fly", "--connect", f"udpin:127.0.0.1:{port}", "--quiet",
-                        "--tlog", str(tmp_path / "f.tlog")),
+                        "--ready-timeout", "2", "--tlog", str(tmp_path / "f.tlog")),
             cwd=ROOT, capture_output=True, text=True, timeout=WALL_S, stdin=subprocess.DEVNULL)
     assert proc.returncode == 4, proc.stdout + proc.stderr
     line = last_line(proc.stderr)
