@@ -76,7 +76,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.linalg import expm
 
 FT_TO_M = 0.3048  # m per international foot (exact)
 KT_TO_M_S = 1852.0 / 3600.0  # m/s per knot (exact: 1 nmi = 1852 m)
@@ -171,6 +170,8 @@ def van_loan(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.nd
     qd : ndarray, shape (n, n)
         Discrete process-noise covariance (symmetrised).
     """
+    from scipy.linalg import expm  # here, not at start-up: only turbulence rediscretises
+
     n = a.shape[0]
     m = np.zeros((2 * n, 2 * n))
     m[:n, :n] = -a * dt
