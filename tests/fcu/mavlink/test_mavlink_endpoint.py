@@ -19,6 +19,7 @@ from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.udp import UdpLink
 
 M = mavlink2
+SLOWEST_S_PER_SIM_S = 4.0  # s wall per simulated s: a vehicle at 20x on a loaded machine, bound
 
 
 def intervals_ms(msgs: list[Any]) -> list[int]:
@@ -258,17 +259,24 @@ def test_udp_link_peer_list_is_bounded_first_come() -> None:
 def test_message_counts_over_a_simulated_minute_at_20x() -> None:
     with Gcs() as gcs:
         vehicle = started(gcs, speedup=20.0)
+        msgs: list[Any] = []
         try:
             t0 = gcs.recv("SYSTEM_TIME")
-            msgs = gcs.collect(["HEARTBEAT", "SYS_STATUS", "SYSTEM_TIME"], 3.0)
+            assert t0 is not None
+            # 30 simulated seconds, however long a loaded machine takes (bounded)
+            deadline = time.monotonic() + 30.0 * SLOWEST_S_PER_SIM_S
+            while time.monotonic() < deadline:
+                msgs += gcs.collect(["HEARTBEAT", "SYS_STATUS", "SYSTEM_TIME"], 0.5)
+                if any(m.get_type() == "SYSTEM_TIME"
+                       and m.time_boot_ms - t0.time_boot_ms >= 30_000 for m in msgs):
+                    break
         finally:
             vehicle.stop()
-    assert t0 is not None
-    span_s = (max(m.time_boot_ms for m in msgs if m.get_type() == "SYSTEM_TIME")
-              - t0.time_boot_ms) / 1000.0
+    times = [m.time_boot_ms for m in msgs if m.get_type() == "SYSTEM_TIME"]
+    span_s = (max(times) - t0.time_boot_ms) / 1000.0
     counts = Counter(m.get_type() for m in msgs)
-    # 1 Hz of simulated time each: at 20x about 20 per wall second, matching the span.
-    assert span_s > 30.0
+    # 1 Hz of simulated time each, whatever the wall-clock pace: about the span
+    assert span_s >= 30.0
     assert counts["SYS_STATUS"] == pytest.approx(span_s, rel=0.2)
     assert counts["HEARTBEAT"] == pytest.approx(span_s, rel=0.2)
 
