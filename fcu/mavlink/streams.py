@@ -139,6 +139,7 @@ class StreamScheduler:
         self._next_s: dict[int, float] = {}
         self._last_time_s = -math.inf
         self._last_heartbeat_wall_s = -math.inf
+        self._earliest_s = -math.inf  # no stream is due before this simulated time
         self.reset()
 
     def reset(self) -> None:
@@ -146,6 +147,7 @@ class StreamScheduler:
         self._rates_hz = dict(self._defaults)
         self._next_s = {msg_id: -math.inf for msg_id in self._defaults}
         self._last_heartbeat_wall_s = -math.inf
+        self._earliest_s = -math.inf
 
     @property
     def message_ids(self) -> tuple[int, ...]:
@@ -183,6 +185,7 @@ class StreamScheduler:
             raise ValueError("HEARTBEAT cannot be stopped")
         self._rates_hz[msg_id] = min(rate, self._max_rate_hz)
         self._next_s[msg_id] = -math.inf  # start (again) at the next tick
+        self._earliest_s = -math.inf
 
     def set_group_rate(self, stream_id: int, rate_hz: float) -> bool:
         """REQUEST_DATA_STREAM: set every message of ArduPilot group ``stream_id``.
@@ -206,6 +209,7 @@ class StreamScheduler:
     def request_heartbeat(self) -> None:
         """Make HEARTBEAT due at the next tick (e.g. to confirm a mode change at once)."""
         self._next_s[_HEARTBEAT] = -math.inf
+        self._earliest_s = -math.inf
 
     def due(self, time_s: float, wall_time_s: float) -> list[int]:
         """Message ids to send now, HEARTBEAT first; advances their schedules.
@@ -219,7 +223,11 @@ class StreamScheduler:
         """
         if time_s < self._last_time_s:
             self._next_s = {msg_id: -math.inf for msg_id in self._defaults}
+            self._earliest_s = -math.inf
         self._last_time_s = time_s
+        if (time_s < self._earliest_s and wall_time_s - self._last_heartbeat_wall_s
+                < self._heartbeat_wall_period_s):
+            return []  # the common tick: nothing due (the loop below would find nothing)
         out: list[int] = []
         for msg_id, rate in self._rates_hz.items():
             wall_due = (msg_id == _HEARTBEAT and wall_time_s - self._last_heartbeat_wall_s
@@ -237,5 +245,7 @@ class StreamScheduler:
                     if wall_due and time_s < next_s:
                         self._next_s[msg_id] = time_s + period
                 out.append(msg_id)
+        self._earliest_s = min((self._next_s[m] for m, r in self._rates_hz.items() if r > 0.0),
+                               default=math.inf)
         out.sort(key=lambda m: m != _HEARTBEAT)
         return out

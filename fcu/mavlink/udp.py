@@ -87,6 +87,7 @@ class UdpLink:
         self._peer_timeout_s = peer_timeout_s
         self._clock = clock
         self._peers: dict[Address, float] = {}  # learned peer -> wall time last heard, s
+        self._broadcast: list[Address] = list(self._defaults)  # peers, kept with _peers
         self._noticed: set[Address] = set()
         self._sock: socket.socket | None = None
         self.send_errors = 0
@@ -143,14 +144,19 @@ class UdpLink:
         if peer in self._defaults:
             return
         now = self._clock()
-        if peer in self._peers or len(self._peers) < self._max_peers:
+        if peer in self._peers:
+            self._peers[peer] = now  # known: its place in the order stays
+            return
+        if len(self._peers) < self._max_peers:
             self._peers[peer] = now
+            self._broadcast = self.peers
             return
         quietest = min(self._peers, key=self._peers.__getitem__)
         silent_s = now - self._peers[quietest]
         if silent_s >= self._peer_timeout_s:
             del self._peers[quietest]
             self._peers[peer] = now
+            self._broadcast = self.peers
             self._noticed.discard(peer)
             _log.info("peer %s:%d silent for %.0f s gave its place to %s:%d", *quietest,
                       silent_s, *peer)
@@ -164,11 +170,14 @@ class UdpLink:
 
     def send(self, data: bytes, to: Address | None = None) -> None:
         """Send to ``to``, or to every peer; errors are counted, never raised."""
-        self.open()
-        assert self._sock is not None
-        for peer in (self.peers if to is None else [to]):
+        sock = self._sock
+        if sock is None:
+            self.open()
+            sock = self._sock
+            assert sock is not None
+        for peer in (self._broadcast if to is None else (to,)):
             try:
-                self._sock.sendto(data, peer)
+                sock.sendto(data, peer)
             except BlockingIOError:
                 self.send_errors += 1  # socket buffer full: drop, like a radio would
             except OSError:
