@@ -373,19 +373,17 @@ class _LazySnapshot(VehicleSnapshot):
             system_status = MavState.ACTIVE
         else:
             system_status = MavState.STANDBY
-        fields = {"time_s": time_s, "armed": armed, "custom_mode": int(nav.mode),
-                  "pos_ned": est.pos_ned, "vel_ned": est.vel_ned, "euler_rad": est.euler_rad,
-                  "rate_frd": est.rate_frd, "origin": port.origin,
-                  "home_pos_ned": nav.home_pos_ned, "system_status": system_status,
-                  "landed_state": int(nav.landed_state),
-                  "failsafe_active": bool(nav.failsafe_sources), "extended": port.telemetry,
-                  "_port": port, "_ap": ap, "_status": status, "_expired": False}
-        for name, value in fields.items():
-            object.__setattr__(self, name, value)
+        self.__dict__.update({  # frozen: the fields are set once, here
+            "time_s": time_s, "armed": armed, "custom_mode": int(nav.mode),
+            "pos_ned": est.pos_ned, "vel_ned": est.vel_ned, "euler_rad": est.euler_rad,
+            "rate_frd": est.rate_frd, "origin": port.origin, "home_pos_ned": nav.home_pos_ned,
+            "system_status": system_status, "landed_state": int(nav.landed_state),
+            "failsafe_active": bool(nav.failsafe_sources), "extended": port.telemetry,
+            "_port": port, "_ap": ap, "_status": status, "_expired": False})
 
     def expire(self) -> None:
         """The autopilot has moved on: fields not read yet can no longer be computed."""
-        object.__setattr__(self, "_expired", True)
+        self.__dict__["_expired"] = True
 
     def _source(self, name: str) -> tuple[Autopilot, AutopilotStatus]:
         if self.__dict__["_expired"]:

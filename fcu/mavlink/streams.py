@@ -229,23 +229,29 @@ class StreamScheduler:
                 < self._heartbeat_wall_period_s):
             return []  # the common tick: nothing due (the loop below would find nothing)
         out: list[int] = []
+        next_by_id = self._next_s
+        heartbeat_wall_due = (wall_time_s - self._last_heartbeat_wall_s
+                              >= self._heartbeat_wall_period_s)
+        earliest = math.inf
         for msg_id, rate in self._rates_hz.items():
-            wall_due = (msg_id == _HEARTBEAT and wall_time_s - self._last_heartbeat_wall_s
-                        >= self._heartbeat_wall_period_s)
+            wall_due = heartbeat_wall_due and msg_id == _HEARTBEAT
             if rate <= 0.0 and not wall_due:
                 continue
-            next_s = self._next_s[msg_id]
+            next_s = next_by_id[msg_id]
             if time_s >= next_s or wall_due:
                 period = 1.0 / rate
                 # Keep the phase; after a gap (a stall, a fresh start) restart from now.
-                self._next_s[msg_id] = (next_s + period if time_s < next_s + period
-                                        else time_s + period)
+                next_s = next_s + period if time_s < next_s + period else time_s + period
                 if msg_id == _HEARTBEAT:
                     self._last_heartbeat_wall_s = wall_time_s
-                    if wall_due and time_s < next_s:
-                        self._next_s[msg_id] = time_s + period
+                    if wall_due and time_s < next_by_id[msg_id]:
+                        next_s = time_s + period
+                next_by_id[msg_id] = next_s
                 out.append(msg_id)
-        self._earliest_s = min((self._next_s[m] for m, r in self._rates_hz.items() if r > 0.0),
-                               default=math.inf)
-        out.sort(key=lambda m: m != _HEARTBEAT)
+            if rate > 0.0 and next_s < earliest:
+                earliest = next_s
+        self._earliest_s = earliest
+        if len(out) > 1 and _HEARTBEAT in out and out[0] != _HEARTBEAT:
+            out.remove(_HEARTBEAT)  # HEARTBEAT first, the others in their order
+            out.insert(0, _HEARTBEAT)
         return out

@@ -185,13 +185,16 @@ class UdpLink:
 
     def receive(self) -> list[tuple[bytes, Address]]:
         """Datagrams waiting now (at most ``max_datagrams_per_receive``)."""
-        self.open()
-        assert self._sock is not None
+        sock = self._sock
+        if sock is None:
+            self.open()
+            sock = self._sock
+            assert sock is not None
         out: list[tuple[bytes, Address]] = []
         soft_errors = 0
         while len(out) < self._max_rx and soft_errors < self._max_rx:
             try:
-                data, addr = self._sock.recvfrom(_MAX_DATAGRAM)
+                data, addr = sock.recvfrom(_MAX_DATAGRAM)
             except BlockingIOError:
                 break
             except OSError as err:
