@@ -36,14 +36,16 @@ __all__ = ["Codec", "ParseResult", "heartbeat_message", "mavlink2"]
 
 MAVLinkMessage: TypeAlias = mavlink2.MAVLink_message
 
-_HEADER = struct.Struct("<BBBBBBBHB")  # magic, len, incompat, compat, seq, sys, comp, id
+_MAGIC = bytes([mavlink2.PROTOCOL_MARKER_V2])  # 0xFD
+_HEADER = struct.Struct("<BBBBBBHB")  # after the magic: len, incompat, compat, seq, sys, comp, id
 _CRC = struct.Struct("<H")
 _SIGNATURE_LINK_STAMP = struct.Struct("<BQ")  # link id, timestamp: the first 7 bytes are sent
 _IFLAG_SIGNED = mavlink2.MAVLINK_IFLAG_SIGNED
 
 
 def _crc16(data: bytes) -> int:
-    """CRC-16/MCRF4XX of ``data`` from 0xFFFF (pymavlink's ``x25crc``)."""
+    """CRC-16/MCRF4XX of ``data`` from 0xFFFF (pymavlink's ``x25crc``: its compiled
+    ``fastcrc`` when installed, else its Python loop)."""
     return int(mavlink2.x25crc(data).crc)
 
 
@@ -171,15 +173,14 @@ class Codec:
         if layout is None:
             layout = _LAYOUTS[type(msg)] = _Layout(msg)
         payload = layout.payload.pack(*layout.values(msg))
-        end = len(payload)
-        while end > 1 and payload[end - 1] == 0:  # MAVLink 2: trailing zeros are not sent
-            end -= 1
+        # MAVLink 2 does not send the payload's trailing zeros (one byte at least stays)
+        payload = payload.rstrip(b"\0") or payload[:1]
         signing = mav.signing
         signed = signing.sign_outgoing
-        packet = _HEADER.pack(253, end, _IFLAG_SIGNED if signed else 0, 0, mav.seq,
-                              mav.srcSystem, mav.srcComponent, layout.msg_id_low,
-                              layout.msg_id_high) + payload[:end]
-        packet += _CRC.pack(_crc(packet[1:] + layout.crc_extra))
+        body = _HEADER.pack(len(payload), _IFLAG_SIGNED if signed else 0, 0, mav.seq,
+                            mav.srcSystem, mav.srcComponent, layout.msg_id_low,
+                            layout.msg_id_high) + payload
+        packet = _MAGIC + body + _CRC.pack(_crc(body + layout.crc_extra))
         if signed:
             packet += _SIGNATURE_LINK_STAMP.pack(signing.link_id, signing.timestamp)[:7]
             packet += hashlib.sha256(signing.secret_key + packet).digest()[:6]
