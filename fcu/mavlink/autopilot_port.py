@@ -353,12 +353,13 @@ class _LazySnapshot(VehicleSnapshot):
     """The snapshot of one autopilot tick whose costlier fields are computed when first read.
 
     Telemetry is due about 25 times per simulated second, and most bursts read only the
-    estimate (ATTITUDE, LOCAL_POSITION_NED at 20 Hz); the references, PWM, battery, truth,
-    LOE, health (the pre-arm check) and mission progress are computed on first read, once,
-    from the autopilot as it stands. The port expires the snapshot when the vehicle moves on
-    (the next tick, a command): a field first read after that raises rather than mix two
-    instants. (It is built here, not through the dataclass constructor, so
-    :func:`dataclasses.replace` does not apply to it.)
+    estimate (ATTITUDE, LOCAL_POSITION_NED at 20 Hz). Home, the landed state, the
+    references, PWM, battery, truth, LOE, health (the pre-arm check) and mission progress are
+    computed on first read, once, from the autopilot as it stands; what HEARTBEAT reads is
+    taken at once, so that the endpoint's fallback HEARTBEAT can always be built. The port
+    expires the snapshot when the vehicle moves on (the next tick, a command): a field first
+    read after that raises rather than mix two instants. (It is built here, not through the
+    dataclass constructor, so :func:`dataclasses.replace` does not apply to it.)
     """
 
     def __init__(self, port: AutopilotPort, ap: Autopilot, status: AutopilotStatus,
@@ -376,8 +377,7 @@ class _LazySnapshot(VehicleSnapshot):
         self.__dict__.update({  # frozen: the fields are set once, here
             "time_s": time_s, "armed": armed, "custom_mode": int(nav.mode),
             "pos_ned": est.pos_ned, "vel_ned": est.vel_ned, "euler_rad": est.euler_rad,
-            "rate_frd": est.rate_frd, "origin": port.origin, "home_pos_ned": nav.home_pos_ned,
-            "system_status": system_status, "landed_state": int(nav.landed_state),
+            "rate_frd": est.rate_frd, "origin": port.origin, "system_status": system_status,
             "failsafe_active": bool(nav.failsafe_sources), "extended": port.telemetry,
             "_port": port, "_ap": ap, "_status": status, "_expired": False})
 
@@ -390,6 +390,14 @@ class _LazySnapshot(VehicleSnapshot):
             raise RuntimeError(f"snapshot field {name!r} first read after the vehicle moved on "
                                "(take a new snapshot)")
         return self.__dict__["_ap"], self.__dict__["_status"]
+
+    @cached_property
+    def home_pos_ned(self) -> np.ndarray | None:
+        return self._source("home_pos_ned")[0].navigator.home_pos_ned
+
+    @cached_property
+    def landed_state(self) -> int:
+        return int(self._source("landed_state")[0].navigator.landed_state)
 
     @cached_property
     def position_target(self) -> PositionTarget | None:

@@ -198,6 +198,9 @@ def test_the_snapshots_late_fields_are_those_of_its_tick() -> None:
     assert snap.health.prearm == ap.navigator.prearm_check().ok
     assert snap.health.gps and snap.health.ahrs and snap.health.motors
     assert snap.battery.voltage_v == ap.battery.voltage_v
+    assert snap.landed_state == int(ap.navigator.landed_state) != 0
+    assert snap.home_pos_ned is not None
+    assert np.array_equal(snap.home_pos_ned, ap.navigator.home_pos_ned)
     progress = ap.navigator.mission_progress()
     assert (snap.mission_seq, snap.mission_state) == (progress.current_seq, int(progress.state))
     v.tick()
