@@ -26,7 +26,7 @@ from __future__ import annotations
 import hashlib
 import operator
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeAlias
 
@@ -80,11 +80,11 @@ class _Layout:
         get = operator.attrgetter(*names)
         self.get: Callable[[MAVLinkMessage], Any] = (
             (lambda m: (get(m),)) if len(names) == 1 else get)
+        self.values: Callable[[MAVLinkMessage], Sequence[Any]] = (
+            self._spread if self.arrays else self.get)
 
-    def values(self, msg: MAVLinkMessage) -> list[Any] | tuple[Any, ...]:
+    def _spread(self, msg: MAVLinkMessage) -> list[Any]:
         fields = self.get(msg)
-        if not self.arrays:
-            return fields
         out: list[Any] = []
         start = 0
         for index, length in self.arrays:
