@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import errno
 import logging
+import select
 import socket
 import time
 from collections.abc import Callable, Iterable
@@ -90,6 +91,7 @@ class UdpLink:
         self._broadcast: list[Address] = list(self._defaults)  # peers, kept with _peers
         self._noticed: set[Address] = set()
         self._sock: socket.socket | None = None
+        self._poller: select.poll | None = None  # readable or in error: receive() reads
         self.send_errors = 0
         self.receive_errors = 0
         self.refused_peers = 0  # datagrams from peers refused a place (table full)
@@ -107,12 +109,16 @@ class UdpLink:
             sock.close()
             raise
         self._sock = sock
+        if hasattr(select, "poll"):
+            self._poller = select.poll()
+            self._poller.register(sock, select.POLLIN)
 
     def close(self) -> None:
         """Release the socket."""
         if self._sock is not None:
             self._sock.close()
             self._sock = None
+            self._poller = None
 
     def __enter__(self) -> UdpLink:
         self.open()
@@ -190,6 +196,8 @@ class UdpLink:
             self.open()
             sock = self._sock
             assert sock is not None
+        if self._poller is not None and not self._poller.poll(0):
+            return []  # nothing waiting, no error pending: one cheap system call per tick
         out: list[tuple[bytes, Address]] = []
         soft_errors = 0
         while len(out) < self._max_rx and soft_errors < self._max_rx:
