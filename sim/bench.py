@@ -348,6 +348,11 @@ def _report_vehicle_speedup(speedup: float, repeat: int, realtime: bool) -> None
               f"min {min(ratios):.1f}x  max {max(ratios):.1f}x")
         print(f"  messages received: median {statistics.median(rates):.0f}/s (wall), "
               f"{statistics.median(r.messages / r.sim_s for r in runs):.0f} per simulated s")
+        cpu_ratios = [float(m.group(1)) for r in runs
+                      if (m := re.search(r"([\d.]+)x per CPU second", r.vehicle_line))]
+        if cpu_ratios:  # what a busy machine's share of the CPU does not change
+            print(f"  simulated / CPU time (vehicle): median "
+                  f"{statistics.median(cpu_ratios):.1f}x")
         for run in runs:
             print(f"  vehicle: {run.vehicle_line}")
 

@@ -19,10 +19,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
+from functools import cached_property
 
 import numpy as np
 
-from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
+from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent, AutopilotStatus
 from fcu.hal import SensorSampleLike
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
 from fcu.mavlink.autopilot_telemetry import AutopilotHost, AutopilotTelemetry
@@ -109,7 +110,7 @@ class AutopilotPort:
     # ------------------------------------------------------------------ events
     def collect(self, events: Sequence[AutopilotEvent]) -> None:
         """After a tick: the autopilot's events become STATUSTEXT / MISSION_ITEM_REACHED."""
-        self._snap = None
+        self._expire()
         for ev in events:
             if ev.kind == "refused":
                 continue  # the endpoint reports refusals with the command's ACK
@@ -134,7 +135,7 @@ class AutopilotPort:
 
     def invalidate(self) -> None:
         """Forget the cached snapshot (something outside the autopilot changed)."""
-        self._snap = None
+        self._expire()
 
     def drain_events(self) -> list[VehicleEvent]:
         """STATUSTEXT and MISSION_ITEM_REACHED since the previous call, oldest first."""
@@ -161,49 +162,18 @@ class AutopilotPort:
                                    system_status=MavState.BOOT,
                                    health=SensorHealth(ahrs=False, prearm=False),
                                    extended=self.telemetry)
-        est = status.estimate
-        healthy = bool(np.all(np.isfinite(est.pos_ned)) and np.all(np.isfinite(est.vel_ned))
-                       and np.all(np.isfinite(est.euler_rad)))
-        detected = any(status.fault_detected)
-        failsafe = bool(nav.failsafe_sources)
-        armed = nav.armed
-        if detected:
-            system_status = MavState.CRITICAL
-        elif armed:
-            system_status = MavState.ACTIVE
-        else:
-            system_status = MavState.STANDBY
-        position_target = None
-        if status.reference is not None:
-            ref = status.reference
-            position_target = PositionTarget(pos_ned=ref.pos_ned, vel_ned=ref.vel_ned,
-                                              acc_ned=ref.acc_ned, yaw_rad=ref.yaw_rad)
-        attitude_target = None
-        if status.attitude_reference is not None:
-            att = status.attitude_reference
-            model = ap.model
-            full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max
-            attitude_target = AttitudeTarget(
-                euler_rad=att.euler_rad,
-                rate_frd=body_rates_from_euler_rates(att.euler_rad, att.rate),
-                thrust=min(max(status.thrust_cmd_n / full_thrust_n, 0.0), 1.0))
-        progress = nav.mission_progress()
-        return VehicleSnapshot(
-            time_s=t, armed=armed, custom_mode=int(nav.mode),
-            pos_ned=est.pos_ned, vel_ned=est.vel_ned, euler_rad=est.euler_rad,
-            rate_frd=est.rate_frd, origin=self.origin, home_pos_ned=nav.home_pos_ned,
-            system_status=system_status, landed_state=int(nav.landed_state),
-            position_target=position_target, attitude_target=attitude_target,
-            pwm=np.array(status.pwm), battery=_battery_state(ap), truth=self._truth(),
-            loe=np.array(status.loe_estimate),
-            health=SensorHealth(gps=healthy, ahrs=healthy, motors=not detected,
-                                prearm=nav.prearm_check().ok),
-            mission_seq=progress.current_seq, mission_state=int(progress.state),
-            failsafe_active=failsafe, extended=self.telemetry)
+        return _LazySnapshot(self, ap, status, t)
+
+    def _expire(self) -> None:
+        """The vehicle moves on (a tick, a command): the snapshot taken so far is done."""
+        if self._snap is not None:
+            if isinstance(self._snap, _LazySnapshot):
+                self._snap.expire()
+            self._snap = None
 
     # ------------------------------------------------------------------ VehiclePort: commands
     def _nav(self, what: str, result: NavResult) -> CommandResult:
-        self._snap = None  # the command may have changed mode, arming, targets...
+        self._expire()  # the command may have changed mode, arming, targets...
         if result.accepted:
             return CommandResult.ok()
         return CommandResult.denied(f"{what} refused: {result.reason}")
@@ -325,7 +295,7 @@ class AutopilotPort:
         if spec.live_ftc:
             self.host.autopilot.set_ftc(new.ftc)
             self._config = new
-            self._snap = None
+            self._expire()
             self.post(Severity.INFO, f"FTC: {new.ftc}")
             return CommandResult.ok()
         nav = self.host.autopilot.navigator
@@ -338,7 +308,7 @@ class AutopilotPort:
             if not result.accepted:
                 return CommandResult.denied(result.reason)
             self._config = new
-            self._snap = None
+            self._expire()
             return CommandResult.ok()
         error = self._rebuild(new, keep_mode=True)
         if error:
@@ -375,8 +345,120 @@ class AutopilotPort:
         self.host.autopilot = ap
         self._config = config
         self.host.pwm = np.array(ap.pwm)
-        self._snap = None
+        self._expire()
         return ""
+
+
+class _LazySnapshot(VehicleSnapshot):
+    """The snapshot of one autopilot tick whose costlier fields are computed when first read.
+
+    Telemetry is due about 25 times per simulated second, and most bursts read only the
+    estimate (ATTITUDE, LOCAL_POSITION_NED at 20 Hz). Home, the landed state, the
+    references, PWM, battery, truth, LOE, health (the pre-arm check) and mission progress are
+    computed on first read, once, from the autopilot as it stands; what HEARTBEAT reads is
+    taken at once, so that the endpoint's fallback HEARTBEAT can always be built. The port
+    expires the snapshot when the vehicle moves on (the next tick, a command): a field first
+    read after that raises rather than mix two instants. (It is built here, not through the
+    dataclass constructor, so :func:`dataclasses.replace` does not apply to it.)
+    """
+
+    def __init__(self, port: AutopilotPort, ap: Autopilot, status: AutopilotStatus,
+                 time_s: float) -> None:
+        nav = ap.navigator
+        est = status.estimate
+        detected = any(status.fault_detected)
+        armed = nav.armed
+        if detected:
+            system_status = MavState.CRITICAL
+        elif armed:
+            system_status = MavState.ACTIVE
+        else:
+            system_status = MavState.STANDBY
+        self.__dict__.update({  # frozen: the fields are set once, here
+            "time_s": time_s, "armed": armed, "custom_mode": int(nav.mode),
+            "pos_ned": est.pos_ned, "vel_ned": est.vel_ned, "euler_rad": est.euler_rad,
+            "rate_frd": est.rate_frd, "origin": port.origin, "system_status": system_status,
+            "failsafe_active": bool(nav.failsafe_sources), "extended": port.telemetry,
+            "_port": port, "_ap": ap, "_status": status, "_expired": False})
+
+    def expire(self) -> None:
+        """The autopilot has moved on: fields not read yet can no longer be computed."""
+        self.__dict__["_expired"] = True
+
+    def _source(self, name: str) -> tuple[Autopilot, AutopilotStatus]:
+        if self.__dict__["_expired"]:
+            raise RuntimeError(f"snapshot field {name!r} first read after the vehicle moved on "
+                               "(take a new snapshot)")
+        return self.__dict__["_ap"], self.__dict__["_status"]
+
+    @cached_property
+    def home_pos_ned(self) -> np.ndarray | None:
+        return self._source("home_pos_ned")[0].navigator.home_pos_ned
+
+    @cached_property
+    def landed_state(self) -> int:
+        return int(self._source("landed_state")[0].navigator.landed_state)
+
+    @cached_property
+    def position_target(self) -> PositionTarget | None:
+        _, status = self._source("position_target")
+        ref = status.reference
+        if ref is None:
+            return None
+        return PositionTarget(pos_ned=ref.pos_ned, vel_ned=ref.vel_ned, acc_ned=ref.acc_ned,
+                              yaw_rad=ref.yaw_rad)
+
+    @cached_property
+    def attitude_target(self) -> AttitudeTarget | None:
+        ap, status = self._source("attitude_target")
+        att = status.attitude_reference
+        if att is None:
+            return None
+        model = ap.model
+        full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max
+        return AttitudeTarget(
+            euler_rad=att.euler_rad,
+            rate_frd=body_rates_from_euler_rates(att.euler_rad, att.rate),
+            thrust=min(max(status.thrust_cmd_n / full_thrust_n, 0.0), 1.0))
+
+    @cached_property
+    def pwm(self) -> np.ndarray:
+        return np.array(self._source("pwm")[1].pwm)
+
+    @cached_property
+    def battery(self) -> BatteryState:
+        return _battery_state(self._source("battery")[0])
+
+    @cached_property
+    def truth(self) -> SimTruth | None:
+        self._source("truth")
+        return self.__dict__["_port"]._truth()
+
+    @cached_property
+    def loe(self) -> np.ndarray | None:
+        return np.array(self._source("loe")[1].loe_estimate)
+
+    @cached_property
+    def health(self) -> SensorHealth:
+        ap, status = self._source("health")
+        est = status.estimate
+        healthy = all(math.isfinite(v) for a in (est.pos_ned, est.vel_ned, est.euler_rad)
+                      for v in a.tolist())
+        return SensorHealth(gps=healthy, ahrs=healthy, motors=not any(status.fault_detected),
+                            prearm=ap.navigator.prearm_check().ok)
+
+    @cached_property
+    def _progress(self) -> tuple[int, int]:
+        progress = self._source("mission_seq")[0].navigator.mission_progress()
+        return progress.current_seq, int(progress.state)
+
+    @property
+    def mission_seq(self) -> int:
+        return self._progress[0]
+
+    @property
+    def mission_state(self) -> int:
+        return self._progress[1]
 
 
 def _battery_state(ap: Autopilot) -> BatteryState:

@@ -39,7 +39,6 @@ TIMESYNC answers with the simulated time in ns (never decreasing).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -232,11 +231,12 @@ class MavlinkEndpoint:
         """
         self._time_s = time_s
         self.poll(wall_time_s)
-        self._guard(lambda: self.signing.tick(time_s, wall_time_s))
-        self._guard(self._forward_events)
-        self._guard(lambda: self._run_failsafe(wall_time_s))
-        self._guard(lambda: self._mission.tick(wall_time_s))
-        self._guard(lambda: self._send_due(time_s, wall_time_s))
+        guard = self._guard
+        guard(self.signing.tick, time_s, wall_time_s)
+        guard(self._forward_events)
+        guard(self._run_failsafe, wall_time_s)
+        guard(self._mission.tick, wall_time_s)
+        guard(self._send_due, time_s, wall_time_s)
 
     def poll(self, wall_time_s: float) -> int:
         """Handle the datagrams waiting on the link for at most ``receive_budget_s``; the
@@ -249,6 +249,8 @@ class MavlinkEndpoint:
                 self.stats.handler_errors += 1
                 _log.exception("link receive failed")
                 return 0
+            if not self._backlog:
+                return 0  # the common tick: nothing arrived
         start = self._clock()
         handled = 0
         while self._backlog:
@@ -276,9 +278,9 @@ class MavlinkEndpoint:
                 self.stats.handler_errors += 1
                 _log.exception("error handling %s", msg.get_type())
 
-    def _guard(self, action: Callable[[], None]) -> None:
+    def _guard(self, action: Callable[..., None], *args: float) -> None:
         try:
-            action()
+            action(*args)
         except Exception:
             self.stats.handler_errors += 1
             _log.exception("endpoint step failed")
@@ -301,9 +303,14 @@ class MavlinkEndpoint:
             self.stats.build_errors += 1
             _log.exception("snapshot failed")
             # Keep the link alive: a HEARTBEAT from the last good state, marked CRITICAL.
-            if self._last_snapshot is None or _M.MAVLINK_MSG_ID_HEARTBEAT not in due:
+            last = self._last_snapshot
+            if last is None or _M.MAVLINK_MSG_ID_HEARTBEAT not in due:
                 return
-            snap = dataclasses.replace(self._last_snapshot, system_status=MavState.CRITICAL)
+            snap = VehicleSnapshot(  # what HEARTBEAT reads (a port may compute the rest late)
+                time_s=last.time_s, armed=last.armed, custom_mode=last.custom_mode,
+                pos_ned=last.pos_ned, vel_ned=last.vel_ned, euler_rad=last.euler_rad,
+                rate_frd=last.rate_frd, origin=last.origin, system_status=MavState.CRITICAL,
+                failsafe_active=last.failsafe_active)
             due = [_M.MAVLINK_MSG_ID_HEARTBEAT]
         ctx = self._context()
         for msg_id in due:

@@ -8,6 +8,7 @@ The mapping and its inverse are exact inverses of each other (up to floating poi
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -22,6 +23,7 @@ WGS84_E2 = 6.69437999014e-3  # WGS84 first eccentricity squared
 _MAX_REF_LAT_DEG = 89.9  # deg, beyond this east-west degrees shrink to nothing
 
 
+@functools.lru_cache(maxsize=16)  # a vehicle converts about its one origin all the time
 def metres_per_degree(lat_deg: float) -> tuple[float, float]:
     """Metres per degree of latitude and of longitude at ``lat_deg``.
 

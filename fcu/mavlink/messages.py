@@ -25,7 +25,7 @@ Conventions worth knowing on the ground-station side
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -148,6 +148,28 @@ def _f(value: float) -> float:
     return float(value)
 
 
+_F64 = np.dtype(np.float64)
+
+
+def _floats(v: np.ndarray | Sequence[float]) -> list[float]:
+    """``[float(x) for x in v]``; a float64 array in one call."""
+    if type(v) is np.ndarray and v.dtype is _F64:
+        return v.tolist()
+    return [float(x) for x in v]
+
+
+def _xyz(v: np.ndarray | Sequence[float]) -> list[float]:
+    """``[float(v[0]), float(v[1]), float(v[2])]``; a float64 array of 3 in one call."""
+    if type(v) is np.ndarray and v.dtype is _F64 and v.shape == (3,):
+        return v.tolist()
+    return [float(v[0]), float(v[1]), float(v[2])]
+
+
+def _cms(x: float) -> int:
+    """m/s as int16 cm/s."""
+    return clamp_int(x * 100.0, -INT16_MAX, INT16_MAX, 0)
+
+
 # ---------------------------------------------------------------------------------------------
 # streamed messages
 
@@ -231,25 +253,25 @@ def gps_raw_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
 
 def attitude(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     """ATTITUDE: ZYX Euler angles (yaw wrapped to [-pi, pi)) and body rates."""
-    e, w = snap.euler_rad, snap.rate_frd
-    return _M.MAVLink_attitude_message(
-        time_boot_ms(snap.time_s), _f(e[0]), _f(e[1]), wrap_pi(_f(e[2])),
-        _f(w[0]), _f(w[1]), _f(w[2]))
+    roll, pitch, yaw = _xyz(snap.euler_rad)
+    p, q, r = _xyz(snap.rate_frd)
+    return _M.MAVLink_attitude_message(time_boot_ms(snap.time_s), roll, pitch, wrap_pi(yaw),
+                                       p, q, r)
 
 
 def attitude_quaternion(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     """ATTITUDE_QUATERNION: [w, x, y, z] and body rates."""
-    q, w = quat_from_euler(snap.euler_rad), snap.rate_frd
+    qw, qx, qy, qz = quat_from_euler(snap.euler_rad).tolist()
+    p, q, r = _xyz(snap.rate_frd)
     return _M.MAVLink_attitude_quaternion_message(
-        time_boot_ms(snap.time_s), _f(q[0]), _f(q[1]), _f(q[2]), _f(q[3]),
-        _f(w[0]), _f(w[1]), _f(w[2]), [0.0, 0.0, 0.0, 0.0])
+        time_boot_ms(snap.time_s), qw, qx, qy, qz, p, q, r, [0.0, 0.0, 0.0, 0.0])
 
 
 def local_position_ned(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     """LOCAL_POSITION_NED about the origin."""
-    p, v = snap.pos_ned, snap.vel_ned
-    return _M.MAVLink_local_position_ned_message(
-        time_boot_ms(snap.time_s), _f(p[0]), _f(p[1]), _f(p[2]), _f(v[0]), _f(v[1]), _f(v[2]))
+    n, e, d = _xyz(snap.pos_ned)
+    vn, ve, vd = _xyz(snap.vel_ned)
+    return _M.MAVLink_local_position_ned_message(time_boot_ms(snap.time_s), n, e, d, vn, ve, vd)
 
 
 def relative_alt_m(snap: VehicleSnapshot, alt_amsl_m: float) -> float:
@@ -260,14 +282,10 @@ def relative_alt_m(snap: VehicleSnapshot, alt_amsl_m: float) -> float:
 def global_position_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     """GLOBAL_POSITION_INT: degE7, AMSL and relative altitude in mm, velocity in cm/s."""
     lat, lon, alt = ned_to_geo(snap.pos_ned, snap.origin)
-    v = snap.vel_ned
-
-    def cms(x: float) -> int:
-        return clamp_int(x * 100.0, -INT16_MAX, INT16_MAX, 0)
-
+    vn, ve, vd = _xyz(snap.vel_ned)
     return _M.MAVLink_global_position_int_message(
         time_boot_ms(snap.time_s), _e7(lat), _e7(lon), _mm(alt), _mm(relative_alt_m(snap, alt)),
-        cms(_f(v[0])), cms(_f(v[1])), cms(_f(v[2])), cdeg_heading(_f(snap.euler_rad[2])))
+        _cms(vn), _cms(ve), _cms(vd), cdeg_heading(_f(snap.euler_rad[2])))
 
 
 def vfr_hud(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
@@ -283,7 +301,7 @@ def vfr_hud(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
 
 def servo_output_raw(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     """SERVO_OUTPUT_RAW: motors 1..4 (thesis numbering) on servo1..servo4."""
-    us = [pwm_to_us(_f(u), ctx.pwm_max) for u in snap.pwm[:4]]
+    us = [pwm_to_us(u, ctx.pwm_max) for u in _floats(snap.pwm[:4])]
     us += [0] * (16 - len(us))
     return _M.MAVLink_servo_output_raw_message(time_usec(snap.time_s) & UINT32_MAX, 0, *us)
 
@@ -377,14 +395,18 @@ def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | 
     if t is None:
         return None
     q = t.quat_wxyz
-    e = euler_from_quat(q)
+    qf = _floats(q)
+    roll, pitch, yaw = euler_from_quat(q).tolist()
+    ax, ay, az = _xyz(t.accel_frd)
+    p, q_rate, r = _xyz(t.rate_frd)
+    vn, ve, vd = _xyz(t.vel_ned)
     lat, lon, alt = ned_to_geo(t.pos_ned, snap.origin)
     return _M.MAVLink_sim_state_message(
-        _f(q[0]), _f(q[1]), _f(q[2]), _f(q[3]), _f(e[0]), _f(e[1]), _f(e[2]),
-        _f(t.accel_frd[0]), _f(t.accel_frd[1]), _f(t.accel_frd[2]),
-        _f(t.rate_frd[0]), _f(t.rate_frd[1]), _f(t.rate_frd[2]),
-        lat, lon, alt, 0.0, 0.0, _f(t.vel_ned[0]), _f(t.vel_ned[1]), _f(t.vel_ned[2]),
-        _e7(lat), _e7(lon))
+        qf[0], qf[1], qf[2], qf[3], roll, pitch, yaw, ax, ay, az, p, q_rate, r,
+        lat, lon, alt, 0.0, 0.0, vn, ve, vd, _e7(lat), _e7(lon))
+
+
+_LOE_NAMES = (b"LOE1", b"LOE2", b"LOE3", b"LOE4")
 
 
 def named_value_floats(snap: VehicleSnapshot, ctx: TelemetryContext) -> list[MAVLinkMessage]:
@@ -392,8 +414,8 @@ def named_value_floats(snap: VehicleSnapshot, ctx: TelemetryContext) -> list[MAV
     if snap.loe is None:
         return []
     t_ms = time_boot_ms(snap.time_s)
-    return [_M.MAVLink_named_value_float_message(t_ms, f"LOE{i + 1}".encode("ascii"), _f(v))
-            for i, v in enumerate(snap.loe[:4])]
+    return [_M.MAVLink_named_value_float_message(t_ms, name, v)
+            for name, v in zip(_LOE_NAMES, _floats(snap.loe[:4]), strict=False)]
 
 
 Builder = Callable[[VehicleSnapshot, TelemetryContext],

@@ -473,7 +473,12 @@ class VehiclePort(ParamProvider, Protocol):
     """Everything the endpoint reads from and asks of the vehicle."""
 
     def snapshot(self) -> VehicleSnapshot:
-        """The current state (called when telemetry is due, at most once per tick)."""
+        """The current state (called when telemetry is due, at most once per tick).
+
+        A port may compute some fields when they are first read (the autopilot's does:
+        :mod:`fcu.mavlink.autopilot_port`); the endpoint reads a snapshot before it calls
+        the port again or the vehicle ticks.
+        """
         ...
 
     def drain_events(self) -> list[VehicleEvent]:

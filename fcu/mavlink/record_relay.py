@@ -55,6 +55,8 @@ class RecordRelay:
 
     def due(self, now_s: float) -> list[MAVLinkMessage]:
         """The repeats due at ``now_s`` (simulated s)."""
+        if not self._pending:
+            return []  # the common tick
         out = []
         for p in self._pending:
             while p.due_s and p.due_s[0] <= now_s + 1e-9:

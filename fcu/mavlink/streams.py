@@ -139,6 +139,7 @@ class StreamScheduler:
         self._next_s: dict[int, float] = {}
         self._last_time_s = -math.inf
         self._last_heartbeat_wall_s = -math.inf
+        self._earliest_s = -math.inf  # no stream is due before this simulated time
         self.reset()
 
     def reset(self) -> None:
@@ -146,6 +147,7 @@ class StreamScheduler:
         self._rates_hz = dict(self._defaults)
         self._next_s = {msg_id: -math.inf for msg_id in self._defaults}
         self._last_heartbeat_wall_s = -math.inf
+        self._earliest_s = -math.inf
 
     @property
     def message_ids(self) -> tuple[int, ...]:
@@ -183,6 +185,7 @@ class StreamScheduler:
             raise ValueError("HEARTBEAT cannot be stopped")
         self._rates_hz[msg_id] = min(rate, self._max_rate_hz)
         self._next_s[msg_id] = -math.inf  # start (again) at the next tick
+        self._earliest_s = -math.inf
 
     def set_group_rate(self, stream_id: int, rate_hz: float) -> bool:
         """REQUEST_DATA_STREAM: set every message of ArduPilot group ``stream_id``.
@@ -206,6 +209,7 @@ class StreamScheduler:
     def request_heartbeat(self) -> None:
         """Make HEARTBEAT due at the next tick (e.g. to confirm a mode change at once)."""
         self._next_s[_HEARTBEAT] = -math.inf
+        self._earliest_s = -math.inf
 
     def due(self, time_s: float, wall_time_s: float) -> list[int]:
         """Message ids to send now, HEARTBEAT first; advances their schedules.
@@ -219,23 +223,35 @@ class StreamScheduler:
         """
         if time_s < self._last_time_s:
             self._next_s = {msg_id: -math.inf for msg_id in self._defaults}
+            self._earliest_s = -math.inf
         self._last_time_s = time_s
+        if (time_s < self._earliest_s and wall_time_s - self._last_heartbeat_wall_s
+                < self._heartbeat_wall_period_s):
+            return []  # the common tick: nothing due (the loop below would find nothing)
         out: list[int] = []
+        next_by_id = self._next_s
+        heartbeat_wall_due = (wall_time_s - self._last_heartbeat_wall_s
+                              >= self._heartbeat_wall_period_s)
+        earliest = math.inf
         for msg_id, rate in self._rates_hz.items():
-            wall_due = (msg_id == _HEARTBEAT and wall_time_s - self._last_heartbeat_wall_s
-                        >= self._heartbeat_wall_period_s)
+            wall_due = heartbeat_wall_due and msg_id == _HEARTBEAT
             if rate <= 0.0 and not wall_due:
                 continue
-            next_s = self._next_s[msg_id]
+            next_s = next_by_id[msg_id]
             if time_s >= next_s or wall_due:
                 period = 1.0 / rate
                 # Keep the phase; after a gap (a stall, a fresh start) restart from now.
-                self._next_s[msg_id] = (next_s + period if time_s < next_s + period
-                                        else time_s + period)
+                next_s = next_s + period if time_s < next_s + period else time_s + period
                 if msg_id == _HEARTBEAT:
                     self._last_heartbeat_wall_s = wall_time_s
-                    if wall_due and time_s < next_s:
-                        self._next_s[msg_id] = time_s + period
+                    if wall_due and time_s < next_by_id[msg_id]:
+                        next_s = time_s + period
+                next_by_id[msg_id] = next_s
                 out.append(msg_id)
-        out.sort(key=lambda m: m != _HEARTBEAT)
+            if rate > 0.0 and next_s < earliest:
+                earliest = next_s
+        self._earliest_s = earliest
+        if len(out) > 1 and _HEARTBEAT in out and out[0] != _HEARTBEAT:
+            out.remove(_HEARTBEAT)  # HEARTBEAT first, the others in their order
+            out.insert(0, _HEARTBEAT)
         return out

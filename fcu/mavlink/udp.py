@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import errno
 import logging
+import select
 import socket
 import time
 from collections.abc import Callable, Iterable
@@ -87,8 +88,10 @@ class UdpLink:
         self._peer_timeout_s = peer_timeout_s
         self._clock = clock
         self._peers: dict[Address, float] = {}  # learned peer -> wall time last heard, s
+        self._broadcast: list[Address] = list(self._defaults)  # peers, kept with _peers
         self._noticed: set[Address] = set()
         self._sock: socket.socket | None = None
+        self._poller: select.poll | None = None  # readable or in error: receive() reads
         self.send_errors = 0
         self.receive_errors = 0
         self.refused_peers = 0  # datagrams from peers refused a place (table full)
@@ -106,12 +109,16 @@ class UdpLink:
             sock.close()
             raise
         self._sock = sock
+        if hasattr(select, "poll"):
+            self._poller = select.poll()
+            self._poller.register(sock, select.POLLIN)
 
     def close(self) -> None:
         """Release the socket."""
         if self._sock is not None:
             self._sock.close()
             self._sock = None
+            self._poller = None
 
     def __enter__(self) -> UdpLink:
         self.open()
@@ -143,14 +150,19 @@ class UdpLink:
         if peer in self._defaults:
             return
         now = self._clock()
-        if peer in self._peers or len(self._peers) < self._max_peers:
+        if peer in self._peers:
+            self._peers[peer] = now  # known: its place in the order stays
+            return
+        if len(self._peers) < self._max_peers:
             self._peers[peer] = now
+            self._broadcast = self.peers
             return
         quietest = min(self._peers, key=self._peers.__getitem__)
         silent_s = now - self._peers[quietest]
         if silent_s >= self._peer_timeout_s:
             del self._peers[quietest]
             self._peers[peer] = now
+            self._broadcast = self.peers
             self._noticed.discard(peer)
             _log.info("peer %s:%d silent for %.0f s gave its place to %s:%d", *quietest,
                       silent_s, *peer)
@@ -164,11 +176,14 @@ class UdpLink:
 
     def send(self, data: bytes, to: Address | None = None) -> None:
         """Send to ``to``, or to every peer; errors are counted, never raised."""
-        self.open()
-        assert self._sock is not None
-        for peer in (self.peers if to is None else [to]):
+        sock = self._sock
+        if sock is None:
+            self.open()
+            sock = self._sock
+            assert sock is not None
+        for peer in (self._broadcast if to is None else (to,)):
             try:
-                self._sock.sendto(data, peer)
+                sock.sendto(data, peer)
             except BlockingIOError:
                 self.send_errors += 1  # socket buffer full: drop, like a radio would
             except OSError:
@@ -176,13 +191,18 @@ class UdpLink:
 
     def receive(self) -> list[tuple[bytes, Address]]:
         """Datagrams waiting now (at most ``max_datagrams_per_receive``)."""
-        self.open()
-        assert self._sock is not None
+        sock = self._sock
+        if sock is None:
+            self.open()
+            sock = self._sock
+            assert sock is not None
+        if self._poller is not None and not self._poller.poll(0):
+            return []  # nothing waiting, no error pending: one cheap system call per tick
         out: list[tuple[bytes, Address]] = []
         soft_errors = 0
         while len(out) < self._max_rx and soft_errors < self._max_rx:
             try:
-                data, addr = self._sock.recvfrom(_MAX_DATAGRAM)
+                data, addr = sock.recvfrom(_MAX_DATAGRAM)
             except BlockingIOError:
                 break
             except OSError as err:

@@ -171,3 +171,44 @@ def test_the_worlds_arrays_and_plain_samples_give_the_same_readings() -> None:
     assert np.array_equal(imu_a.accel_frd, imu_b.accel_frd)
     assert np.array_equal(imu_a.gyro_frd, imu_b.gyro_frd)
     assert arrays.pressure() == objects.pressure()
+
+
+def test_the_snapshots_late_fields_are_those_of_its_tick() -> None:
+    """The port computes the costlier fields when first read: they equal what the autopilot
+    and the world hold at the snapshot's tick, keep their value, and are refused after the
+    vehicle has moved on."""
+    v = vehicle(WindConfig(mean_speed_m_s=2.0, mean_from_deg=90.0, turbulence="none"))
+    take_off(v, 1.0)
+    run(v, 1.5)
+    ap = v.stack.autopilot
+    status = ap.status
+    assert status is not None and status.reference is not None
+    snap = v.port.snapshot()
+    assert v.port.snapshot() is snap  # one snapshot per tick
+    assert snap.armed and snap.time_s == v.time_s
+    assert np.array_equal(snap.pwm, status.pwm) and snap.pwm is not status.pwm  # a copy
+    assert np.array_equal(snap.loe, status.loe_estimate)
+    assert snap.position_target is not None
+    assert np.array_equal(snap.position_target.pos_ned, status.reference.pos_ned)
+    assert snap.attitude_target is not None and 0.0 < snap.attitude_target.thrust < 1.0
+    truth = v.world.truth()
+    assert snap.truth is not None and np.array_equal(snap.truth.pos_ned, truth.pos_ned)
+    truth_read = snap.truth
+    assert snap.truth is truth_read  # computed once
+    assert snap.health.prearm == ap.navigator.prearm_check().ok
+    assert snap.health.gps and snap.health.ahrs and snap.health.motors
+    assert snap.battery.voltage_v == ap.battery.voltage_v
+    assert snap.landed_state == int(ap.navigator.landed_state) != 0
+    assert snap.home_pos_ned is not None
+    assert np.array_equal(snap.home_pos_ned, ap.navigator.home_pos_ned)
+    progress = ap.navigator.mission_progress()
+    assert (snap.mission_seq, snap.mission_state) == (progress.current_seq, int(progress.state))
+    v.tick()
+    late = v.port.snapshot()
+    assert late is not snap and late.time_s > snap.time_s
+    v.tick()
+    assert late.time_s < v.time_s and late.armed  # what was taken stays readable
+    with pytest.raises(RuntimeError, match="moved on"):
+        late.battery  # noqa: B018 (first read after the next tick)
+    assert snap.truth is truth_read  # read in its tick: kept
+    assert v.port.snapshot() is not late

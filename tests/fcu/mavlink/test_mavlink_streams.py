@@ -118,3 +118,75 @@ def test_endpoint_streams_start_by_themselves_in_simulated_time() -> None:
                  "HOME_POSITION", "EXTENDED_SYS_STATE", "MISSION_CURRENT", "SYSTEM_TIME",
                  "POSITION_TARGET_LOCAL_NED", "ATTITUDE_TARGET", "SIM_STATE"):
         assert counts[kind] >= 1, kind
+
+
+class _EveryStreamEveryTick:
+    """The schedule's rules checked stream by stream at every call (the scheduler skips the
+    calls before its earliest due time): the reference the scheduler must match."""
+
+    def __init__(self, rates_hz: dict[int, float], heartbeat_wall_period_s: float) -> None:
+        self.rates_hz = dict(rates_hz)
+        self.period_s = heartbeat_wall_period_s
+        self.next_s = {m: -np.inf for m in rates_hz}
+        self.last_time_s = -np.inf
+        self.last_heartbeat_wall_s = -np.inf
+
+    def due(self, time_s: float, wall_time_s: float) -> list[int]:
+        if time_s < self.last_time_s:
+            self.next_s = {m: -np.inf for m in self.rates_hz}
+        self.last_time_s = time_s
+        out = []
+        for msg_id, rate in self.rates_hz.items():
+            wall_due = (msg_id == HB and wall_time_s - self.last_heartbeat_wall_s
+                        >= self.period_s)
+            if rate <= 0.0 and not wall_due:
+                continue
+            next_s = self.next_s[msg_id]
+            if time_s >= next_s or wall_due:
+                period = 1.0 / rate
+                self.next_s[msg_id] = (next_s + period if time_s < next_s + period
+                                       else time_s + period)
+                if msg_id == HB:
+                    self.last_heartbeat_wall_s = wall_time_s
+                    if wall_due and time_s < next_s:
+                        self.next_s[msg_id] = time_s + period
+                out.append(msg_id)
+        out.sort(key=lambda m: m != HB)
+        return out
+
+
+def test_the_schedule_is_the_stream_by_stream_rule_at_every_tick() -> None:
+    """Random rate changes, stalls, pauses, time steps back and heartbeat requests: every
+    call answers what checking every stream at every call answers."""
+    rng = np.random.default_rng(7)
+    rates = {m: r for m, r in reversed(DEFAULT_RATES_HZ.items())}  # HEARTBEAT not first
+    scheduler = StreamScheduler(rates, heartbeat_wall_period_s=1.0)
+    reference = _EveryStreamEveryTick(rates, 1.0)
+    ids = list(rates)
+    t, wall = 0.0, 0.0
+    sent = 0
+    for _ in range(30_000):
+        roll = rng.random()
+        if roll < 0.002:
+            msg_id = ids[int(rng.integers(len(ids)))]
+            rate = None if rng.random() < 0.3 else float(rng.choice([0.0, 0.7, 5.0, 50.0, 400.0]))
+            if msg_id == HB and rate == 0.0:
+                rate = 2.0
+            scheduler.set_rate(msg_id, rate)
+            reference.rates_hz[msg_id] = min(rates[msg_id] if rate is None else rate, 100.0)
+            reference.next_s[msg_id] = -np.inf
+        elif roll < 0.003:
+            scheduler.request_heartbeat()
+            reference.next_s[HB] = -np.inf
+        elif roll < 0.004:
+            t -= 0.5  # a reboot's clock going back
+        elif roll < 0.01:
+            wall += 1.5  # paused (simulated time holds) or slow motion: the wall clock goes on
+            t += float(rng.choice([0.0, DT_S, 0.5]))
+        else:
+            t += DT_S * (1 + int(rng.random() < 0.01) * 40)  # now and then a stall
+            wall += DT_S / 20.0
+        expected = reference.due(t, wall)
+        assert scheduler.due(t, wall) == expected
+        sent += len(expected)
+    assert sent > 20_000  # the calls that sent something are not a handful
