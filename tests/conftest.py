@@ -7,6 +7,11 @@ Test tiers: every test that flies a whole mission gets the ``slow`` marker here,
 lives (:data:`WHOLE_FLIGHT_FOLDERS`) or by a fixture it uses (:data:`WHOLE_FLIGHT_FIXTURES`),
 so test files need not say so; ``make test-fast`` runs ``-m "not slow"``, ``make test`` all.
 
+On pytest-xdist workers (``make test``) the whole flights go first, so that the longest modules
+do not end the run alone; before the workers start, one headless flight compiles numba's
+kernels (seconds once they are cached), so that no vehicle started by a test compiles them
+(minutes on a loaded machine) and the workers do not compile the same kernels twice.
+
 Start-up designs are cached (:mod:`fcu.design_cache`) in a temporary directory of the test
 session, never in the user's cache: the vehicles the tests start inherit it.
 """
@@ -14,6 +19,9 @@ session, never in the user's cache: the vehicles the tests start inherit it.
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -26,15 +34,40 @@ pytest_plugins = ["gcs.pytest_plugin"]
 TESTS = Path(__file__).resolve().parent
 WHOLE_FLIGHT_FOLDERS = (TESTS / "integration",)  # vehicle processes flying missions
 WHOLE_FLIGHT_FIXTURES = frozenset({"vehicle_link", "start_vehicle"})  # a vehicle flies
+# a flight through every compiled part: LQG, EKF and TSKF, AbDOB, active FTC, rotor loss
+KERNEL_WARM_UP = [sys.executable, "-m", "sim.scenario_cli", "run", "rotor_lost_hover_m1"]
+WARM_UP_S = 1200.0  # s wall: every kernel compiled from scratch on a loaded machine
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Mark the whole-flight tests ``slow`` (module docstring)."""
+def _in_whole_flight_folder(item: pytest.Item) -> bool:
+    path = Path(str(item.path))
+    return any(path.is_relative_to(folder) for folder in WHOLE_FLIGHT_FOLDERS)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark the whole-flight tests ``slow``; on xdist workers, put them first (module
+    docstring)."""
     for item in items:
-        path = Path(str(item.path))
-        if (any(path.is_relative_to(folder) for folder in WHOLE_FLIGHT_FOLDERS)
+        if (_in_whole_flight_folder(item)
                 or WHOLE_FLIGHT_FIXTURES.intersection(getattr(item, "fixturenames", ()))):
             item.add_marker(pytest.mark.slow)
+    if hasattr(config, "workerinput"):  # a stable sort: every worker collects the same order
+        items.sort(key=lambda item: not _in_whole_flight_folder(item))
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Before xdist's workers start, when whole flights may run: compile the kernels once."""
+    config = session.config
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None):
+        return  # a worker, or a run in one process: kernels compile on first use
+    if "not slow" in (config.getoption("markexpr", "") or ""):
+        return  # no whole flight in this run
+    with tempfile.TemporaryDirectory() as designs:  # never the user's design cache
+        done = subprocess.run(KERNEL_WARM_UP, cwd=TESTS.parent, capture_output=True,
+                              text=True, timeout=WARM_UP_S, stdin=subprocess.DEVNULL,
+                              env={**os.environ, CACHE_DIR_ENV: designs})
+    if done.returncode != 0:
+        raise pytest.UsageError(f"kernel warm-up flight failed: {done.stderr[-2000:]}")
 
 
 @pytest.fixture(scope="session", autouse=True)
