@@ -46,8 +46,8 @@ from collections import deque
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from fcu.estimation.estimator import ChannelCheck
-from fcu.estimation.state import SampleBatch
+from fcu.estimation.estimator import ChannelCheck, Screening
+from fcu.estimation.state import GroupedSamples, SampleBatch
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
 
@@ -154,27 +154,37 @@ class SensorHealth:
         """
         records: list[DetectionRecord] = []
         watch = self._watch
-        for sensor, check in screening.items():
-            w = watch.get(sensor) or self._w(sensor)
-            batch = batches.get(sensor)
-            if batch is not None:
-                self._watch_value(time_s, w, batch, noise.get(sensor, 0.0),
+        # the batch values as lists of floats, and (sensor, status, NIS, gate) per sensor
+        # screened, from the arrays behind them when they come grouped and screened
+        values = (batches.value_lists() if isinstance(batches, GroupedSamples)
+                  else {sensor: batch.value.tolist() for sensor, batch in batches.items()})
+        entries = (screening.entries() if isinstance(screening, Screening)
+                   else [(sensor, check.status, check.nis, check.gate)
+                         for sensor, check in screening.items()])
+        frozen_ticks = self.config.frozen_ticks
+        for sensor, status, nis, gate in entries:
+            w = watch.get(sensor)
+            if w is None:
+                w = self._w(sensor)
+            value = values.get(sensor)
+            if value is not None:
+                self._watch_value(time_s, w, value, noise.get(sensor, 0.0),
                                   sensor == "mocap_att")
             if airborne:
-                if w.same >= self.config.frozen_ticks:
+                if w.same >= frozen_ticks:
                     self._exclude(records, time_s, sensor, w, "sensor_frozen",
                                   time_s - w.frozen_since_s)
-                if check.status != "rejected":
+                if status != "rejected":
                     w.rejections = 0
                 else:
-                    self._rejected(records, time_s, sensor, w, check)
+                    self._rejected(records, time_s, sensor, w, nis)
             else:
                 w.rejections = 0
             kind = w.excluded_as
             if kind is not None and kind != "sensor_inconsistent":
                 # (the cross-check re-admits an inconsistent barometer)
-                self._recovery(records, time_s, sensor, w, kind, check)
-        self._cross_check(records, time_s, batches)
+                self._recovery(records, time_s, sensor, w, kind, nis <= gate)
+        self._cross_check(records, time_s, values)
         return records
 
     def _exclude(self, records: list[DetectionRecord], time_s: float, sensor: str, w: _Watch,
@@ -186,11 +196,10 @@ class SensorHealth:
         records.append(DetectionRecord(time_s=time_s, action="detected", kind=kind,
                                        sensor=sensor, magnitude=magnitude))
 
-    def _watch_value(self, time_s: float, w: _Watch, batch: SampleBatch,
+    def _watch_value(self, time_s: float, w: _Watch, value: list[float],
                      sigma: float, yaw_last: bool) -> None:
         """Repeats (frozen) and jumps (garbage) of the batch values (``yaw_last``: the third
         entry is an angle, its change wrapped to [-pi, pi))."""
-        value = batch.value.tolist()
         last = w.last_value
         if last is not None and value == last:
             if w.same == 0:
@@ -200,8 +209,8 @@ class SensorHealth:
         else:
             w.same = 0
             if last is not None:
-                limit = self.config.jump_sigma * sigma + self.config.max_speed * (
-                    time_s - w.last_time_s)
+                cfg = self.config
+                limit = cfg.jump_sigma * sigma + cfg.max_speed * (time_s - w.last_time_s)
                 change = [a - b for a, b in zip(value, last, strict=True)]
                 if yaw_last:
                     change[2] = (change[2] + math.pi) % (2.0 * math.pi) - math.pi
@@ -211,18 +220,20 @@ class SensorHealth:
         w.last_time_s = time_s
 
     def _rejected(self, records: list[DetectionRecord], time_s: float, sensor: str,
-                  w: _Watch, check: ChannelCheck) -> None:
-        """The flying estimator rejected ``sensor`` at this tick (innovation check)."""
+                  w: _Watch, nis: float) -> None:
+        """The flying estimator rejected ``sensor`` (NIS ``nis``) at this tick (innovation
+        check)."""
         w.rejections += 1
         w.last_rejected_s = time_s
         self._last_rejected_s = max(self._last_rejected_s, time_s)
         if w.rejections >= self.config.reject_ticks:
-            self._exclude(records, time_s, sensor, w, "sensor_rejected", check.nis)
+            self._exclude(records, time_s, sensor, w, "sensor_rejected", nis)
 
     def _recovery(self, records: list[DetectionRecord], time_s: float, sensor: str,
-                  w: _Watch, kind: str, check: ChannelCheck) -> None:
-        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``."""
-        consistent = check.nis <= check.gate and w.same == 0 and not w.jumped
+                  w: _Watch, kind: str, within_gate: bool) -> None:
+        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``
+        (``within_gate``: its NIS at this tick is within the gate)."""
+        consistent = within_gate and w.same == 0 and not w.jumped
         if not consistent:
             w.good_since_s = None
             return
@@ -236,18 +247,19 @@ class SensorHealth:
                                        sensor=sensor, magnitude=time_s - w.excluded_s))
 
     def _cross_check(self, records: list[DetectionRecord], time_s: float,
-                     batches: Mapping[str, SampleBatch]) -> None:
-        """Barometer against motion-capture height (module docstring)."""
-        baro, mocap = batches.get("baro"), batches.get("mocap_pos")
+                     batch_values: Mapping[str, list[float]]) -> None:
+        """Barometer against motion-capture height (module docstring); ``batch_values``:
+        the tick's batch values by kind."""
+        baro, mocap = batch_values.get("baro"), batch_values.get("mocap_pos")
         cfg = self.config
         if mocap is not None and "mocap_pos" in self._excluded:
             mocap = None
-        if baro is None or mocap is None or len(mocap.value) < 3:
+        if baro is None or mocap is None or len(mocap) < 3:
             return
         times, values = self._cross_t, self._cross_v
         # alt = -z (NED); both averaged over the tick
         times.append(time_s)
-        values.append(float(baro.value[0]) + float(mocap.value[2]))
+        values.append(baro[0] + mocap[2])
         while times and times[0] <= time_s - cfg.cross_window_s:
             times.popleft()
             values.popleft()

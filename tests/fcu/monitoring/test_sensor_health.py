@@ -59,3 +59,28 @@ def test_grouped_and_plain_batches_are_watched_alike() -> None:
         assert a.step(t, grouped, checks, k > 10, NOISE) == b.step(t, plain, checks, k > 10,
                                                                     NOISE)
     assert a.excluded == b.excluded == frozenset({"baro"})  # frozen once in flight
+
+
+def test_an_estimators_screening_is_read_alike_as_records_and_as_entries() -> None:
+    from fcu.estimation.ekf import ExtendedKalmanEstimator
+    from fcu.model import VehicleModel
+
+    estimator = ExtendedKalmanEstimator(VehicleModel())
+    a = SensorHealth(SensorHealthConfig(), "mocap")
+    b = SensorHealth(SensorHealthConfig(), "mocap")
+    rng = np.random.default_rng(9)
+    seen = set()
+    for k in range(1, 120):
+        t = 0.01 * k
+        pos = [0.0, 0.0, 0.0] if k < 40 else (rng.normal(size=3) * 5.0).tolist()  # garbage
+        samples = [*tick_samples(t, pos, [0.0, 0.0, 0.0]),
+                   SensorSample("gyro", t - 0.004, rng.normal(size=3) * 0.003)]
+        grouped = group_samples(samples, KINDS)
+        estimator.step_grouped(t, np.zeros(4), grouped, excluded=a.excluded, reject=True)
+        screening = estimator.screening
+        as_records = dict(screening.items())  # ChannelCheck records, a plain mapping
+        seen |= {c.status for c in as_records.values()}
+        assert a.step(t, grouped, screening, True, NOISE) == \
+            b.step(t, dict(grouped), as_records, True, NOISE)
+        assert a.excluded == b.excluded
+    assert "rejected" in seen and a.excluded == frozenset({"mocap_pos"})
