@@ -268,7 +268,7 @@ class GroupedSamples(Mapping[str, SampleBatch]):
     of :func:`group_sample_arrays`, for readers that want no object per kind.
 
     The batches are built when the mapping is first read as a whole (iterated, indexed, ...);
-    :meth:`pop` of one kind, :meth:`value_lists` and the arrays build no other.
+    :meth:`pop` of one kind and the arrays build no other.
 
     Attributes
     ----------
@@ -280,9 +280,11 @@ class GroupedSamples(Mapping[str, SampleBatch]):
         The sensor kind of each slot.
     slot_axes : tuple of int
         The value entries of each slot.
+    popped : tuple of str
+        The kinds :meth:`pop` removed (their slots stay in :attr:`flat`).
     """
 
-    __slots__ = ("_batches", "_popped", "flat", "slot_axes", "slot_names", "width")
+    __slots__ = ("_batches", "flat", "popped", "slot_axes", "slot_names", "width")
 
     def __init__(self, flat: FloatArray, width: int, slot_names: tuple[str, ...],
                  slot_axes: tuple[int, ...]) -> None:
@@ -291,7 +293,7 @@ class GroupedSamples(Mapping[str, SampleBatch]):
         self.slot_names = slot_names
         self.slot_axes = slot_axes
         self._batches: dict[str, SampleBatch] | None = None  # built on first read
-        self._popped: tuple[str, ...] = ()  # kinds popped before that
+        self.popped: tuple[str, ...] = ()
 
     @property
     def table(self) -> FloatArray:
@@ -314,7 +316,7 @@ class GroupedSamples(Mapping[str, SampleBatch]):
             batches = self._batches = {}
             for _, s in order:
                 name = self.slot_names[s]
-                if name not in self._popped:
+                if name not in self.popped:
                     at = s * width
                     batches[name] = SampleBatch(flat[at:at + axes[s]], rows[at + width - 3],
                                                 int(rows[at + width - 2]))
@@ -332,31 +334,19 @@ class GroupedSamples(Mapping[str, SampleBatch]):
     def pop(self, sensor: str, default: SampleBatch | None = None) -> SampleBatch | None:
         """Remove ``sensor``'s batch and return it (``default`` when there is none)."""
         if self._batches is not None:
-            return self._batches.pop(sensor, default)
-        if sensor not in self.slot_names or sensor in self._popped:
+            batch = self._batches.pop(sensor, None)
+        elif sensor not in self.slot_names or sensor in self.popped:
+            batch = None
+        else:
+            s = self.slot_names.index(sensor)
+            at = s * self.width
+            time_s, count = self.flat[at + self.width - 3:at + self.width - 1].tolist()
+            batch = (SampleBatch(self.flat[at:at + self.slot_axes[s]], time_s, int(count))
+                     if count > 0 else None)
+        if batch is None:
             return default
-        s = self.slot_names.index(sensor)
-        at = s * self.width
-        time_s, count = self.flat[at + self.width - 3:at + self.width - 1].tolist()
-        if count <= 0:
-            return default
-        self._popped += (sensor,)
-        return SampleBatch(self.flat[at:at + self.slot_axes[s]], time_s, int(count))
-
-    def value_lists(self) -> dict[str, list[float]]:
-        """Each batch's value as a list of floats (``batch.value.tolist()``), by kind,
-        without building the batches."""
-        if self._batches is not None:
-            return {name: batch.value.tolist() for name, batch in self._batches.items()}
-        rows = self.flat.tolist()
-        width, axes, popped = self.width, self.slot_axes, self._popped
-        out: dict[str, list[float]] = {}
-        for s, name in enumerate(self.slot_names):
-            at = s * width
-            if rows[at + width - 2] > 0 and name not in popped:
-                out[name] = rows[at:at + axes[s]]
-        return out
-
+        self.popped += (sensor,)
+        return batch
 
 @njit(cache=True, error_model="numpy")
 def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: FloatArray,
