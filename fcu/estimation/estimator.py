@@ -438,6 +438,7 @@ class TickEstimator:
         self._time_s = 0.0
         self._kinds: frozenset[str] = frozenset()
         self._estimate: StateEstimate | None = None
+        self._tick_out: FloatArray | None = None  # the latest tick's, until read as estimate
         # the latest tick's screening, as computed (ChannelCheck records built on request)
         self._screen_out: tuple[ChannelSet, FloatArray] | None = None
         self._screening: Screening | None = None
@@ -505,6 +506,7 @@ class TickEstimator:
         or at rest at the origin, level, motors off, with ``initial_uncertainty``."""
         self._screen_out = None
         self._screening = None
+        self._tick_out = None
         if initial is None:
             return np.zeros(STATE_DIM), self.initial_uncertainty.diagonal()
         x0 = initial.to_vector()
@@ -546,6 +548,14 @@ class TickEstimator:
         """:meth:`step` with the tick's samples already averaged by
         :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use
         are ignored), so that several estimators can share one grouping."""
+        self.advance_grouped(time_s, pwm_applied, batches, excluded=excluded, reject=reject)
+        return self.estimate
+
+    def advance_grouped(self, time_s: float, pwm_applied: ArrayLike,
+                        batches: Mapping[str, SampleBatch], *,
+                        excluded: Collection[str] = (), reject: bool = True) -> None:
+        """:meth:`step_grouped` for an estimator whose estimate is not needed at every tick:
+        the :class:`StateEstimate` record is built when :attr:`estimate` is read."""
         time_s = float(time_s)
         cs = self._set
         u = pwm_applied
@@ -555,8 +565,8 @@ class TickEstimator:
         self._tick(time_s, u, cs, cs.measurements(batches), cs.exclusion(excluded),
                    bool(reject), out)
         self._time_s = time_s
-        self._estimate = est = StateEstimate._from_tick(time_s, out)
-        return est
+        self._estimate = None
+        self._tick_out = out
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
               excluded: np.ndarray, reject: bool, out: FloatArray) -> None:
@@ -573,8 +583,12 @@ class TickEstimator:
     @property
     def estimate(self) -> StateEstimate:
         """The latest estimate."""
-        assert self._estimate is not None
-        return self._estimate
+        est = self._estimate
+        if est is None:
+            assert self._tick_out is not None
+            est = self._estimate = StateEstimate._from_tick(self._time_s, self._tick_out)
+            self._tick_out = None
+        return est
 
     @property
     def time_s(self) -> float:
