@@ -37,6 +37,10 @@ while motion-capture position is excluded: the autopilot then holds attitude and
 lands after its position failsafe timeout (:mod:`fcu.autopilot`). :attr:`SensorHealth.suspect`
 is True while any sensor is excluded, or was rejected within ``quiet_s``: motor fault
 evidence is not taken then (a sensor fault would otherwise raise motor alarms).
+
+The innovation and frozen-signal checks and the re-admission run in one compiled call a tick
+(:func:`watch_sensors`) over a table of each sensor's state, reading the tick's grouped
+batches and the screening's table as arrays; the cross-check's window stays in Python.
 """
 
 from __future__ import annotations
