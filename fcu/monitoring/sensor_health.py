@@ -421,6 +421,8 @@ def _grouped(batches: Mapping[str, SampleBatch]) -> GroupedSamples:
     axes = []
     for s, batch in enumerate(batches.values()):
         value = np.asarray(batch.value, dtype=float).reshape(-1)
+        if value.shape[0] > 3:
+            raise ValueError(f"{names[s]} batch has {value.shape[0]} values: at most 3")
         flat[s * width:s * width + value.shape[0]] = value
         flat[s * width + width - 3:s * width + width] = (batch.time_s, batch.count, s)
         axes.append(value.shape[0])
