@@ -273,7 +273,7 @@ class GroupedSamples(Mapping[str, SampleBatch]):
     Attributes
     ----------
     flat : ndarray, shape (n_slots * width + 1,)
-        :func:`group_sample_arrays`'s output: :attr:`table` row by row, then a spare zero.
+        What :func:`group_sample_arrays` wrote: :attr:`table` row by row, then a spare zero.
     width : int
         Entries of a slot (row of :attr:`table`): ``w + 3``.
     slot_names : tuple of str
@@ -349,37 +349,35 @@ class GroupedSamples(Mapping[str, SampleBatch]):
         return batch
 
 @njit(cache=True, error_model="numpy")
-def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: FloatArray,
-                        slot_of: np.ndarray, axes: np.ndarray, yaw_slot: int) -> FloatArray:
+def group_sample_arrays(flat: FloatArray, sensor_index: np.ndarray, time_s: FloatArray,
+                        values: FloatArray, slots: np.ndarray) -> None:
     """Average a tick's samples per kind (:func:`group_samples`), compiled.
 
     Parameters
     ----------
+    flat : ndarray, shape (n_slots * (w + 3) + 1,)
+        Zeros; written: per slot (row of a table of w + 3 columns, flattened) the mean value
+        (yaw averaged as offsets from the first reading, wrapped to [-pi, pi)), the mean
+        time (s), the samples averaged (samples with a non-finite value are dropped) and
+        the index of its first sample (-1: none); the spare zero after them stays (what the
+        estimators' measurement tables read for an absent batch,
+        :meth:`fcu.estimation.estimator.ChannelSet.measurements`).
     sensor_index : ndarray of int, shape (n,)
         Each sample's sensor, an index into ``slot_of``.
     time_s : ndarray, shape (n,)
         Sample times, s.
     values : ndarray, shape (n, w)
         Sample values; the first ``axes[slot]`` entries of a row count.
-    slot_of : ndarray of int
-        The slot (output row) of each sensor index; -1: not kept.
-    axes : ndarray of int, shape (n_slots,)
-        Entries of each slot's value.
-    yaw_slot : int
-        The slot whose third entry is a yaw (``mocap_att``), or -1.
-
-    Returns
-    -------
-    ndarray, shape (n_slots * (w + 3) + 1,)
-        Per slot (row of a table of w + 3 columns, flattened): the mean value (yaw averaged
-        as offsets from the first reading, wrapped to [-pi, pi)), the mean time (s), the
-        samples averaged (samples with a non-finite value are dropped) and the index of its
-        first sample (-1: none); then a spare zero (what the estimators' measurement tables
-        read for an absent batch, :meth:`fcu.estimation.estimator.ChannelSet.measurements`).
+    slots : ndarray of int
+        ``[yaw_slot, n_slots, axes..., slot_of...]`` (:func:`pack_slots`): the slot whose
+        third entry is a yaw (``mocap_att``) or -1, the number of slots, the entries of each
+        slot's value, and the slot (output row) of each sensor index (-1: not kept).
     """
-    n_slots = axes.shape[0]
+    yaw_slot = slots[0]
+    n_slots = slots[1]
+    axes = slots[2:2 + n_slots]
+    slot_of = slots[2 + n_slots:]
     w = values.shape[1]
-    flat = np.zeros(n_slots * (w + 3) + 1)
     out = flat[:n_slots * (w + 3)].reshape((n_slots, w + 3))
     mean = out[:, :w]
     time_sum = out[:, w]
@@ -421,22 +419,25 @@ def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: Fl
             time_sum[s] /= count[s]
     out[:, w + 1] = count
     out[:, w + 2] = first
-    return flat
+
+
+def pack_slots(slot_of: np.ndarray, axes: np.ndarray, yaw_slot: int) -> np.ndarray:
+    """:func:`group_sample_arrays`' ``slots``: ``[yaw_slot, n_slots, axes..., slot_of...]``."""
+    return np.concatenate(([yaw_slot, axes.shape[0]], axes, slot_of)).astype(np.int64)
 
 
 @functools.lru_cache(maxsize=64)
 def _slots(sensor_names: tuple[str, ...], sensor_axes: tuple[int, ...],
            kinds: frozenset[str] | tuple[str, ...]
-           ) -> tuple[np.ndarray, np.ndarray, int, tuple[str, ...], tuple[int, ...]]:
-    """:func:`group_sample_arrays`'s ``slot_of``, ``axes`` and ``yaw_slot`` for samples of
-    ``sensor_names`` (with ``sensor_axes`` entries) keeping ``kinds``, the slots' names and
-    their axes."""
+           ) -> tuple[np.ndarray, tuple[str, ...], tuple[int, ...]]:
+    """:func:`group_sample_arrays`' ``slots`` for samples of ``sensor_names`` (with
+    ``sensor_axes`` entries) keeping ``kinds``, the slots' names and their axes."""
     names = tuple(n for n in sensor_names if n in kinds)
     slot_of = np.array([names.index(n) if n in names else -1 for n in sensor_names],
                        dtype=np.int64)
     axes = np.array([sensor_axes[sensor_names.index(n)] for n in names], dtype=np.int64)
     yaw_slot = names.index("mocap_att") if "mocap_att" in names else -1
-    return slot_of, axes, yaw_slot, names, tuple(axes.tolist())
+    return pack_slots(slot_of, axes, yaw_slot), names, tuple(axes.tolist())
 
 
 def group_samples(samples: Iterable[SensorSampleLike],
@@ -462,15 +463,17 @@ def group_samples(samples: Iterable[SensorSampleLike],
     """
     if hasattr(samples, "sensor_axes"):  # SensorSampleArrays (the protocol's test is slow)
         arrays = cast(SensorSampleArrays, samples)
-        slot_of, axes, yaw_slot, names, axes_t = _slots(
+        slots, names, axes_t = _slots(
             arrays.sensor_names, arrays.sensor_axes,
             kinds if isinstance(kinds, (frozenset, tuple)) else frozenset(kinds))
         index, times, values = arrays.sensor_index, arrays.time_s, arrays.values
     else:
         index, times, values, slot_of, axes, yaw_slot, names = _sample_arrays(samples, kinds)
-        axes_t = tuple(axes.tolist())
-    flat = group_sample_arrays(index, times, values, slot_of, axes, yaw_slot)
-    return GroupedSamples(flat, values.shape[1] + 3, names, axes_t)
+        slots, axes_t = pack_slots(slot_of, axes, yaw_slot), tuple(axes.tolist())
+    width = values.shape[1] + 3
+    flat = np.zeros(len(names) * width + 1)
+    group_sample_arrays(flat, index, times, values, slots)
+    return GroupedSamples(flat, width, names, axes_t)
 
 
 def _sample_arrays(samples: Iterable[SensorSampleLike], kinds: Collection[str]
