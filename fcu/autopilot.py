@@ -219,9 +219,12 @@ class Autopilot:
         prior = self.estimator.estimate
         reject = (self.navigator.landed_state == LandedState.IN_AIR and prior.alt_m > 0.2
                   and self._hover_regime(prior) and not self.detector.lost)
-        estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded,
-                                          reject=reject)
-        if self.estimator is not self.tskf:
+        if self.estimator is self.tskf:
+            estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded,
+                                              reject=reject)
+        else:  # the TSKF's own estimate is built only if read
+            self.tskf.advance_grouped(time_s, self._pwm, batches, excluded=excluded,
+                                      reject=reject)
             estimate = self.estimator.step_grouped(time_s, self._pwm, batches,
                                                    excluded=excluded, reject=reject)
         records = health.step(time_s, batches, self.estimator.screening, reject,

@@ -171,14 +171,20 @@ _SC_S = _SC_R + MAX_ROWS * MAX_ROWS  # S, S^-1 (MAX_ROWS x MAX_ROWS each)
 _SC_S_INV = _SC_S + MAX_ROWS * MAX_ROWS
 _SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K (N x MAX_ROWS)
 SCRATCH_SIZE = _SC_K + N * MAX_ROWS
+# the estimator's constants (ekf_tick): one float array, these offsets
+N_PARAMS = 9  # entries of pack_params' model
+_C_PARAMS = 0  # the packed model (pack_params)
+_C_QC = _C_PARAMS + N_PARAMS  # Qc diagonal (N)
+_C_GROUND = _C_QC + N  # the ground plane (3, on_ground_at)
+_C_DT_MAX = _C_GROUND + 3  # the longest prediction step, s
+CONSTANTS_SIZE = _C_DT_MAX + 1
 
 
 @njit(cache=True, error_model="numpy")
-def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, on_ground: bool,
-             u: FloatArray, dt: float, dt_max: float, p: FloatArray, qc_diag: FloatArray,
-             ground: FloatArray, meas: FloatArray, time_s: float, excluded: np.ndarray,
-             reject: bool, sel_stack: FloatArray, layout: np.ndarray, noise: FloatArray
-             ) -> tuple[FloatArray, FloatArray, bool, int]:
+def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: FloatArray,
+             constants: FloatArray, tables: FloatArray, layout: np.ndarray, u: FloatArray,
+             meas: FloatArray, excluded: np.ndarray, dt: float, time_s: float, reject: bool,
+             on_ground: bool) -> tuple[bool, int]:
     """One tick of the estimator in one compiled call: predict, screen, update.
 
     Parameters
@@ -194,33 +200,39 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, on_grou
         block).
     scratch : ndarray, shape (SCRATCH_SIZE,)
         Room for the tick's intermediate results (nothing kept from tick to tick).
-    on_ground : bool
-        Whether the previous prediction held the vehicle on the ground (kept when there is
-        nothing to predict).
+    out : ndarray, shape (32 + 2 rows_total + 2 n_ch,)
+        Written: the posterior state (yaw wrapped to [-pi, pi)) and its covariance
+        diagonal, then the screening (:func:`~fcu.estimation.screening.screen_channels`'
+        table).
+    constants : ndarray, shape (CONSTANTS_SIZE,)
+        The packed model (:func:`~fcu.estimation.ekf_model.pack_params`), the ``Qc``
+        diagonal, the ground plane (:func:`~fcu.estimation.estimator.on_ground_at`) and the
+        longest prediction step (s), packed (offsets ``_C_*``).
+    tables, layout : ndarrays
+        The channels (:class:`~fcu.estimation.estimator.ChannelSet`).
     u : ndarray, shape (4,)
         PWM held since the previous tick.
-    dt, dt_max : float
-        Time since the previous tick and the longest prediction step, s.
-    p, qc_diag : ndarrays, shapes (9,), (16,)
-        Packed model (:func:`~fcu.estimation.ekf_model.pack_params`) and ``Qc`` diagonal.
-    ground : ndarray, shape (3,)
-        The ground plane (:func:`~fcu.estimation.estimator.on_ground_at`).
     meas, excluded, reject
         The tick's measurements, exclusions and whether a lone outlier may be rejected
         (:func:`~fcu.estimation.screening.screen_channels`).
+    dt : float
+        Time since the previous tick, s.
     time_s : float
         Tick time, s.
-    sel_stack, layout, noise : ndarrays
-        The channels (:class:`~fcu.estimation.estimator.ChannelSet`).
+    on_ground : bool
+        Whether the previous prediction held the vehicle on the ground (kept when there is
+        nothing to predict).
 
     Returns
     -------
-    estimate, screen, on_ground, last
-        The posterior state and its covariance diagonal, shape (32,) (fresh: the estimate's
-        own; yaw wrapped to [-pi, pi)); the screening
-        (:func:`~fcu.estimation.screening.screen_channels`); the ground flag used; the last
-        channel updated (-1: none).
+    on_ground, last
+        The ground flag used; the last channel updated (-1: none).
     """
+    p = constants[_C_PARAMS:_C_PARAMS + N_PARAMS]
+    qc_diag = constants[_C_QC:_C_QC + N]
+    ground = constants[_C_GROUND:_C_GROUND + 3]
+    dt_max = constants[_C_DT_MAX]
+    sel_stack, noise, _ = screening.channel_tables(tables, layout)
     x = work[_X:_X + N]
     p_mat = work[_P:_P + NN].reshape(N, N)
     if dt > 1e-9:
@@ -237,8 +249,8 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, on_grou
     for i in range(N + NN):  # the prior: x, P
         work[_X_PRIOR + i] = work[_X + i]
     # screened against the prior; on the ground the accelerometer is skipped
-    screen, status = screening.screen_channels(x, p_mat, meas, sel_stack, layout, noise,
-                                               excluded, on_ground, reject)
+    status = screening.screen_channels_into(out[2 * N:], x, p_mat, meas, sel_stack, layout,
+                                            noise, excluded, on_ground, reject)
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
     last = -1
@@ -324,13 +336,12 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, on_grou
             for i in range(N):
                 for r in range(m):
                     work[_K + MAX_ROWS * i + r] = k_gain[i, r]
-    estimate = np.empty(2 * N)
     for i in range(N):
-        estimate[i] = x[i]
-        estimate[N + i] = p_mat[i, i]
+        out[i] = x[i]
+        out[N + i] = p_mat[i, i]
     # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
-    estimate[YAW_INDEX] = (estimate[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
-    return estimate, screen, on_ground, last
+    out[YAW_INDEX] = (out[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    return on_ground, last
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -410,6 +421,10 @@ class ExtendedKalmanEstimator(TickEstimator):
         self.process_noise = process_noise if process_noise is not None else EkfProcessNoise()
         self._params = pack_params(model)
         self._qc_diag = self.process_noise.diagonal()
+        # packed for ekf_tick (offsets _C_*)
+        self._constants = np.concatenate((self._params, self._qc_diag, self._ground,
+                                          [self.dt_s]))
+        assert self._constants.shape == (CONSTANTS_SIZE,)
         self._build_channel_sets()
         self.reset()
 
@@ -450,27 +465,24 @@ class ExtendedKalmanEstimator(TickEstimator):
                                                    p0.astype(float))
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> FloatArray:
+              excluded: np.ndarray, reject: bool, out: FloatArray) -> None:
         """Predict to ``time_s`` (s), screen the tick's measurements and update with those
-        that pass, in one compiled call (:func:`ekf_tick`); returns the estimate, shape (32,)
-        (:meth:`TickEstimator._tick`)."""
+        that pass, in one compiled call (:func:`ekf_tick`), writing the estimate and the
+        screening into ``out`` (:meth:`TickEstimator._tick`)."""
         dt = time_s - self._time_s
         if dt < -1e-9:
             raise ValueError(f"time_s = {time_s!r}: earlier than the previous tick "
                              f"({self._time_s!r})")
         cs = channel_set
-        estimate, screen, self._on_ground, last = ekf_tick(
-            self._work, self._s_stack, self._scratch, self._on_ground, u, dt, self.dt_s,
-            self._params,
-            self._qc_diag, self._ground, meas, time_s, excluded, reject, cs.sel_stack,
-            cs.layout, cs.noise)
-        self._keep_screening(cs, screen)
+        self._on_ground, last = ekf_tick(
+            self._work, self._s_stack, self._scratch, out, self._constants, cs.tables,
+            cs.layout, u, meas, excluded, dt, time_s, reject, self._on_ground)
+        self._keep_screening(cs, out[2 * N:])
         # the Innovation records and the filterpy view are built on request from the
         # workspace, which holds the updates of the latest tick that had some
         self._innovations = None if last >= 0 else {}
         if last >= 0:
             self._updated = (cs, last, time_s)
-        return estimate
 
     def _update_parts(self, cs: ChannelSet, c: int) -> tuple[FloatArray, ...]:
         """(y, S, S^-1, K, z) of channel ``c``'s update at the latest tick (copies)."""

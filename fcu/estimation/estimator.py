@@ -31,7 +31,7 @@ them recover) but never applied. :attr:`TickEstimator.screening` keeps the tick'
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Collection, Iterable, Iterator, Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -125,6 +125,58 @@ class ChannelCheck(NamedTuple):
     def outlier(self) -> bool:
         """NIS above the gate."""
         return self.nis > self.gate
+
+
+class Screening(Mapping[str, ChannelCheck]):
+    """One tick's screening (module docstring): a mapping of each screened sensor's
+    :class:`ChannelCheck`, built on first read, over the compiled screening's table.
+
+    Parameters
+    ----------
+    channel_set : ChannelSet
+        The channels screened.
+    screen : ndarray
+        :func:`~fcu.estimation.screening.screen_channels`' table.
+    """
+
+    __slots__ = ("_checks", "channel_set", "screen")
+
+    def __init__(self, channel_set: ChannelSet, screen: FloatArray) -> None:
+        self.channel_set = channel_set
+        self.screen = screen
+        self._checks: dict[str, ChannelCheck] | None = None
+
+    def entries(self) -> list[tuple[str, ChannelStatus, float, float]]:
+        """(sensor, status, NIS, gate) of each sensor screened, in update order, without
+        building the :class:`ChannelCheck` records."""
+        cs = self.channel_set
+        n_ch = len(cs.checks)
+        tail = self.screen[2 * cs.n_rows:].tolist()  # NIS, then status codes
+        return [(sensor, STATUS_NAMES[int(code)], nis, gate)
+                for (sensor, gate, _, _), nis, code in zip(cs.checks, tail[:n_ch],
+                                                           tail[n_ch:], strict=True)
+                if code != ABSENT]
+
+    def _check_dict(self) -> dict[str, ChannelCheck]:
+        checks = self._checks
+        if checks is None:
+            cs, screen = self.channel_set, self.screen
+            rows = {sensor: (i0, i1) for sensor, _, i0, i1 in cs.checks}
+            checks = self._checks = {}
+            for sensor, status, nis, gate in self.entries():
+                i0, i1 = rows[sensor]
+                checks[sensor] = ChannelCheck(sensor, nis, gate, status, screen, i0, i1,
+                                              cs.n_rows)
+        return checks
+
+    def __getitem__(self, sensor: str) -> ChannelCheck:
+        return self._check_dict()[sensor]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._check_dict())
+
+    def __len__(self) -> int:
+        return len(self._check_dict())
 
 
 _DENSITY_NAMES = ("pos", "accel", "euler", "ang_accel", "thrust")
@@ -238,6 +290,11 @@ class ChannelSet:
     noise : ndarray, shape (n_ch, 3)
         Per channel: noise variance of one sample (divided by the count), model error
         variance (not), NIS gate (columns ``SAMPLE_VAR``, ``MODEL_VAR``, ``GATE``).
+    tables : ndarray
+        ``sel_stack`` and ``noise`` packed into one array, as the tick kernels take them
+        (:func:`~fcu.estimation.screening.channel_tables`).
+    tick_size : int
+        Entries of a tick's output (:meth:`TickEstimator._tick`).
     """
 
     def __init__(self, channels: tuple[Channel, ...]) -> None:
@@ -250,6 +307,12 @@ class ChannelSet:
                                 for c, end in zip(channels, ends.tolist(), strict=True)],
                                dtype=np.int64)
         self.noise = np.array([(c.sample_var, c.model_var, c.gate) for c in channels])
+        # sel_stack and noise packed into one array for the tick kernels
+        # (fcu.estimation.screening.channel_tables); a filter may append its own tables
+        self.tables = np.concatenate((self.sel_stack.ravel(), self.noise.ravel()))
+        # a tick's output (TickEstimator._tick): the estimate's state and covariance
+        # diagonal, then the screening (screen_channels' table)
+        self.tick_size = 2 * STATE_DIM + 2 * self.sel_stack.shape[0] + 2 * len(channels)
         self.rows_list: list[tuple[int, int]] = [(int(a), int(b)) for a, b in self.layout[:, :2]]
         self.n_rows = int(self.sel_stack.shape[0])
         # what a ChannelCheck takes of each channel: sensor, NIS gate, rows
@@ -270,13 +333,13 @@ class ChannelSet:
         from their table (one gather); other mappings batch by batch."""
         if isinstance(batches, GroupedSamples):
             # the table's slots: mean value, mean time (w), count (w + 1); a slot without
-            # samples is all zeros there, as an absent batch reads
-            table = batches.table
-            key = (batches.slot_names, table.shape[1])
+            # samples is all zeros there, as an absent batch reads; the spare zero after the
+            # table pads and stands for kinds without a slot
+            key = (batches.slot_names, batches.width)
             gather = self._gathers.get(key)
             if gather is None:
                 gather = self._gathers[key] = self._gather_index(*key)
-            return np.append(table, 0.0)[gather]
+            return batches.flat[gather]
         flat: list[float] = []
         get = batches.get
         for sensor, value_slice, pad in self._reads:
@@ -294,8 +357,8 @@ class ChannelSet:
         return np.array(flat, dtype=np.float64).reshape(len(self._reads), MEAS_WIDTH)
 
     def _gather_index(self, slot_names: tuple[str, ...], width: int) -> np.ndarray:
-        """Indices into a flattened grouped table with one zero appended (the padding
-        and absent batches read it) giving :meth:`measurements`' table."""
+        """Indices into :attr:`GroupedSamples.flat` (a flattened table and one spare zero,
+        which the padding and absent batches read) giving :meth:`measurements`' table."""
         zero = len(slot_names) * width
         w = width - 3
         index = np.full((len(self._reads), MEAS_WIDTH), zero, dtype=np.int64)
@@ -375,9 +438,10 @@ class TickEstimator:
         self._time_s = 0.0
         self._kinds: frozenset[str] = frozenset()
         self._estimate: StateEstimate | None = None
+        self._tick_out: FloatArray | None = None  # the latest tick's, until read as estimate
         # the latest tick's screening, as computed (ChannelCheck records built on request)
         self._screen_out: tuple[ChannelSet, FloatArray] | None = None
-        self._screening: dict[str, ChannelCheck] | None = None
+        self._screening: Screening | None = None
 
     # ---- the measurement channels ------------------------------------------------------------
     @property
@@ -428,26 +492,21 @@ class TickEstimator:
 
     @property
     def screening(self) -> Mapping[str, ChannelCheck]:
-        """Each sensor's :class:`ChannelCheck` at the latest tick (module docstring)."""
-        if self._screening is None:
-            checks: dict[str, ChannelCheck] = {}
-            if self._screen_out is not None:
-                cs, screen = self._screen_out
-                n_rows, n_ch = cs.n_rows, len(cs.channels)
-                tail = screen[2 * n_rows:].tolist()  # NIS, then status codes
-                for c, (sensor, gate, i0, i1) in enumerate(cs.checks):
-                    code = int(tail[n_ch + c])
-                    if code != ABSENT:
-                        checks[sensor] = ChannelCheck(sensor, tail[c], gate, STATUS_NAMES[code],
-                                                      screen, i0, i1, n_rows)
-            self._screening = checks
-        return self._screening
+        """Each sensor's :class:`ChannelCheck` at the latest tick (module docstring), a
+        :class:`Screening`."""
+        screening = self._screening
+        if screening is None:
+            if self._screen_out is None:
+                return {}
+            screening = self._screening = Screening(*self._screen_out)
+        return screening
 
     def _initial_state(self, initial: StateEstimate | None) -> tuple[FloatArray, FloatArray]:
         """State and covariance diagonal to restart from, shapes (16,), (16,): ``initial``'s,
         or at rest at the origin, level, motors off, with ``initial_uncertainty``."""
         self._screen_out = None
         self._screening = None
+        self._tick_out = None
         if initial is None:
             return np.zeros(STATE_DIM), self.initial_uncertainty.diagonal()
         x0 = initial.to_vector()
@@ -489,32 +548,47 @@ class TickEstimator:
         """:meth:`step` with the tick's samples already averaged by
         :func:`fcu.estimation.state.group_samples` (batches of kinds this filter does not use
         are ignored), so that several estimators can share one grouping."""
+        self.advance_grouped(time_s, pwm_applied, batches, excluded=excluded, reject=reject)
+        return self.estimate
+
+    def advance_grouped(self, time_s: float, pwm_applied: ArrayLike,
+                        batches: Mapping[str, SampleBatch], *,
+                        excluded: Collection[str] = (), reject: bool = True) -> None:
+        """:meth:`step_grouped` for an estimator whose estimate is not needed at every tick:
+        the :class:`StateEstimate` record is built when :attr:`estimate` is read."""
         time_s = float(time_s)
         cs = self._set
         u = pwm_applied
         if type(u) is not np.ndarray or u.dtype is not _FLOAT64 or u.shape != (4,):
             u = np.asarray(pwm_applied, dtype=float).reshape(4)
-        estimate = self._tick(time_s, u, cs, cs.measurements(batches),
-                              cs.exclusion(excluded), bool(reject))
+        out = np.empty(cs.tick_size)  # the estimate's own array, and the screening's
+        self._tick(time_s, u, cs, cs.measurements(batches), cs.exclusion(excluded),
+                   bool(reject), out)
         self._time_s = time_s
-        self._estimate = est = StateEstimate._from_tick(time_s, estimate)
-        return est
+        self._estimate = None
+        self._tick_out = out
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> FloatArray:
+              excluded: np.ndarray, reject: bool, out: FloatArray) -> None:
         """The filter's tick from its latest (at :attr:`time_s`) to ``time_s`` (s), with the
         PWM ``u`` (4,) held, the channels of the current height source, the tick's
         measurement table (:meth:`ChannelSet.measurements`), the channels excluded (bool per
-        channel) and whether a lone outlier may be rejected; keeps the screening
-        (:meth:`_keep_screening`) and returns the estimate's state (yaw wrapped to
-        [-pi, pi)) and covariance diagonal, one fresh array of shape (32,)."""
+        channel) and whether a lone outlier may be rejected. Writes into ``out`` (fresh,
+        shape (``channel_set.tick_size``,)) the estimate's state (yaw wrapped to
+        [-pi, pi)) and covariance diagonal (first 32 entries), then the screening
+        (:func:`~fcu.estimation.screening.screen_channels`' table), which it keeps
+        (:meth:`_keep_screening`)."""
         raise NotImplementedError
 
     @property
     def estimate(self) -> StateEstimate:
         """The latest estimate."""
-        assert self._estimate is not None
-        return self._estimate
+        est = self._estimate
+        if est is None:
+            assert self._tick_out is not None
+            est = self._estimate = StateEstimate._from_tick(self._time_s, self._tick_out)
+            self._tick_out = None
+        return est
 
     @property
     def time_s(self) -> float:
@@ -531,6 +605,7 @@ __all__ = [
     # the frame
     "ChannelCheck",
     "ChannelSet",
+    "Screening",
     "Channel",
     "ProcessNoiseDensities",
     "TickEstimator",

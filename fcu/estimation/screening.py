@@ -16,7 +16,7 @@ from fcu.estimation.small_matrix import (
     spd_quadratic,
     sub_mul_vec_into,
 )
-from fcu.estimation.state import Z_INDEX, FloatArray
+from fcu.estimation.state import STATE_DIM, Z_INDEX, FloatArray
 from flightdata.kernel_cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # screen_channel compiles in the kernels of small_matrix
@@ -122,6 +122,19 @@ def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
 
 
 @njit(cache=True, error_model="numpy")
+def channel_tables(tables: FloatArray, layout: np.ndarray) -> tuple[FloatArray, FloatArray, int]:
+    """A channel set's float tables, packed into one array for the tick kernels
+    (:attr:`~fcu.estimation.estimator.ChannelSet.tables`): every channel's ``S`` stacked,
+    ``sel_stack`` (rows_total, 16), then the ``noise`` table (n_ch, 3), as views; and the
+    offset after them (where a filter's own tables follow)."""
+    n_ch = layout.shape[0]
+    n_sel = layout[n_ch - 1, ROW1] * STATE_DIM
+    sel_stack = tables[:n_sel].reshape(layout[n_ch - 1, ROW1], STATE_DIM)
+    noise = tables[n_sel:n_sel + 3 * n_ch].reshape(n_ch, 3)
+    return sel_stack, noise, n_sel + 3 * n_ch
+
+
+@njit(cache=True, error_model="numpy")
 def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stack: FloatArray,
                     layout: np.ndarray, noise: FloatArray, excluded: np.ndarray,
                     on_ground: bool, reject: bool) -> tuple[FloatArray, np.ndarray]:
@@ -152,9 +165,22 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
     status : ndarray of int, shape (n_ch,)
         The status codes again.
     """
+    screen = np.empty(2 * sel_stack.shape[0] + 2 * layout.shape[0])
+    status = screen_channels_into(screen, x, p_mat, meas, sel_stack, layout, noise, excluded,
+                                  on_ground, reject)
+    return screen, status
+
+
+@njit(cache=True, error_model="numpy")
+def screen_channels_into(screen: FloatArray, x: FloatArray, p_mat: FloatArray,
+                         meas: FloatArray, sel_stack: FloatArray, layout: np.ndarray,
+                         noise: FloatArray, excluded: np.ndarray, on_ground: bool,
+                         reject: bool) -> np.ndarray:
+    """:func:`screen_channels` written into ``screen`` (shape (2 rows_total + 2 n_ch,),
+    every entry set); returns the status codes."""
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
-    screen = np.zeros(2 * n_rows + 2 * n_ch)
+    screen[:] = 0.0
     nis = screen[2 * n_rows:2 * n_rows + n_ch]
     status = np.full(n_ch, ABSENT, dtype=np.int64)
     scratch = np.empty(SCREEN_SCRATCH)
@@ -184,4 +210,4 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
     if reject and not on_ground and n_outliers == 1:  # a lone outlier is that sensor's fault
         status[outlier] = REJECTED
     screen[2 * n_rows + n_ch:] = status
-    return screen, status
+    return status

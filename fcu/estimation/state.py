@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import cast
 
@@ -170,10 +170,11 @@ class StateEstimate:
 
     @classmethod
     def _from_tick(cls, time_s: float, estimate: FloatArray) -> StateEstimate:
-        """The estimate of a filter's tick kernel: ``estimate`` (float64, shape (32,), fresh,
-        held by no one else) holds the state, yaw already wrapped to [-pi, pi), then the
-        covariance diagonal; the fields are slices of it, set without the dataclass's
-        checks (the constructor of a frozen dataclass sets each field through
+        """The estimate of a filter's tick kernel: ``estimate`` (float64, fresh, held by no
+        one else) holds the state, yaw already wrapped to [-pi, pi), then the covariance
+        diagonal (first 32 entries; the tick's screening may follow, which the estimate
+        keeps alive but does not show); the fields are slices of it, set without the
+        dataclass's checks (the constructor of a frozen dataclass sets each field through
         ``object.__setattr__``)."""
         est = _NEW_OBJECT(cls)
         _SET_TIME(est, time_s)
@@ -242,7 +243,7 @@ class SampleBatch:
     ----------
     value : ndarray, shape (n,)
         Mean of the sample values (angles averaged without wrap-around jumps), sensor units;
-        from :func:`group_samples`, a view of :attr:`GroupedSamples.table`.
+        from :func:`group_samples`, a view of :attr:`GroupedSamples.flat`.
     time_s : float
         Mean sample time, s.
     count : int
@@ -261,59 +262,123 @@ class SampleBatch:
                 f"count={self.count!r})")
 
 
-class GroupedSamples(dict[str, SampleBatch]):
-    """One tick's samples averaged per kind (:func:`group_samples`): a dict of
-    :class:`SampleBatch` by sensor kind, in the order of their first samples, that also
-    carries the arrays the batches are views of, for readers that want no object per kind.
+class GroupedSamples(Mapping[str, SampleBatch]):
+    """One tick's samples averaged per kind (:func:`group_samples`): a mapping of
+    :class:`SampleBatch` by sensor kind, in the order of their first samples, over the array
+    of :func:`group_sample_arrays`, for readers that want no object per kind.
+
+    The batches are built when the mapping is first read as a whole (iterated, indexed, ...);
+    :meth:`pop` of one kind and the arrays build no other.
 
     Attributes
     ----------
-    table : ndarray, shape (n_slots, w + 3)
-        :func:`group_sample_arrays`'s output: per slot the mean value (first ``axes[slot]``
-        entries), the mean time (column ``w``), the count (``w + 1``, 0: no batch) and the
-        index of its first sample (``w + 2``).
+    flat : ndarray, shape (n_slots * width + 1,)
+        What :func:`group_sample_arrays` wrote: :attr:`table` row by row, then a spare zero.
+    width : int
+        Entries of a slot (row of :attr:`table`): ``w + 3``.
     slot_names : tuple of str
-        The sensor kind of each slot (row of ``table``).
+        The sensor kind of each slot.
     slot_axes : tuple of int
         The value entries of each slot.
+    popped : tuple of str
+        The kinds :meth:`pop` removed (their slots stay in :attr:`flat`).
     """
 
-    __slots__ = ("slot_axes", "slot_names", "table")
-    table: FloatArray
-    slot_names: tuple[str, ...]
-    slot_axes: tuple[int, ...]
+    __slots__ = ("_batches", "flat", "popped", "slot_axes", "slot_names", "width")
 
+    def __init__(self, flat: FloatArray, width: int, slot_names: tuple[str, ...],
+                 slot_axes: tuple[int, ...]) -> None:
+        self.flat = flat
+        self.width = width
+        self.slot_names = slot_names
+        self.slot_axes = slot_axes
+        self._batches: dict[str, SampleBatch] | None = None  # built on first read
+        self.popped: tuple[str, ...] = ()
+
+    @property
+    def table(self) -> FloatArray:
+        """Shape (n_slots, w + 3): per slot the mean value (first ``slot_axes[slot]``
+        entries), the mean time (column ``w``), the count (``w + 1``, 0: no batch) and the
+        index of its first sample (``w + 2``) (a view of :attr:`flat`)."""
+        n = len(self.slot_names)
+        return self.flat[:n * self.width].reshape(n, self.width)
+
+    def _batch_dict(self) -> dict[str, SampleBatch]:
+        """The batches by kind, in the order of their first samples (built once)."""
+        batches = self._batches
+        if batches is None:
+            flat, width, axes = self.flat, self.width, self.slot_axes
+            rows = flat.tolist()
+            # the kinds present, in the order of their first samples
+            order = [(rows[s * width + width - 1], s) for s in range(len(self.slot_names))
+                     if rows[s * width + width - 2] > 0]
+            order.sort()
+            batches = self._batches = {}
+            for _, s in order:
+                name = self.slot_names[s]
+                if name not in self.popped:
+                    at = s * width
+                    batches[name] = SampleBatch(flat[at:at + axes[s]], rows[at + width - 3],
+                                                int(rows[at + width - 2]))
+        return batches
+
+    def __getitem__(self, sensor: str) -> SampleBatch:
+        return self._batch_dict()[sensor]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._batch_dict())
+
+    def __len__(self) -> int:
+        return len(self._batch_dict())
+
+    def pop(self, sensor: str, default: SampleBatch | None = None) -> SampleBatch | None:
+        """Remove ``sensor``'s batch and return it (``default`` when there is none)."""
+        if self._batches is not None:
+            batch = self._batches.pop(sensor, None)
+        elif sensor not in self.slot_names or sensor in self.popped:
+            batch = None
+        else:
+            s = self.slot_names.index(sensor)
+            at = s * self.width
+            time_s, count = self.flat[at + self.width - 3:at + self.width - 1].tolist()
+            batch = (SampleBatch(self.flat[at:at + self.slot_axes[s]], time_s, int(count))
+                     if count > 0 else None)
+        if batch is None:
+            return default
+        self.popped += (sensor,)
+        return batch
 
 @njit(cache=True, error_model="numpy")
-def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: FloatArray,
-                        slot_of: np.ndarray, axes: np.ndarray, yaw_slot: int) -> FloatArray:
+def group_sample_arrays(flat: FloatArray, sensor_index: np.ndarray, time_s: FloatArray,
+                        values: FloatArray, slots: np.ndarray) -> None:
     """Average a tick's samples per kind (:func:`group_samples`), compiled.
 
     Parameters
     ----------
+    flat : ndarray, shape (n_slots * (w + 3) + 1,)
+        Zeros; written: per slot (row of a table of w + 3 columns, flattened) the mean value
+        (yaw averaged as offsets from the first reading, wrapped to [-pi, pi)), the mean
+        time (s), the samples averaged (samples with a non-finite value are dropped) and
+        the index of its first sample (-1: none); the spare zero after them stays (what the
+        estimators' measurement tables read for an absent batch,
+        :meth:`fcu.estimation.estimator.ChannelSet.measurements`).
     sensor_index : ndarray of int, shape (n,)
         Each sample's sensor, an index into ``slot_of``.
     time_s : ndarray, shape (n,)
         Sample times, s.
     values : ndarray, shape (n, w)
         Sample values; the first ``axes[slot]`` entries of a row count.
-    slot_of : ndarray of int
-        The slot (output row) of each sensor index; -1: not kept.
-    axes : ndarray of int, shape (n_slots,)
-        Entries of each slot's value.
-    yaw_slot : int
-        The slot whose third entry is a yaw (``mocap_att``), or -1.
-
-    Returns
-    -------
-    ndarray, shape (n_slots, w + 3)
-        Per slot (row): the mean value (yaw averaged as offsets from the first reading,
-        wrapped to [-pi, pi)), the mean time (s), the samples averaged (samples with a
-        non-finite value are dropped) and the index of its first sample (-1: none).
+    slots : ndarray of int
+        ``[yaw_slot, n_slots, axes..., slot_of...]`` (:func:`pack_slots`): the slot whose
+        third entry is a yaw (``mocap_att``) or -1, the number of slots, the entries of each
+        slot's value, and the slot (output row) of each sensor index (-1: not kept).
     """
-    n_slots = axes.shape[0]
+    yaw_slot = slots[0]
+    n_slots = slots[1]
+    axes = slots[2:2 + n_slots]
+    slot_of = slots[2 + n_slots:]
     w = values.shape[1]
-    out = np.zeros((n_slots, w + 3))
+    out = flat[:n_slots * (w + 3)].reshape((n_slots, w + 3))
     mean = out[:, :w]
     time_sum = out[:, w]
     count = np.zeros(n_slots, dtype=np.int64)
@@ -354,22 +419,25 @@ def group_sample_arrays(sensor_index: np.ndarray, time_s: FloatArray, values: Fl
             time_sum[s] /= count[s]
     out[:, w + 1] = count
     out[:, w + 2] = first
-    return out
+
+
+def pack_slots(slot_of: np.ndarray, axes: np.ndarray, yaw_slot: int) -> np.ndarray:
+    """:func:`group_sample_arrays`' ``slots``: ``[yaw_slot, n_slots, axes..., slot_of...]``."""
+    return np.concatenate(([yaw_slot, axes.shape[0]], axes, slot_of)).astype(np.int64)
 
 
 @functools.lru_cache(maxsize=64)
 def _slots(sensor_names: tuple[str, ...], sensor_axes: tuple[int, ...],
            kinds: frozenset[str] | tuple[str, ...]
-           ) -> tuple[np.ndarray, np.ndarray, int, tuple[str, ...], tuple[int, ...]]:
-    """:func:`group_sample_arrays`'s ``slot_of``, ``axes`` and ``yaw_slot`` for samples of
-    ``sensor_names`` (with ``sensor_axes`` entries) keeping ``kinds``, the slots' names and
-    their axes."""
+           ) -> tuple[np.ndarray, tuple[str, ...], tuple[int, ...]]:
+    """:func:`group_sample_arrays`' ``slots`` for samples of ``sensor_names`` (with
+    ``sensor_axes`` entries) keeping ``kinds``, the slots' names and their axes."""
     names = tuple(n for n in sensor_names if n in kinds)
     slot_of = np.array([names.index(n) if n in names else -1 for n in sensor_names],
                        dtype=np.int64)
     axes = np.array([sensor_axes[sensor_names.index(n)] for n in names], dtype=np.int64)
     yaw_slot = names.index("mocap_att") if "mocap_att" in names else -1
-    return slot_of, axes, yaw_slot, names, tuple(axes.tolist())
+    return pack_slots(slot_of, axes, yaw_slot), names, tuple(axes.tolist())
 
 
 def group_samples(samples: Iterable[SensorSampleLike],
@@ -388,34 +456,24 @@ def group_samples(samples: Iterable[SensorSampleLike],
     Returns
     -------
     GroupedSamples
-        A dict of one :class:`SampleBatch` per kept sensor kind that delivered at least one
+        A mapping of one :class:`SampleBatch` per kept sensor kind that delivered at least one
         usable sample, in the order of their first samples, with the arrays behind them. The
         ``mocap_att`` yaw is averaged as offsets from the first reading, so readings on both
         sides of +-pi average correctly (result wrapped to [-pi, pi)).
     """
     if hasattr(samples, "sensor_axes"):  # SensorSampleArrays (the protocol's test is slow)
         arrays = cast(SensorSampleArrays, samples)
-        slot_of, axes, yaw_slot, names, axes_t = _slots(
+        slots, names, axes_t = _slots(
             arrays.sensor_names, arrays.sensor_axes,
             kinds if isinstance(kinds, (frozenset, tuple)) else frozenset(kinds))
         index, times, values = arrays.sensor_index, arrays.time_s, arrays.values
     else:
         index, times, values, slot_of, axes, yaw_slot, names = _sample_arrays(samples, kinds)
-        axes_t = tuple(axes.tolist())
-    out = group_sample_arrays(index, times, values, slot_of, axes, yaw_slot)
-    w = out.shape[1] - 3
-    rows = out.tolist()
-    # the kinds present, in the order of their first samples
-    order = [(row[w + 2], s) for s, row in enumerate(rows) if row[w + 1] > 0]
-    order.sort()
-    grouped = GroupedSamples()
-    for _, s in order:
-        row = rows[s]
-        grouped[names[s]] = SampleBatch(out[s, :axes_t[s]], row[w], int(row[w + 1]))
-    grouped.table = out
-    grouped.slot_names = names
-    grouped.slot_axes = axes_t
-    return grouped
+        slots, axes_t = pack_slots(slot_of, axes, yaw_slot), tuple(axes.tolist())
+    width = values.shape[1] + 3
+    flat = np.zeros(len(names) * width + 1)
+    group_sample_arrays(flat, index, times, values, slots)
+    return GroupedSamples(flat, width, names, axes_t)
 
 
 def _sample_arrays(samples: Iterable[SensorSampleLike], kinds: Collection[str]

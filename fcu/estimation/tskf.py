@@ -78,7 +78,9 @@ class _ChannelSet(ChannelSet):
     """One height source's channels, stacked, with ``S A_c``, ``S B_c`` and ``S g_c`` of the
     flight model (index 0) and the ground model (index 1): ``sel_a`` (2, rows, 16), ``sel_b``
     (2, rows, 4), ``sel_g`` (2, rows), and ``mapped`` (n_ch,), whether the input's share
-    of a channel's back-mapping is non-zero."""
+    of a channel's back-mapping is non-zero. For :func:`tskf_tick`, ``tables`` carries
+    ``sel_a``, ``sel_b`` and ``sel_g`` after the common tables, and ``layout`` ``mapped``
+    in its column ``MAPPED``."""
 
     def __init__(self, channels: tuple[Channel, ...], flight: LinearHoverModel,
                  ground: LinearHoverModel) -> None:
@@ -92,6 +94,13 @@ class _ChannelSet(ChannelSet):
         self.sel_g = np.ascontiguousarray([self.sel_stack @ lm.g_c for lm in models])
         self.mapped = np.array([bool(np.any(self.sel_b[0, i0:i1]) or np.any(self.sel_g[0, i0:i1]))
                                 for i0, i1 in self.rows_list])
+        self.tables = np.concatenate((self.tables, self.sel_a.ravel(), self.sel_b.ravel(),
+                                      self.sel_g.ravel()))
+        self.layout = np.ascontiguousarray(np.column_stack((self.layout, self.mapped)),
+                                           dtype=np.int64)
+
+
+MAPPED = screening.PICKS + 1  # column of a _ChannelSet's layout: the input is back-mapped
 
 
 # ---- the filter's workspace (tskf_tick): one float array, these offsets --------------------
@@ -117,16 +126,22 @@ _SC_Y = _SC_C + MAX_M * N  # y, then r (MAX_M)
 _SC_R_DIAG = _SC_Y + MAX_M  # diagonal of R (MAX_M)
 _SC_ROW_DELTA = _SC_R_DIAG + MAX_M  # delta of each row (MAX_M)
 SCRATCH_SIZE = _SC_ROW_DELTA + MAX_M
+# ---- the filter's constants (tskf_tick): one float array, these offsets --------------------
+_M_A = 0  # A_d of the flight and ground models (2 x N x N)
+_M_B = _M_A + 2 * N * N  # B_d (2 x N x G)
+_M_G = _M_B + 2 * N * G  # g_d (2 x N)
+_M_Q = _M_G + 2 * N  # Q_d (2 x N x N)
+_M_Q_GAMMA = _M_Q + 2 * N * N  # Q^gamma per step in flight
+_M_DT = _M_Q_GAMMA + 1  # filter period, s
+_M_GROUND = _M_DT + 1  # the ground plane (3, on_ground_at)
+MODEL_SIZE = _M_GROUND + 3
 
 
 @njit(cache=True, error_model="numpy")
-def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray,
-              gamma: FloatArray, on_ground: bool, accel_power: float, a_d: FloatArray,
-              b_d: FloatArray, g_d: FloatArray, q_d: FloatArray, q_gamma: float,
-              ground: FloatArray, dt_s: float, meas: FloatArray, time_s: float,
-              excluded: np.ndarray, reject: bool, sel_stack: FloatArray, sel_a: FloatArray,
-              sel_b: FloatArray, sel_g: FloatArray, mapped: np.ndarray, layout: np.ndarray,
-              noise: FloatArray) -> tuple[FloatArray, FloatArray, bool, float, int]:
+def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: FloatArray,
+              model: FloatArray, tables: FloatArray, layout: np.ndarray, u: FloatArray,
+              meas: FloatArray, excluded: np.ndarray, n_steps: int, time_s: float,
+              reject: bool, on_ground: bool, accel_power: float) -> tuple[bool, float, int]:
     """One tick of the TSKF in one compiled call (class and module docstrings).
 
     ``n_steps`` time updates (:func:`~fcu.estimation.tskf_algebra.tskf_predict_into`, each
@@ -138,10 +153,6 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
 
     Parameters
     ----------
-    n_steps : int
-        Time updates of ``dt_s`` since the previous tick.
-    u : ndarray, shape (4,)
-        PWM held over them.
     work : ndarray, shape (WORK_SIZE,)
         The filter's workspace, updated in place: read are the previous posteriors
         ``x_bar``, ``P^x``, ``P^gamma``, ``V`` (eq. 6.14, 6.18, 6.19, 6.24); written are the
@@ -151,31 +162,50 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
         Room for the tick's intermediate results (nothing kept from tick to tick).
     gamma : ndarray, shape (4,)
         ``gamma_hat`` (eq. 6.13), updated in place.
+    out : ndarray, shape (32 + 2 rows_total + 2 n_ch,)
+        Written: ``x_hat`` (eq. 6.25, yaw wrapped to [-pi, pi)) and the diagonal of its
+        covariance (eq. 6.26), then the screening
+        (:func:`~fcu.estimation.screening.screen_channels`' table).
+    model : ndarray, shape (MODEL_SIZE,)
+        The discrete flight (index 0) and ground (index 1) models ``A_d``, ``B_d``, ``g_d``,
+        ``Q_d`` (shapes (2, 16, 16), (2, 16, 4), (2, 16), (2, 16, 16)), ``Q^gamma`` per step
+        in flight (zero on the ground), the filter period (s) and the ground plane
+        (:func:`~fcu.estimation.estimator.on_ground_at`), packed (offsets ``_M_*``).
+    tables, layout : ndarrays
+        The channels (:class:`_ChannelSet`).
+    u : ndarray, shape (4,)
+        PWM held over the time updates.
+    meas, excluded, reject
+        The tick's measurements, exclusions, and whether a lone outlier may be rejected
+        (:func:`~fcu.estimation.screening.screen_channels`).
+    n_steps : int
+        Time updates of the filter period since the previous tick.
+    time_s : float
+        Tick time, s.
     on_ground : bool
         The previous time update's ground flag (kept when ``n_steps`` is 0).
     accel_power : float
         The accelerometer's measured innovation power so far, (m/s^2)^2.
-    a_d, b_d, g_d, q_d : ndarrays, shapes (2, 16, 16), (2, 16, 4), (2, 16), (2, 16, 16)
-        Discrete flight (index 0) and ground (index 1) models.
-    q_gamma : float
-        ``Q^gamma`` per step in flight (zero on the ground).
-    ground : ndarray, shape (3,)
-        The ground plane (:func:`~fcu.estimation.estimator.on_ground_at`).
-    dt_s : float
-        Filter period, s.
-    meas, time_s, excluded, reject
-        The tick's measurements, its time (s), exclusions, and whether a lone outlier may be
-        rejected (:func:`~fcu.estimation.screening.screen_channels`).
-    sel_stack, sel_a, sel_b, sel_g, mapped, layout, noise : ndarrays
-        The channels (:class:`_ChannelSet`).
 
     Returns
     -------
-    estimate, screen, on_ground, accel_power, m
-        ``x_hat`` (eq. 6.25) and the diagonal of its covariance (eq. 6.26), shape (32,)
-        (fresh; yaw wrapped to [-pi, pi)); the screening; the ground flag; the innovation
-        power; the rows of the update (0: none).
+    on_ground, accel_power, m
+        The ground flag; the innovation power; the rows of the update (0: none).
     """
+    a_d = model[_M_A:_M_A + 2 * N * N].reshape(2, N, N)
+    b_d = model[_M_B:_M_B + 2 * N * G].reshape(2, N, G)
+    g_d = model[_M_G:_M_G + 2 * N].reshape(2, N)
+    q_d = model[_M_Q:_M_Q + 2 * N * N].reshape(2, N, N)
+    q_gamma = model[_M_Q_GAMMA]
+    dt_s = model[_M_DT]
+    ground = model[_M_GROUND:_M_GROUND + 3]
+    sel_stack, noise, at = screening.channel_tables(tables, layout)
+    rows = sel_stack.shape[0]
+    sel_a = tables[at:at + 2 * rows * N].reshape(2, rows, N)  # S A_c
+    at += 2 * rows * N
+    sel_b = tables[at:at + 2 * rows * G].reshape(2, rows, G)  # S B_c
+    at += 2 * rows * G
+    sel_g = tables[at:at + 2 * rows].reshape(2, rows)  # S g_c
     x_bar = work[_XB:_XB + N]
     p_x = work[_PX:_PX + N * N].reshape(N, N)
     p_gamma = work[_PG:_PG + G * G].reshape(G, G)
@@ -198,22 +228,23 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
         work[_PRIOR + i] = work[i]
     # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
     # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
-    out = scratch[_SC_X_HAT:_SC_X_HAT + 2 * N]  # x_hat, then the diagonal (overwritten)
-    tskf_output_into(out, x_bar, p_x, gamma, p_gamma, v)
+    prior = scratch[_SC_X_HAT:_SC_X_HAT + 2 * N]  # x_hat, then the diagonal (overwritten)
+    tskf_output_into(prior, x_bar, p_x, gamma, p_gamma, v)
     p_hat = scratch[_SC_P_HAT:_SC_P_HAT + N * N].reshape(N, N)
     for i in range(N):
         for g in range(G):
             acc = 0.0
             for h in range(G):
                 acc += v[i, h] * p_gamma[h, g]
-            out[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
+            prior[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
         for j in range(N):
             acc = p_x[i, j]
             for g in range(G):
-                acc += out[N + g] * v[j, g]
+                acc += prior[N + g] * v[j, g]
             p_hat[i, j] = acc
-    screen, status = screening.screen_channels(x_hat, p_hat, meas, sel_stack, layout, noise,
-                                               excluded, on_ground, reject)
+    screen = out[2 * N:]
+    status = screening.screen_channels_into(screen, x_hat, p_hat, meas, sel_stack, layout,
+                                            noise, excluded, on_ground, reject)
     n_ch = layout.shape[0]
     m = 0
     for c in range(n_ch):
@@ -246,7 +277,7 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
                 for j in range(N):
                     c_mat[k, j] = sel_stack[i0 + i, j] - delta * sel_a[g, i0 + i, j]
                 y[k] = meas[c, screening.VALUE + i]
-                if mapped[c]:
+                if layout[c, MAPPED] != 0:
                     # y = S x(t - delta) = C x - delta S (B_c u + g_c): move the known part over
                     acc = 0.0
                     for q in range(G):
@@ -268,11 +299,11 @@ def tskf_tick(n_steps: int, u: FloatArray, work: FloatArray, scratch: FloatArray
                          scratch[_SC_UPDATE:_SC_UPDATE + TSKF_UPDATE_SCRATCH])
         x_bar[YAW_INDEX] = (x_bar[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
     # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
-    estimate = np.empty(2 * N)
+    estimate = out[:2 * N]
     tskf_output_into(estimate, x_bar, p_x, gamma, p_gamma, v)
     # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
     estimate[YAW_INDEX] = (estimate[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
-    return estimate, screen, on_ground, accel_power, m
+    return on_ground, accel_power, m
 
 
 def _workspace_array(at: int, shape: tuple[int | str, ...], doc: str) -> property:
@@ -390,6 +421,11 @@ class TwoStageKalmanFilter(TickEstimator):
         self._a_d, self._b_d, self._g_d, self._q_d = (
             np.ascontiguousarray([getattr(lm, name) for lm in models])
             for name in ("a_d", "b_d", "g_d", "q_d"))
+        # packed for tskf_tick (offsets _M_*)
+        self._model = np.concatenate((self._a_d.ravel(), self._b_d.ravel(),
+                                      self._g_d.ravel(), self._q_d.ravel(),
+                                      [self.q_gamma, self.dt_s], self._ground))
+        assert self._model.shape == (MODEL_SIZE,)
         self._build_channel_sets()
         self.reset()
 
@@ -438,10 +474,10 @@ class TwoStageKalmanFilter(TickEstimator):
         self._estimate = StateEstimate._from_owned(self._time_s, x_hat, p_diag)
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
-              excluded: np.ndarray, reject: bool) -> FloatArray:
+              excluded: np.ndarray, reject: bool, out: FloatArray) -> None:
         """Advance to ``time_s`` and update with the tick's measurements, in one compiled call
-        (:func:`tskf_tick`); returns ``x_hat_{k|k}`` (eq. 6.25, yaw wrapped) and the diagonal
-        of eq. 6.26, one array of shape (32,).
+        (:func:`tskf_tick`); writes ``x_hat_{k|k}`` (eq. 6.25, yaw wrapped) and the diagonal
+        of eq. 6.26, then the screening, into ``out`` (:meth:`TickEstimator._tick`).
 
         ``time_s`` is the previous tick's plus a whole number of ``dt_s`` (within 25 % of
         ``dt_s``); zero steps (same time) update only.
@@ -452,17 +488,13 @@ class TwoStageKalmanFilter(TickEstimator):
             raise ValueError(f"time_s = {time_s!r}: the TSKF is discretised at dt_s = "
                              f"{self.dt_s} s and was last stepped at {self._time_s!r} s; "
                              "call it at whole multiples of dt_s")
-        cs = self._sets[self._height_source]
+        cs = channel_set
         gamma = self.gamma_raw.copy()  # updated in place: gamma_raw is a fresh array each tick
-        estimate, screen, self.on_ground, self._accel_power, self._m = (
-            tskf_tick(n_steps, u, self._work, self._scratch, gamma, self.on_ground,
-                      self._accel_power, self._a_d, self._b_d, self._g_d, self._q_d,
-                      self.q_gamma, self._ground, self.dt_s, meas, time_s, excluded, reject,
-                      cs.sel_stack, cs.sel_a, cs.sel_b, cs.sel_g, cs.mapped, cs.layout,
-                      cs.noise))
+        self.on_ground, self._accel_power, self._m = tskf_tick(
+            self._work, self._scratch, gamma, out, self._model, cs.tables, cs.layout, u, meas,
+            excluded, n_steps, time_s, reject, self.on_ground, self._accel_power)
         self.gamma_raw = gamma
-        self._keep_screening(cs, screen)
-        return estimate
+        self._keep_screening(cs, out[2 * N:])
 
     # ---- the workspace, read (copies) ------------------------------------------------------
     def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:

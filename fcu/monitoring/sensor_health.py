@@ -37,19 +37,28 @@ while motion-capture position is excluded: the autopilot then holds attitude and
 lands after its position failsafe timeout (:mod:`fcu.autopilot`). :attr:`SensorHealth.suspect`
 is True while any sensor is excluded, or was rejected within ``quiet_s``: motor fault
 evidence is not taken then (a sensor fault would otherwise raise motor alarms).
+
+The innovation and frozen-signal checks and the re-admission run in one compiled call a tick
+(:func:`watch_sensors`) over a table of each sensor's state, reading the tick's grouped
+batches and the screening's table as arrays; the cross-check's window stays in Python.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from fcu.estimation.estimator import ChannelCheck
-from fcu.estimation.state import SampleBatch
+import numpy as np
+from numba import njit
+
+from fcu.estimation.estimator import ChannelCheck, Screening
+from fcu.estimation.screening import ABSENT, REJECTED, STATUS_NAMES
+from fcu.estimation.state import GroupedSamples, SampleBatch
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
+from flightdata.vocabulary import SENSORS
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -78,24 +87,138 @@ class SensorHealthConfig:
                 "must be >= 0 s")
 
 
-@dataclass(slots=True)
-class _Watch:
-    """Bookkeeping of one sensor."""
+# SensorHealth's state table: one row per sensor of SENSORS, these columns (times in s;
+# NaN: not running); the kind it is excluded as, a code of _KINDS (0: trusted)
+(_EXCLUDED_AS, _EXCLUDED_S, _REJECTIONS, _LAST_N, _LAST_TIME_S, _SAME, _JUMPED,
+ _FROZEN_SINCE_S, _GOOD_SINCE_S, _SIGMA, _LAST_VALUE) = range(11)
+_STATE_WIDTH = _LAST_VALUE + 3  # the latest batch value, _LAST_N entries (0: none yet)
+_KINDS: tuple[str, ...] = ("", "sensor_frozen", "sensor_rejected", "sensor_inconsistent")
+_TRUSTED, _FROZEN, _REJECTED, _INCONSISTENT = range(4)
+# its parameter vector (SensorHealthConfig)
+_P_REJECT_TICKS, _P_FROZEN_TICKS, _P_RECOVER_S, _P_JUMP_SIGMA, _P_MAX_SPEED = range(5)
+# the tick's index: one row per channel screened (floats): the sensor's row in the state
+# table, where its batch value and count are in the grouped samples' flat array (value -1:
+# no slot), its entries, the third a yaw, its NIS gate, where its NIS and status code are
+# in the screening table
+(_I_ROW, _I_VALUE_AT, _I_COUNT_AT, _I_AXES, _I_YAW, _I_GATE, _I_NIS_AT,
+ _I_STATUS_AT) = range(8)
+_INDEX_WIDTH = 8
+# an event of watch_sensors: detected (0) or cleared (1), kind code, sensor row, magnitude
+_E_ACTION, _E_KIND, _E_ROW, _E_MAGNITUDE = range(4)
 
-    excluded_as: str | None = None  # detection kind while excluded
-    excluded_s: float = 0.0
-    rejections: int = 0
-    last_rejected_s: float = -math.inf
-    last_value: list[float] | None = None
-    last_time_s: float = 0.0
-    same: int = 0
-    jumped: bool = False  # the latest batch jumped from the one before
-    frozen_since_s: float = 0.0
-    good_since_s: float | None = None
+
+@njit(cache=True, error_model="numpy")
+def _exclude(state: np.ndarray, events: np.ndarray, n_events: int, row: int, kind: int,
+             time_s: float, magnitude: float) -> int:
+    """Exclude sensor ``row`` as ``kind`` (unless it is excluded already), writing the event;
+    returns the events written."""
+    if state[row, _EXCLUDED_AS] != _TRUSTED:
+        return n_events
+    state[row, _EXCLUDED_AS] = kind
+    state[row, _EXCLUDED_S] = time_s
+    state[row, _GOOD_SINCE_S] = np.nan
+    events[n_events, _E_ACTION] = 0.0
+    events[n_events, _E_KIND] = kind
+    events[n_events, _E_ROW] = row
+    events[n_events, _E_MAGNITUDE] = magnitude
+    return n_events + 1
+
+
+@njit(cache=True, error_model="numpy")
+def watch_sensors(par: np.ndarray, state: np.ndarray, events: np.ndarray, index: np.ndarray,
+                  flat: np.ndarray, screen: np.ndarray, time_s: float,
+                  airborne: bool) -> tuple[int, bool]:
+    """The innovation and frozen-signal checks of one tick, and the re-admission of sensors
+    they excluded (module docstring), for each channel of ``index`` screened this tick.
+
+    ``par``: the settings (``_P_*``); ``state``: the state table, advanced; ``events``: the
+    exclusions and re-admissions, written in order; ``flat``: the tick's batches
+    (:attr:`fcu.estimation.state.GroupedSamples.flat`); ``screen``: the screening's table
+    (:class:`fcu.estimation.estimator.Screening`). Returns the events written and whether
+    any sensor was rejected.
+    """
+    n_events = 0
+    rejected = False
+    for c in range(index.shape[0]):
+        status = screen[int(index[c, _I_STATUS_AT])]
+        if status == ABSENT:
+            continue
+        r = int(index[c, _I_ROW])
+        nis = screen[int(index[c, _I_NIS_AT])]
+        at = int(index[c, _I_VALUE_AT])
+        if at >= 0 and flat[int(index[c, _I_COUNT_AT])] > 0:
+            # repeats (frozen) and jumps (garbage) of the batch values
+            n = int(index[c, _I_AXES])
+            if state[r, _LAST_N] != 0 and state[r, _LAST_N] != n:
+                raise ValueError("a sensor's batch values changed length")
+            same = state[r, _LAST_N] != 0
+            for i in range(n):
+                same = same and flat[at + i] == state[r, _LAST_VALUE + i]
+            if same:
+                if state[r, _SAME] == 0:
+                    state[r, _FROZEN_SINCE_S] = time_s
+                state[r, _SAME] += 1
+                state[r, _JUMPED] = 0.0
+            else:
+                state[r, _SAME] = 0.0
+                if state[r, _LAST_N] != 0:
+                    limit = par[_P_JUMP_SIGMA] * state[r, _SIGMA] + par[_P_MAX_SPEED] * (
+                        time_s - state[r, _LAST_TIME_S])
+                    # some |change| > limit (a yaw's change wrapped to [-pi, pi))
+                    jumped = False
+                    for i in range(n):
+                        change = flat[at + i] - state[r, _LAST_VALUE + i]
+                        if i == 2 and index[c, _I_YAW] != 0:
+                            change = (change + math.pi) % (2.0 * math.pi) - math.pi
+                        jumped = jumped or change > limit or change < -limit
+                    state[r, _JUMPED] = 1.0 if jumped else 0.0
+            for i in range(n):
+                state[r, _LAST_VALUE + i] = flat[at + i]
+            state[r, _LAST_N] = n
+            state[r, _LAST_TIME_S] = time_s
+        if airborne:
+            if state[r, _SAME] >= par[_P_FROZEN_TICKS]:
+                n_events = _exclude(state, events, n_events, r, _FROZEN, time_s,
+                                    time_s - state[r, _FROZEN_SINCE_S])
+            if status != REJECTED:
+                state[r, _REJECTIONS] = 0.0
+            else:
+                # the flying estimator rejected the sensor at this tick (innovation check)
+                state[r, _REJECTIONS] += 1
+                rejected = True
+                if state[r, _REJECTIONS] >= par[_P_REJECT_TICKS]:
+                    n_events = _exclude(state, events, n_events, r, _REJECTED, time_s, nis)
+        else:
+            state[r, _REJECTIONS] = 0.0
+        kind = state[r, _EXCLUDED_AS]
+        if kind == _TRUSTED or kind == _INCONSISTENT:
+            continue  # (the cross-check re-admits an inconsistent barometer)
+        # re-admitted once consistent for recover_s
+        if not (nis <= index[c, _I_GATE] and state[r, _SAME] == 0
+                and state[r, _JUMPED] == 0):
+            state[r, _GOOD_SINCE_S] = np.nan
+            continue
+        if math.isnan(state[r, _GOOD_SINCE_S]):
+            state[r, _GOOD_SINCE_S] = time_s
+        if time_s - state[r, _GOOD_SINCE_S] < par[_P_RECOVER_S] - 1e-9:
+            continue
+        state[r, _EXCLUDED_AS] = _TRUSTED
+        state[r, _GOOD_SINCE_S] = np.nan
+        state[r, _REJECTIONS] = 0.0
+        events[n_events, _E_ACTION] = 1.0
+        events[n_events, _E_KIND] = kind
+        events[n_events, _E_ROW] = r
+        events[n_events, _E_MAGNITUDE] = time_s - state[r, _EXCLUDED_S]
+        n_events += 1
+    return n_events, rejected
 
 
 # the sensor each height source reads
 _HEIGHT_SENSOR = {"mocap": "mocap_pos", "baro": "baro"}
+_ROW = {sensor: r for r, sensor in enumerate(SENSORS)}  # rows of the state table
+# watch_sensors' index of a tick's channels, and where _cross_check reads the tick's heights
+_Index = tuple[np.ndarray, tuple[int, int, int, int] | None]
+_STATUS_CODES = {name: code for code, name in enumerate(STATUS_NAMES)}
 
 
 class SensorHealth:
@@ -111,27 +234,28 @@ class SensorHealth:
     def __init__(self, config: SensorHealthConfig, height_source: str) -> None:
         self.config = config
         self.configured_height_source = height_source
+        self._par = np.array([config.reject_ticks, config.frozen_ticks, config.recover_s,
+                              config.jump_sigma, config.max_speed], dtype=float)
+        self._events = np.zeros((2 * len(SENSORS), 4))
+        # watch_sensors' index, by (channels screened, grouped slots, slots popped)
+        self._indexes: dict[tuple[object, ...], _Index] = {}
         self.reset()
 
     def reset(self) -> None:
         """Every sensor trusted, every check restarted."""
-        self._watch: dict[str, _Watch] = {}
+        self._state = np.zeros((len(SENSORS), _STATE_WIDTH))
+        self._state[:, _GOOD_SINCE_S] = np.nan
+        self._noise: dict[str, float] | None = None  # the noise the _SIGMA column holds
         # the cross-check's window: tick times and baro alt - mocap alt, m
         self._cross_t: deque[float] = deque()
         self._cross_v: deque[float] = deque()
         self._last_rejected_s = -math.inf  # the latest rejection of any sensor
         self._exclusions_changed()
 
-    def _w(self, sensor: str) -> _Watch:
-        w = self._watch.get(sensor)
-        if w is None:
-            w = self._watch[sensor] = _Watch()
-        return w
-
     def _exclusions_changed(self) -> None:
         """Refresh what follows from the excluded sensors (read every tick)."""
-        self._excluded = frozenset(s for s, w in self._watch.items()
-                                   if w.excluded_as is not None)
+        kinds = self._state[:, _EXCLUDED_AS].tolist()
+        self._excluded = frozenset(s for s, k in zip(SENSORS, kinds, strict=True) if k)
 
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, batches: Mapping[str, SampleBatch],
@@ -152,129 +276,114 @@ class SensorHealth:
         noise : mapping of str to float
             Each sensor's noise, one sample, 1 sigma, sensor units (the jump test).
         """
+        grouped = (batches if isinstance(batches, GroupedSamples)
+                   else _grouped(batches))
+        if isinstance(screening, Screening):
+            cs = screening.channel_set
+            key: tuple[object, ...] = (cs, grouped.slot_names, grouped.slot_axes,
+                                       grouped.width, grouped.popped)
+            screen = screening.screen
+            index, cross = self._indexes.get(key) or self._index(key, cs.checks,
+                                                                 2 * cs.n_rows, grouped)
+        else:
+            checks = [(sensor, check.gate) for sensor, check in screening.items()]
+            key = (tuple(checks), grouped.slot_names, grouped.slot_axes, grouped.width,
+                   grouped.popped)
+            screen = np.array([check.nis for check in screening.values()]
+                              + [_STATUS_CODES[check.status] for check in screening.values()],
+                              dtype=float)
+            index, cross = self._indexes.get(key) or self._index(
+                key, [(sensor, gate, 0, 0) for sensor, gate in checks], 0, grouped)
+        if noise != self._noise:
+            self._noise = dict(noise)
+            self._state[:, _SIGMA] = [noise.get(sensor, 0.0) for sensor in SENSORS]
         records: list[DetectionRecord] = []
-        watch = self._watch
-        for sensor, check in screening.items():
-            w = watch.get(sensor) or self._w(sensor)
-            batch = batches.get(sensor)
-            if batch is not None:
-                self._watch_value(time_s, w, batch, noise.get(sensor, 0.0),
-                                  sensor == "mocap_att")
-            if airborne:
-                if w.same >= self.config.frozen_ticks:
-                    self._exclude(records, time_s, sensor, w, "sensor_frozen",
-                                  time_s - w.frozen_since_s)
-                if check.status != "rejected":
-                    w.rejections = 0
-                else:
-                    self._rejected(records, time_s, sensor, w, check)
-            else:
-                w.rejections = 0
-            kind = w.excluded_as
-            if kind is not None and kind != "sensor_inconsistent":
-                # (the cross-check re-admits an inconsistent barometer)
-                self._recovery(records, time_s, sensor, w, kind, check)
-        self._cross_check(records, time_s, batches)
+        n_events, rejected = watch_sensors(self._par, self._state, self._events, index,
+                                           grouped.flat, screen, time_s, bool(airborne))
+        if rejected:
+            self._last_rejected_s = max(self._last_rejected_s, time_s)
+        if n_events:
+            for action, kind, row, magnitude in self._events[:n_events].tolist():
+                records.append(DetectionRecord(
+                    time_s=time_s, action="cleared" if action else "detected",
+                    kind=_KINDS[int(kind)], sensor=SENSORS[int(row)], magnitude=magnitude))
+            self._exclusions_changed()
+        if cross is not None:
+            self._cross_check(records, time_s, grouped.flat, cross)
         return records
 
-    def _exclude(self, records: list[DetectionRecord], time_s: float, sensor: str, w: _Watch,
-                 kind: str, magnitude: float) -> None:
-        if w.excluded_as is not None:
+    def _index(self, key: tuple[object, ...], checks: Sequence[tuple[str, float, int, int]],
+               nis_at: int, grouped: GroupedSamples) -> _Index:
+        """:func:`watch_sensors`' index of the channels ``checks`` (sensor, gate, rows) whose
+        NIS and status codes are in the screening table from ``nis_at``, over the slots of
+        ``grouped``; and where the barometer's value and count, and the motion-capture
+        position's, are in its flat array (:meth:`_cross_check`; None without both)."""
+        width = grouped.width
+        slots = {name: s for s, name in enumerate(grouped.slot_names)
+                 if name not in grouped.popped}
+        index = np.zeros((len(checks), _INDEX_WIDTH))
+        for c, (sensor, gate, _, _) in enumerate(checks):
+            if sensor not in _ROW:
+                raise ValueError(f"sensor = {sensor!r}: must be one of {', '.join(SENSORS)}")
+            s = slots.get(sensor, -1)
+            index[c] = (_ROW[sensor], s * width if s >= 0 else -1, s * width + width - 2,
+                        grouped.slot_axes[s] if s >= 0 else 0, sensor == "mocap_att", gate,
+                        nis_at + c, nis_at + len(checks) + c)
+        baro, mocap = slots.get("baro", -1), slots.get("mocap_pos", -1)
+        cross = None
+        if baro >= 0 and mocap >= 0 and grouped.slot_axes[mocap] >= 3:  # a height to compare
+            cross = (baro * width, baro * width + width - 2, mocap * width,
+                     mocap * width + width - 2)
+        self._indexes[key] = index, cross
+        return index, cross
+
+    def _cross_check(self, records: list[DetectionRecord], time_s: float, flat: np.ndarray,
+                     cross: tuple[int, int, int, int]) -> None:
+        """Barometer against motion-capture height (module docstring), on the tick's batches
+        (``flat``: :attr:`~fcu.estimation.state.GroupedSamples.flat`; ``cross``: where the
+        barometer's value and count are in it, then the motion-capture position's)."""
+        baro_at, baro_count_at, mocap_at, mocap_count_at = cross
+        if (flat.item(baro_count_at) <= 0 or flat.item(mocap_count_at) <= 0
+                or "mocap_pos" in self._excluded):
             return
-        w.excluded_as, w.excluded_s, w.good_since_s = kind, time_s, None
-        self._exclusions_changed()
-        records.append(DetectionRecord(time_s=time_s, action="detected", kind=kind,
-                                       sensor=sensor, magnitude=magnitude))
-
-    def _watch_value(self, time_s: float, w: _Watch, batch: SampleBatch,
-                     sigma: float, yaw_last: bool) -> None:
-        """Repeats (frozen) and jumps (garbage) of the batch values (``yaw_last``: the third
-        entry is an angle, its change wrapped to [-pi, pi))."""
-        value = batch.value.tolist()
-        last = w.last_value
-        if last is not None and value == last:
-            if w.same == 0:
-                w.frozen_since_s = time_s
-            w.same += 1
-            w.jumped = False
-        else:
-            w.same = 0
-            if last is not None:
-                limit = self.config.jump_sigma * sigma + self.config.max_speed * (
-                    time_s - w.last_time_s)
-                change = [a - b for a, b in zip(value, last, strict=True)]
-                if yaw_last:
-                    change[2] = (change[2] + math.pi) % (2.0 * math.pi) - math.pi
-                # some |change| > limit
-                w.jumped = max(change) > limit or min(change) < -limit
-        w.last_value = value
-        w.last_time_s = time_s
-
-    def _rejected(self, records: list[DetectionRecord], time_s: float, sensor: str,
-                  w: _Watch, check: ChannelCheck) -> None:
-        """The flying estimator rejected ``sensor`` at this tick (innovation check)."""
-        w.rejections += 1
-        w.last_rejected_s = time_s
-        self._last_rejected_s = max(self._last_rejected_s, time_s)
-        if w.rejections >= self.config.reject_ticks:
-            self._exclude(records, time_s, sensor, w, "sensor_rejected", check.nis)
-
-    def _recovery(self, records: list[DetectionRecord], time_s: float, sensor: str,
-                  w: _Watch, kind: str, check: ChannelCheck) -> None:
-        """Re-admit ``sensor``, excluded as ``kind``, once consistent for ``recover_s``."""
-        consistent = check.nis <= check.gate and w.same == 0 and not w.jumped
-        if not consistent:
-            w.good_since_s = None
-            return
-        if w.good_since_s is None:
-            w.good_since_s = time_s
-        if time_s - w.good_since_s < self.config.recover_s - 1e-9:
-            return
-        w.excluded_as, w.good_since_s, w.rejections = None, None, 0
-        self._exclusions_changed()
-        records.append(DetectionRecord(time_s=time_s, action="cleared", kind=kind,
-                                       sensor=sensor, magnitude=time_s - w.excluded_s))
-
-    def _cross_check(self, records: list[DetectionRecord], time_s: float,
-                     batches: Mapping[str, SampleBatch]) -> None:
-        """Barometer against motion-capture height (module docstring)."""
-        baro, mocap = batches.get("baro"), batches.get("mocap_pos")
         cfg = self.config
-        if mocap is not None and "mocap_pos" in self._excluded:
-            mocap = None
-        if baro is None or mocap is None or len(mocap.value) < 3:
-            return
         times, values = self._cross_t, self._cross_v
         # alt = -z (NED); both averaged over the tick
         times.append(time_s)
-        values.append(float(baro.value[0]) + float(mocap.value[2]))
+        values.append(flat.item(baro_at) + flat.item(mocap_at + 2))
         while times and times[0] <= time_s - cfg.cross_window_s:
             times.popleft()
             values.popleft()
         if len(times) < 2 or times[-1] - times[0] < 0.5 * cfg.cross_window_s:
             return
         mean = sum(values) / len(values)
-        w = self._w("baro")
-        if w.excluded_as is None and abs(mean) > cfg.cross_limit_m:
-            self._exclude(records, time_s, "baro", w, "sensor_inconsistent", mean)
+        baro = self._state[_ROW["baro"]]
+        kind = baro[_EXCLUDED_AS]
+        if kind == _TRUSTED and abs(mean) > cfg.cross_limit_m:
+            baro[_EXCLUDED_AS], baro[_EXCLUDED_S], baro[_GOOD_SINCE_S] = (
+                _INCONSISTENT, time_s, np.nan)
+            self._exclusions_changed()
+            records.append(DetectionRecord(time_s=time_s, action="detected",
+                                           kind="sensor_inconsistent", sensor="baro",
+                                           magnitude=mean))
             return
-        if w.excluded_as == "sensor_inconsistent" and abs(mean) < 0.5 * cfg.cross_limit_m:
-            if w.good_since_s is None:
-                w.good_since_s = time_s
-            if time_s - w.good_since_s >= cfg.recover_s - 1e-9:
-                w.excluded_as, w.good_since_s = None, None
+        if kind == _INCONSISTENT and abs(mean) < 0.5 * cfg.cross_limit_m:
+            if math.isnan(baro[_GOOD_SINCE_S]):
+                baro[_GOOD_SINCE_S] = time_s
+            if time_s - baro[_GOOD_SINCE_S] >= cfg.recover_s - 1e-9:
+                baro[_EXCLUDED_AS], baro[_GOOD_SINCE_S] = _TRUSTED, np.nan
                 self._exclusions_changed()
                 records.append(DetectionRecord(time_s=time_s, action="cleared",
                                                kind="sensor_inconsistent", sensor="baro",
                                                magnitude=mean))
-        elif w.excluded_as == "sensor_inconsistent":
-            w.good_since_s = None
+        elif kind == _INCONSISTENT:
+            baro[_GOOD_SINCE_S] = np.nan
 
     # ------------------------------------------------------------------ observation
     def excluded_as(self, sensor: str) -> str | None:
         """Why ``sensor`` is excluded (its detection kind), or None when trusted."""
-        w = self._watch.get(sensor)
-        return None if w is None else w.excluded_as
+        row = _ROW.get(sensor)
+        return None if row is None else _KINDS[int(self._state[row, _EXCLUDED_AS])] or None
 
     @property
     def excluded(self) -> frozenset[str]:
@@ -301,3 +410,20 @@ class SensorHealth:
                 _HEIGHT_SENSOR[other] not in self._excluded:
             return other
         return source
+
+
+def _grouped(batches: Mapping[str, SampleBatch]) -> GroupedSamples:
+    """Batches of any mapping as :func:`~fcu.estimation.state.group_samples` returns them
+    (one slot each, in the mapping's order)."""
+    names = tuple(batches)
+    width = 3 + 3  # up to three value entries, then mean time, count, first sample
+    flat = np.zeros(len(names) * width + 1)
+    axes = []
+    for s, batch in enumerate(batches.values()):
+        value = np.asarray(batch.value, dtype=float).reshape(-1)
+        if value.shape[0] > 3:
+            raise ValueError(f"{names[s]} batch has {value.shape[0]} values: at most 3")
+        flat[s * width:s * width + value.shape[0]] = value
+        flat[s * width + width - 3:s * width + width] = (batch.time_s, batch.count, s)
+        axes.append(value.shape[0])
+    return GroupedSamples(flat, width, names, tuple(axes))

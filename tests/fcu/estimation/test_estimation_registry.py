@@ -51,3 +51,26 @@ def test_each_estimator_builds_and_steps(name: str, height_source: str) -> None:
     assert estimator.last_innovation["mocap_pos"].nis >= 0.0
     estimator.reset(1.0)
     assert estimator.estimate.time_s == 1.0
+
+
+@pytest.mark.parametrize("name", ESTIMATORS)
+def test_an_estimate_built_when_read_equals_the_one_stepped(name: str) -> None:
+    config = AutopilotConfig(estimator=name)
+    stepped = ESTIMATOR_REGISTRY.factory(name)(config, DT)
+    advanced = ESTIMATOR_REGISTRY.factory(name)(config, DT)
+    rng = np.random.default_rng(4)
+    for k in range(1, 31):
+        t = k * DT
+        samples = [SensorSample(s, t, v + 0.001 * rng.normal(size=v.shape))
+                   for s, v in ON_THE_GROUND.items()]
+        grouped = group_samples(samples, stepped.sensor_kinds)
+        estimate = stepped.step_grouped(t, np.full(4, 0.1), grouped)
+        advanced.advance_grouped(t, np.full(4, 0.1), grouped)
+        if k % 3:  # read every third tick only: the rest are never built
+            continue
+        late = advanced.estimate
+        assert late.time_s == estimate.time_s == t
+        # the same filter on the same samples: the same numbers, to the bit
+        np.testing.assert_array_equal(late.to_vector(), estimate.to_vector())
+        np.testing.assert_array_equal(late.covariance_diag, estimate.covariance_diag)
+        assert advanced.estimate is late  # built once

@@ -94,3 +94,30 @@ def test_measurement_tables_read_from_the_grouped_table_equal_those_read_batch_b
                 slow = channels.measurements(dict(grouped))  # a plain mapping: batch by batch
                 assert fast.dtype == slow.dtype and fast.shape == slow.shape
                 np.testing.assert_array_equal(fast, slow)
+
+
+def test_a_grouping_read_lazily_holds_what_an_eager_one_holds_and_pop_removes_a_kind() -> None:
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        samples = random_tick(rng)
+        for source in (samples, ArraySamples(samples)):
+            eager = group_samples(source)  # type: ignore[arg-type]
+            eager_items = {name: (b.value.tolist(), b.time_s, b.count)
+                           for name, b in eager.items()}  # built as a whole first
+            lazy = group_samples(source)  # type: ignore[arg-type]
+            present = list(eager_items)
+            gone = present[0] if present else "gyro"
+            popped = lazy.pop(gone)  # before the batches are built
+            assert (popped is None) == (not present)
+            if popped is not None:
+                assert (popped.value.tolist(), popped.time_s, popped.count) == \
+                    eager_items[gone]
+            assert lazy.pop(gone) is None  # once only
+            assert lazy.popped == ((gone,) if present else ())
+            rest = {k: v for k, v in eager_items.items() if k != gone}
+            assert list(lazy) == list(rest)  # order of first samples kept
+            assert {name: (b.value.tolist(), b.time_s, b.count)
+                    for name, b in lazy.items()} == rest
+            assert gone not in lazy and lazy.get(gone) is None
+            # the spare zero after the table, which absent channels read
+            assert lazy.flat[-1] == 0.0 and lazy.flat.size == lazy.table.size + 1

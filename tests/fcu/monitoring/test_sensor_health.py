@@ -59,3 +59,31 @@ def test_grouped_and_plain_batches_are_watched_alike() -> None:
         assert a.step(t, grouped, checks, k > 10, NOISE) == b.step(t, plain, checks, k > 10,
                                                                     NOISE)
     assert a.excluded == b.excluded == frozenset({"baro"})  # frozen once in flight
+
+
+def test_an_estimators_screening_is_read_alike_as_records_and_as_entries() -> None:
+    from fcu.estimation.ekf import ExtendedKalmanEstimator
+    from fcu.model import VehicleModel
+
+    estimator = ExtendedKalmanEstimator(VehicleModel(), ground_z_ned=None)  # no ground hold
+    a = SensorHealth(SensorHealthConfig(), "mocap")
+    b = SensorHealth(SensorHealthConfig(), "mocap")
+    rng = np.random.default_rng(9)
+    seen = set()
+    for k in range(1, 120):
+        t = 0.01 * k
+        noise = 0.0005 if k < 40 else 5.0  # m: then garbage
+        pos = (rng.normal(size=3) * noise).tolist()
+        att = (rng.normal(size=3) * 0.002).tolist()  # rad, noisy: never frozen
+        samples = [*tick_samples(t, pos, att),
+                   SensorSample("gyro", t - 0.004, rng.normal(size=3) * 0.003)]
+        grouped = group_samples(samples, KINDS)
+        estimator.step_grouped(t, np.zeros(4), grouped, excluded=a.excluded, reject=True)
+        screening = estimator.screening
+        as_records = dict(screening.items())  # ChannelCheck records, a plain mapping
+        seen |= {c.status for c in as_records.values()}
+        assert a.step(t, grouped, screening, True, NOISE) == \
+            b.step(t, dict(grouped), as_records, True, NOISE)
+        assert a.excluded == b.excluded
+    # the garbage was rejected, then excluded (the entries' path saw both)
+    assert {"rejected", "excluded"} <= seen and a.excluded == frozenset({"mocap_pos"})
