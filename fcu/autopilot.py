@@ -321,15 +321,15 @@ class Autopilot:
         """Motor fault detection on the TSKF's gamma (:mod:`fcu.monitoring.motor_faults`):
         evidence only in free flight, in the hover model's validity, with trusted sensors
         and the TSKF off the ground; blocks arming while a motor is declared."""
-        valid = (self._hover_regime(estimate) and not self.tskf.on_ground
-                 and not self.sensor_health.suspect(time_s))
         landed_state = nav.landed_state
-        airborne = flying and landed_state != LandedState.ON_GROUND
+        # (the regime is only asked about in the air: on the ground there is no evidence)
+        learn = (flying and landed_state != LandedState.ON_GROUND
+                 and self._hover_regime(estimate) and not self.tskf.on_ground
+                 and not self.sensor_health.suspect(time_s))
         detector = self.detector
         records = detector.step(time_s, self.tskf.gamma_raw, self._pwm,
-                                evidence=airborne and valid
-                                and landed_state == LandedState.IN_AIR,
-                                learn=airborne and valid)
+                                evidence=learn and landed_state == LandedState.IN_AIR,
+                                learn=learn)
         active = detector.active
         if active or self._motors_blocked:  # (the text names the latest LOE)
             loe = detector.loe

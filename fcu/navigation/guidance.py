@@ -431,6 +431,8 @@ class Trajectory:
         self._end_s = float(self._segments[-1].end_time_s)
         self._before_ref: Reference | None = None  # the rest references outside, once built
         self._after_ref: Reference | None = None
+        # the segment last evaluated: (from, until (s), segment), see evaluate()
+        self._current: tuple[float, float, Segment] | None = None
         self.arrival_times_s: tuple[float, ...] = tuple(float(t) for t in arrival_times_s)
 
     @property
@@ -467,8 +469,16 @@ class Trajectory:
             if self._after_ref is None:
                 self._after_ref = self._segments[-1].evaluate(self._end_s).at_rest()
             return self._after_ref
-        # start <= time_s < end: segment_index() without its clamps, which cannot apply
-        return self._segments[bisect.bisect_right(self._starts_s, time_s) - 1].evaluate(time_s)
+        # start <= time_s < end: the segment of the previous call while it lasts (a tick
+        # after another), else segment_index() without its clamps, which cannot apply
+        current = self._current
+        if current is None or not current[0] <= time_s < current[1]:
+            i = bisect.bisect_right(self._starts_s, time_s) - 1
+            segment = self._segments[i]
+            # from its start until the next segment's (the later one is active at a join)
+            current = self._current = (self._starts_s[i], self._starts_s[i + 1] if
+                                       i + 1 < len(self._starts_s) else self._end_s, segment)
+        return current[2].evaluate(time_s)
 
     @classmethod
     def from_waypoints(cls, t0_s: float, start_pos_ned: np.ndarray | Sequence[float],
