@@ -97,7 +97,8 @@ class MissionArea:
 
     def outside_m(self, pos_ned: Vector) -> tuple[float, float]:
         """(horizontal distance outside the box, height above its top), m (0 inside)."""
-        x, y, z = (float(v) for v in pos_ned)
+        x, y, z = pos_ned
+        x, y, z = float(x), float(y), float(z)
         lo, hi = self._lo_l, self._hi_l
         dx = max(lo[0] - x, 0.0, x - hi[0])
         dy = max(lo[1] - y, 0.0, y - hi[1])

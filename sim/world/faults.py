@@ -102,6 +102,7 @@ class FaultEngine:
         self.events: list[FaultEvent] = []
         self._records: dict[int, FaultRecord] = {}
         self.arrays = FaultArrays(self._pwm_max)
+        self._true_loe_static: tuple[float, float, float, float] | None = None
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle
@@ -491,7 +492,7 @@ class FaultEngine:
         self._act_groups: list[MotorGroup] = groups
         self._act_gain = gain
         self._act_mode = 0 if not groups else (1 if static else 2)
-        self._true_loe_static: tuple[float, float, float, float] | None = None  # (true_loe)
+        self._true_loe_static = None  # true_loe_values's, while it cannot change
 
         self._sensor_groups: dict[str, SensorGroup] = {}
         sens_start = []
