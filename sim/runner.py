@@ -113,10 +113,10 @@ class TickLog:
         for name, first, width in _COLUMNS:
             setattr(self, name, rows[:, first] if name == "t" else rows[:, first:first + width])
 
-    def append(self, world: World, autopilot: Autopilot) -> list[float]:
+    def append(self, world: World, autopilot: Autopilot) -> tuple[list[float], bool]:
         """Store the tick just flown: truth, estimate, references, commands, wind; returns
         the row stored (:data:`_COLUMNS` layout: the true position is ``row[1:4]``, m NED,
-        the true attitude ``row[4:7]``, roll, pitch, yaw, rad)."""
+        the true attitude ``row[4:7]``, roll, pitch, yaw, rad) and the ground contact."""
         status = autopilot.status
         assert status is not None
         k = self.n
@@ -127,7 +127,8 @@ class TickLog:
         roll, pitch, yaw = euler_from_wxyz(x[6], x[7], x[8], x[9])
         reference = status.reference
         att_ref = status.attitude_reference
-        if reference is not None and att_ref is not None and not world.plant.on_ground:
+        on_ground = world.plant.on_ground
+        if reference is not None and att_ref is not None and not on_ground:
             self.flying[k] = True
             self.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
             rx, ry, rz = reference.pos_ned.tolist()
@@ -143,7 +144,7 @@ class TickLog:
                rx, ry, rz, e_roll, e_pitch, e_yaw]
         self._rows[k] = row
         self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
-        return row
+        return row, on_ground
 
     def series(self, events: Sequence[tuple[float, str, str]] = (),
                faults: Sequence[FaultRecord] = ()) -> FlightSeries:
@@ -215,7 +216,7 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     try:
         for _ in range(n_ticks):
             stack.tick()
-            flight.collect(stack, rec.append(world, autopilot))
+            flight.collect(stack, *rec.append(world, autopilot))
             if on_tick is not None:
                 on_tick(world, autopilot)
             if stop.requested:
@@ -251,10 +252,9 @@ class _Records:
         if self._on_event is not None:
             self._on_event(time_s, source, text)
 
-    def collect(self, stack: SimulatedStack, row: Sequence[float]) -> None:
+    def collect(self, stack: SimulatedStack, row: Sequence[float], on_ground: bool) -> None:
         """The tick's autopilot and world events, and the truth for the outcome judge (the
-        tick's :class:`TickLog` ``row``: true position and attitude)."""
-        world = stack.world
+        tick's :class:`TickLog` ``row``: true position and attitude; the ground contact)."""
         autopilot_events, world_events = stack.drain_events()
         for ev in autopilot_events:
             if ev.record is not None:
@@ -269,7 +269,7 @@ class _Records:
                 self.event(wev.time_s, "sim", wev.description)
                 if wev.kind in ("touchdown", "crash"):
                     touchdowns.append((wev.time_s, wev.speed_m_s))
-        self.judge.observe(row[0], row[1:4], row[4:7], world.plant.on_ground, touchdowns,
+        self.judge.observe(row[0], row[1:4], row[4:7], on_ground, touchdowns,
                            stack.autopilot.navigator.armed)
         if self.judge.decided:
             self._outcomes()

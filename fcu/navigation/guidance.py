@@ -146,7 +146,14 @@ class Reference:
         # one read-only buffer (bytes) for the three vectors: half the cost of an array
         # built from nested tuples and then locked
         rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
-        return cls._assemble(rows[0:3], rows[3:6], rows[6:9], yaw_rad, yaw_rate_rad_s)
+        ref = object.__new__(cls)  # _assemble(), inline: once a tick
+        fields = ref.__dict__
+        fields["pos_ned"] = rows[0:3]
+        fields["vel_ned"] = rows[3:6]
+        fields["acc_ned"] = rows[6:9]
+        fields["yaw_rad"] = wrap_pi(float(yaw_rad))
+        fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
+        return ref
 
     @classmethod
     def _assemble(cls, pos_ned: np.ndarray, vel_ned: np.ndarray, acc_ned: np.ndarray,
