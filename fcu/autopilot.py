@@ -187,6 +187,8 @@ class Autopilot:
         self._loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
         self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
         self._motors_blocked = True  # the motors' arming blocker may be set
+        # the motors and lost per cent the blocker names (None: not set since the reset)
+        self._motors_blocker: tuple[tuple[int, ...], list[int]] | None = None
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -324,21 +326,26 @@ class Autopilot:
         """Motor fault detection on the TSKF's gamma (:mod:`fcu.monitoring.motor_faults`):
         evidence only in free flight, in the hover model's validity, with trusted sensors
         and the TSKF off the ground; blocks arming while a motor is declared."""
-        valid = (self._hover_regime(estimate) and not self.tskf.on_ground
-                 and not self.sensor_health.suspect(time_s))
         landed_state = nav.landed_state
-        airborne = flying and landed_state != LandedState.ON_GROUND
+        # (the regime is only asked about in the air: on the ground there is no evidence)
+        learn = (flying and landed_state != LandedState.ON_GROUND
+                 and self._hover_regime(estimate) and not self.tskf.on_ground
+                 and not self.sensor_health.suspect(time_s))
         detector = self.detector
         records = detector.step(time_s, self.tskf.gamma_raw, self._pwm,
-                                evidence=airborne and valid
-                                and landed_state == LandedState.IN_AIR,
-                                learn=airborne and valid)
+                                evidence=learn and landed_state == LandedState.IN_AIR,
+                                learn=learn)
         active = detector.active
-        if active or self._motors_blocked:  # (the text names the latest LOE)
-            loe = detector.loe
-            self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
-                f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
-                "restart the autopilot to clear" for m in active))
+        if active or self._motors_blocked:
+            # the text names the latest LOE in whole per cent: written when that changes
+            loe = detector.loe.tolist()
+            lost_percent = [round(100 * loe[m - 1]) for m in active]
+            if (active, lost_percent) != self._motors_blocker:
+                self._motors_blocker = (active, lost_percent)
+                self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
+                    f"motor {m} detected failed (lost about {p} %): "
+                    "restart the autopilot to clear"
+                    for m, p in zip(active, lost_percent, strict=True)))
             self._motors_blocked = bool(active)
         return records
 

@@ -21,6 +21,7 @@ import numpy.typing as npt
 __all__ = [
     "body_rates_from_euler_rates",
     "euler_from_quat",
+    "euler_from_wxyz",
     "quat_from_euler",
     "quats_from_euler",
     "wrap_pi",
@@ -45,10 +46,17 @@ def euler_from_quat(quat_wxyz: Sequence[float] | np.ndarray) -> np.ndarray:
     """ZYX roll, pitch, yaw (rad, shape (3,)) of a unit quaternion [w, x, y, z].
 
     Roll and yaw are in (-pi, pi], pitch in [-pi/2, pi/2]. At gimbal lock (|pitch| = pi/2,
-    where only yaw -/+ roll is defined) roll is returned as 0.
+    where only yaw -/+ roll is defined) roll is returned as 0. (:func:`euler_from_wxyz` on
+    the four components.)
     """
     w, x, y, z = (quat_wxyz.tolist() if isinstance(quat_wxyz, np.ndarray)
                   else [float(v) for v in quat_wxyz])
+    return np.array(euler_from_wxyz(w, x, y, z))
+
+
+def euler_from_wxyz(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    """:func:`euler_from_quat` of the quaternion ``w + x i + y j + z k`` given as four floats:
+    (roll, pitch, yaw), rad, as floats (a per-tick log's row, without an array)."""
     # sin(theta) = -R[2, 0]; clipped against round-off beyond +-1 at the poles
     s = 2.0 * (w * y - z * x)
     pitch = math.asin(min(1.0, max(-1.0, s)))
@@ -58,10 +66,11 @@ def euler_from_quat(quat_wxyz: Sequence[float] | np.ndarray) -> np.ndarray:
         yaw = 2.0 * math.atan2(z, w)
         yaw = yaw - 2.0 * math.pi if yaw > math.pi else (
             yaw + 2.0 * math.pi if yaw <= -math.pi else yaw)
-        return np.array([0.0, pitch, yaw])
+        return 0.0, pitch, yaw
+    # roll = atan2(R[2, 1], R[2, 2]), yaw = atan2(R[1, 0], R[0, 0])
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
+    return roll, pitch, yaw
 
 
 def quat_from_euler(euler_rad: Sequence[float] | np.ndarray) -> np.ndarray:

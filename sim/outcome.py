@@ -90,9 +90,15 @@ class MissionArea:
         lo, hi = self._lo.tolist(), self._hi.tolist()
         return [(lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])]
 
+    def inside(self, x: float, y: float, z: float) -> bool:
+        """``(x, y, z)`` (m, NED) is in the box or below it: :meth:`outside_m` is (0, 0)."""
+        lo, hi = self._lo_l, self._hi_l
+        return lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and z >= lo[2]
+
     def outside_m(self, pos_ned: Vector) -> tuple[float, float]:
         """(horizontal distance outside the box, height above its top), m (0 inside)."""
-        x, y, z = (float(v) for v in pos_ned)
+        x, y, z = pos_ned
+        x, y, z = float(x), float(y), float(z)
         lo, hi = self._lo_l, self._hi_l
         dx = max(lo[0] - x, 0.0, x - hi[0])
         dy = max(lo[1] - y, 0.0, y - hi[1])
@@ -145,7 +151,7 @@ class OutcomeJudge:
         self._flying = False
         self._flew = False
         self._was_on_ground = True
-        self._last_air_tilt_deg = 0.0
+        self._last_air_roll_pitch = (0.0, 0.0)  # rad, the attitude last seen in the air
         self._contact_speeds: list[float] = []
         self._max_contact_tilt_deg = 0.0
         self._tilted_since_s: float | None = None
@@ -156,21 +162,27 @@ class OutcomeJudge:
                 on_ground: bool, touchdowns: Sequence[tuple[float, float]], armed: bool) -> None:
         """One tick of truth: time (s), position (m, NED), attitude (rad), ground contact,
         the touchdowns of the tick as (time s, speed m/s), and whether the autopilot is
-        armed."""
-        tilt = tilt_deg(euler_rad)
-        if self._flying:
+        armed.
+
+        A tick in the air inside the mission area is a few comparisons: the tilt is worked
+        out only where it is judged (a touchdown, ground contact), the distance outside the
+        area only outside it.
+        """
+        if self._flying and touchdowns:
             for t_contact, speed in touchdowns:
                 if self._flying:
                     self._touchdown(t_contact, speed)
         if not on_ground:
-            self._last_air_tilt_deg = tilt
+            self._last_air_roll_pitch = (euler_rad[0], euler_rad[1])
             if not self._flying and self.outcome is None:
                 self._start_flight()
             if self._flying:
-                self._check_distance(time_s, pos_ned)
+                x, y, z = pos_ned
+                if not self.area.inside(x, y, z):  # (inside: 0 m outside, nothing to do)
+                    self._check_distance(time_s, pos_ned)
         elif self._flying:
             if self._flying:
-                self._check_tilted_contact(time_s, tilt)
+                self._check_tilted_contact(time_s, tilt_deg(euler_rad))
             if self._flying and not armed:
                 self._decide("landed", time_s if self._last_touchdown_s is None
                              else self._last_touchdown_s, "touchdown")
@@ -211,7 +223,7 @@ class OutcomeJudge:
 
     def _touchdown(self, time_s: float, speed_m_s: float) -> None:
         speed = float(speed_m_s)
-        tilt = self._last_air_tilt_deg
+        tilt = tilt_deg(self._last_air_roll_pitch)  # just before contact
         self._contact_speeds.append(speed)
         self._max_contact_tilt_deg = max(self._max_contact_tilt_deg, tilt)
         self._last_touchdown_s = time_s

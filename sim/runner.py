@@ -24,7 +24,7 @@ import numpy as np
 
 from fcu.autopilot import Autopilot
 from fcu.navigation.navigator import LandedState
-from flightdata.geometry import euler_from_quat
+from flightdata.geometry import euler_from_wxyz
 from flightdata.metrics import detection_rows, series_metrics
 from flightdata.recording import LiveRecorder, RecordingConfig, open_stream
 from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord
@@ -113,9 +113,10 @@ class TickLog:
         for name, first, width in _COLUMNS:
             setattr(self, name, rows[:, first] if name == "t" else rows[:, first:first + width])
 
-    def append(self, world: World, autopilot: Autopilot) -> list[float]:
+    def append(self, world: World, autopilot: Autopilot) -> tuple[list[float], bool]:
         """Store the tick just flown: truth, estimate, references, commands, wind; returns
-        the true attitude (roll, pitch, yaw, rad) stored."""
+        the row stored (:data:`_COLUMNS` layout: the true position is ``row[1:4]``, m NED,
+        the true attitude ``row[4:7]``, roll, pitch, yaw, rad) and the ground contact."""
         status = autopilot.status
         assert status is not None
         k = self.n
@@ -123,24 +124,27 @@ class TickLog:
             self._grow(k + _CHUNK_TICKS)
         x = world.plant.state.tolist()
         t = world.time_s
-        pos = x[0:3]
-        euler = euler_from_quat(x[6:10]).tolist()
-        if (status.reference is not None and status.attitude_reference is not None
-                and not world.plant.on_ground):
+        roll, pitch, yaw = euler_from_wxyz(x[6], x[7], x[8], x[9])
+        reference = status.reference
+        att_ref = status.attitude_reference
+        on_ground = world.plant.on_ground
+        if reference is not None and att_ref is not None and not on_ground:
             self.flying[k] = True
             self.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
-            ref_pos = status.reference.pos_ned.tolist()
-            ref_euler = np.asarray(status.attitude_reference.euler_rad, dtype=float).tolist()
+            rx, ry, rz = reference.pos_ned.tolist()
+            e_roll, e_pitch, e_yaw = att_ref.euler_rad.tolist()
         else:
             self.flying[k] = self.free_flight[k] = False
-            ref_pos, ref_euler = pos, euler
+            rx, ry, rz = x[0], x[1], x[2]
+            e_roll, e_pitch, e_yaw = roll, pitch, yaw
         # one row: t, pos, euler, est_pos, pwm, loe_est, loe_injected, wind, ref_pos, ref_euler
-        self._rows[k] = [t, *pos, *euler, *status.estimate.pos_ned.tolist(),
-                         *status.pwm.tolist(), *status.loe_estimate.tolist(),
-                         *world.faults.true_loe(t).tolist(), *world.wind_ned.tolist(),
-                         *ref_pos, *ref_euler]
+        row = [t, x[0], x[1], x[2], roll, pitch, yaw, *status.estimate.pos_ned.tolist(),
+               *status.pwm.tolist(), *status.loe_estimate.tolist(),
+               *world.faults.true_loe_values(t), *world.wind_ned.tolist(),
+               rx, ry, rz, e_roll, e_pitch, e_yaw]
+        self._rows[k] = row
         self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
-        return euler
+        return row, on_ground
 
     def series(self, events: Sequence[tuple[float, str, str]] = (),
                faults: Sequence[FaultRecord] = ()) -> FlightSeries:
@@ -212,8 +216,7 @@ def fly(scenario: Scenario, *, on_tick: TickCallback | None = None,
     try:
         for _ in range(n_ticks):
             stack.tick()
-            euler_rad = rec.append(world, autopilot)
-            flight.collect(stack, euler_rad)
+            flight.collect(stack, *rec.append(world, autopilot))
             if on_tick is not None:
                 on_tick(world, autopilot)
             if stop.requested:
@@ -249,10 +252,9 @@ class _Records:
         if self._on_event is not None:
             self._on_event(time_s, source, text)
 
-    def collect(self, stack: SimulatedStack, euler_rad: Sequence[float]) -> None:
+    def collect(self, stack: SimulatedStack, row: Sequence[float], on_ground: bool) -> None:
         """The tick's autopilot and world events, and the truth for the outcome judge (the
-        true attitude ``euler_rad``, rad, the log computed)."""
-        world, autopilot = stack.world, stack.autopilot
+        tick's :class:`TickLog` ``row``: true position and attitude; the ground contact)."""
         autopilot_events, world_events = stack.drain_events()
         for ev in autopilot_events:
             if ev.record is not None:
@@ -267,8 +269,8 @@ class _Records:
                 self.event(wev.time_s, "sim", wev.description)
                 if wev.kind in ("touchdown", "crash"):
                     touchdowns.append((wev.time_s, wev.speed_m_s))
-        self.judge.observe(world.time_s, world.plant.state[0:3].tolist(), euler_rad,
-                           world.plant.on_ground, touchdowns, autopilot.navigator.armed)
+        self.judge.observe(row[0], row[1:4], row[4:7], on_ground, touchdowns,
+                           stack.autopilot.navigator.armed)
         if self.judge.decided:
             self._outcomes()
 

@@ -40,7 +40,6 @@ from fcu.control.attitude_reference import (
     AttitudeReference,
     AttitudeReferenceFilter,
     reference_filter_tick,
-    reference_of,
 )
 from fcu.control.dob import NoDob, _DiscreteDob, dob_tick
 from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
@@ -360,5 +359,7 @@ class ControlChain:
 
 
 def attitude_reference(out: np.ndarray) -> AttitudeReference:
-    """The attitude reference of a tick's output ``out`` (views of it, no copies)."""
-    return reference_of(out[OUT_REF:OUT_REF + reference_module.OUT_SIZE])
+    """The attitude reference of a tick's output ``out`` (views of it, no copies): what
+    :func:`~fcu.control.attitude_reference.reference_of` makes of ``out[OUT_REF:]``, with
+    the views taken from ``out`` directly (once a tick: one slicing fewer)."""
+    return AttitudeReference(out[_EULER:_EULER + 3], out[_RATE:_RATE + 3], out[_ACC:_ACC + 3])

@@ -33,6 +33,7 @@ from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 
 _SHAPE3 = (3,)
+_FLOAT64 = np.dtype(np.float64)
 
 
 class FlightLegs:
@@ -151,12 +152,14 @@ class FlightLegs:
             raise ValueError(f"time_s = {time_s!r}: must not be earlier than the previous "
                              f"step ({self._time_s!r})")
         self._time_s = float(time_s)
-        pos = np.asarray(estimate_pos_ned, dtype=float)
-        vel = np.asarray(estimate_vel_ned, dtype=float)
-        if pos.shape != _SHAPE3:
-            pos = pos.reshape(-1)
-        if vel.shape != _SHAPE3:
-            vel = vel.reshape(-1)
+        pos, vel = estimate_pos_ned, estimate_vel_ned
+        # (an estimator's float64 3-vectors, every tick: taken as they are)
+        if not (pos.__class__ is np.ndarray and pos.dtype == _FLOAT64
+                and pos.shape == _SHAPE3):
+            pos = np.asarray(pos, dtype=float).reshape(-1)
+        if not (vel.__class__ is np.ndarray and vel.dtype == _FLOAT64
+                and vel.shape == _SHAPE3):
+            vel = np.asarray(vel, dtype=float).reshape(-1)
         if pos.shape == _SHAPE3 and vel.shape == _SHAPE3:
             yaw = float(estimate_yaw_rad)
             x0, x1, x2 = pos.tolist()

@@ -146,7 +146,14 @@ class Reference:
         # one read-only buffer (bytes) for the three vectors: half the cost of an array
         # built from nested tuples and then locked
         rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
-        return cls._assemble(rows[0:3], rows[3:6], rows[6:9], yaw_rad, yaw_rate_rad_s)
+        ref = object.__new__(cls)  # _assemble(), inline: once a tick
+        fields = ref.__dict__
+        fields["pos_ned"] = rows[0:3]
+        fields["vel_ned"] = rows[3:6]
+        fields["acc_ned"] = rows[6:9]
+        fields["yaw_rad"] = wrap_pi(float(yaw_rad))
+        fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
+        return ref
 
     @classmethod
     def _assemble(cls, pos_ned: np.ndarray, vel_ned: np.ndarray, acc_ned: np.ndarray,
@@ -254,13 +261,15 @@ class CubicSegment:
         _check_times(self.t0_s, self.duration_s, allow_inf=False)
         object.__setattr__(self, "start_pos_ned", _vec3(self.start_pos_ned, "start_pos_ned"))
         object.__setattr__(self, "end_pos_ned", _vec3(self.end_pos_ned, "end_pos_ned"))
-        # per-tick constants of evaluate(), as plain floats
-        object.__setattr__(self, "_start_f", tuple(self.start_pos_ned.tolist()))
-        object.__setattr__(self, "_delta_f",
-                           tuple((self.end_pos_ned - self.start_pos_ned).tolist()))
-        object.__setattr__(self, "_dyaw", wrap_pi(self.end_yaw_rad - self.start_yaw_rad))
+        # per-tick constants of evaluate(), as plain floats, in one tuple: t0, T, T^2, the
+        # start point, p1 - p0, the start yaw and the yaw change
+        dyaw = wrap_pi(self.end_yaw_rad - self.start_yaw_rad)
+        object.__setattr__(self, "_dyaw", dyaw)
         object.__setattr__(self, "_end_s", self.t0_s + self.duration_s)
-        object.__setattr__(self, "_duration_sq", self.duration_s**2)  # T^2
+        object.__setattr__(self, "_constants", (
+            float(self.t0_s), float(self.duration_s), self.duration_s**2,
+            *self.start_pos_ned.tolist(), *(self.end_pos_ned - self.start_pos_ned).tolist(),
+            float(self.start_yaw_rad), dyaw))
         object.__setattr__(self, "_end_ref", None)  # the hold at the end, once built
 
     @property
@@ -278,27 +287,25 @@ class CubicSegment:
 
     def evaluate(self, time_s: float) -> Reference:
         """Reference at ``time_s`` (s); clamped to the end points outside the segment."""
-        dyaw: float = self._dyaw  # type: ignore[attr-defined]
-        T = self.duration_s
+        t0, T, T_sq, p0x, p0y, p0z, dx, dy, dz, yaw0, dyaw = \
+            self._constants  # type: ignore[attr-defined]
         if T == 0.0 or time_s >= self._end_s:  # type: ignore[attr-defined]
             end_ref: Reference | None = self._end_ref  # type: ignore[attr-defined]
             if end_ref is None:  # the same reference every time: build it once
                 end_ref = Reference._hold_checked(self.end_pos_ned, self.start_yaw_rad + dyaw)
                 object.__setattr__(self, "_end_ref", end_ref)
             return end_ref
-        if time_s < self.t0_s:
+        if time_s < t0:
             return Reference._hold_checked(self.start_pos_ned, self.start_yaw_rad)
-        s = (time_s - self.t0_s) / T
+        s = (time_s - t0) / T
         s_sq = s**2
         h = 3.0 * s_sq - 2.0 * s**3  # shape function
         dh = (6.0 * s - 6.0 * s_sq) / T  # dh/dt
-        ddh = (6.0 - 12.0 * s) / self._duration_sq  # type: ignore[attr-defined]  # d2h/dt2
+        ddh = (6.0 - 12.0 * s) / T_sq  # d2h/dt2
         # p = p0 + (p1 - p0) h,  v = (p1 - p0) dh/dt,  a = (p1 - p0) d2h/dt2  (plain floats)
-        p0x, p0y, p0z = self._start_f  # type: ignore[attr-defined]
-        dx, dy, dz = self._delta_f  # type: ignore[attr-defined]
         return Reference._from_cubic(p0x + dx * h, p0y + dy * h, p0z + dz * h,
                                      dx * dh, dy * dh, dz * dh, dx * ddh, dy * ddh, dz * ddh,
-                                     self.start_yaw_rad + dyaw * h, dyaw * dh)
+                                     yaw0 + dyaw * h, dyaw * dh)
 
 
 @dataclass(frozen=True, eq=False)
@@ -431,6 +438,8 @@ class Trajectory:
         self._end_s = float(self._segments[-1].end_time_s)
         self._before_ref: Reference | None = None  # the rest references outside, once built
         self._after_ref: Reference | None = None
+        # the segment last evaluated: (from, until (s), segment), see evaluate()
+        self._current: tuple[float, float, Segment] | None = None
         self.arrival_times_s: tuple[float, ...] = tuple(float(t) for t in arrival_times_s)
 
     @property
@@ -467,8 +476,16 @@ class Trajectory:
             if self._after_ref is None:
                 self._after_ref = self._segments[-1].evaluate(self._end_s).at_rest()
             return self._after_ref
-        # start <= time_s < end: segment_index() without its clamps, which cannot apply
-        return self._segments[bisect.bisect_right(self._starts_s, time_s) - 1].evaluate(time_s)
+        # start <= time_s < end: the segment of the previous call while it lasts (a tick
+        # after another), else segment_index() without its clamps, which cannot apply
+        current = self._current
+        if current is None or not current[0] <= time_s < current[1]:
+            i = bisect.bisect_right(self._starts_s, time_s) - 1
+            segment = self._segments[i]
+            # from its start until the next segment's (the later one is active at a join)
+            current = self._current = (self._starts_s[i], self._starts_s[i + 1] if
+                                       i + 1 < len(self._starts_s) else self._end_s, segment)
+        return current[2].evaluate(time_s)
 
     @classmethod
     def from_waypoints(cls, t0_s: float, start_pos_ned: np.ndarray | Sequence[float],

@@ -250,6 +250,12 @@ class Navigator(MissionExecution):
                          acc_ned=np.array([0.0, 0.0, ref.acc_ned[2]]), yaw_rad=ref.yaw_rad,
                          yaw_rate_rad_s=ref.yaw_rate_rad_s)
 
+    @property
+    def arming_blockers(self) -> tuple[str, ...]:
+        """The reasons arming is forbidden for now (:meth:`set_arming_blocker`), in the order
+        they were first set."""
+        return tuple(self._blockers.values())
+
     def set_arming_blocker(self, key: str, reason: str | None) -> None:
         """Forbid arming for ``reason`` under ``key`` (None lifts it): the health monitor's
         verdicts (a motor detected failed) enter the pre-arm check this way."""

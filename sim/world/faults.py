@@ -102,6 +102,7 @@ class FaultEngine:
         self.events: list[FaultEvent] = []
         self._records: dict[int, FaultRecord] = {}
         self.arrays = FaultArrays(self._pwm_max)
+        self._true_loe_static: tuple[float, float, float, float] | None = None
         self.reset()
 
     # ------------------------------------------------------------------ lifecycle
@@ -301,10 +302,19 @@ class FaultEngine:
             command, so no gamma describes them. The override that decides the command
             (see :mod:`sim.world.fault_types`) decides between 1 and NaN.
         """
+        return np.array(self.true_loe_values(time_s))
+
+    def true_loe_values(self, time_s: float) -> tuple[float, float, float, float]:
+        """:meth:`true_loe` as four floats (a per-tick log's row). Between two changes of the
+        active faults it is worked out once when every effectiveness fault is a step (or
+        there is none): it cannot change with time then."""
         self._clock_s = time_s
         if time_s >= self._next_change_s:
             self._advance(time_s)
-        out = np.zeros(4)
+        values = self._true_loe_static
+        if values is not None:
+            return values
+        out = [0.0, 0.0, 0.0, 0.0]
         for idx, overrides, scalers in self._act_groups:
             if overrides and overrides[-1].kind != "float":
                 out[idx] = math.nan
@@ -317,7 +327,10 @@ class FaultEngine:
                 for rec in scalers:
                     eff *= 1.0 - fault_rules.gamma(rec, time_s, self.arrays)
                 out[idx] = 1.0 - eff
-        return out
+        values = (out[0], out[1], out[2], out[3])
+        if self._act_mode != 2:  # no fault, or only steps and total losses: constant
+            self._true_loe_static = values
+        return values
 
     # ------------------------------------------------------------------ the Python rules
     def actuator_inputs(self, time_s: float, pwm_cmd: np.ndarray) -> np.ndarray:
@@ -479,6 +492,7 @@ class FaultEngine:
         self._act_groups: list[MotorGroup] = groups
         self._act_gain = gain
         self._act_mode = 0 if not groups else (1 if static else 2)
+        self._true_loe_static = None  # true_loe_values's, while it cannot change
 
         self._sensor_groups: dict[str, SensorGroup] = {}
         sens_start = []

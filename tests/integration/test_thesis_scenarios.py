@@ -7,11 +7,15 @@ orderings the thesis reports (../shared/reference/thesis-notes.md, "what reprodu
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 from flown import metrics
 
+from fcu.autopilot import Autopilot
 from flightdata.metrics import attitude_rms_norm
 from flightdata.thesis import thesis_tables
+from sim.runner import fly
 from sim.scenario import load_scenario
 
 pytestmark = pytest.mark.slow
@@ -94,3 +98,21 @@ def test_faults_of_15_percent_or_more_are_detected_within_3_s(name: str) -> None
                 if d["kind"] in ("loe", "motor_lost") and d["motor"] == fault.motor
                 and d["time_s"] >= fault.start_s]
         assert hits and min(hits) <= 3.0, (fault, m["detections"])
+
+
+def test_a_declared_motor_blocks_arming_with_its_latest_estimated_loss() -> None:
+    # the blocker is rewritten only when the whole per cent it names changes: at every tick
+    # it must still read what the detector's latest estimate says
+    percents = []
+
+    def check(world: object, ap: Autopilot) -> None:
+        active, loe = ap.detector.active, ap.detector.loe
+        expected = tuple("; ".join(
+            f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
+            "restart the autopilot to clear" for m in active) for _ in active[:1])
+        assert ap.navigator.arming_blockers == expected, world
+        if active:
+            percents.append(round(100 * float(loe[active[0] - 1])))
+
+    fly(replace(load_scenario("lqg_abdob_loe"), duration_s=45.0), on_tick=check)
+    assert len(set(percents)) >= 2  # declared, and the estimate moved while it was

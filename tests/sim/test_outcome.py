@@ -74,6 +74,17 @@ def test_leaving_the_mission_area_by_five_metres_is_a_flyaway() -> None:
     assert judge.outcome.distance_m == pytest.approx(5.01)
 
 
+def test_the_farthest_excursion_outside_the_area_is_kept_until_the_landing() -> None:
+    judge = OutcomeJudge(MissionArea(AREA))
+    t = fly(judge, 1.0)  # inside the square
+    t = fly(judge, 0.5, t0=t, north=1.0 + 0.4)  # 0.4 m north of it
+    t = fly(judge, 0.5, t0=t, z=-0.6 - 0.25)  # back over it, 0.25 m above its top
+    t = fly(judge, 2.0, t0=t)  # inside again
+    touch(judge, touch(judge, t, 0.1), None, armed=False)
+    assert judge.outcome is not None and judge.outcome.kind == "landed"
+    assert judge.outcome.distance_m == pytest.approx(0.4, abs=1e-12)  # (a difference of m)
+
+
 def test_climbing_away_is_a_flyaway_too() -> None:
     judge = OutcomeJudge(MissionArea(AREA))
     fly(judge, 1.0, z=-0.6 - 5.2)

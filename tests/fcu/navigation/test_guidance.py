@@ -190,6 +190,28 @@ def test_hold_is_constant_and_reference_is_read_only() -> None:
         ref.pos_ned[0] = 0.0
 
 
+def test_a_trajectory_gives_the_same_reference_whatever_it_was_asked_before() -> None:
+    # it remembers the segment of its previous answer: asked in any order (back in time,
+    # at joins, across a zero-length leg), each answer is a fresh trajectory's
+    limits = SpeedLimits()
+    waypoints = [Waypoint(pos_ned=(1.0, 0.0, -0.6), hold_s=1.0),
+                 Waypoint(pos_ned=(1.0, 0.0, -0.6)),  # no move, no turn: no segment
+                 Waypoint(pos_ned=(1.0, 1.0, -0.6), yaw_rad=1.0)]
+
+    def build() -> Trajectory:
+        return Trajectory.from_waypoints(2.0, (0.0, 0.0, -0.6), waypoints, limits)
+
+    traj = build()
+    joins = [seg.t0_s for seg in traj.segments] + [traj.end_time_s]
+    rng = np.random.default_rng(7)
+    times = [*joins, *rng.uniform(1.0, traj.end_time_s + 1.0, 200), *reversed(joins)]
+    for t in times:
+        got, fresh = traj.evaluate(float(t)), build().evaluate(float(t))
+        for name in ("pos_ned", "vel_ned", "acc_ned"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(fresh, name))
+        assert (got.yaw_rad, got.yaw_rate_rad_s) == (fresh.yaw_rad, fresh.yaw_rate_rad_s)
+
+
 def test_trajectory_rejects_gaps_and_endless_middle_segments() -> None:
     a = HoldSegment(0.0, 1.0, np.zeros(3))
     with pytest.raises(ValueError, match="t0_s"):

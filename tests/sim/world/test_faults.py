@@ -235,6 +235,29 @@ def test_true_loe_mapping() -> None:
     np.testing.assert_array_equal(eng.true_loe(0.0), [0.0, 0.0, 0.0, math.nan])
 
 
+def test_true_loe_follows_step_faults_as_they_start_end_and_are_cleared() -> None:
+    # a step loss is worked out once while the faults stay as they are: what is kept must
+    # still follow every change of the active faults
+    eng = make_engine()
+    eng.schedule(ActuatorFault(motor=2, kind="loe", loe=0.4, start_s=1.0, end_s=3.0))
+    fid = eng.schedule(ActuatorFault(motor=2, kind="loe", loe=0.5, start_s=2.0))
+    seen = [eng.true_loe_values(t) for t in (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5)]
+    assert [v[1] for v in seen] == [0.0, 0.4, 0.4, 1.0 - 0.6 * 0.5, 1.0 - 0.6 * 0.5, 0.5, 0.5]
+    assert all(v[0] == v[2] == v[3] == 0.0 for v in seen)
+    np.testing.assert_array_equal(eng.true_loe(3.5), seen[-1])
+    eng.clear(fid, 4.0)
+    assert eng.true_loe_values(4.0) == (0.0, 0.0, 0.0, 0.0)
+
+
+def test_true_loe_of_a_varying_profile_is_not_kept() -> None:
+    eng = make_engine()
+    eng.schedule(ActuatorFault(motor=1, kind="loe", loe=0.6, start_s=0.0, profile="sinusoid",
+                               period_s=2.0))
+    # gamma = loe (1 - cos(2 pi t / T)) / 2: 0 at the start, loe half a period later
+    assert eng.true_loe_values(0.0)[0] == 0.0
+    assert eng.true_loe_values(1.0)[0] == pytest.approx(0.6, rel=1e-15)
+
+
 def test_structural_fault_changes_mass_only_from_its_start() -> None:
     eng = make_engine()
     fid = eng.schedule(StructuralFault(mass_loss_kg=0.3, start_s=22.0))  # thesis battery
