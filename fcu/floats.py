@@ -19,7 +19,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-_FLOAT64 = np.dtype(np.float64)
+_FLOAT64 = np.dtype(np.float64)  # compared with ==: arrays from cached kernels carry their own
+# float64 dtype object, for which `is` fails
 
 
 def clip(value: float, lo: float, hi: float) -> float:
@@ -48,7 +49,7 @@ def floats(value: np.ndarray | Sequence[float], n: int) -> list[float]:
 
     Raises ValueError when ``value`` does not hold exactly ``n`` entries.
     """
-    if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.shape == (n,):
+    if type(value) is np.ndarray and value.dtype == _FLOAT64 and value.shape == (n,):
         return value.tolist()
     if type(value) is tuple and len(value) == n:
         return [float(v) for v in value]

@@ -86,7 +86,7 @@ from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import AutopilotPort
 from fcu.mavlink.enums import FailureType, FailureUnit, Severity
 from fcu.mavlink.port import CommandResult, GeoPoint, SimTruth
-from flightdata.geometry import euler_from_quat
+from flightdata.geometry import euler_from_wxyz
 from flightdata.mission import MissionItem as NavItem
 from sim.outcome import MissionArea, OutcomeJudge, mission_area
 from sim.sim_params import SimParams
@@ -251,7 +251,8 @@ class SimVehicle:
         self._was_armed = armed
         world = self.world
         x = world.plant.state
-        self.judge.observe(world.time_s, x[0:3], euler_from_quat(x[6:10]),
+        w, qx, qy, qz = x[6:10].tolist()
+        self.judge.observe(world.time_s, x[0:3], euler_from_wxyz(w, qx, qy, qz),
                            world.plant.on_ground, touchdowns, armed)
         for outcome in self.judge.drain():
             self.port.post_record(outcome)

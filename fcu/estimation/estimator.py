@@ -559,7 +559,7 @@ class TickEstimator:
         time_s = float(time_s)
         cs = self._set
         u = pwm_applied
-        if type(u) is not np.ndarray or u.dtype is not _FLOAT64 or u.shape != (4,):
+        if type(u) is not np.ndarray or u.dtype != _FLOAT64 or u.shape != (4,):
             u = np.asarray(pwm_applied, dtype=float).reshape(4)
         out = np.empty(cs.tick_size)  # the estimate's own array, and the screening's
         self._tick(time_s, u, cs, cs.measurements(batches), cs.exclusion(excluded),

@@ -492,7 +492,7 @@ def _sample_arrays(samples: Iterable[SensorSampleLike], kinds: Collection[str]
         if name not in kinds:
             continue
         value = sample.value
-        if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.ndim == 1:
+        if type(value) is np.ndarray and value.dtype == _FLOAT64 and value.ndim == 1:
             vals = value.tolist()
         else:
             vals = np.asarray(value, dtype=float).reshape(-1).tolist()

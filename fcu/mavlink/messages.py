@@ -153,14 +153,14 @@ _F64 = np.dtype(np.float64)
 
 def _floats(v: np.ndarray | Sequence[float]) -> list[float]:
     """``[float(x) for x in v]``; a float64 array in one call."""
-    if type(v) is np.ndarray and v.dtype is _F64:
+    if type(v) is np.ndarray and v.dtype == _F64:
         return v.tolist()
     return [float(x) for x in v]
 
 
 def _xyz(v: np.ndarray | Sequence[float]) -> list[float]:
     """``[float(v[0]), float(v[1]), float(v[2])]``; a float64 array of 3 in one call."""
-    if type(v) is np.ndarray and v.dtype is _F64 and v.shape == (3,):
+    if type(v) is np.ndarray and v.dtype == _F64 and v.shape == (3,):
         return v.tolist()
     return [float(v[0]), float(v[1]), float(v[2])]
 
