@@ -253,15 +253,3 @@ def test_a_registered_figure_is_drawn_saved_and_embedded(flight: FlightResult,
     assert figure_kinds() == FIGURE_KINDS
     with pytest.raises(ValueError, match="'xyz' is registered twice"):
         figure("xyz", "again")(xyz_figure)
-
-
-def test_importing_the_toolkit_loads_neither_matplotlib_nor_rerun() -> None:
-    code = ("import sys\n"
-            "import flightdata.figures, flightdata.recording, flightdata.report\n"
-            "import flightdata.metrics, flightdata.series, flightdata.geometry\n"
-            "print(sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('matplotlib', 'rerun')))\n")
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
-                          text=True, timeout=120)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == "[]"
