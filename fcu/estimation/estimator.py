@@ -31,7 +31,7 @@ them recover) but never applied. :attr:`TickEstimator.screening` keeps the tick'
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Iterable, Iterator, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -56,6 +56,7 @@ from fcu.estimation.state import (
     STATE_DIM,
     THRUST,
     Z_INDEX,
+    BuiltOnRead,
     FloatArray,
     GroupedSamples,
     InitialUncertainty,
@@ -127,7 +128,7 @@ class ChannelCheck(NamedTuple):
         return self.nis > self.gate
 
 
-class Screening(Mapping[str, ChannelCheck]):
+class Screening(BuiltOnRead[ChannelCheck]):
     """One tick's screening (module docstring): a mapping of each screened sensor's
     :class:`ChannelCheck`, built on first read, over the compiled screening's table.
 
@@ -157,7 +158,7 @@ class Screening(Mapping[str, ChannelCheck]):
                                                            tail[n_ch:], strict=True)
                 if code != ABSENT]
 
-    def _check_dict(self) -> dict[str, ChannelCheck]:
+    def _built(self) -> dict[str, ChannelCheck]:
         checks = self._checks
         if checks is None:
             cs, screen = self.channel_set, self.screen
@@ -168,15 +169,6 @@ class Screening(Mapping[str, ChannelCheck]):
                 checks[sensor] = ChannelCheck(sensor, nis, gate, status, screen, i0, i1,
                                               cs.n_rows)
         return checks
-
-    def __getitem__(self, sensor: str) -> ChannelCheck:
-        return self._check_dict()[sensor]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._check_dict())
-
-    def __len__(self) -> int:
-        return len(self._check_dict())
 
 
 _DENSITY_NAMES = ("pos", "accel", "euler", "ang_accel", "thrust")

@@ -34,7 +34,7 @@ import functools
 import math
 from collections.abc import Collection, Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import cast
+from typing import TypeVar, cast
 
 import numpy as np
 from numba import njit
@@ -262,7 +262,29 @@ class SampleBatch:
                 f"count={self.count!r})")
 
 
-class GroupedSamples(Mapping[str, SampleBatch]):
+_V = TypeVar("_V")
+
+
+class BuiltOnRead(Mapping[str, _V]):
+    """A read-only mapping by sensor whose dict a subclass builds on first read
+    (:meth:`_built`, once): per-tick results that most ticks never read as records."""
+
+    __slots__ = ()
+
+    def _built(self) -> dict[str, _V]:
+        raise NotImplementedError
+
+    def __getitem__(self, sensor: str) -> _V:
+        return self._built()[sensor]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._built())
+
+    def __len__(self) -> int:
+        return len(self._built())
+
+
+class GroupedSamples(BuiltOnRead[SampleBatch]):
     """One tick's samples averaged per kind (:func:`group_samples`): a mapping of
     :class:`SampleBatch` by sensor kind, in the order of their first samples, over the array
     of :func:`group_sample_arrays`, for readers that want no object per kind.
@@ -303,7 +325,7 @@ class GroupedSamples(Mapping[str, SampleBatch]):
         n = len(self.slot_names)
         return self.flat[:n * self.width].reshape(n, self.width)
 
-    def _batch_dict(self) -> dict[str, SampleBatch]:
+    def _built(self) -> dict[str, SampleBatch]:
         """The batches by kind, in the order of their first samples (built once)."""
         batches = self._batches
         if batches is None:
@@ -321,15 +343,6 @@ class GroupedSamples(Mapping[str, SampleBatch]):
                     batches[name] = SampleBatch(flat[at:at + axes[s]], rows[at + width - 3],
                                                 int(rows[at + width - 2]))
         return batches
-
-    def __getitem__(self, sensor: str) -> SampleBatch:
-        return self._batch_dict()[sensor]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._batch_dict())
-
-    def __len__(self) -> int:
-        return len(self._batch_dict())
 
     def pop(self, sensor: str, default: SampleBatch | None = None) -> SampleBatch | None:
         """Remove ``sensor``'s batch and return it (``default`` when there is none)."""
