@@ -270,6 +270,7 @@ class GroundStation(ParameterClient):
         """Arm (COMPONENT_ARM_DISARM p1 = 1); a HEARTBEAT showing it armed also confirms."""
         self.command(_M.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,), what="arm",
                      applied=lambda: self.analyzer.armed is True)
+        self.analyzer.note_armed()  # accepted (else it raised)
 
     def disarm(self, force: bool = False) -> None:
         """Disarm (p2 = 21196 forces it in flight)."""

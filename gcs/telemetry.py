@@ -246,6 +246,13 @@ class TelemetryReader:
         self.home = (int(msg.latitude), int(msg.longitude), int(msg.altitude),
                      float(msg.x), float(msg.y), float(msg.z))
 
+    def note_armed(self) -> None:
+        """The vehicle accepted an arm command: armed from now on, until a HEARTBEAT says
+        otherwise (the latest one seen may have left before the command arrived)."""
+        if self.armed is not True:
+            self._emit(self.clock_s, "ARM", "armed")
+            self.armed = True
+
     def _on_heartbeat(self, msg: MAVLinkMessage) -> None:
         self.vehicle_booting = int(msg.system_status) == _M.MAV_STATE_BOOT
         armed = bool(int(msg.base_mode) & _M.MAV_MODE_FLAG_SAFETY_ARMED)
