@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import mul_sparse_left, symmetrize
+from fcu.estimation.small_matrix import mul_sparse_left, symmetrize, transpose_into
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -338,12 +338,14 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     mul_sparse_left(ad2, ad, ad)
     mul_sparse_left(ad3, ad2, ad)
     mul_sparse_left(ad4, ad3, ad)
-    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24
+    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row: off the
+    # diagonal with the identity's 0, then the diagonal entry with its 1)
     for i in range(n):
         for j in range(n):
-            eye_ij = 1.0 if i == j else 0.0
-            f_mat[i, j] = (eye_ij + ad[i, j] + ad2[i, j] / 2.0 + ad3[i, j] / 6.0
+            f_mat[i, j] = (0.0 + ad[i, j] + ad2[i, j] / 2.0 + ad3[i, j] / 6.0
                            + ad4[i, j] / 24.0)
+        f_mat[i, i] = (1.0 + ad[i, i] + ad2[i, i] / 2.0 + ad3[i, i] / 6.0
+                       + ad4[i, i] / 24.0)
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
     for i in range(n):
@@ -353,13 +355,13 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     for c, weight in ((0.5 - r, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + r, 5.0 / 18.0)):
         c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
         for i in range(n):
+            # Phi = I + A dt c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24
             for j in range(n):
-                eye_ij = 1.0 if i == j else 0.0
-                # Phi = I + A dt c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24
-                phi_ij = (eye_ij + ad[i, j] * c + ad2[i, j] * c2 + ad3[i, j] * c3
-                          + ad4[i, j] * c4)
-                phi[i, j] = phi_ij
-                phi_t[j, i] = phi_ij
+                phi[i, j] = (0.0 + ad[i, j] * c + ad2[i, j] * c2 + ad3[i, j] * c3
+                             + ad4[i, j] * c4)
+            phi[i, i] = (1.0 + ad[i, i] * c + ad2[i, i] * c2 + ad3[i, i] * c3
+                         + ad4[i, i] * c4)
+        transpose_into(phi_t, phi)
         # Q += w Phi Qc Phi':  Q[i, :] += (w Phi[i, k] Qc[k]) Phi'[k, :]  (Qc diagonal)
         for i in range(n):
             for k in range(n):

@@ -12,10 +12,10 @@ from __future__ import annotations
 from numba import njit
 
 from fcu.estimation.small_matrix import (
-    add_mul_vec,
-    mul_at_into,
-    mul_bt_sparse_into,
+    mul_at_t_into,
+    mul_bt_nonzero_into,
     mul_sparse_left,
+    nonzero_columns,
     spd_inverse,
     symmetrize,
 )
@@ -26,7 +26,7 @@ drop_stale_kernels(__file__)  # kalman_update_into compiles in the kernels of sm
 
 __all__ = ["UPDATE_SCRATCH", "kalman_update_into"]
 
-UPDATE_SCRATCH = 4 * 16 * 16
+UPDATE_SCRATCH = 5 * 16 * 16 + 16 * 17
 """Size of the scratch :func:`kalman_update_into` works in (n, m <= 16)."""
 
 
@@ -49,37 +49,52 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     low = scratch[2 * 16 * 16:2 * 16 * 16 + m * m].reshape(m, m)
     low_inv = scratch[2 * 16 * 16 + m * m:2 * 16 * 16 + 2 * m * m].reshape(m, m)
     g = scratch[3 * 16 * 16:3 * 16 * 16 + n * m].reshape(n, m)
+    k_t = scratch[4 * 16 * 16:4 * 16 * 16 + m * n].reshape(m, n)  # K', rows along the state
+    nz = scratch[5 * 16 * 16:5 * 16 * 16 + m * (n + 1)].reshape(m, n + 1)
+    # the non-zero entries of each row of H (the products below skip the others)
+    nonzero_columns(nz, h_mat)
     # (P H')' = H P   (P symmetric)
     mul_sparse_left(ut, h_mat, p_mat)
     # S = H P H' + R
-    mul_bt_sparse_into(s_mat, ut, h_mat)
+    mul_bt_nonzero_into(s_mat, ut, h_mat, nz)
     for r in range(m):
         for q in range(m):
             s_mat[r, q] += r_mat[r, q]
     # S^-1
     spd_inverse(s_mat, m, s_inv, low, low_inv)
-    # K = P H' S^-1 = (H P)' S^-1
-    mul_at_into(k_gain, ut, s_inv)
+    # K = P H' S^-1 = (H P)' S^-1, kept as K' = S^-1' (H P)
+    mul_at_t_into(k_t, ut, s_inv)
     # x = x + K y
-    add_mul_vec(x, k_gain, y)
+    for i in range(n):
+        acc = 0.0
+        for r in range(m):
+            acc += k_t[r, i] * y[r]
+        x[i] += acc
     # M = (I - K H) P = P - K (H P)
     for i in range(n):
         for j in range(n):
             m_mat[i, j] = p_mat[i, j]
         for r in range(m):
-            kir = k_gain[i, r]
+            kir = k_t[r, i]
             for j in range(n):
                 m_mat[i, j] -= kir * ut[r, j]
     # G = M H'
-    mul_bt_sparse_into(g, m_mat, h_mat)
+    mul_bt_nonzero_into(g, m_mat, h_mat, nz)
     # P = M (I - K H)' + K R K' = M + (K R - M H') K'   (Joseph form), made symmetric
+    # (zero entries of R, off its diagonal in both filters, skipped)
     for i in range(n):
         for j in range(n):
             p_mat[i, j] = m_mat[i, j]
         for r in range(m):
             kr = -g[i, r]
             for q in range(m):
-                kr += k_gain[i, q] * r_mat[q, r]
+                r_qr = r_mat[q, r]
+                if r_qr != 0.0:
+                    kr += k_t[q, i] * r_qr
             for j in range(n):
-                p_mat[i, j] += kr * k_gain[j, r]
+                p_mat[i, j] += kr * k_t[r, j]
     symmetrize(p_mat)
+    # K
+    for i in range(n):
+        for r in range(m):
+            k_gain[i, r] = k_t[r, i]

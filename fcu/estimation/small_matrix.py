@@ -15,7 +15,8 @@ from numba import njit
 
 from fcu.estimation.state import FloatArray
 
-__all__ = ["add_mul_vec", "mul_at_into", "mul_bt_sparse_into", "mul_into", "mul_sparse_left",
+__all__ = ["add_mul_vec", "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into",
+           "mul_bt_sparse_into", "mul_into", "mul_sparse_left", "nonzero_columns",
            "spd_inverse", "spd_quadratic", "sub_mul_vec_into", "symmetrize", "transpose_into"]
 
 
@@ -63,6 +64,56 @@ def mul_at_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             acc = 0.0
             for k in range(kk):
                 acc += a[k, i] * b[k, j]
+            out[i, j] = acc
+
+
+@njit(cache=True, error_model="numpy")
+def mul_at_t_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
+    """``out = (a' b)' = b' a`` for ``a`` (k, n), ``b`` (k, w): :func:`mul_at_into`'s result
+    transposed, to the bit (each entry the same products summed over ``k`` in the same order
+    from 0), with its inner loop along the rows of ``a`` (``out`` (w, n) must not share memory
+    with ``a`` or ``b``)."""
+    kk, n = a.shape
+    w = b.shape[1]
+    for j in range(w):
+        for i in range(n):
+            out[j, i] = 0.0
+        # out[j, :] = sum_k b[k, j] a[k, :]
+        for k in range(kk):
+            b_kj = b[k, j]
+            for i in range(n):
+                out[j, i] += b_kj * a[k, i]
+
+
+@njit(cache=True, error_model="numpy")
+def nonzero_columns(nz: FloatArray, s: FloatArray) -> None:
+    """Index of the non-zero entries of each row of ``s`` (w, k), for
+    :func:`mul_bt_nonzero_into`: ``nz[r, 0]`` their count, ``nz[r, 1:1 + count]`` their
+    columns in ascending order (``nz``: (w, k + 1), small integers held exactly as floats)."""
+    w, kk = s.shape
+    for r in range(w):
+        count = 0
+        for k in range(kk):
+            if s[r, k] != 0.0:
+                count += 1
+                nz[r, count] = k
+        nz[r, 0] = count
+
+
+@njit(cache=True, error_model="numpy")
+def mul_bt_nonzero_into(out: FloatArray, a: FloatArray, s: FloatArray, nz: FloatArray) -> None:
+    """``out = a s'`` as :func:`mul_bt_sparse_into` (the same products in the same order, zero
+    ``s[j, k]`` skipped) with the non-zero columns of ``s`` listed beforehand in ``nz``
+    (:func:`nonzero_columns`), so the zeros are not visited at all."""
+    n = a.shape[0]
+    w = s.shape[0]
+    for i in range(n):
+        for j in range(w):
+            # out[i, j] = sum_k a[i, k] s[j, k]   (over the non-zero s[j, k])
+            acc = 0.0
+            for t in range(int(nz[j, 0])):
+                k = int(nz[j, 1 + t])
+                acc += a[i, k] * s[j, k]
             out[i, j] = acc
 
 

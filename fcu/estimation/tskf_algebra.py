@@ -32,7 +32,7 @@ drop_stale_kernels(__file__)  # compiles in the kernels of kalman_update and sma
 __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output_into",
            "tskf_predict_into", "tskf_update_into"]
 
-PREDICT_SCRATCH = 2 * 16 * 16 + 4 * 16 * 4 + 4 * 4 * 4 + 16
+PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16
 """Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
 TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 3 * 16 * 16 + 3 * 16 * 4 + 2 * 16 * 16
 """Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
@@ -86,6 +86,12 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     low = scratch[o:o + 2 * n_g * n_g].reshape(2, n_g, n_g)
     o += 2 * n_g * n_g
     x_pred = scratch[o:o + n]
+    o += n
+    w_t = scratch[o:o + n_g * n].reshape(n_g, n)  # W', V_{k+1|k}': rows along the state
+    o += n_g * n
+    v_pred_t = scratch[o:o + n_g * n].reshape(n_g, n)
+    o += n_g * n
+    row = scratch[o:o + n]
     # W_k = A_k V_{k|k} + E_k,  E_k = -B_k diag(u_k)   (eq. 6.21, 6.6 discrete)
     mul_sparse_left(w, a, v)
     for i in range(n):
@@ -122,13 +128,20 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     mul_sparse_left(ap, a, p_x)
     transpose_into(ap_t, ap)
     mul_sparse_left(p_x, a, ap_t)
-    # P^x_{k+1|k} = A P^x A' + Q^x + W P^gamma_{k|k} W' - V P^gamma_{k+1|k} V'   (eq. 6.16)
+    # P^x_{k+1|k} = A P^x A' + Q^x + W P^gamma_{k|k} W' - V P^gamma_{k+1|k} V'   (eq. 6.16),
+    # a row at a time: Q^x[i, :] + sum_g (W P^gamma)[i, g] W'[g, :] - (V P^gamma)[i, g] V'[g, :]
+    transpose_into(w_t, w)
+    transpose_into(v_pred_t, v_pred)
     for i in range(n):
         for j in range(n):
-            acc = q_x[i, j]
-            for g in range(n_g):
-                acc += wp[i, g] * w[j, g] - vp[i, g] * v_pred[j, g]
-            p_x[i, j] += acc
+            row[j] = q_x[i, j]
+        for g in range(n_g):
+            wp_ig = wp[i, g]
+            vp_ig = vp[i, g]
+            for j in range(n):
+                row[j] += wp_ig * w_t[g, j] - vp_ig * v_pred_t[g, j]
+        for j in range(n):
+            p_x[i, j] += row[j]
     symmetrize(p_x)
     for g in range(n_g):
         for h in range(n_g):
