@@ -48,7 +48,12 @@ from fcu.estimation.estimator import (
     TickEstimator,
 )
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
-from fcu.estimation.small_matrix import mul_sparse_left, symmetrize, transpose_into
+from fcu.estimation.small_matrix import (
+    mul_nonzero_left,
+    nonzero_columns,
+    symmetrize,
+    transpose_into,
+)
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -110,31 +115,34 @@ def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: floa
     f_mat = np.empty((N, N))
     q_mat = np.empty((N, N))
     predict_covariance_into(x_next, p_next, u, dt, p, on_ground, qc_diag, f_mat, q_mat,
-                            np.empty(TRANSITION_SCRATCH))
+                            np.empty(TRANSITION_SCRATCH), np.empty((N, N + 1)))
     return x_next, f_mat, q_mat, p_next
 
 
 @njit(cache=True, error_model="numpy")
 def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
                             p: FloatArray, on_ground: bool, qc_diag: FloatArray,
-                            f_mat: FloatArray, q_mat: FloatArray, scratch: FloatArray) -> None:
+                            f_mat: FloatArray, q_mat: FloatArray, scratch: FloatArray,
+                            nz_f: FloatArray) -> None:
     """One filterpy ``predict`` in place: ``x`` (16,), ``p_mat`` (16, 16) become the prior,
     ``F`` and ``Q`` are written to ``f_mat``, ``q_mat`` (``scratch``: shape
-    :data:`~fcu.estimation.ekf_model.TRANSITION_SCRATCH`).
+    :data:`~fcu.estimation.ekf_model.TRANSITION_SCRATCH`; ``nz_f``: (16, 17), written with
+    the non-zero columns of ``F``).
 
     ``F`` is block upper triangular like ``A``: ``F P F'`` is taken as ``F (F P)'`` (``P``
-    symmetric), two products by the sparse ``F``.
+    symmetric), two products by the sparse ``F`` (its non-zero entries listed once).
     """
     # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
     discrete_transition_into(x, f_mat, q_mat, x, u, dt, p, on_ground, qc_diag, scratch)
     x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
     fp, fp_t = scratch[0], scratch[1]
+    nonzero_columns(nz_f, f_mat)
     # F P
-    mul_sparse_left(fp, f_mat, p_mat)
+    mul_nonzero_left(fp, f_mat, nz_f, p_mat)
     # (F P)' = P F'
     transpose_into(fp_t, fp)
     # P = F (P F') + Q, made symmetric
-    mul_sparse_left(p_mat, f_mat, fp_t)
+    mul_nonzero_left(p_mat, f_mat, nz_f, fp_t)
     for i in range(N):
         for j in range(N):
             p_mat[i, j] += q_mat[i, j]
@@ -170,7 +178,8 @@ _SC_R = _SC_Y + MAX_ROWS  # R (MAX_ROWS x MAX_ROWS)
 _SC_S = _SC_R + MAX_ROWS * MAX_ROWS  # S, S^-1 (MAX_ROWS x MAX_ROWS each)
 _SC_S_INV = _SC_S + MAX_ROWS * MAX_ROWS
 _SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K (N x MAX_ROWS)
-SCRATCH_SIZE = _SC_K + N * MAX_ROWS
+_SC_NZ_F = _SC_K + N * MAX_ROWS  # F's non-zero columns (N x (N + 1))
+SCRATCH_SIZE = _SC_NZ_F + N * (N + 1)
 # the estimator's constants (ekf_tick): one float array, these offsets
 N_PARAMS = 9  # entries of pack_params' model
 _C_PARAMS = 0  # the packed model (pack_params)
@@ -242,10 +251,11 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         f_mat = work[_F:_F + NN].reshape(N, N)
         q_mat = work[_Q:_Q + NN].reshape(N, N)
         sc_tr = scratch[_SC_TRANSITION:_SC_TRANSITION + 8 * NN].reshape(8, N, N)
+        nz_f = scratch[_SC_NZ_F:_SC_NZ_F + N * (N + 1)].reshape(N, N + 1)
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
             predict_covariance_into(x, p_mat, u, dt / n_sub, p, on_ground, qc_diag, f_mat,
-                                    q_mat, sc_tr)
+                                    q_mat, sc_tr, nz_f)
     for i in range(N + NN):  # the prior: x, P
         work[_X_PRIOR + i] = work[_X + i]
     # screened against the prior; on the ground the accelerometer is skipped

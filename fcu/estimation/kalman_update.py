@@ -45,10 +45,10 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     """
     n, m = p_mat.shape[0], y.shape[0]
     ut = scratch[:m * n].reshape(m, n)
-    m_mat = scratch[16 * 16:16 * 16 + n * n].reshape(n, n)
+    m_row = scratch[16 * 16:16 * 16 + n]  # a row of M
     low = scratch[2 * 16 * 16:2 * 16 * 16 + m * m].reshape(m, m)
     low_inv = scratch[2 * 16 * 16 + m * m:2 * 16 * 16 + 2 * m * m].reshape(m, m)
-    g = scratch[3 * 16 * 16:3 * 16 * 16 + n * m].reshape(n, m)
+    g_row = scratch[3 * 16 * 16:3 * 16 * 16 + m]  # a row of G
     k_t = scratch[4 * 16 * 16:4 * 16 * 16 + m * n].reshape(m, n)  # K', rows along the state
     nz = scratch[5 * 16 * 16:5 * 16 * 16 + m * (n + 1)].reshape(m, n + 1)
     # the non-zero entries of each row of H (the products below skip the others)
@@ -70,29 +70,35 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
         for r in range(m):
             acc += k_t[r, i] * y[r]
         x[i] += acc
-    # M = (I - K H) P = P - K (H P)
-    for i in range(n):
-        for j in range(n):
-            m_mat[i, j] = p_mat[i, j]
-        for r in range(m):
-            kir = k_t[r, i]
-            for j in range(n):
-                m_mat[i, j] -= kir * ut[r, j]
-    # G = M H'
-    mul_bt_nonzero_into(g, m_mat, h_mat, nz)
-    # P = M (I - K H)' + K R K' = M + (K R - M H') K'   (Joseph form), made symmetric
+    # row by row (row i of M and G needs only row i of P, and H P is already taken):
+    # M = (I - K H) P = P - K (H P);  G = M H';
+    # P = M (I - K H)' + K R K' = M + (K R - M H') K'   (Joseph form)
     # (zero entries of R, off its diagonal in both filters, skipped)
     for i in range(n):
         for j in range(n):
-            p_mat[i, j] = m_mat[i, j]
+            m_row[j] = p_mat[i, j]
         for r in range(m):
-            kr = -g[i, r]
+            kir = k_t[r, i]
+            for j in range(n):
+                m_row[j] -= kir * ut[r, j]
+        for r in range(m):
+            # G[i, r] = sum_k M[i, k] H[r, k]   (over the non-zero H[r, k])
+            acc = 0.0
+            for t in range(int(nz[r, 0])):
+                k = int(nz[r, 1 + t])
+                acc += m_row[k] * h_mat[r, k]
+            g_row[r] = acc
+        for j in range(n):
+            p_mat[i, j] = m_row[j]
+        for r in range(m):
+            kr = -g_row[r]
             for q in range(m):
                 r_qr = r_mat[q, r]
                 if r_qr != 0.0:
                     kr += k_t[q, i] * r_qr
             for j in range(n):
                 p_mat[i, j] += kr * k_t[r, j]
+    # made symmetric
     symmetrize(p_mat)
     # K
     for i in range(n):

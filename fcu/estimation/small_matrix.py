@@ -16,7 +16,8 @@ from numba import njit
 from fcu.estimation.state import FloatArray
 
 __all__ = ["add_mul_vec", "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into",
-           "mul_bt_sparse_into", "mul_into", "mul_sparse_left", "nonzero_columns",
+           "mul_bt_sparse_into", "mul_into", "mul_nonzero_left", "mul_sparse_left",
+           "nonzero_columns",
            "spd_inverse", "spd_quadratic", "sub_mul_vec_into", "symmetrize", "transpose_into"]
 
 
@@ -35,6 +36,24 @@ def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             if aik != 0.0:
                 for j in range(w):
                     out[i, j] += aik * b[k, j]
+
+
+@njit(cache=True, error_model="numpy")
+def mul_nonzero_left(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatArray) -> None:
+    """``out = a b`` as :func:`mul_sparse_left` (the same products in the same order, zero
+    ``a[i, k]`` skipped) with the non-zero columns of each row of ``a`` listed beforehand in
+    ``nz`` (:func:`nonzero_columns`): for a left factor used more than once."""
+    n = a.shape[0]
+    w = b.shape[1]
+    for i in range(n):
+        for j in range(w):
+            out[i, j] = 0.0
+        # out[i, :] = sum_k a[i, k] b[k, :]   (over the non-zero a[i, k])
+        for t in range(int(nz[i, 0])):
+            k = int(nz[i, 1 + t])
+            aik = a[i, k]
+            for j in range(w):
+                out[i, j] += aik * b[k, j]
 
 
 @njit(cache=True, error_model="numpy")
