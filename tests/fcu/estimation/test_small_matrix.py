@@ -9,9 +9,13 @@ from fcu.estimation.ekf_model import model_jacobian, pack_params
 from fcu.estimation.small_matrix import (
     add_mul_vec,
     mul_at_into,
+    mul_at_t_into,
+    mul_bt_nonzero_into,
     mul_bt_sparse_into,
     mul_into,
+    mul_nonzero_left,
     mul_sparse_left,
+    nonzero_columns,
     spd_inverse,
     spd_quadratic,
     sub_mul_vec_into,
@@ -100,3 +104,38 @@ def test_residual_and_gain_products_of_vectors() -> None:
     x_after = x.copy()
     add_mul_vec(x_after, k, y)
     np.testing.assert_allclose(x_after, x + k @ y, rtol=1e-13, atol=1e-14)
+
+
+def test_listed_non_zero_products_are_the_sparse_products_to_the_bit() -> None:
+    x = np.zeros(16)
+    x[12:16] = 3.5
+    x[6:12] = [0.05, -0.04, 0.3, 0.2, -0.1, 0.05]
+    a = model_jacobian(x, pack_params(VehicleModel()), False) * 0.01  # the filters' pattern
+    b = RNG.normal(size=(16, 16))
+    nz = np.full((16, 17), np.nan)
+    nonzero_columns(nz, a)
+    for r in range(16):  # the count, then the non-zero columns in ascending order
+        cols = np.flatnonzero(a[r])
+        assert nz[r, 0] == len(cols)
+        np.testing.assert_array_equal(nz[r, 1:1 + len(cols)], cols)
+    ref, out = np.empty((16, 16)), np.full((16, 16), np.nan)
+    mul_sparse_left(ref, a, b)
+    mul_nonzero_left(out, a, nz, b)
+    np.testing.assert_array_equal(out, ref)  # the same products in the same order
+    h = a[[6, 9, 11]]  # three measurement-like rows
+    nz_h = np.full((3, 17), np.nan)
+    nonzero_columns(nz_h, h)
+    ref, out = np.empty((16, 3)), np.full((16, 3), np.nan)
+    mul_bt_sparse_into(ref, b, h)
+    mul_bt_nonzero_into(out, b, h, nz_h)
+    np.testing.assert_array_equal(out, ref)
+
+
+def test_transposed_product_is_the_product_transposed_to_the_bit() -> None:
+    for k, n, w in ((3, 16, 3), (10, 16, 10), (1, 16, 1)):
+        a, b = RNG.normal(size=(k, n)), RNG.normal(size=(k, w))
+        ref = np.empty((n, w))
+        mul_at_into(ref, a, b)
+        out = np.full((w, n), np.nan)
+        mul_at_t_into(out, a, b)
+        np.testing.assert_array_equal(out, ref.T)
