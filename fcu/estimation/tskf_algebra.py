@@ -18,7 +18,9 @@ from fcu.estimation.small_matrix import (
     add_mul_vec,
     mul_at_into,
     mul_into,
+    mul_nonzero_left,
     mul_sparse_left,
+    nonzero_columns,
     spd_inverse,
     sub_mul_vec_into,
     symmetrize,
@@ -32,7 +34,7 @@ drop_stale_kernels(__file__)  # compiles in the kernels of kalman_update and sma
 __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output_into",
            "tskf_predict_into", "tskf_update_into"]
 
-PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16
+PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16 + 16 * 17
 """Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
 TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 3 * 16 * 16 + 3 * 16 * 4 + 2 * 16 * 16
 """Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
@@ -92,8 +94,12 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     v_pred_t = scratch[o:o + n_g * n].reshape(n_g, n)
     o += n_g * n
     row = scratch[o:o + n]
+    o += n
+    nz_a = scratch[o:o + n * (n + 1)].reshape(n, n + 1)
+    # the non-zero entries of A, listed once for its four products below
+    nonzero_columns(nz_a, a)
     # W_k = A_k V_{k|k} + E_k,  E_k = -B_k diag(u_k)   (eq. 6.21, 6.6 discrete)
-    mul_sparse_left(w, a, v)
+    mul_nonzero_left(w, a, nz_a, v)
     for i in range(n):
         for g in range(n_g):
             w[i, g] += -b[i, g] * u[g]
@@ -110,10 +116,9 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     # x_bar_{k+1|k} = A x_bar + B u + g_k + (W - V_{k+1|k}) gamma_hat   (eq. 6.15)
     for i in range(n):
         acc = 0.0
-        for k in range(n):
-            a_ik = a[i, k]
-            if a_ik != 0.0:
-                acc += a_ik * x_bar[k]
+        for t in range(int(nz_a[i, 0])):
+            k = int(nz_a[i, 1 + t])
+            acc += a[i, k] * x_bar[k]
         for g in range(n_g):
             acc += b[i, g] * u[g]
         acc += g_d[i]
@@ -125,9 +130,9 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     # V_{k+1|k} P^gamma_{k+1|k}
     mul_into(vp, v_pred, p_gamma_pred)
     # A P^x A' = A (A P^x)'   (P^x symmetric; two products by the sparse A)
-    mul_sparse_left(ap, a, p_x)
+    mul_nonzero_left(ap, a, nz_a, p_x)
     transpose_into(ap_t, ap)
-    mul_sparse_left(p_x, a, ap_t)
+    mul_nonzero_left(p_x, a, nz_a, ap_t)
     # P^x_{k+1|k} = A P^x A' + Q^x + W P^gamma_{k|k} W' - V P^gamma_{k+1|k} V'   (eq. 6.16),
     # a row at a time: Q^x[i, :] + sum_g (W P^gamma)[i, g] W'[g, :] - (V P^gamma)[i, g] V'[g, :]
     transpose_into(w_t, w)
