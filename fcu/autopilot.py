@@ -189,6 +189,10 @@ class Autopilot:
         self._motors_blocked = True  # the motors' arming blocker may be set
         # the motors and lost per cent the blocker names (None: not set since the reset)
         self._motors_blocker: tuple[tuple[int, ...], list[int]] | None = None
+        # the latest estimate _hover_regime judged, and its verdict: the estimate of a tick
+        # is the next tick's prior, judged again then
+        self._regime_of: StateEstimate | None = None
+        self._regime = False
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
@@ -479,9 +483,13 @@ class Autopilot:
 
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""
+        if estimate is self._regime_of:  # (an estimate's arrays are never changed)
+            return self._regime
         roll, pitch, _ = estimate.euler_rad.tolist()
-        return (abs(float(estimate.rate_frd[2])) < self._valid_yaw_rate_rad_s
-                and abs(roll) < self._valid_tilt_rad and abs(pitch) < self._valid_tilt_rad)
+        regime = (abs(float(estimate.rate_frd[2])) < self._valid_yaw_rate_rad_s
+                  and abs(roll) < self._valid_tilt_rad and abs(pitch) < self._valid_tilt_rad)
+        self._regime_of, self._regime = estimate, regime
+        return regime
 
     def _crash_check(self, time_s: float, measures: np.ndarray) -> list[DetectionRecord]:
         """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`) on the

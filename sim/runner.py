@@ -13,6 +13,7 @@ starts the mission through the same navigator commands a ground station would se
 from __future__ import annotations
 
 import signal
+import struct
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -63,6 +64,10 @@ _COLUMNS = (("t", 0, 1), ("pos", 1, 3), ("euler", 4, 3), ("est_pos", 7, 3), ("pw
             ("ref_euler", 28, 3))
 _WIDTH = 31
 _CHUNK_TICKS = 6000  # rows added when the log is full (60 s at 100 Hz)
+# a row's 31 floats written straight into the table's buffer (float64, native order, as
+# numpy stores them): a third of the cost of assigning a list to a row of the array
+_PACK_ROW = struct.Struct(f"{_WIDTH}d").pack_into
+_ROW_BYTES = _WIDTH * 8
 
 
 class TickLog:
@@ -142,7 +147,7 @@ class TickLog:
                *status.pwm.tolist(), *status.loe_estimate.tolist(),
                *world.faults.true_loe_values(t), *world.wind_ned.tolist(),
                rx, ry, rz, e_roll, e_pitch, e_yaw]
-        self._rows[k] = row
+        _PACK_ROW(self._rows, k * _ROW_BYTES, *row)  # self._rows[k] = row, C-contiguous
         self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
         return row, on_ground
 

@@ -112,6 +112,10 @@ class PlantEvent:
 
 WorldEvent = FaultEvent | PlantEvent
 
+def _event_time_s(event: WorldEvent) -> float:
+    return event.time_s
+
+
 _N_SENSORS = len(SENSOR_NAMES)  # at most one reading per sensor and step
 _SENSOR_INDEX = {name: i for i, name in enumerate(SENSOR_NAMES)}
 _SAMPLE_BUFFER = 4096  # readings per sample buffer (about 800 calls of 5 steps)
@@ -342,9 +346,12 @@ class World:
 
     def drain_events(self) -> list[WorldEvent]:
         """Fault and contact events since the previous call, in time order."""
-        events: list[WorldEvent] = [*self.faults.drain_events(), *self._events]
-        self._events = []
-        events.sort(key=lambda e: e.time_s)
+        events: list[WorldEvent] = self.faults.drain_events()  # type: ignore[assignment]
+        if self._events:  # (most ticks have none: then the fault events as they are)
+            events = [*events, *self._events]
+            self._events = []
+        if len(events) > 1:
+            events.sort(key=_event_time_s)
         return events
 
     # ------------------------------------------------------------------ observation
