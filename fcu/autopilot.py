@@ -156,6 +156,8 @@ class Autopilot:
         self._valid_tilt_rad = cfg.detector.valid_tilt_rad
         self.crash_check = CrashCheck(cfg.crash)
         self._full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max  # N, the collective's scale
+        # N, ArduCopter's throttle-at-minimum test: asking for much less than hover thrust
+        self._low_thrust_n = 0.75 * model.mass * model.gravity
         self.ftc_active = cfg.ftc == "active"
         # relaxed hover after the loss of a rotor (fcu.control.reduced_attitude), designed
         # when first needed, one per lost motor
@@ -198,6 +200,7 @@ class Autopilot:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
         for estimator in self._estimators:
             estimator.reset(time_s)
+        self._height_source: str | None = None  # given to the estimators at the next tick
 
     def _reset_controllers(self) -> None:
         self.position.reset()
@@ -218,8 +221,11 @@ class Autopilot:
         self._battery_step(time_s, batches.pop(BATTERY_SENSOR, None))
         health = self.sensor_health
         excluded = health.excluded
-        for estimator in self._estimators:
-            estimator.height_source = health.height_source
+        source = health.height_source
+        if source != self._height_source:  # (the health monitor changes it rarely)
+            self._height_source = source
+            for estimator in self._estimators:
+                estimator.height_source = source
         # a lone outlier is a sensor's fault only while the model can be trusted: in flight,
         # in the hover regime, with no motor lost (fcu.estimation.estimator)
         prior = self.estimator.estimate
@@ -238,8 +244,7 @@ class Autopilot:
         x, y, z = estimate.pos_ned.tolist()
         # a finite sum has finite terms (a sum of finite floats may overflow: then each)
         healthy = math.isfinite(x + y + z) or all(map(math.isfinite, (x, y, z)))
-        # ArduCopter's throttle-at-minimum test: asking for much less than hover thrust
-        low_thrust = self._thrust_n < 0.75 * self.model.mass * self.model.gravity
+        low_thrust = self._thrust_n < self._low_thrust_n  # throttle at minimum
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
                                   float(estimate.euler_rad[2]), estimator_healthy=healthy,
                                   on_ground_hint=True if low_thrust else None,

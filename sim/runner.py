@@ -115,6 +115,7 @@ class TickLog:
         free_flight = np.zeros(capacity, dtype=bool)
         free_flight[:k] = self.free_flight[:k]
         self._rows, self.flying, self.free_flight = rows, flying, free_flight
+        self._capacity = capacity
         for name, first, width in _COLUMNS:
             setattr(self, name, rows[:, first] if name == "t" else rows[:, first:first + width])
 
@@ -125,7 +126,7 @@ class TickLog:
         status = autopilot.status
         assert status is not None
         k = self.n
-        if k == self._rows.shape[0]:
+        if k == self._capacity:
             self._grow(k + _CHUNK_TICKS)
         x = world.plant.state.tolist()
         t = world.time_s
