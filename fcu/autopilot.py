@@ -65,6 +65,13 @@ __all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus"]
 
 _ZERO3 = np.zeros(3)  # the torques of a tick that does not fly (shared: read-only)
 _ZERO3.setflags(write=False)
+# the parts of a flying tick's output (fcu.control.chain's OUT_* layout)
+_OUT_PWM = slice(control_chain.OUT_PWM, control_chain.OUT_PWM + 4)
+_OUT_TORQUE_CMD = slice(control_chain.OUT_TORQUE_CMD, control_chain.OUT_TORQUE_CMD + 3)
+_OUT_D_HAT = slice(control_chain.OUT_D_HAT, control_chain.OUT_D_HAT + 3)
+_OUT_TORQUE_APPLIED = slice(control_chain.OUT_TORQUE_APPLIED,
+                            control_chain.OUT_TORQUE_APPLIED + 3)
+_OUT_CRASH_MEASURES = slice(control_chain.OUT_ALT, control_chain.OUT_COLLECTIVE + 1)
 
 
 @dataclass(frozen=True)
@@ -246,7 +253,7 @@ class Autopilot:
         healthy = math.isfinite(x + y + z) or all(map(math.isfinite, (x, y, z)))
         low_thrust = self._thrust_n < self._low_thrust_n  # throttle at minimum
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
-                                  float(estimate.euler_rad[2]), estimator_healthy=healthy,
+                                  estimate.euler_rad.item(2), estimator_healthy=healthy,
                                   on_ground_hint=True if low_thrust else None,
                                   position_fix=health.position_fix)
         if nav.events:
@@ -287,13 +294,12 @@ class Autopilot:
                                    estimate.rate_frd, ref.pos_ned, ref.vel_ned, ref.acc_ned,
                                    ref.yaw_rad, self._torque_applied,
                                    self._ftc_effectiveness() if self.ftc_active else None)
-            pwm = out[control_chain.OUT_PWM:control_chain.OUT_PWM + 4]
-            thrust_n = float(out[control_chain.OUT_THRUST])
-            torque_cmd = out[control_chain.OUT_TORQUE_CMD:control_chain.OUT_TORQUE_CMD + 3]
-            d_hat = out[control_chain.OUT_D_HAT:control_chain.OUT_D_HAT + 3]
+            pwm = out[_OUT_PWM]
+            thrust_n = out.item(control_chain.OUT_THRUST)
+            torque_cmd = out[_OUT_TORQUE_CMD]
+            d_hat = out[_OUT_D_HAT]
             att_ref = control_chain.attitude_reference(out)
-            self._torque_applied = out[control_chain.OUT_TORQUE_APPLIED:
-                                       control_chain.OUT_TORQUE_APPLIED + 3]
+            self._torque_applied = out[_OUT_TORQUE_APPLIED]
         else:
             cmd: PositionCommand = self.position_spinning.step(
                 estimate.pos_ned, estimate.vel_ned, ref.pos_ned, ref.vel_ned, ref.acc_ned,
@@ -347,8 +353,8 @@ class Autopilot:
         active = detector.active
         if active or self._motors_blocked:
             # the text names the latest LOE in whole per cent: written when that changes
-            loe = detector.loe.tolist()
-            lost_percent = [round(100 * loe[m - 1]) for m in active]
+            loe = detector.loe
+            lost_percent = [round(100 * loe.item(m - 1)) for m in active]
             if (active, lost_percent) != self._motors_blocker:
                 self._motors_blocker = (active, lost_percent)
                 self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
@@ -504,7 +510,7 @@ class Autopilot:
         if nav.armed and not nav.landed:
             records = self.crash_check.check(
                 time_s, nav.leg_kind not in ("takeoff", "land"),
-                measures[control_chain.OUT_ALT:control_chain.OUT_COLLECTIVE + 1])
+                measures[_OUT_CRASH_MEASURES])
         else:  # not flying: the checks restart
             self.crash_check.reset()
             records = []

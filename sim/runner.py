@@ -116,6 +116,7 @@ class TickLog:
         free_flight[:k] = self.free_flight[:k]
         self._rows, self.flying, self.free_flight = rows, flying, free_flight
         self._capacity = capacity
+        self._row_bytes = rows.data.cast("B")  # the table's memory, for _PACK_ROW
         for name, first, width in _COLUMNS:
             setattr(self, name, rows[:, first] if name == "t" else rows[:, first:first + width])
 
@@ -148,7 +149,7 @@ class TickLog:
                *status.pwm.tolist(), *status.loe_estimate.tolist(),
                *world.faults.true_loe_values(t), *world.wind_ned.tolist(),
                rx, ry, rz, e_roll, e_pitch, e_yaw]
-        _PACK_ROW(self._rows, k * _ROW_BYTES, *row)  # self._rows[k] = row, C-contiguous
+        _PACK_ROW(self._row_bytes, k * _ROW_BYTES, *row)  # self._rows[k] = row
         self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
         return row, on_ground
 
