@@ -188,7 +188,8 @@ class Autopilot:
         self._thrust_n = 0.0  # N, collective commanded at the last tick
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None  # built from _status_parts when read
-        self._status_parts: tuple[Any, ...] | None = None  # the latest tick's (_keep_status)
+        # the latest tick's AutopilotStatus fields (_keep_status), motors declared as a tuple
+        self._status_parts: dict[str, Any] | None = None
         self._flying = False
         self._motor_lost_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the lost motor while in relaxed hover
@@ -529,27 +530,27 @@ class Autopilot:
         """What the tick computed, for :attr:`status` to build when (if) it is read."""
         detector = self.detector
         loe = detector.loe if self._loe_at_spin is None else self._loe_at_spin
-        self._status_parts = (time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
-                              d_hat, self._pwm, loe, detector.active,
-                              detector.mass_change_kg, self.sensor_health.excluded,
-                              detector.lost)
         self._status = None
+        # a fresh dict every tick: the status built from it takes it as its __dict__
+        self._status_parts = {
+            "time_s": time_s, "estimate": estimate, "nav": nav, "reference": ref,
+            "attitude_reference": att_ref, "thrust_cmd_n": thrust_n, "torque_cmd_nm": torque_cmd,
+            "disturbance_nm": d_hat, "pwm": self._pwm, "loe_estimate": loe,
+            "fault_detected": detector.active, "mass_change_kg": detector.mass_change_kg,
+            "excluded_sensors": self.sensor_health.excluded, "motors_lost": detector.lost}
 
     # ------------------------------------------------------------------ observation
     @property
     def status(self) -> AutopilotStatus | None:
         """What the last tick computed (None before the first tick); built on first read."""
         if self._status is None and self._status_parts is not None:
-            (time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat, pwm, loe,
-             active, mass_change_kg, excluded, lost) = self._status_parts
-            # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls
+            fields = self._status_parts
+            active = fields["fault_detected"]  # the motors (1..4) declared: one flag each
+            fields["fault_detected"] = (1 in active, 2 in active, 3 in active, 4 in active)
+            # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls:
+            # the fields dict becomes the instance's
             status = object.__new__(AutopilotStatus)
-            status.__dict__.update(
-                time_s=time_s, estimate=estimate, nav=nav, reference=ref,
-                attitude_reference=att_ref, thrust_cmd_n=thrust_n, torque_cmd_nm=torque_cmd,
-                disturbance_nm=d_hat, pwm=pwm, loe_estimate=loe,
-                fault_detected=(1 in active, 2 in active, 3 in active, 4 in active),
-                mass_change_kg=mass_change_kg, excluded_sensors=excluded, motors_lost=lost)
+            object.__setattr__(status, "__dict__", fields)
             self._status = status
         return self._status
 
