@@ -31,7 +31,6 @@ injected faults.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -249,12 +248,11 @@ class Autopilot:
                                                    excluded=excluded, reject=reject)
         records = health.step(time_s, batches, self.estimator.screening, reject,
                               self._sensor_noise)
-        x, y, z = estimate.pos_ned.tolist()
-        # a finite sum has finite terms (a sum of finite floats may overflow: then each)
-        healthy = math.isfinite(x + y + z) or all(map(math.isfinite, (x, y, z)))
         low_thrust = self._thrust_n < self._low_thrust_n  # throttle at minimum
+        # (the navigator takes a non-finite position, velocity or yaw as an unhealthy
+        # estimator itself: no other verdict to add)
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
-                                  estimate.euler_rad.item(2), estimator_healthy=healthy,
+                                  estimate.euler_rad.item(2), estimator_healthy=True,
                                   on_ground_hint=True if low_thrust else None,
                                   position_fix=health.position_fix)
         if nav.events:
