@@ -112,7 +112,9 @@ class PlantEvent:
 
 WorldEvent = FaultEvent | PlantEvent
 
+
 def _event_time_s(event: WorldEvent) -> float:
+    """The sort key of :meth:`World.drain_events`, s."""
     return event.time_s
 
 
