@@ -31,7 +31,6 @@ injected faults.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -65,6 +64,13 @@ __all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus"]
 
 _ZERO3 = np.zeros(3)  # the torques of a tick that does not fly (shared: read-only)
 _ZERO3.setflags(write=False)
+# the parts of a flying tick's output (fcu.control.chain's OUT_* layout)
+_OUT_PWM = slice(control_chain.OUT_PWM, control_chain.OUT_PWM + 4)
+_OUT_TORQUE_CMD = slice(control_chain.OUT_TORQUE_CMD, control_chain.OUT_TORQUE_CMD + 3)
+_OUT_D_HAT = slice(control_chain.OUT_D_HAT, control_chain.OUT_D_HAT + 3)
+_OUT_TORQUE_APPLIED = slice(control_chain.OUT_TORQUE_APPLIED,
+                            control_chain.OUT_TORQUE_APPLIED + 3)
+_OUT_CRASH_MEASURES = slice(control_chain.OUT_ALT, control_chain.OUT_COLLECTIVE + 1)
 
 
 @dataclass(frozen=True)
@@ -156,6 +162,8 @@ class Autopilot:
         self._valid_tilt_rad = cfg.detector.valid_tilt_rad
         self.crash_check = CrashCheck(cfg.crash)
         self._full_thrust_n = 4.0 * model.thrust_gain * model.pwm_max  # N, the collective's scale
+        # N, ArduCopter's throttle-at-minimum test: asking for much less than hover thrust
+        self._low_thrust_n = 0.75 * model.mass * model.gravity
         self.ftc_active = cfg.ftc == "active"
         # relaxed hover after the loss of a rotor (fcu.control.reduced_attitude), designed
         # when first needed, one per lost motor
@@ -179,7 +187,8 @@ class Autopilot:
         self._thrust_n = 0.0  # N, collective commanded at the last tick
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None  # built from _status_parts when read
-        self._status_parts: tuple[Any, ...] | None = None  # the latest tick's (_keep_status)
+        # the latest tick's AutopilotStatus fields (_keep_status), motors declared as a tuple
+        self._status_parts: dict[str, Any] | None = None
         self._flying = False
         self._motor_lost_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the lost motor while in relaxed hover
@@ -189,11 +198,16 @@ class Autopilot:
         self._motors_blocked = True  # the motors' arming blocker may be set
         # the motors and lost per cent the blocker names (None: not set since the reset)
         self._motors_blocker: tuple[tuple[int, ...], list[int]] | None = None
+        # the latest estimate _hover_regime judged, and its verdict: the estimate of a tick
+        # is the next tick's prior, judged again then
+        self._regime_of: StateEstimate | None = None
+        self._regime = False
 
     def reset_estimators(self, time_s: float = 0.0) -> None:
         """Restart the estimators at ``time_s`` (s), at rest at the origin."""
         for estimator in self._estimators:
             estimator.reset(time_s)
+        self._height_source: str | None = None  # given to the estimators at the next tick
 
     def _reset_controllers(self) -> None:
         self.position.reset()
@@ -214,8 +228,11 @@ class Autopilot:
         self._battery_step(time_s, batches.pop(BATTERY_SENSOR, None))
         health = self.sensor_health
         excluded = health.excluded
-        for estimator in self._estimators:
-            estimator.height_source = health.height_source
+        source = health.height_source
+        if source != self._height_source:  # (the health monitor changes it rarely)
+            self._height_source = source
+            for estimator in self._estimators:
+                estimator.height_source = source
         # a lone outlier is a sensor's fault only while the model can be trusted: in flight,
         # in the hover regime, with no motor lost (fcu.estimation.estimator)
         prior = self.estimator.estimate
@@ -231,13 +248,11 @@ class Autopilot:
                                                    excluded=excluded, reject=reject)
         records = health.step(time_s, batches, self.estimator.screening, reject,
                               self._sensor_noise)
-        x, y, z = estimate.pos_ned.tolist()
-        # a finite sum has finite terms (a sum of finite floats may overflow: then each)
-        healthy = math.isfinite(x + y + z) or all(map(math.isfinite, (x, y, z)))
-        # ArduCopter's throttle-at-minimum test: asking for much less than hover thrust
-        low_thrust = self._thrust_n < 0.75 * self.model.mass * self.model.gravity
+        low_thrust = self._thrust_n < self._low_thrust_n  # throttle at minimum
+        # (the navigator takes a non-finite position, velocity or yaw as an unhealthy
+        # estimator itself: no other verdict to add)
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
-                                  float(estimate.euler_rad[2]), estimator_healthy=healthy,
+                                  estimate.euler_rad.item(2), estimator_healthy=True,
                                   on_ground_hint=True if low_thrust else None,
                                   position_fix=health.position_fix)
         if nav.events:
@@ -278,13 +293,12 @@ class Autopilot:
                                    estimate.rate_frd, ref.pos_ned, ref.vel_ned, ref.acc_ned,
                                    ref.yaw_rad, self._torque_applied,
                                    self._ftc_effectiveness() if self.ftc_active else None)
-            pwm = out[control_chain.OUT_PWM:control_chain.OUT_PWM + 4]
-            thrust_n = float(out[control_chain.OUT_THRUST])
-            torque_cmd = out[control_chain.OUT_TORQUE_CMD:control_chain.OUT_TORQUE_CMD + 3]
-            d_hat = out[control_chain.OUT_D_HAT:control_chain.OUT_D_HAT + 3]
+            pwm = out[_OUT_PWM]
+            thrust_n = out.item(control_chain.OUT_THRUST)
+            torque_cmd = out[_OUT_TORQUE_CMD]
+            d_hat = out[_OUT_D_HAT]
             att_ref = control_chain.attitude_reference(out)
-            self._torque_applied = out[control_chain.OUT_TORQUE_APPLIED:
-                                       control_chain.OUT_TORQUE_APPLIED + 3]
+            self._torque_applied = out[_OUT_TORQUE_APPLIED]
         else:
             cmd: PositionCommand = self.position_spinning.step(
                 estimate.pos_ned, estimate.vel_ned, ref.pos_ned, ref.vel_ned, ref.acc_ned,
@@ -338,8 +352,8 @@ class Autopilot:
         active = detector.active
         if active or self._motors_blocked:
             # the text names the latest LOE in whole per cent: written when that changes
-            loe = detector.loe.tolist()
-            lost_percent = [round(100 * loe[m - 1]) for m in active]
+            loe = detector.loe
+            lost_percent = [round(100 * loe.item(m - 1)) for m in active]
             if (active, lost_percent) != self._motors_blocker:
                 self._motors_blocker = (active, lost_percent)
                 self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
@@ -479,9 +493,13 @@ class Autopilot:
 
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""
+        if estimate is self._regime_of:  # (an estimate's arrays are never changed)
+            return self._regime
         roll, pitch, _ = estimate.euler_rad.tolist()
-        return (abs(float(estimate.rate_frd[2])) < self._valid_yaw_rate_rad_s
-                and abs(roll) < self._valid_tilt_rad and abs(pitch) < self._valid_tilt_rad)
+        regime = (abs(float(estimate.rate_frd[2])) < self._valid_yaw_rate_rad_s
+                  and abs(roll) < self._valid_tilt_rad and abs(pitch) < self._valid_tilt_rad)
+        self._regime_of, self._regime = estimate, regime
+        return regime
 
     def _crash_check(self, time_s: float, measures: np.ndarray) -> list[DetectionRecord]:
         """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`) on the
@@ -491,7 +509,7 @@ class Autopilot:
         if nav.armed and not nav.landed:
             records = self.crash_check.check(
                 time_s, nav.leg_kind not in ("takeoff", "land"),
-                measures[control_chain.OUT_ALT:control_chain.OUT_COLLECTIVE + 1])
+                measures[_OUT_CRASH_MEASURES])
         else:  # not flying: the checks restart
             self.crash_check.reset()
             records = []
@@ -510,27 +528,27 @@ class Autopilot:
         """What the tick computed, for :attr:`status` to build when (if) it is read."""
         detector = self.detector
         loe = detector.loe if self._loe_at_spin is None else self._loe_at_spin
-        self._status_parts = (time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd,
-                              d_hat, self._pwm, loe, detector.active,
-                              detector.mass_change_kg, self.sensor_health.excluded,
-                              detector.lost)
         self._status = None
+        # a fresh dict every tick: the status built from it takes it as its __dict__
+        self._status_parts = {
+            "time_s": time_s, "estimate": estimate, "nav": nav, "reference": ref,
+            "attitude_reference": att_ref, "thrust_cmd_n": thrust_n, "torque_cmd_nm": torque_cmd,
+            "disturbance_nm": d_hat, "pwm": self._pwm, "loe_estimate": loe,
+            "fault_detected": detector.active, "mass_change_kg": detector.mass_change_kg,
+            "excluded_sensors": self.sensor_health.excluded, "motors_lost": detector.lost}
 
     # ------------------------------------------------------------------ observation
     @property
     def status(self) -> AutopilotStatus | None:
         """What the last tick computed (None before the first tick); built on first read."""
         if self._status is None and self._status_parts is not None:
-            (time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat, pwm, loe,
-             active, mass_change_kg, excluded, lost) = self._status_parts
-            # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls
+            fields = self._status_parts
+            active = fields["fault_detected"]  # the motors (1..4) declared: one flag each
+            fields["fault_detected"] = (1 in active, 2 in active, 3 in active, 4 in active)
+            # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls:
+            # the fields dict becomes the instance's
             status = object.__new__(AutopilotStatus)
-            status.__dict__.update(
-                time_s=time_s, estimate=estimate, nav=nav, reference=ref,
-                attitude_reference=att_ref, thrust_cmd_n=thrust_n, torque_cmd_nm=torque_cmd,
-                disturbance_nm=d_hat, pwm=pwm, loe_estimate=loe,
-                fault_detected=(1 in active, 2 in active, 3 in active, 4 in active),
-                mass_change_kg=mass_change_kg, excluded_sensors=excluded, motors_lost=lost)
+            object.__setattr__(status, "__dict__", fields)
             self._status = status
         return self._status
 

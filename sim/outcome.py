@@ -98,7 +98,10 @@ class MissionArea:
     def outside_m(self, pos_ned: Vector) -> tuple[float, float]:
         """(horizontal distance outside the box, height above its top), m (0 inside)."""
         x, y, z = pos_ned
-        x, y, z = float(x), float(y), float(z)
+        return self.outside_xyz(float(x), float(y), float(z))
+
+    def outside_xyz(self, x: float, y: float, z: float) -> tuple[float, float]:
+        """:meth:`outside_m` of the point ``(x, y, z)`` given as three floats (m, NED)."""
         lo, hi = self._lo_l, self._hi_l
         dx = max(lo[0] - x, 0.0, x - hi[0])
         dy = max(lo[1] - y, 0.0, y - hi[1])
@@ -179,7 +182,7 @@ class OutcomeJudge:
             if self._flying:
                 x, y, z = pos_ned
                 if not self.area.inside(x, y, z):  # (inside: 0 m outside, nothing to do)
-                    self._check_distance(time_s, pos_ned)
+                    self._check_distance(time_s, float(x), float(y), float(z))
         elif self._flying:
             if self._flying:
                 self._check_tilted_contact(time_s, tilt_deg(euler_rad))
@@ -243,8 +246,8 @@ class OutcomeJudge:
         if time_s - self._tilted_since_s >= self.limits.tilted_contact_s - 1e-9:
             self._decide("crashed", self._tilted_since_s, "tilted_on_ground")
 
-    def _check_distance(self, time_s: float, pos_ned: Vector) -> None:
-        horizontal, above = self.area.outside_m(pos_ned)
+    def _check_distance(self, time_s: float, x: float, y: float, z: float) -> None:
+        horizontal, above = self.area.outside_xyz(x, y, z)
         self._max_outside_m = max(self._max_outside_m, horizontal, above)
         if max(horizontal, above) > self.limits.flyaway_distance_m:
             self._decide("flyaway", time_s, "distance")

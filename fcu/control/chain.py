@@ -362,4 +362,14 @@ def attitude_reference(out: np.ndarray) -> AttitudeReference:
     """The attitude reference of a tick's output ``out`` (views of it, no copies): what
     :func:`~fcu.control.attitude_reference.reference_of` makes of ``out[OUT_REF:]``, with
     the views taken from ``out`` directly (once a tick: one slicing fewer)."""
-    return AttitudeReference(out[_EULER:_EULER + 3], out[_RATE:_RATE + 3], out[_ACC:_ACC + 3])
+    ref = _NEW_OBJECT(AttitudeReference)  # AttitudeReference(...) without its __setattr__s
+    _SET_EULER(ref, out[_EULER:_EULER + 3])
+    _SET_RATE(ref, out[_RATE:_RATE + 3])
+    _SET_ACC(ref, out[_ACC:_ACC + 3])
+    return ref
+
+
+# the slots of AttitudeReference (a frozen dataclass without __post_init__), set directly
+_NEW_OBJECT = object.__new__
+_SET_EULER, _SET_RATE, _SET_ACC = (getattr(AttitudeReference, name).__set__
+                                   for name in ("euler_rad", "rate", "acc"))

@@ -98,6 +98,9 @@ class BatteryMonitor:
         self.level: Level = "ok"
         self._last_s: float | None = None
         self._below_since: dict[Level, float | None] = {"low": None, "critical": None}
+        # the level was worked out since the latest reading with no voltage timer running:
+        # until the next reading it cannot change (it depends on time only through a timer)
+        self._settled = False
 
     def take_over(self, other: BatteryMonitor) -> None:
         """Continue from ``other``'s readings, charge used and level (the autopilot rebuilt
@@ -107,6 +110,7 @@ class BatteryMonitor:
         self.level = other.level
         self._last_s = other._last_s
         self._below_since = dict(other._below_since)
+        self._settled = False
 
     @property
     def remaining_mah(self) -> float:
@@ -142,10 +146,15 @@ class BatteryMonitor:
                                           + current_a * voltage_v) * dt
             self._last_s = time_s
             self.voltage_v, self.current_a = float(voltage_v), float(current_a)
+            self._settled = False
+        elif self._settled:
+            return None  # no reading since a time-independent evaluation: the same level
         if self.level == "critical":
             return None  # the level only rises, and this is the top (its timers no longer
             # matter)
         level = self._level(time_s)
+        below = self._below_since
+        self._settled = below["low"] is None and below["critical"] is None
         if _RANK[level] <= _RANK[self.level]:
             return None
         self.level = level

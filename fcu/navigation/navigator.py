@@ -200,14 +200,10 @@ class Navigator(MissionExecution):
         else:
             events = ()
         out = object.__new__(NavOutput)  # NavOutput(...) without its frozen __setattr__s
-        fields = out.__dict__
-        fields["reference"] = reference
-        fields["armed"] = self._armed
-        fields["mode"] = self._mode
-        fields["landed"] = not self._flying
-        fields["landed_state"] = landed_state
-        fields["failsafe"] = bool(self._failsafes)
-        fields["events"] = events
+        object.__setattr__(out, "__dict__", {
+            "reference": reference, "armed": self._armed, "mode": self._mode,
+            "landed": not self._flying, "landed_state": landed_state,
+            "failsafe": bool(self._failsafes), "events": events})
         self._output = out if not events else None
         return out
 

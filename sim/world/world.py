@@ -112,6 +112,13 @@ class PlantEvent:
 
 WorldEvent = FaultEvent | PlantEvent
 
+
+def _event_time_s(event: WorldEvent) -> float:
+    """The sort key of :meth:`World.drain_events`, s."""
+    return event.time_s
+
+
+_FLOAT64 = np.dtype(np.float64)
 _N_SENSORS = len(SENSOR_NAMES)  # at most one reading per sensor and step
 _SENSOR_INDEX = {name: i for i, name in enumerate(SENSOR_NAMES)}
 _SAMPLE_BUFFER = 4096  # readings per sample buffer (about 800 calls of 5 steps)
@@ -158,6 +165,7 @@ class World:
         self.stepping = stepping
         self.dt_s = 1.0 / config.plant_rate_hz
         self.plant = RigidBodyPlant(config.airframe, self.dt_s)
+        self._thrust_n = self.plant.state[THRUST_N]  # (4,) live view (the battery's load)
         self._params = self.plant.kernel_state["params"][0]
         self.kernel_state = np.zeros(1, dtype=WORLD_STATE)
         self._w = self.kernel_state[0]  # a view: writes go to the array
@@ -190,6 +198,7 @@ class World:
         self._events: list[PlantEvent] = []
         # power-module readings a call of n steps can hold: n * this, plus 2
         self._battery_per_step = self.dt_s * self.config.battery.monitor_rate_hz
+        self._room: tuple[int, int] = (-1, 0)  # (n_steps, room) of the latest step() call
 
     def reset(self, *, pos_ned: Sequence[float] = (0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> None:
         """Start again at time 0 on (or above) ``pos_ned``: same seed, same run."""
@@ -205,7 +214,7 @@ class World:
     @property
     def time_s(self) -> float:
         """Simulated time, s."""
-        return self.step_count * self.dt_s
+        return self._steps.item(0) * self.dt_s  # (step_count * dt_s, read thrice a tick)
 
     @property
     def step_count(self) -> int:
@@ -229,11 +238,17 @@ class World:
             ``SensorSample`` whose values are read-only views of the batch's arrays
             (:mod:`sim.world.samples`).
         """
-        pwm = np.asarray(pwm_cmd, dtype=np.float64)
-        if pwm.shape != (4,):
-            raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
+        pwm = pwm_cmd
+        if not (pwm.__class__ is np.ndarray and pwm.dtype is _FLOAT64 and pwm.shape == (4,)):
+            pwm = np.asarray(pwm_cmd, dtype=np.float64)  # (the same array when it is one)
+            if pwm.shape != (4,):
+                raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
         first = m = self._samples_used
-        room = _N_SENSORS * n_steps + int(n_steps * self._battery_per_step) + 2
+        steps_room = self._room  # the same n_steps every tick: worked out once
+        if steps_room[0] != n_steps:
+            steps_room = self._room = (
+                n_steps, _N_SENSORS * n_steps + int(n_steps * self._battery_per_step) + 2)
+        room = steps_room[1]
         if first + room > self._samples.shape[0]:
             self._new_sample_buffer(room)
             first = m = 0
@@ -242,8 +257,8 @@ class World:
                 m = self._step_python(pwm, m)
         else:
             m = self._steps_compiled(pwm, n_steps, m)
-        m = self.battery.step_into(self.time_s, n_steps * self.dt_s,
-                                   self.plant.state[THRUST_N], self._samples, m)
+        m = self.battery.step_into(self.time_s, n_steps * self.dt_s, self._thrust_n,
+                                   self._samples, m)
         self._samples_used = m
         return SampleBatch.wrap(self._samples_read_only[first:m])
 
@@ -342,9 +357,12 @@ class World:
 
     def drain_events(self) -> list[WorldEvent]:
         """Fault and contact events since the previous call, in time order."""
-        events: list[WorldEvent] = [*self.faults.drain_events(), *self._events]
-        self._events = []
-        events.sort(key=lambda e: e.time_s)
+        events: list[WorldEvent] = self.faults.drain_events()  # type: ignore[assignment]
+        if self._events:  # (most ticks have none: then the fault events as they are)
+            events = [*events, *self._events]
+            self._events = []
+        if len(events) > 1:
+            events.sort(key=_event_time_s)
         return events
 
     # ------------------------------------------------------------------ observation
