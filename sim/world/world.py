@@ -45,6 +45,7 @@ from typing import Literal
 import numpy as np
 
 from flightdata.config import finite, require
+from flightdata.kernel_cache import preload_blas_bindings
 from sim.world.airframe import Airframe
 from sim.world.battery import Battery, BatteryConfig
 from sim.world.dynamics import (
@@ -153,6 +154,7 @@ class World:
                 seed, "must be an integer >= 0")
         require(stepping in ("compiled", "python"), "stepping", stepping,
                 "must be 'compiled' or 'python'")
+        preload_blas_bindings()  # before the first kernel loads: no scipy.linalg for numba
         self.config = config
         self.seed = seed
         self.stepping = stepping
