@@ -67,7 +67,7 @@ def preload_blas_bindings() -> list[str]:
     files cannot be found (numba then imports them its own way, or reports their absence);
     ``import scipy.linalg`` later works as usual.
     """
-    loaded = []
+    loaded: list[str] = []
     for name in _BLAS_MODULES:
         if name in sys.modules:
             continue
