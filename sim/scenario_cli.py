@@ -346,10 +346,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     status = run_subcommand("ftc-scenario", args)
     # As a program (no argv given: the console script, python -m) a plain ``run`` ends at
-    # once; not with a recording (the recorder flushes as the interpreter stops) nor with
-    # another thread still running (a normal exit joins it).
+    # once; not with a recording (the recorder flushes as the interpreter stops), with
+    # another thread still running (a normal exit joins it) or under a profiler or tracer
+    # (pyinstrument, cProfile, coverage write their results after the program returns).
     if (argv is None and getattr(args, "func", None) is cmd_run and args.rrd is None
-            and not args.rerun and threading.active_count() == 1):
+            and not args.rerun and threading.active_count() == 1
+            and sys.getprofile() is None and sys.gettrace() is None):
         _exit_at_once(status)
     return status
 
