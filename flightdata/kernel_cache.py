@@ -7,13 +7,22 @@ cached caller would go on running the old callee: silently wrong numbers. A modu
 kernels call other modules' kernels calls :func:`drop_stale_kernels` at import, before any of
 its kernels runs: when a module of its folder is newer than its oldest cached kernel, its
 cached kernels are deleted, and numba compiles them again (once) on first call.
+
+:func:`preload_blas_bindings`, called by a composition root before its first kernel runs
+(the world's constructor), readies the BLAS and LAPACK bindings numba links compiled code
+against, so that the first kernel loaded does not import all of ``scipy.linalg`` for them.
 """
 
 from __future__ import annotations
 
+import importlib.machinery
+import importlib.util
+import sys
 from pathlib import Path
 
-__all__ = ["drop_stale_kernels"]
+__all__ = ["drop_stale_kernels", "preload_blas_bindings"]
+
+_BLAS_MODULES = ("scipy.linalg.cython_blas", "scipy.linalg.cython_lapack")
 
 
 def drop_stale_kernels(module_file: str) -> list[Path]:
@@ -41,3 +50,45 @@ def drop_stale_kernels(module_file: str) -> list[Path]:
         except OSError:
             pass  # another process got there first, or a read-only cache: numba copes
     return deleted
+
+
+def preload_blas_bindings() -> list[str]:
+    """Load SciPy's Cython BLAS and LAPACK binding modules on their own, without the
+    ``scipy.linalg`` package around them; returns the names loaded.
+
+    The first kernel a process loads makes numba set up its compiler context, which checks
+    for BLAS by ``import scipy.linalg.cython_blas``; the import system runs
+    ``scipy.linalg/__init__.py`` first, and that (decompositions, the array-API layer, part
+    of ``numpy.f2py``) costs about 0.2 s of CPU at every start-up, for two extension modules
+    of about 10 ms. A module already in ``sys.modules`` is not imported again, so loading
+    the two extension modules from their files here leaves numba the same modules (the
+    kernels that multiply matrices read their BLAS routines from the first one) at a
+    fraction of the cost. Nothing is done when they are loaded already or when SciPy or its
+    files cannot be found (numba then imports them its own way, or reports their absence);
+    ``import scipy.linalg`` later works as usual.
+    """
+    loaded: list[str] = []
+    for name in _BLAS_MODULES:
+        if name in sys.modules:
+            continue
+        try:
+            scipy_spec = importlib.util.find_spec("scipy")
+            if scipy_spec is None or not scipy_spec.submodule_search_locations:
+                return loaded
+            folder = Path(next(iter(scipy_spec.submodule_search_locations))) / "linalg"
+            stem = name.rpartition(".")[2]
+            path = next(p for suffix in importlib.machinery.EXTENSION_SUFFIXES
+                        if (p := folder / f"{stem}{suffix}").is_file())
+            loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+            spec = importlib.util.spec_from_file_location(name, path, loader=loader)
+            if spec is None:
+                return loaded
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module
+            loader.exec_module(module)
+        except (ImportError, OSError, StopIteration):
+            sys.modules.pop(name, None)
+            return loaded
+        loaded.append(name)
+    return loaded
+

@@ -36,6 +36,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from fcu.mavlink.autopilot_port import vehicle_autopilot_config
 from fcu.mavlink.boot_beacon import BootBeacon
 from fcu.mavlink.endpoint import MavlinkEndpoint
@@ -43,6 +45,7 @@ from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.link import Address
 from fcu.mavlink.port import GeoPoint
 from fcu.mavlink.udp import DEFAULT_PEERS, UdpLink
+from fcu.monitoring.vibration import VibrationMonitor
 from sim.instances import DEFAULT_BIND
 from sim.scenario import Scenario
 from sim.stack import warm_up
@@ -180,6 +183,9 @@ class VehicleProcess:
         warm_up(setup.world, setup.autopilot, setup.seed,
                 between_ticks=lambda: endpoint.tick(time_s=vehicle.time_s,
                                                     wall_time_s=time.monotonic()))
+        # the vibration filter of RAW_IMU/VIBRATION is numba code the flight does not run:
+        # loaded here rather than at the first of those messages, in flight
+        VibrationMonitor().update(np.zeros(1), np.zeros((1, 3)))
         gc.collect()
         gc.freeze()  # start-up objects are never collected: shorter collections in flight
 

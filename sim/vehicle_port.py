@@ -300,10 +300,9 @@ class SimVehicle:
 
     def _truth(self) -> SimTruth:
         """Simulator truth for SIM_STATE (never shown to the autopilot)."""
-        truth = self.world.truth()
-        return SimTruth(pos_ned=truth.pos_ned, vel_ned=truth.vel_ned,
-                        quat_wxyz=truth.quat_wxyz, rate_frd=truth.rate_frd,
-                        accel_frd=truth.accel_frd, wind_ned=truth.wind_ned)
+        pos, vel, quat, rate, accel, wind = self.world.motion_truth()
+        return SimTruth(pos_ned=pos, vel_ned=vel, quat_wxyz=quat, rate_frd=rate,
+                        accel_frd=accel, wind_ned=wind)
 
     # ------------------------------------------------------------------ FailureInjector
     def inject_failure(self, unit: int, failure_type: int, instance: int,

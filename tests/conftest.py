@@ -12,7 +12,7 @@ do not end the run alone; before the workers start, one headless flight compiles
 kernels (seconds once they are cached), so that no vehicle started by a test compiles them
 (minutes on a loaded machine) and the workers do not compile the same kernels twice.
 
-Start-up designs are cached (:mod:`fcu.design_cache`) in a temporary directory of the test
+Start-up designs are cached (:mod:`flightdata.design_cache`) in a temporary directory of the test
 session, never in the user's cache: the vehicles the tests start inherit it.
 """
 
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import pytest
 
-from fcu.design_cache import CACHE_DIR_ENV
+from flightdata.design_cache import CACHE_DIR_ENV
 
 pytest_plugins = ["gcs.pytest_plugin"]
 

@@ -16,8 +16,8 @@ from numba import njit
 from fcu.control.attitude import LeadFilteredLaw, _euler_rates, check_axes
 from fcu.control.motor_lead import lead_tick
 from fcu.control.scalar import clip, wrap_pi
-from fcu.design_cache import cached_design
 from fcu.model import VehicleModel
+from flightdata.design_cache import cached_design
 from flightdata.kernel_cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # lqr_tick compiles in kernels of attitude, motor_lead, scalar
@@ -102,7 +102,7 @@ def design_axis_lqr(inertia_kgm2: float, dt_s: float, q_diag: tuple[float, float
     which at 100 Hz costs ``wc dt / 2`` of phase (about 3 deg at a 10 rad/s crossover) that
     the motors have already spent; the discrete one is exact for the sampled plant.
 
-    Made once per configuration and kept (:mod:`fcu.design_cache`); the arrays are read-only.
+    Made once per configuration and kept (:mod:`flightdata.design_cache`); the arrays are read-only.
     """
     return AxisLqrDesign(*_axis_lqr_arrays(float(inertia_kgm2), float(dt_s),
                                            tuple(float(q) for q in q_diag), float(r_torque)))

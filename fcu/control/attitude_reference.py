@@ -15,8 +15,8 @@ from numba import njit
 
 from fcu.control.attitude import check_period
 from fcu.control.scalar import wrap_pi
-from fcu.design_cache import cached_design
 from fcu.floats import floats
+from flightdata.design_cache import cached_design
 from flightdata.kernel_cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # the kernel compiles in fcu.control.scalar's wrap_pi
@@ -41,7 +41,7 @@ class AttitudeReference:
     acc: np.ndarray
 
 
-@cached_design  # made once per configuration and kept (fcu.design_cache)
+@cached_design  # made once per configuration and kept (flightdata.design_cache)
 def _reference_filter_design(dt_s: float, wf: float, zf: float) -> tuple[np.ndarray, ...]:
     """:class:`AttitudeReferenceFilter`'s ZOH discretisation: A (2, 2) and B (2, 1)."""
     import control

@@ -60,9 +60,9 @@ import numpy as np
 from numba import njit
 
 from fcu.control.scalar import wrap_pi
-from fcu.design_cache import cached_design
 from fcu.floats import floats
 from fcu.model import VehicleModel
+from flightdata.design_cache import cached_design
 from flightdata.kernel_cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # dob_tick compiles in fcu.control.scalar's wrap_pi
@@ -157,7 +157,7 @@ def _channels(kind: str, inertia_kgm2: tuple[float, ...], cutoff_rad_s: float,
     return channels
 
 
-@cached_design  # made once per configuration and kept (fcu.design_cache)
+@cached_design  # made once per configuration and kept (flightdata.design_cache)
 def _discretise(kind: str, inertia_kgm2: tuple[float, ...], dt_s: float, cutoff_rad_s: float,
                 motor_bandwidth_rad_s: float | None) -> tuple[np.ndarray, ...]:
     """Both channels discretised: A, B, C, D of the measurement path, then of the torque

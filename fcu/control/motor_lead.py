@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
-from fcu.design_cache import cached_design
 from fcu.floats import floats
+from flightdata.design_cache import cached_design
 
 if TYPE_CHECKING:
     import control
@@ -113,7 +113,7 @@ class MotorLead:
 # The controller designs (_lead_design here, the LQR's and the reference filter's) call
 # python-control's c2d and dlqr, hence scipy's expm and solve; importing python-control alone
 # takes seconds. Each design is a pure function of its parameters, so it is made once per
-# configuration and kept on disk (fcu.design_cache). Cached arrays are read-only.
+# configuration and kept on disk (flightdata.design_cache). Cached arrays are read-only.
 @cached_design
 def _lead_design(w: float, wd: float, dt_s: float) -> tuple[np.ndarray, ...]:
     """:class:`MotorLead`'s ``C(z)`` (numerator, denominator: coefficients in descending

@@ -50,8 +50,8 @@ from fcu.control.relaxed_hover import (
     relaxed_hover,
     torque_matrix,
 )
-from fcu.design_cache import cached_design
 from fcu.model import VehicleModel
+from flightdata.design_cache import cached_design
 
 SCHEDULE = np.linspace(0.0, 1.0, 11)  # fractions of the equilibrium spin with a design
 

@@ -49,10 +49,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from fcu.design_cache import cached_design, cont2discrete
 from fcu.estimation.estimator import ProcessNoiseDensities
 from fcu.estimation.state import EULER, POS, RATE, STATE_DIM, THRUST, VEL, FloatArray
 from fcu.model import VehicleModel
+from flightdata.design_cache import cached_design, cont2discrete
 from flightdata.vocabulary import MOTORS
 
 N_MOTORS = len(MOTORS)
@@ -165,7 +165,7 @@ def hover_model(model: VehicleModel, dt_s: float, qc_diag: FloatArray,
                             g_d=contiguous(b_ext_d[:, N_MOTORS]), q_d=contiguous(q_d))
 
 
-@cached_design  # made once per configuration and kept (fcu.design_cache)
+@cached_design  # made once per configuration and kept (flightdata.design_cache)
 def van_loan_noise(a: FloatArray, qc_diag: FloatArray, dt_s: float) -> tuple[FloatArray]:
     """``Qd = int_0^dt e^(A s) Qc e^(A' s) ds`` by Van Loan's method (scipy's ``expm``,
     imported only when the design cache misses), made exactly symmetric."""

@@ -154,6 +154,8 @@ class MavlinkEndpoint:
         self._commands = CommandDispatcher(port, injector, self._streams, self._build_message,
                                            lambda: self._mission.total, config.limits)
         self._failsafe = GcsFailsafe(config.sysid)
+        self._failsafe_values: tuple[float, float, float] | None = None  # the config's source
+        self._failsafe_settings = GcsFailsafeConfig()
         self._time_s = 0.0
         self._wall_s = 0.0
         self._last_tc1_ns = 0
@@ -213,10 +215,16 @@ class MavlinkEndpoint:
         return self._codec.sysid
 
     def _failsafe_config(self) -> GcsFailsafeConfig:
-        p = self._params.table
-        return GcsFailsafeConfig(action=FailsafeAction(int(p.get("FS_GCS_ENABLE"))),
-                                 timeout_s=p.get("FS_GCS_TIMEOUT"),
-                                 gcs_sysid=int(p.get("SYSID_MYGCS")))
+        """The FS_GCS_* / SYSID_MYGCS settings in force (read every tick a GCS is known: the
+        settings object is made again only when one of the three values has changed)."""
+        get = self._params.table.get
+        values = (get("FS_GCS_ENABLE"), get("FS_GCS_TIMEOUT"), get("SYSID_MYGCS"))
+        if values != self._failsafe_values:
+            self._failsafe_values = values
+            self._failsafe_settings = GcsFailsafeConfig(
+                action=FailsafeAction(int(values[0])), timeout_s=values[1],
+                gcs_sysid=int(values[2]))
+        return self._failsafe_settings
 
     # ------------------------------------------------------------------ driving
     def tick(self, time_s: float, wall_time_s: float) -> None:

@@ -77,10 +77,13 @@ import math
 
 import numpy as np
 
+from flightdata.design_cache import cached_design
+
 FT_TO_M = 0.3048  # m per international foot (exact)
 KT_TO_M_S = 1852.0 / 3600.0  # m/s per knot (exact: 1 nmi = 1852 m)
 LOW_ALTITUDE_CEILING_M = 1000.0 * FT_TO_M  # m: top of MIL-F-8785C's low-altitude model
 GRID_RATIO = 1.01  # v/w normalised steps dt/T are rounded to integer powers of this ratio
+GRID_BLOCK = 32  # grid steps per block of coefficients kept on disk (a factor 1.37 of dt/T)
 SQRT3 = math.sqrt(3.0)
 
 
@@ -201,10 +204,28 @@ def _second_order_step(h: float) -> tuple[float, ...]:
     return (float(ad[0, 0]), float(ad[0, 1]), float(ad[1, 0]), float(ad[1, 1]), *_chol2(qd))
 
 
+@cached_design
+def _second_order_grid_block(first_index: int) -> tuple[np.ndarray]:
+    """:func:`_second_order_step` for the normalised steps ``GRID_RATIO ** index``, ``index``
+    from ``first_index`` to ``first_index + GRID_BLOCK - 1``: one row each, shape
+    (GRID_BLOCK, 7).
+
+    Kept on disk like the autopilot's designs (:mod:`flightdata.design_cache`): a world whose
+    wind stays on grid steps met before (the floors every world starts on, a calm flight's
+    only ones) reads them back and never imports ``scipy.linalg``. A block rather than a
+    point per file, because turbulence walks through hundreds of neighbouring points.
+    """
+    return (np.array([_second_order_step(GRID_RATIO**index)
+                      for index in range(first_index, first_index + GRID_BLOCK)]),)
+
+
 @functools.lru_cache(maxsize=4096)
 def _second_order_step_on_grid(index: int) -> tuple[float, ...]:
-    """:func:`_second_order_step` for the normalised step ``GRID_RATIO ** index``, memoised."""
-    return _second_order_step(GRID_RATIO**index)
+    """:func:`_second_order_step` for the normalised step ``GRID_RATIO ** index``, memoised
+    (the same floats, read from their cached block)."""
+    offset = index % GRID_BLOCK
+    row = _second_order_grid_block(index - offset)[0][offset]
+    return tuple(float(v) for v in row)
 
 
 def second_order_coefficients(h: float) -> tuple[tuple[float, ...], float]:
@@ -212,8 +233,9 @@ def second_order_coefficients(h: float) -> tuple[tuple[float, ...], float]:
 
     ``h`` is rounded to the nearest integer power of ``GRID_RATIO`` (a change of T = L/V of at
     most 0.5 %) so that the two 4x4 matrix exponentials of Van Loan's method (~0.3 ms) are
-    computed once per grid point and process, not at every rediscretisation. The rounding
-    does not touch the variance: Ad P Ad^T + Qd = P holds exactly for every step.
+    computed once per grid point (then kept on disk, by blocks), not at every
+    rediscretisation. The rounding does not touch the variance: Ad P Ad^T + Qd = P holds
+    exactly for every step.
 
     Parameters
     ----------
@@ -236,6 +258,6 @@ def second_order_coefficients(h: float) -> tuple[tuple[float, ...], float]:
 P_CHOL = (math.sqrt(0.5), 0.25 / math.sqrt(0.5), math.sqrt(0.25 - 0.125))
 
 
-__all__ = ["FT_TO_M", "GRID_RATIO", "KT_TO_M_S", "LOW_ALTITUDE_CEILING_M", "P_CHOL", "SQRT3",
-           "dryden_length_scales_m", "dryden_sigmas_m_s", "second_order_coefficients",
-           "second_order_model", "van_loan"]
+__all__ = ["FT_TO_M", "GRID_BLOCK", "GRID_RATIO", "KT_TO_M_S", "LOW_ALTITUDE_CEILING_M",
+           "P_CHOL", "SQRT3", "dryden_length_scales_m", "dryden_sigmas_m_s",
+           "second_order_coefficients", "second_order_model", "van_loan"]

@@ -19,8 +19,13 @@ from scipy.optimize import brentq
 from flightdata.config import ConfigError, from_mapping
 from sim.world.dryden import (
     FT_TO_M,
+    GRID_BLOCK,
+    GRID_RATIO,
     KT_TO_M_S,
     LOW_ALTITUDE_CEILING_M,
+    _second_order_grid_block,
+    _second_order_step,
+    _second_order_step_on_grid,
     dryden_length_scales_m,
     dryden_sigmas_m_s,
     second_order_model,
@@ -397,3 +402,18 @@ def test_constructor_rejects_bad_step_and_generator() -> None:
 def test_knot_conversion_is_exact() -> None:
     assert KT_TO_M_S == 1852.0 / 3600.0  # 1 nmi = 1852 m by definition
     assert FT_TO_M == 0.3048  # international foot by definition
+
+
+@pytest.mark.parametrize("index", [-2000, -1025, -1024, -1, 0, 31, 32, 70])
+def test_grid_coefficients_read_from_their_cached_block_are_the_computed_ones(
+        index: int) -> None:
+    # a block holds GRID_BLOCK consecutive grid steps (negative indices and both block ends
+    # included); stored on disk and read back, each row must be the direct computation's floats
+    first = index - index % GRID_BLOCK
+    block = _second_order_grid_block.design(first)[0]
+    stored = _second_order_grid_block(first)[0]
+    direct = _second_order_step(GRID_RATIO**index)
+    assert tuple(block[index - first].tolist()) == direct
+    assert tuple(stored[index - first].tolist()) == direct
+    _second_order_step_on_grid.cache_clear()
+    assert _second_order_step_on_grid(index) == direct

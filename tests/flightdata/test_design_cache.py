@@ -10,13 +10,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-import fcu.design_cache as design_cache
+import flightdata.design_cache as design_cache
 from fcu.control.attitude_lqr import _axis_lqr_arrays
 from fcu.control.attitude_reference import _reference_filter_design
 from fcu.control.dob import _discretise
 from fcu.control.motor_lead import _lead_design
-from fcu.design_cache import CACHE_DIR_ENV, cached_design
 from fcu.model import VehicleModel
+from flightdata.design_cache import CACHE_DIR_ENV, cached_design
 
 INERTIA = VehicleModel().inertia  # kg*m^2, per axis
 
