@@ -153,12 +153,12 @@ class FlightLegs:
                              f"step ({self._time_s!r})")
         self._time_s = float(time_s)
         pos, vel = estimate_pos_ned, estimate_vel_ned
-        # (an estimator's float64 3-vectors, every tick: taken as they are; any other
-        # array, the native float64 dtype object not among them, is converted)
-        if not (pos.__class__ is np.ndarray and pos.dtype is _FLOAT64
+        # (an estimator's float64 3-vectors, every tick: taken as they are; others converted;
+        # dtypes compared by ==: arrays from cached kernels carry their own float64 object)
+        if not (pos.__class__ is np.ndarray and pos.dtype == _FLOAT64
                 and pos.shape == _SHAPE3):
             pos = np.asarray(pos, dtype=float).reshape(-1)
-        if not (vel.__class__ is np.ndarray and vel.dtype is _FLOAT64
+        if not (vel.__class__ is np.ndarray and vel.dtype == _FLOAT64
                 and vel.shape == _SHAPE3):
             vel = np.asarray(vel, dtype=float).reshape(-1)
         if pos.shape == _SHAPE3 and vel.shape == _SHAPE3:

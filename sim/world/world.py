@@ -241,7 +241,7 @@ class World:
             (:mod:`sim.world.samples`).
         """
         pwm = pwm_cmd
-        if not (pwm.__class__ is np.ndarray and pwm.dtype is _FLOAT64 and pwm.shape == (4,)):
+        if not (pwm.__class__ is np.ndarray and pwm.dtype == _FLOAT64 and pwm.shape == (4,)):
             pwm = np.asarray(pwm_cmd, dtype=np.float64)  # (the same array when it is one)
             if pwm.shape != (4,):
                 raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
