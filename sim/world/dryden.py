@@ -192,7 +192,8 @@ def _chol2(q: np.ndarray) -> tuple[float, float, float]:
     l11 = math.sqrt(q11)
     l21 = q21 / l11 if l11 > 0.0 else 0.0
     # max(., 0) only guards a last-bit negative from rounding; Van Loan's Qd is accurate to
-    # machine precision elementwise for normalised steps from 1e-8 to 2 (tests/sim/world/test_wind.py).
+    # machine precision elementwise for normalised steps from 1e-8 to 2
+    # (tests/sim/world/test_wind.py).
     l22 = math.sqrt(max(q22 - l21 * l21, 0.0))
     return l11, l21, l22
 
