@@ -32,11 +32,16 @@ def _spd(m: int) -> np.ndarray:
     return a @ a.T + m * np.eye(m)
 
 
-def test_sparse_product_is_the_matrix_product() -> None:
+def _filter_jacobian_dt() -> np.ndarray:
+    """A dt at a flying state: the sparsity pattern the filters' products see."""
     x = np.zeros(16)
     x[12:16] = 3.5
     x[6:12] = [0.05, -0.04, 0.3, 0.2, -0.1, 0.05]
-    a = model_jacobian(x, pack_params(VehicleModel()), False) * 0.01  # the filters' pattern
+    return model_jacobian(x, pack_params(VehicleModel()), False) * 0.01
+
+
+def test_sparse_product_is_the_matrix_product() -> None:
+    a = _filter_jacobian_dt()
     b = RNG.normal(size=(16, 16))
     out = np.full((16, 16), np.nan)  # every entry must be written
     mul_sparse_left(out, a, b)
@@ -107,10 +112,7 @@ def test_residual_and_gain_products_of_vectors() -> None:
 
 
 def test_listed_non_zero_products_are_the_sparse_products_to_the_bit() -> None:
-    x = np.zeros(16)
-    x[12:16] = 3.5
-    x[6:12] = [0.05, -0.04, 0.3, 0.2, -0.1, 0.05]
-    a = model_jacobian(x, pack_params(VehicleModel()), False) * 0.01  # the filters' pattern
+    a = _filter_jacobian_dt()
     b = RNG.normal(size=(16, 16))
     nz = np.full((16, 17), np.nan)
     nonzero_columns(nz, a)
