@@ -249,10 +249,10 @@ class Autopilot:
         records = health.step(time_s, batches, self.estimator.screening, reject,
                               self._sensor_noise)
         low_thrust = self._thrust_n < self._low_thrust_n  # throttle at minimum
-        # (the navigator takes a non-finite position, velocity or yaw as an unhealthy
-        # estimator itself: no other verdict to add)
+        # (the navigator judges a non-finite position, velocity or yaw an unhealthy
+        # estimator itself)
         nav = self.navigator.step(time_s, estimate.pos_ned, estimate.vel_ned,
-                                  estimate.euler_rad.item(2), estimator_healthy=True,
+                                  estimate.euler_rad.item(2),
                                   on_ground_hint=True if low_thrust else None,
                                   position_fix=health.position_fix)
         if nav.events:

@@ -115,7 +115,6 @@ class TickLog:
         free_flight = np.zeros(capacity, dtype=bool)
         free_flight[:k] = self.free_flight[:k]
         self._rows, self.flying, self.free_flight = rows, flying, free_flight
-        self._capacity = capacity
         self._row_bytes = rows.data.cast("B")  # the table's memory, for _PACK_ROW
         for name, first, width in _COLUMNS:
             setattr(self, name, rows[:, first] if name == "t" else rows[:, first:first + width])
@@ -127,7 +126,7 @@ class TickLog:
         status = autopilot.status
         assert status is not None
         k = self.n
-        if k == self._capacity:
+        if k == self._rows.shape[0]:
             self._grow(k + _CHUNK_TICKS)
         x = world.plant.state.tolist()
         t = world.time_s

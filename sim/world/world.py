@@ -200,7 +200,6 @@ class World:
         self._events: list[PlantEvent] = []
         # power-module readings a call of n steps can hold: n * this, plus 2
         self._battery_per_step = self.dt_s * self.config.battery.monitor_rate_hz
-        self._room: tuple[int, int] = (-1, 0)  # (n_steps, room) of the latest step() call
 
     def reset(self, *, pos_ned: Sequence[float] = (0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> None:
         """Start again at time 0 on (or above) ``pos_ned``: same seed, same run."""
@@ -246,11 +245,7 @@ class World:
             if pwm.shape != (4,):
                 raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
         first = m = self._samples_used
-        steps_room = self._room  # the same n_steps every tick: worked out once
-        if steps_room[0] != n_steps:
-            steps_room = self._room = (
-                n_steps, _N_SENSORS * n_steps + int(n_steps * self._battery_per_step) + 2)
-        room = steps_room[1]
+        room = _N_SENSORS * n_steps + int(n_steps * self._battery_per_step) + 2
         if first + room > self._samples.shape[0]:
             self._new_sample_buffer(room)
             first = m = 0
