@@ -107,6 +107,7 @@ class Link:
         self._last_vehicle_wall = -math.inf
         self._inbox: list[MAVLinkMessage] = []  # protocol replies waiting for a reader
         self._clock_hooks: list[Callable[[float], None]] = []
+        self._handling_wall_s: float | None = None  # receipt of the message being handled
         self._event_hooks: list[Callable[[FlightEvent], None]] = []
         self._sent_clock: float | None = None  # vehicle clock when the last command left
         self.closed = False
@@ -353,6 +354,7 @@ class Link:
                 and is_signed(msg.get_msgbuf())):
             self._vehicle_signs = True
         before = self.analyzer.clock_s
+        self._handling_wall_s = stamp
         with self._io:
             self._record(bytes(msg.get_msgbuf()), msg, stamp)
         vehicle = self.analyzer.vehicle
@@ -575,6 +577,13 @@ class Link:
     def _take_all(self, kind: str, match: Callable[[MAVLinkMessage], bool]) -> None:
         while self._take(kind, match) is not None:
             pass
+
+    @property
+    def received_wall_s(self) -> float | None:
+        """Wall time (``time.time``) the message being handled was received by the reader
+        thread (None when unknown): a clock hook can tell a message that left the vehicle
+        before something it sent from one that may have left after."""
+        return self._handling_wall_s
 
     # ------------------------------------------------------------------ hooks
     def on_clock(self, hook: Callable[[float], None]) -> None:

@@ -117,7 +117,11 @@ class _InFlight:
     sent_s: float  # s, vehicle clock when it first left
     scheduled: bool  # on the vehicle's clock (no lag to learn from)
     by_param: bool  # it travels as a PARAM_SET, effective on arrival
-    last_sent_s: float  # s, vehicle clock when it last left
+    last_sent_wall_s: float  # s, wall clock (time.time) when it last left
+    # s, vehicle clock when it last left: that of the first message received after it left
+    # (None until one is); a station behind on its messages still handles older ones, whose
+    # clock is earlier than the vehicle's when the PARAM_SET reached it
+    last_sent_s: float | None = None
     received: bool = False  # the vehicle echoed its PARAM_SET
     attempts: int = 1
 
@@ -440,7 +444,8 @@ class GroundStation(ParameterClient):
         clock = self.analyzer.clock_s if self.analyzer.clock_s is not None else math.nan
         scheduled = via == "command" and fault.motor is not None and fault.loe > 0
         flight = _InFlight(fault, target_s, clock, scheduled,
-                           by_param=fault.param is not None or via == "param", last_sent_s=clock)
+                           by_param=fault.param is not None or via == "param",
+                           last_sent_wall_s=time.time())
         self._inflight.append(flight)
         start = self.analyzer.mission_start_s
         rel = f" (mission +{target_s - start:.3f} s)" if start is not None else ""
@@ -473,7 +478,12 @@ class GroundStation(ParameterClient):
         """Send again each PARAM_SET injection whose echo has not come back
         ``_RESEND_AFTER_S`` (or three link lags) of vehicle time after it left, up to
         ``_MAX_SENDS`` times: on a lossy link a lost PARAM_SET would be a lost fault. A
-        repeat is harmless (the vehicle keeps a parameter fault it already holds)."""
+        repeat is harmless (the vehicle keeps a parameter fault it already holds).
+
+        The wait counts from the clock of the first message received after the PARAM_SET
+        left, not from the clock the station had then: a station behind on its messages
+        (a loaded machine, a fast simulation) would otherwise count time the PARAM_SET spent
+        waiting for nothing and send it again before its echo could arrive."""
         waiting = [f for f in self._inflight if f.by_param and not f.received]
         if not waiting:  # the usual case, on every clock update
             return
@@ -484,9 +494,13 @@ class GroundStation(ParameterClient):
             echoed = self.analyzer.params.get(name)
             if echoed is not None and same_float32(echoed, flight.param_value()):
                 flight.received = True
+            elif flight.last_sent_s is None:
+                received = self.received_wall_s
+                if received is None or received >= flight.last_sent_wall_s:
+                    flight.last_sent_s = clock_s  # the vehicle's clock once it could have it
             elif clock_s - flight.last_sent_s > wait_s and flight.attempts < _MAX_SENDS:
                 flight.attempts += 1
-                flight.last_sent_s = clock_s
+                flight.last_sent_s, flight.last_sent_wall_s = None, time.time()
                 self.log("INJECT", f"no echo of {name} = {flight.param_value():g} after "
                          f"{wait_s:.2f} s: sending it again (attempt {flight.attempts})")
                 self._send_param_injection(flight)

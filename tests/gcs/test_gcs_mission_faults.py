@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import socket
+import time
 from pathlib import Path
 
 import pytest
@@ -14,8 +16,9 @@ from gcs.faults import (
     load_schedule,
     parse_fault_flag,
 )
-from gcs.mavlink import decode_packet, mavlink2
+from gcs.mavlink import decode_packet, mavlink2, open_link
 from gcs.mission import MissionFileError, load_mission, thesis_mission
+from gcs.station import GroundStation
 
 M = mavlink2
 ROOT = Path(__file__).resolve().parents[2]
@@ -105,3 +108,62 @@ def test_schedule_file_errors_name_the_key(tmp_path: Path) -> None:
     path.write_text('[[faults]]\nparam = "SIM_MASS_DROP"\nvalue = 0.3\nat_s = 22\n'
                     '[[faults]]\nmotor = 2\nloe = 0.1\nat_s = 5\n')
     assert [f.at_s for f in load_schedule(path)] == [5.0, 22.0]
+
+
+def test_a_station_behind_on_its_messages_does_not_resend_an_injection_early() -> None:
+    # A PARAM_SET injection is sent again when no echo came 0.5 s of vehicle time after it
+    # left. A station handling a backlog (messages received before it sent) must not count
+    # their clock: they left the vehicle before the PARAM_SET could reach it.
+    vehicle = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    vehicle.bind(("127.0.0.1", 0))
+    vehicle.settimeout(0.0)
+    url = f"udpout:127.0.0.1:{vehicle.getsockname()[1]}"
+    gs = GroundStation(open_link(url), url)
+    mav = mavlink2.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    def param_sets() -> int:
+        n = 0
+        try:
+            while True:
+                packet = vehicle.recv(65536)
+                msg = decode_packet(packet)
+                n += msg is not None and msg.get_type() == "PARAM_SET"
+        except BlockingIOError:
+            return n
+
+    def handle(time_ms: int, received_wall_s: float) -> None:
+        msg = mavlink2.MAVLink_attitude_message(time_ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        gs._handle(mav.decode(bytearray(msg.pack(mav))), received_wall_s)
+
+    try:
+        hb = mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_QUADROTOR,
+                                                mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 3, 3)
+        gs._handle(mav.decode(bytearray(hb.pack(mav))), time.time())
+        gs.on_clock(gs.resend_lost_injections)
+        handle(1000, time.time())
+        before_send = time.time()
+        time.sleep(0.01)  # (wall stamps strictly before the send)
+        gs.inject(FaultSpec(at_s=0.0, motor=2, loe=0.25), 1.0, via="param")
+        deadline = time.monotonic() + 10.0
+        sent = 0
+        while sent == 0 and time.monotonic() < deadline:
+            sent = param_sets()
+        assert sent == 1
+        # a second of vehicle time received before the PARAM_SET left: no resend
+        for ms in range(1010, 2010, 10):
+            handle(ms, before_send)
+        # then 0.4 s received after it: still within the wait
+        for ms in range(2010, 2410, 10):
+            handle(ms, time.time())
+        time.sleep(0.2)
+        assert param_sets() == 0
+        # past 0.5 s of vehicle time since the first message received after it: sent again
+        for ms in range(2410, 2610, 10):
+            handle(ms, time.time())
+        deadline = time.monotonic() + 10.0
+        while sent == 1 and time.monotonic() < deadline:
+            sent += param_sets()
+        assert sent == 2
+    finally:
+        gs.close()
+        vehicle.close()
