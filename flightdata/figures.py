@@ -314,14 +314,23 @@ def save_figures(series: FlightSeries, out_dir: str | Path, *, name: str | None 
 def save_figure(fig: Figure, stem: str | Path, *, formats: Sequence[str] = FORMATS,
                 dpi: float = 100.0) -> list[Path]:
     """Write ``fig`` as ``{stem}.{format}`` for each format (the folder is created), as
-    reproducible files (no creation date); returns the paths in ``formats`` order."""
+    reproducible files (no creation date); returns the paths in ``formats`` order.
+
+    The layout worked out for the first format is kept for the others (the figure's layout
+    engine is set again afterwards): working out the constrained layout again took half of
+    each further file's writing time, for the same axes positions."""
     stem = Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
     paths = []
-    for fmt in formats:
-        path = stem.with_name(f"{stem.name}.{fmt}")
-        fig.savefig(path, dpi=dpi, metadata=_metadata(fmt))
-        paths.append(path)
+    engine = fig.get_layout_engine()
+    try:
+        for fmt in formats:
+            path = stem.with_name(f"{stem.name}.{fmt}")
+            fig.savefig(path, dpi=dpi, metadata=_metadata(fmt))
+            paths.append(path)
+            fig.set_layout_engine("none")  # the axes keep the positions just laid out
+    finally:
+        fig.set_layout_engine(engine)
     return paths
 
 
