@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, NoReturn
@@ -73,8 +74,10 @@ TELEMETRY_HZ: dict[str, float] = {
 }
 """Rates the ground station asks for (Hz of simulated time), by message name."""
 
-_MISSION_ITEM_TIMEOUT_S = 1.0  # s wall without a MISSION_REQUEST before we nudge the upload
-_MISSION_STALLS = 15  # nudges in a row without progress before an upload starts over
+# s wall without a MISSION_REQUEST before we nudge the upload: four of the slowest recent
+# item round trips, within these bounds (the upper one until a round trip is measured)
+_MISSION_NUDGE_S = (0.2, 1.0)
+_MISSION_STALL_S = 15.0  # s wall without progress before an upload starts over
 _MISSION_UPLOADS = 3  # uploads started before giving up
 _STREAM_ROUNDS_S = (0.5, 0.5, 1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0)
 """Wall seconds of each round of stream requests (12 rounds, ~18 s at most)."""
@@ -149,6 +152,8 @@ class GroundStation(ParameterClient):
         self.injection_timing: list[InjectionTiming] = []
         self._inflight: list[_InFlight] = []
         self._lag_samples_s: list[float] = []
+        # s wall, the latest mission item round trips that made progress (request to request)
+        self._mission_round_trips_s: deque[float] = deque(maxlen=8)
 
     def _note_event(self, event: FlightEvent) -> None:
         if event.kind == "INJECT":
@@ -317,13 +322,14 @@ class GroundStation(ParameterClient):
     def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0) -> None:
         """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0).
 
-        Over a lossy link: when no request comes for :data:`_MISSION_ITEM_TIMEOUT_S`, the
-        upload is nudged (MISSION_COUNT again before the first request; else the item after
-        the last one asked for, which the vehicle either wanted or answers by asking again
-        for the one it misses; after the last item, that item again, which a vehicle that
-        finished answers with its MISSION_ACK again); an upload the vehicle cancelled (it
-        timed out) or that made no progress for :data:`_MISSION_STALLS` nudges starts over,
-        up to :data:`_MISSION_UPLOADS` times.
+        Over a lossy link: when no request comes for a while (:meth:`_mission_nudge_s`: four
+        of the slowest recent round trips, 0.2 to 1 s), the upload is nudged (MISSION_COUNT
+        again before the first request; else the item after the last one asked for, which
+        the vehicle either wanted or answers by asking again for the one it misses; after
+        the last item, that item again, which a vehicle that finished answers with its
+        MISSION_ACK again); an upload the vehicle cancelled (it timed out) or that made no
+        progress for :data:`_MISSION_STALL_S` starts over, up to :data:`_MISSION_UPLOADS`
+        times.
 
         Raises
         ------
@@ -359,22 +365,27 @@ class GroundStation(ParameterClient):
         for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST", "STATUSTEXT"):
             self._take_all(kind, lambda m: True)
 
+        sent_at = progress_at = 0.0  # time.monotonic() of the last send, the last progress
+
         def send_count() -> None:
+            nonlocal sent_at
             self.send(_M.MAVLink_mission_count_message(sysid, compid, count,
                                                        _M.MAV_MISSION_TYPE_MISSION))
+            sent_at = time.monotonic()
 
         def send_item(seq: int) -> None:
+            nonlocal sent_at
             self.send(wire[seq].to_message(seq, sysid, compid, current=seq == 0))
+            sent_at = time.monotonic()
 
         send_count()
+        progress_at = sent_at
         last_seq = -1
-        stalls = 0
-        while time.monotonic() < deadline and stalls < _MISSION_STALLS:
+        while (now := time.monotonic()) < deadline and now - progress_at < _MISSION_STALL_S:
             reply = self._wait_reply(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
                                      lambda m: int(getattr(m, "mission_type", 0)) == 0,
-                                     _MISSION_ITEM_TIMEOUT_S)
+                                     self._mission_nudge_s())
             if reply is None:
-                stalls += 1
                 if last_seq < 0:
                     send_count()
                 else:
@@ -391,10 +402,21 @@ class GroundStation(ParameterClient):
             if not 0 <= seq < count:
                 continue
             if seq > last_seq:
-                stalls = 0
+                progress_at = time.monotonic()
+                self._mission_round_trips_s.append(progress_at - sent_at)
             last_seq = seq
             send_item(seq)
         return last_seq
+
+    def _mission_nudge_s(self) -> float:
+        """Wall seconds without a mission request before the upload is nudged: four times the
+        slowest of the last eight round trips that made progress, within
+        :data:`_MISSION_NUDGE_S` (its upper bound before any): a loopback link is nudged within
+        0.2 s, a radio link waits as long as its replies take."""
+        low, high = _MISSION_NUDGE_S
+        if not self._mission_round_trips_s:
+            return high
+        return min(high, max(low, 4.0 * max(self._mission_round_trips_s)))
 
     def _mission_rejected(self, wire: Sequence[WireItem], result: int,
                           last_seq: int) -> NoReturn:
