@@ -41,6 +41,7 @@ import queue
 import select
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Self
@@ -67,6 +68,7 @@ _HEARTBEAT_PERIOD_S = 0.5  # s wall, GCS heartbeat (ArduPilot FS_GCS_TIMEOUT def
 ACK_TIMEOUTS_S = (1.0, 1.5, 2.0, 2.5, 3.0, 3.0, 3.0, 3.0)
 """Wall seconds each attempt of a command waits for its answer (8 attempts, ~19 s)."""
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its ACK
+_RETRY_FLOOR_S = 0.2  # s wall, the shortest wait before a request is sent again
 _UNVERIFIED_HEARTBEATS = 3  # autopilot HEARTBEATs failing the signature check: a mismatch
 _READ_WAIT_S = 0.1  # s wall, longest the reader thread sleeps before looking again
 _PUMP_BATCH = 20_000  # messages handled per pump at most (the caller keeps control)
@@ -108,6 +110,9 @@ class Link:
         self._inbox: list[MAVLinkMessage] = []  # protocol replies waiting for a reader
         self._clock_hooks: list[Callable[[float], None]] = []
         self._handling_wall_s: float | None = None  # receipt of the message being handled
+        # s wall, the latest round trips measured: a request to the reply that answered it,
+        # only where no earlier copy of the request can have drawn the reply (Karn's rule)
+        self._round_trips_s: deque[float] = deque(maxlen=8)
         self._event_hooks: list[Callable[[FlightEvent], None]] = []
         self._sent_clock: float | None = None  # vehicle clock when the last command left
         self.closed = False
@@ -577,6 +582,15 @@ class Link:
     def _take_all(self, kind: str, match: Callable[[MAVLinkMessage], bool]) -> None:
         while self._take(kind, match) is not None:
             pass
+
+    def _retry_wait_s(self, longest_s: float) -> float:
+        """Wall seconds to wait for a reply before asking again: four times the slowest of
+        the last eight measured round trips, at least :data:`_RETRY_FLOOR_S` and at most
+        ``longest_s`` (``longest_s`` before any is measured): over loopback a lost request is
+        asked again within 0.2 s, over a radio link as late as its replies take."""
+        if not self._round_trips_s:
+            return longest_s
+        return min(longest_s, max(_RETRY_FLOOR_S, 4.0 * max(self._round_trips_s)))
 
     @property
     def received_wall_s(self) -> float | None:

@@ -24,7 +24,9 @@ __all__ = ["ParameterClient", "same_float32"]
 
 _M = mavlink2
 _PARAM_LIST_QUIET_S = 1.0  # s wall without PARAM_VALUE that ends a parameter download
-_PARAM_READ_ROUNDS = 12  # rounds of PARAM_REQUEST_READ for indices a download missed
+# PARAM_REQUEST_READ rounds for the indices a download missed: of 1 s each at most (shorter
+# on a fast link, Link._retry_wait_s), for this many seconds in all
+_PARAM_READ_ROUNDS = 12
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its PARAM_VALUE
 _FLOAT32_TOL = 1e-6  # relative: PARAM_VALUE is REAL32
 
@@ -56,7 +58,8 @@ class ParameterClient(Link):
     def fetch_params(self, quiet_s: float = _PARAM_LIST_QUIET_S,
                      timeout_s: float = 20.0) -> dict[str, float]:
         """PARAM_REQUEST_LIST; every PARAM_VALUE until all indices arrived (or a quiet spell),
-        then PARAM_REQUEST_READ for each index that did not (a lossy link)."""
+        then PARAM_REQUEST_READ for each index that did not (a lossy link), in rounds as long
+        as the link's round trips need (:meth:`gcs.link.Link._retry_wait_s`)."""
         sysid, compid = self.target
         self._take_all("PARAM_VALUE", lambda m: True)
         self.send(_M.MAVLink_param_request_list_message(sysid, compid))
@@ -79,18 +82,27 @@ class ParameterClient(Link):
         if not self.param_names:
             raise FlightTimeout("no PARAM_VALUE in answer to PARAM_REQUEST_LIST")
         asked = 0
-        for _ in range(_PARAM_READ_ROUNDS):
+        give_up = time.monotonic() + _PARAM_READ_ROUNDS * ACK_TIMEOUTS_S[0]
+        first = True
+        while time.monotonic() < give_up:
             missing = [i for i in range(self.param_count or 0) if i not in seen]
             if not missing:
                 break
             asked += len(missing)
             for index in missing:
                 self.send(_M.MAVLink_param_request_read_message(sysid, compid, b"", index))
-            round_end = time.monotonic() + ACK_TIMEOUTS_S[0]
+            sent_at = time.monotonic()
+            round_end = sent_at + self._retry_wait_s(ACK_TIMEOUTS_S[0])
             while len(seen) < (self.param_count or 0) and time.monotonic() < round_end:
                 msg = self._wait_reply(["PARAM_VALUE"], lambda m: True, 0.05)
                 if msg is not None:
+                    if first and int(msg.param_index) in missing:
+                        # one sample, from the first round only (Karn's rule); the other
+                        # answers queue behind it
+                        self._round_trips_s.append(time.monotonic() - sent_at)
+                        first = False
                     self._note_param(msg, seen)
+            first = False
         self.log("PARAM", f"{len(self.param_names)} parameters"
                  + ("" if self.param_count in (None, len(seen)) else
                     f" of {self.param_count} announced")

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, NoReturn
@@ -74,13 +73,11 @@ TELEMETRY_HZ: dict[str, float] = {
 }
 """Rates the ground station asks for (Hz of simulated time), by message name."""
 
-# s wall without a MISSION_REQUEST before we nudge the upload: four of the slowest recent
-# item round trips, within these bounds (the upper one until a round trip is measured)
-_MISSION_NUDGE_S = (0.2, 1.0)
+_MISSION_NUDGE_S = 1.0  # s wall without a MISSION_REQUEST before we nudge the upload, at most
 _MISSION_STALL_S = 15.0  # s wall without progress before an upload starts over
 _MISSION_UPLOADS = 3  # uploads started before giving up
 _STREAM_ROUNDS_S = (0.5, 0.5, 1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0)
-"""Wall seconds of each round of stream requests (12 rounds, ~18 s at most)."""
+"""Wall seconds of each round of stream requests, at most (~18 s in all)."""
 _DATE_REQUEST_S = 0.5  # s wall between TIMESYNC requests that date the mission start
 _STATUS_REQUEST_S = 1.0  # s wall between SYS_STATUS requests while waiting to be armable
 
@@ -152,8 +149,6 @@ class GroundStation(ParameterClient):
         self.injection_timing: list[InjectionTiming] = []
         self._inflight: list[_InFlight] = []
         self._lag_samples_s: list[float] = []
-        # s wall, the latest mission item round trips that made progress (request to request)
-        self._mission_round_trips_s: deque[float] = deque(maxlen=8)
 
     def _note_event(self, event: FlightEvent) -> None:
         if event.kind == "INJECT":
@@ -198,8 +193,9 @@ class GroundStation(ParameterClient):
         """Ask for the telemetry the table needs (:data:`TELEMETRY_HZ`), all at once.
 
         Every stream not yet confirmed gets a SET_MESSAGE_INTERVAL and a
-        GET_MESSAGE_INTERVAL per round (rounds of :data:`_STREAM_ROUNDS_S`); a stream is
-        confirmed when the interval read back is the one asked for. The COMMAND_ACKs cannot
+        GET_MESSAGE_INTERVAL per round (rounds of :data:`_STREAM_ROUNDS_S` at most, shorter on
+        a fast link: :meth:`_retry_wait_s`; ~18 s in all); a stream is confirmed when the
+        interval read back is the one asked for. The COMMAND_ACKs cannot
         tell which stream they answer, so the read-back is the proof. A stream never
         confirmed (refused, or a link too bad) keeps the vehicle's rate; the table is then
         computed from fewer samples, and an event says so.
@@ -215,23 +211,28 @@ class GroundStation(ParameterClient):
                   for name, rate in rates.items()}
         pending = dict(wanted)
         self._take_all("MESSAGE_INTERVAL", lambda m: True)
-        for timeout_s in _STREAM_ROUNDS_S:
+        give_up = time.monotonic() + sum(_STREAM_ROUNDS_S)
+        rounds = 0
+        while pending and time.monotonic() < give_up:
             for msg_id, (_, interval_us) in pending.items():
                 for command, p1, p2 in ((_M.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, interval_us),
                                         (_M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id, 0)):
                     self.send(_M.MAVLink_command_long_message(
                         sysid, compid, command, 0, float(p1), float(p2), 0, 0, 0, 0, 0))
-            deadline = time.monotonic() + timeout_s
+            sent_at = time.monotonic()
+            deadline = sent_at + self._retry_wait_s(
+                _STREAM_ROUNDS_S[min(rounds, len(_STREAM_ROUNDS_S) - 1)])
+            rounds += 1
             while pending and time.monotonic() < deadline:
                 reply = self._wait_reply(["MESSAGE_INTERVAL"], lambda m: True, 0.05)
                 if reply is not None and int(reply.message_id) in pending:
                     msg_id = int(reply.message_id)
                     if int(reply.interval_us) == pending[msg_id][1]:
                         del pending[msg_id]
+                        if rounds == 1:  # (later, the answer may be to an earlier round)
+                            self._round_trips_s.append(time.monotonic() - sent_at)
             self._take_all("COMMAND_ACK", lambda m: int(m.command) in (
                 _M.MAV_CMD_SET_MESSAGE_INTERVAL, _M.MAV_CMD_GET_MESSAGE_INTERVAL))
-            if not pending:
-                break
         self.log("STREAM", ", ".join(f"{n} {r:g} Hz" for n, r in rates.items()))
         missing = [name for name, _ in pending.values()]
         if missing:
@@ -322,8 +323,8 @@ class GroundStation(ParameterClient):
     def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0) -> None:
         """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0).
 
-        Over a lossy link: when no request comes for a while (:meth:`_mission_nudge_s`: four
-        of the slowest recent round trips, 0.2 to 1 s), the upload is nudged (MISSION_COUNT
+        Over a lossy link: when no request comes for a while (:meth:`_retry_wait_s`, 1 s at
+        most), the upload is nudged (MISSION_COUNT
         again before the first request; else the item after the last one asked for, which
         the vehicle either wanted or answers by asking again for the one it misses; after
         the last item, that item again, which a vehicle that finished answers with its
@@ -365,7 +366,11 @@ class GroundStation(ParameterClient):
         for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST", "STATUSTEXT"):
             self._take_all(kind, lambda m: True)
 
-        sent_at = progress_at = 0.0  # time.monotonic() of the last send, the last progress
+        # time.monotonic() of the last send and of the last progress; whether the last send
+        # was a nudge (a round trip is measured only from an answer to a request, never from a
+        # nudge, which an answer to an earlier send may follow)
+        sent_at = progress_at = 0.0
+        nudged = False
 
         def send_count() -> None:
             nonlocal sent_at
@@ -384,8 +389,9 @@ class GroundStation(ParameterClient):
         while (now := time.monotonic()) < deadline and now - progress_at < _MISSION_STALL_S:
             reply = self._wait_reply(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
                                      lambda m: int(getattr(m, "mission_type", 0)) == 0,
-                                     self._mission_nudge_s())
+                                     self._retry_wait_s(_MISSION_NUDGE_S))
             if reply is None:
+                nudged = True
                 if last_seq < 0:
                     send_count()
                 else:
@@ -403,20 +409,12 @@ class GroundStation(ParameterClient):
                 continue
             if seq > last_seq:
                 progress_at = time.monotonic()
-                self._mission_round_trips_s.append(progress_at - sent_at)
+                if not nudged:
+                    self._round_trips_s.append(progress_at - sent_at)
             last_seq = seq
             send_item(seq)
+            nudged = False
         return last_seq
-
-    def _mission_nudge_s(self) -> float:
-        """Wall seconds without a mission request before the upload is nudged: four times the
-        slowest of the last eight round trips that made progress, within
-        :data:`_MISSION_NUDGE_S` (its upper bound before any): a loopback link is nudged within
-        0.2 s, a radio link waits as long as its replies take."""
-        low, high = _MISSION_NUDGE_S
-        if not self._mission_round_trips_s:
-            return high
-        return min(high, max(low, 4.0 * max(self._mission_round_trips_s)))
 
     def _mission_rejected(self, wire: Sequence[WireItem], result: int,
                           last_seq: int) -> NoReturn:

@@ -175,8 +175,8 @@ def test_a_station_behind_on_its_messages_does_not_resend_an_injection_early() -
     ([0.02, 0.1, 0.05], 0.4),  # four of the slowest
     ([0.1, 0.5], 1.0),  # a slow link: the ceiling
 ])
-def test_a_mission_upload_is_nudged_after_four_round_trips(round_trips_s: list[float],
-                                                            nudge_s: float) -> None:
+def test_a_request_is_sent_again_after_four_round_trips(round_trips_s: list[float],
+                                                         nudge_s: float) -> None:
     gs = GroundStation(None, "test")
-    gs._mission_round_trips_s.extend(round_trips_s)
-    assert gs._mission_nudge_s() == pytest.approx(nudge_s)
+    gs._round_trips_s.extend(round_trips_s)
+    assert gs._retry_wait_s(1.0) == pytest.approx(nudge_s)
