@@ -33,7 +33,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -71,6 +70,11 @@ _OUT_D_HAT = slice(control_chain.OUT_D_HAT, control_chain.OUT_D_HAT + 3)
 _OUT_TORQUE_APPLIED = slice(control_chain.OUT_TORQUE_APPLIED,
                             control_chain.OUT_TORQUE_APPLIED + 3)
 _OUT_CRASH_MEASURES = slice(control_chain.OUT_ALT, control_chain.OUT_COLLECTIVE + 1)
+
+
+# an AutopilotStatus made without its constructor (_keep_status: once a tick)
+_NEW_OBJECT = object.__new__
+_SET_ATTR = object.__setattr__
 
 
 @dataclass(frozen=True)
@@ -186,9 +190,7 @@ class Autopilot:
         self._torque_applied = np.zeros(3)
         self._thrust_n = 0.0  # N, collective commanded at the last tick
         self._events: list[AutopilotEvent] = []
-        self._status: AutopilotStatus | None = None  # built from _status_parts when read
-        # the latest tick's AutopilotStatus fields (_keep_status), motors declared as a tuple
-        self._status_parts: dict[str, Any] | None = None
+        self._status: AutopilotStatus | None = None  # the latest tick's (_keep_status)
         self._flying = False
         self._motor_lost_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the lost motor while in relaxed hover
@@ -197,7 +199,8 @@ class Autopilot:
         self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
         self._motors_blocked = True  # the motors' arming blocker may be set
         # the motors and lost per cent the blocker names (None: not set since the reset)
-        self._motors_blocker: tuple[tuple[int, ...], list[int]] | None = None
+        self._blocker_motors: tuple[int, ...] | None = None
+        self._blocker_percent: list[int] = []
         # the latest estimate _hover_regime judged, and its verdict: the estimate of a tick
         # is the next tick's prior, judged again then
         self._regime_of: StateEstimate | None = None
@@ -286,7 +289,10 @@ class Autopilot:
         self._flying = True
         ref = nav.reference
         assert ref is not None
-        lost = self._lost_motor(time_s)
+        # (no motor can be lost while none is declared lost, none is spinning and FTC is
+        # passive: _lost_motor's answer without the call)
+        lost = (None if self._spinning is None and self._motor_lost_told is None
+                and not self.ftc_active else self._lost_motor(time_s))
         if lost is None:
             # position, reference filter, attitude law, DOB, allocation, mix: one compiled call
             out = self._chain.step(estimate.pos_ned, estimate.vel_ned, estimate.euler_rad,
@@ -354,8 +360,9 @@ class Autopilot:
             # the text names the latest LOE in whole per cent: written when that changes
             loe = detector.loe
             lost_percent = [round(100 * loe.item(m - 1)) for m in active]
-            if (active, lost_percent) != self._motors_blocker:
-                self._motors_blocker = (active, lost_percent)
+            # (the detector's tuple of declared motors is a new one whenever they change)
+            if active is not self._blocker_motors or lost_percent != self._blocker_percent:
+                self._blocker_motors, self._blocker_percent = active, lost_percent
                 self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
                     f"motor {m} detected failed (lost about {p} %): "
                     "restart the autopilot to clear"
@@ -495,9 +502,10 @@ class Autopilot:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""
         if estimate is self._regime_of:  # (an estimate's arrays are never changed)
             return self._regime
-        roll, pitch, _ = estimate.euler_rad.tolist()
-        regime = (abs(float(estimate.rate_frd[2])) < self._valid_yaw_rate_rad_s
-                  and abs(roll) < self._valid_tilt_rad and abs(pitch) < self._valid_tilt_rad)
+        euler = estimate.euler_rad
+        regime = (abs(estimate.rate_frd.item(2)) < self._valid_yaw_rate_rad_s
+                  and abs(euler.item(0)) < self._valid_tilt_rad
+                  and abs(euler.item(1)) < self._valid_tilt_rad)
         self._regime_of, self._regime = estimate, regime
         return regime
 
@@ -525,31 +533,24 @@ class Autopilot:
     def _keep_status(self, time_s: float, estimate: StateEstimate, nav: NavOutput,
                      ref: Reference | None, att_ref: AttitudeReference | None,
                      thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray) -> None:
-        """What the tick computed, for :attr:`status` to build when (if) it is read."""
+        """What the tick computed, as :attr:`status`."""
         detector = self.detector
         loe = detector.loe if self._loe_at_spin is None else self._loe_at_spin
-        self._status = None
-        # a fresh dict every tick: the status built from it takes it as its __dict__
-        self._status_parts = {
+        # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls: a
+        # fresh dict every tick becomes the instance's __dict__
+        self._status = status = _NEW_OBJECT(AutopilotStatus)
+        _SET_ATTR(status, "__dict__", {
             "time_s": time_s, "estimate": estimate, "nav": nav, "reference": ref,
             "attitude_reference": att_ref, "thrust_cmd_n": thrust_n, "torque_cmd_nm": torque_cmd,
             "disturbance_nm": d_hat, "pwm": self._pwm, "loe_estimate": loe,
-            "fault_detected": detector.active, "mass_change_kg": detector.mass_change_kg,
-            "excluded_sensors": self.sensor_health.excluded, "motors_lost": detector.lost}
+            "fault_detected": detector.declared_flags,
+            "mass_change_kg": detector.mass_change_kg,
+            "excluded_sensors": self.sensor_health.excluded, "motors_lost": detector.lost})
 
     # ------------------------------------------------------------------ observation
     @property
     def status(self) -> AutopilotStatus | None:
-        """What the last tick computed (None before the first tick); built on first read."""
-        if self._status is None and self._status_parts is not None:
-            fields = self._status_parts
-            active = fields["fault_detected"]  # the motors (1..4) declared: one flag each
-            fields["fault_detected"] = (1 in active, 2 in active, 3 in active, 4 in active)
-            # AutopilotStatus(...) without the frozen dataclass's object.__setattr__ calls:
-            # the fields dict becomes the instance's
-            status = object.__new__(AutopilotStatus)
-            object.__setattr__(status, "__dict__", fields)
-            self._status = status
+        """What the last tick computed (None before the first tick)."""
         return self._status
 
     @property

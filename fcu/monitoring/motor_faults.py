@@ -454,6 +454,7 @@ class MotorFaultDetector:
     def __init__(self, model: VehicleModel, config: DetectorConfig, dt_s: float) -> None:
         self.config = config
         self.dt_s = float(dt_s)
+        self._settle_s = config.settle_s  # (read every tick)
         self._u_hover = model.hover_pwm
         # the kernel's workspaces (_W_*, _I_*); the attributes below are views of them
         self._work = np.zeros(_W_SIZE)
@@ -500,6 +501,8 @@ class MotorFaultDetector:
         self._iwork[_I_MOTORS:_I_MOTORS + k] = self._declared
         self._isolate = not self._lost and len(self._declared) < 3
         self._active = tuple(sorted(j + 1 for j in self._declared))
+        self._declared_flags = (1 in self._active, 2 in self._active, 3 in self._active,
+                                4 in self._active)
         self._lost_motors = tuple(sorted(j + 1 for j in self._lost))
 
     # ------------------------------------------------------------------ the tick
@@ -526,11 +529,11 @@ class MotorFaultDetector:
         list of DetectionRecord
             What was decided at this tick.
         """
-        settling = time_s - self._last_declared_s < self.config.settle_s
-        self._loe = np.empty(4)  # a new one every tick: the previous one may be kept
+        settling = time_s - self._last_declared_s < self._settle_s
+        self._loe = loe_out = np.empty(4)  # a new one every tick: the previous one may be kept
         best, t, loe, settled, mass_threshold = _detector_tick(
             time_s, gamma, pwm, self._work, self._iwork, self._history, self._isolate,
-            evidence, learn, settling, self._mass_reported, self._loe)
+            evidence, learn, settling, self._mass_reported, loe_out)
         if not evidence:
             self._suspect = None
             self._recover_since.clear()
@@ -599,7 +602,7 @@ class MotorFaultDetector:
                     threshold: float) -> DetectionRecord | None:
         """Report a mass change beyond ``threshold`` (kg) held for ``mass_persistence_s``
         once ``settled``, clear it below half the threshold (module docstring)."""
-        dm = float(self._state[_MASS_KG])
+        dm = self._state.item(_MASS_KG)
         if not self._mass_reported:
             pending = abs(dm) > threshold
         else:
@@ -632,12 +635,17 @@ class MotorFaultDetector:
     @property
     def mass_change_kg(self) -> float:
         """The latest mass change estimate, kg, + heavier."""
-        return float(self._state[_MASS_KG])
+        return self._state.item(_MASS_KG)
 
     @property
     def active(self) -> tuple[int, ...]:
         """Motors (1..4) currently declared faulty."""
         return self._active
+
+    @property
+    def declared_flags(self) -> tuple[bool, bool, bool, bool]:
+        """Motors 1..4 currently declared faulty, one flag each."""
+        return self._declared_flags
 
     @property
     def suspected(self) -> int | None:

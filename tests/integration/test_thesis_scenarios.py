@@ -111,6 +111,9 @@ def test_a_declared_motor_blocks_arming_with_its_latest_estimated_loss() -> None
             f"motor {m} detected failed (lost about {round(100 * float(loe[m - 1]))} %): "
             "restart the autopilot to clear" for m in active) for _ in active[:1])
         assert ap.navigator.arming_blockers == expected, world
+        status = ap.status
+        assert status is not None
+        assert status.fault_detected == tuple(m in active for m in (1, 2, 3, 4)), world
         if active:
             percents.append(round(100 * float(loe[active[0] - 1])))
 

@@ -61,6 +61,7 @@ def test_a_loss_on_one_motor_is_declared_on_that_motor_alone() -> None:
     assert record.magnitude == pytest.approx(0.3, rel=1e-12)
     assert record.time_s == pytest.approx(DT_S + 0.1, abs=1e-9)
     assert detector.active == (2,) and detector.lost == ()
+    assert detector.declared_flags == (False, True, False, False)
     # after the declaration the common mode is the healthy motors' (none): no mass change
     np.testing.assert_allclose(detector.loe, [0.0, 0.3, 0.0, 0.0], atol=1e-12)
     assert detector.mass_change_kg == pytest.approx(0.0, abs=1e-12)
