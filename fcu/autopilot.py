@@ -289,10 +289,7 @@ class Autopilot:
         self._flying = True
         ref = nav.reference
         assert ref is not None
-        # (no motor can be lost while none is declared lost, none is spinning and FTC is
-        # passive: _lost_motor's answer without the call)
-        lost = (None if self._spinning is None and self._motor_lost_told is None
-                and not self.ftc_active else self._lost_motor(time_s))
+        lost = self._lost_motor(time_s)
         if lost is None:
             # position, reference filter, attitude law, DOB, allocation, mix: one compiled call
             out = self._chain.step(estimate.pos_ned, estimate.vel_ned, estimate.euler_rad,
