@@ -139,21 +139,8 @@ class Reference:
                     yaw_rate_rad_s: float) -> Reference:
         """:meth:`_from_floats` for the nine floats of a guidance tick, given one by one
         (a cubic's or a ramp's)."""
-        if not math.isfinite(px + py + pz + vx + vy + vz + ax + ay + az + yaw_rad
-                             + yaw_rate_rad_s):  # (a sum of finite floats may overflow)
-            return cls._from_floats([px, py, pz], [vx, vy, vz], [ax, ay, az], yaw_rad,
+        return _reference_from_nine(px, py, pz, vx, vy, vz, ax, ay, az, yaw_rad,
                                     yaw_rate_rad_s)
-        # one read-only buffer (bytes) for the three vectors: half the cost of an array
-        # built from nested tuples and then locked
-        rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
-        ref = object.__new__(cls)  # _assemble(), inline: once a tick
-        fields = ref.__dict__
-        fields["pos_ned"] = rows[0:3]
-        fields["vel_ned"] = rows[3:6]
-        fields["acc_ned"] = rows[6:9]
-        fields["yaw_rad"] = wrap_pi(float(yaw_rad))
-        fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
-        return ref
 
     @classmethod
     def _assemble(cls, pos_ned: np.ndarray, vel_ned: np.ndarray, acc_ned: np.ndarray,
@@ -168,6 +155,32 @@ class Reference:
         fields["yaw_rad"] = wrap_pi(float(yaw_rad))
         fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
         return ref
+
+
+_new_object = object.__new__
+_set_attribute = object.__setattr__
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def _reference_from_nine(px: float, py: float, pz: float, vx: float, vy: float, vz: float,
+                         ax: float, ay: float, az: float, yaw_rad: float,
+                         yaw_rate_rad_s: float) -> Reference:
+    """:meth:`Reference._from_floats` for the nine floats of a guidance tick, given one by
+    one; a plain function (no class attribute lookup), as it runs once a tick."""
+    if not math.isfinite(px + py + pz + vx + vy + vz + ax + ay + az + yaw_rad
+                         + yaw_rate_rad_s):  # (a sum of finite floats may overflow)
+        return Reference._from_floats([px, py, pz], [vx, vy, vz], [ax, ay, az], yaw_rad,
+                                      yaw_rate_rad_s)
+    # one read-only buffer (bytes) for the three vectors: half the cost of an array
+    # built from nested tuples and then locked
+    rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
+    ref = _new_object(Reference)  # Reference._assemble(), inline (wrap_pi() too)
+    _set_attribute(ref, "__dict__", {
+        "pos_ned": rows[0:3], "vel_ned": rows[3:6], "acc_ned": rows[6:9],
+        "yaw_rad": float((yaw_rad + _PI) % _TWO_PI - _PI),
+        "yaw_rate_rad_s": float(yaw_rate_rad_s)})
+    return ref
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -303,9 +316,9 @@ class CubicSegment:
         dh = (6.0 * s - 6.0 * s_sq) / T  # dh/dt
         ddh = (6.0 - 12.0 * s) / T_sq  # d2h/dt2
         # p = p0 + (p1 - p0) h,  v = (p1 - p0) dh/dt,  a = (p1 - p0) d2h/dt2  (plain floats)
-        return Reference._from_cubic(p0x + dx * h, p0y + dy * h, p0z + dz * h,
-                                     dx * dh, dy * dh, dz * dh, dx * ddh, dy * ddh, dz * ddh,
-                                     yaw0 + dyaw * h, dyaw * dh)
+        return _reference_from_nine(p0x + dx * h, p0y + dy * h, p0z + dz * h,
+                                    dx * dh, dy * dh, dz * dh, dx * ddh, dy * ddh, dz * ddh,
+                                    yaw0 + dyaw * h, dyaw * dh)
 
 
 @dataclass(frozen=True, eq=False)
@@ -373,8 +386,8 @@ class RampSegment:
         dt_s = time_s - self.t0_s
         p0x, p0y, p0z = self._start_f  # type: ignore[attr-defined]
         vx, vy, vz = self._vel_f  # type: ignore[attr-defined]
-        return Reference._from_cubic(p0x + vx * dt_s, p0y + vy * dt_s, p0z + vz * dt_s,
-                                     vx, vy, vz, 0.0, 0.0, 0.0, self.yaw_rad, 0.0)
+        return _reference_from_nine(p0x + vx * dt_s, p0y + vy * dt_s, p0z + vz * dt_s,
+                                    vx, vy, vz, 0.0, 0.0, 0.0, self.yaw_rad, 0.0)
 
 
 Segment = CubicSegment | HoldSegment | RampSegment
@@ -480,12 +493,31 @@ class Trajectory:
         # after another), else segment_index() without its clamps, which cannot apply
         current = self._current
         if current is None or not current[0] <= time_s < current[1]:
-            i = bisect.bisect_right(self._starts_s, time_s) - 1
-            segment = self._segments[i]
-            # from its start until the next segment's (the later one is active at a join)
-            current = self._current = (self._starts_s[i], self._starts_s[i + 1] if
-                                       i + 1 < len(self._starts_s) else self._end_s, segment)
+            current = self._find_current(time_s)
         return current[2].evaluate(time_s)
+
+    def _find_current(self, time_s: float) -> tuple[float, float, Segment]:
+        """The segment active at ``time_s`` (s, start <= time_s < end) with the times it is
+        active from and until, kept for the calls that follow."""
+        i = bisect.bisect_right(self._starts_s, time_s) - 1
+        # from its start until the next segment's (the later one is active at a join)
+        current = self._current = (self._starts_s[i], self._starts_s[i + 1] if
+                                   i + 1 < len(self._starts_s) else self._end_s,
+                                   self._segments[i])
+        return current
+
+    def moving_segment(self, time_s: float) -> tuple[CubicSegment | RampSegment, float] | None:
+        """The segment whose ``evaluate`` gives :meth:`evaluate` at ``time_s`` (s) and at any
+        later time before the one returned with it (s), when that segment moves (a cubic or
+        a ramp inside its time span); None otherwise (a hold, or outside the segments, where
+        the reference is one constant object)."""
+        if not self._start_s <= time_s < self._end_s:
+            return None
+        start_s, until_s, segment = self._find_current(time_s)
+        if isinstance(segment, HoldSegment) or not segment.t0_s <= time_s < \
+                segment.end_time_s or segment.duration_s == 0.0:
+            return None
+        return segment, min(until_s, segment.end_time_s)
 
     @classmethod
     def from_waypoints(cls, t0_s: float, start_pos_ned: np.ndarray | Sequence[float],
