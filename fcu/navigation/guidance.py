@@ -33,8 +33,8 @@ from __future__ import annotations
 import bisect
 import math
 import struct
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -269,20 +269,22 @@ class CubicSegment:
     end_pos_ned: np.ndarray
     start_yaw_rad: float = 0.0
     end_yaw_rad: float = 0.0
+    # evaluate() at a time inside the segment (t0_s <= t < end_time_s, s), without the
+    # checks: the cubic with the segment's constants bound once (set by __post_init__)
+    inside: Callable[[float], Reference] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check_times(self.t0_s, self.duration_s, allow_inf=False)
         object.__setattr__(self, "start_pos_ned", _vec3(self.start_pos_ned, "start_pos_ned"))
         object.__setattr__(self, "end_pos_ned", _vec3(self.end_pos_ned, "end_pos_ned"))
-        # per-tick constants of evaluate(), as plain floats, in one tuple: t0, T, T^2, the
-        # start point, p1 - p0, the start yaw and the yaw change
         dyaw = wrap_pi(self.end_yaw_rad - self.start_yaw_rad)
         object.__setattr__(self, "_dyaw", dyaw)
         object.__setattr__(self, "_end_s", self.t0_s + self.duration_s)
-        object.__setattr__(self, "_constants", (
-            float(self.t0_s), float(self.duration_s), self.duration_s**2,
-            *self.start_pos_ned.tolist(), *(self.end_pos_ned - self.start_pos_ned).tolist(),
-            float(self.start_yaw_rad), dyaw))
+        p0x, p0y, p0z = self.start_pos_ned.tolist()
+        dx, dy, dz = (self.end_pos_ned - self.start_pos_ned).tolist()
+        object.__setattr__(self, "inside", _cubic_inside(
+            float(self.t0_s), float(self.duration_s), self.duration_s**2, p0x, p0y, p0z,
+            dx, dy, dz, float(self.start_yaw_rad), dyaw))
         object.__setattr__(self, "_end_ref", None)  # the hold at the end, once built
 
     @property
@@ -300,16 +302,27 @@ class CubicSegment:
 
     def evaluate(self, time_s: float) -> Reference:
         """Reference at ``time_s`` (s); clamped to the end points outside the segment."""
-        t0, T, T_sq, p0x, p0y, p0z, dx, dy, dz, yaw0, dyaw = \
-            self._constants  # type: ignore[attr-defined]
-        if T == 0.0 or time_s >= self._end_s:  # type: ignore[attr-defined]
+        if self.duration_s == 0.0 or time_s >= self._end_s:  # type: ignore[attr-defined]
             end_ref: Reference | None = self._end_ref  # type: ignore[attr-defined]
             if end_ref is None:  # the same reference every time: build it once
-                end_ref = Reference._hold_checked(self.end_pos_ned, self.start_yaw_rad + dyaw)
+                end_yaw_rad = self.start_yaw_rad + self._dyaw  # type: ignore[attr-defined]
+                end_ref = Reference._hold_checked(self.end_pos_ned, end_yaw_rad)
                 object.__setattr__(self, "_end_ref", end_ref)
             return end_ref
-        if time_s < t0:
+        if time_s < self.t0_s:
             return Reference._hold_checked(self.start_pos_ned, self.start_yaw_rad)
+        return self.inside(time_s)
+
+
+def _cubic_inside(t0: float, T: float, T_sq: float, p0x: float, p0y: float, p0z: float,
+                  dx: float, dy: float, dz: float, yaw0: float, dyaw: float
+                  ) -> Callable[[float], Reference]:
+    """The cubic from ``p0`` to ``p0 + d`` (m, NED) starting at ``t0`` (s) over ``T`` (s,
+    > 0; ``T_sq`` = T^2), yaw from ``yaw0`` turning by ``dyaw`` (rad), as a function of a
+    time inside it (s): :attr:`CubicSegment.inside`. Its constants are plain floats bound
+    once (it runs every control tick)."""
+
+    def inside(time_s: float) -> Reference:
         s = (time_s - t0) / T
         s_sq = s**2
         h = 3.0 * s_sq - 2.0 * s**3  # shape function
@@ -319,6 +332,8 @@ class CubicSegment:
         return _reference_from_nine(p0x + dx * h, p0y + dy * h, p0z + dz * h,
                                     dx * dh, dy * dh, dz * dh, dx * ddh, dy * ddh, dz * ddh,
                                     yaw0 + dyaw * h, dyaw * dh)
+
+    return inside
 
 
 @dataclass(frozen=True, eq=False)
@@ -382,6 +397,11 @@ class RampSegment:
         if time_s >= self.end_time_s:
             return Reference.hold(self.start_pos_ned + self.vel_ned * self.duration_s,
                                   self.yaw_rad)
+        return self.inside(time_s)
+
+    def inside(self, time_s: float) -> Reference:
+        """:meth:`evaluate` at a time inside the ramp (``t0_s <= t < end_time_s``, s), without
+        the checks."""
         # p = p0 + v (t - t0)  (plain floats)
         dt_s = time_s - self.t0_s
         p0x, p0y, p0z = self._start_f  # type: ignore[attr-defined]
@@ -506,18 +526,18 @@ class Trajectory:
                                    self._segments[i])
         return current
 
-    def moving_segment(self, time_s: float) -> tuple[CubicSegment | RampSegment, float] | None:
-        """The segment whose ``evaluate`` gives :meth:`evaluate` at ``time_s`` (s) and at any
-        later time before the one returned with it (s), when that segment moves (a cubic or
-        a ramp inside its time span); None otherwise (a hold, or outside the segments, where
-        the reference is one constant object)."""
+    def moving_span(self, time_s: float) -> tuple[Callable[[float], Reference], float] | None:
+        """What gives :meth:`evaluate` from ``time_s`` (s) on, while the reference moves: the
+        active segment's ``inside`` (a cubic's or a ramp's) and the time until which it
+        does (s, exclusive); None when the reference is one constant object instead (a hold,
+        or outside the segments)."""
         if not self._start_s <= time_s < self._end_s:
             return None
         start_s, until_s, segment = self._find_current(time_s)
         if isinstance(segment, HoldSegment) or not segment.t0_s <= time_s < \
                 segment.end_time_s or segment.duration_s == 0.0:
             return None
-        return segment, min(until_s, segment.end_time_s)
+        return segment.inside, min(until_s, segment.end_time_s)
 
     @classmethod
     def from_waypoints(cls, t0_s: float, start_pos_ned: np.ndarray | Sequence[float],

@@ -104,12 +104,14 @@ class NavOutput:
 
 
 class _Cruise(NamedTuple):
-    """A leg on the way along a moving guidance segment, before its arrival: until
-    ``until_s`` (s) a tick with a position fix, no event and no command since the previous
-    one changes nothing but the reference, which is ``evaluate(t)`` (what
-    :meth:`Navigator._reference` would return: the segment :meth:`Trajectory.moving_segment`
-    gave). The legs layer has nothing to run before the arrival (:meth:`_run_flight`'s first
-    test) and the output's other fields stay those of ``fields``."""
+    """A leg on the way along a moving guidance segment, before its arrival.
+
+    Until ``until_s`` (s), a tick with a position fix and no event (every command that
+    changes the state leaves one) changes nothing but the reference: the legs layer has
+    nothing to run before the arrival (:meth:`FlightLegs._run_flight`'s first test), the
+    output's other fields stay those of ``fields``, and the reference is ``evaluate(t)``,
+    what :meth:`Navigator._reference` returns then (:meth:`Trajectory.moving_span`).
+    """
 
     leg: Leg
     until_s: float  # s
@@ -247,11 +249,11 @@ class Navigator(MissionExecution):
         if leg is None or leg.trajectory is None or leg.kind in ("manual", "land") or \
                 leg.reached_s is not None or not self._position_fix:
             return None
-        moving = leg.trajectory.moving_segment(t)
+        moving = leg.trajectory.moving_span(t)
         if moving is None:
             return None
-        segment, until_s = moving
-        return _Cruise(leg, min(until_s, leg.arrival_s - TIME_TOL_S), segment.evaluate,
+        inside, until_s = moving
+        return _Cruise(leg, min(until_s, leg.arrival_s - TIME_TOL_S), inside,
                        dict(out.__dict__))
 
     def _mission_running(self) -> bool:

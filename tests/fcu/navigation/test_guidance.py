@@ -299,23 +299,28 @@ def test_ramp_reference_is_the_constant_velocity_line() -> None:
     assert ref.yaw_rad == wrap_pi(0.2)
 
 
-def test_moving_segment_is_the_segment_evaluate_uses_while_it_moves() -> None:
+def test_moving_span_gives_what_evaluate_gives_while_the_reference_moves() -> None:
     limits = SpeedLimits()
     traj = Trajectory.from_waypoints(2.0, (0.0, 0.0, -0.6),
                                      [Waypoint(pos_ned=(1.0, 0.0, -0.6), hold_s=1.0),
-                                      Waypoint(pos_ned=(1.0, 1.0, -0.6))], limits)
+                                      Waypoint(pos_ned=(1.0, 1.0, -0.6), yaw_rad=1.0)], limits)
     cubic1, hold, cubic2 = traj.segments
-    assert traj.moving_segment(1.9) is None  # before the start: a constant reference
-    assert traj.moving_segment(hold.t0_s + 0.5) is None  # holding
-    assert traj.moving_segment(traj.end_time_s) is None  # arrived
-    assert traj.moving_segment(2.5) == (cubic1, cubic1.end_time_s)
-    assert traj.moving_segment(cubic2.t0_s) == (cubic2, traj.end_time_s)
-    for t in np.linspace(cubic1.t0_s, cubic1.end_time_s, 50, endpoint=False):
-        moving = traj.moving_segment(float(t))
-        assert moving is not None and moving[0] is cubic1
-        got, seg = traj.evaluate(float(t)), moving[0].evaluate(float(t))
-        np.testing.assert_array_equal(got.pos_ned, seg.pos_ned)
-        np.testing.assert_array_equal(got.acc_ned, seg.acc_ned)
+    assert traj.moving_span(1.9) is None  # before the start: a constant reference
+    assert traj.moving_span(hold.t0_s + 0.5) is None  # holding
+    assert traj.moving_span(traj.end_time_s) is None  # arrived
+    assert traj.moving_span(2.5) == (cubic1.inside, cubic1.end_time_s)
+    assert traj.moving_span(cubic2.t0_s) == (cubic2.inside, traj.end_time_s)
+    for cubic in (cubic1, cubic2):
+        for t in np.linspace(cubic.t0_s, cubic.end_time_s, 50, endpoint=False):
+            span = traj.moving_span(float(t))
+            assert span is not None
+            got, inside = traj.evaluate(float(t)), span[0](float(t))
+            for name in ("pos_ned", "vel_ned", "acc_ned"):
+                np.testing.assert_array_equal(getattr(got, name), getattr(inside, name))
+            assert (got.yaw_rad, got.yaw_rate_rad_s) == (inside.yaw_rad, inside.yaw_rate_rad_s)
     landing = landing_trajectory(0.0, (0.0, 0.0, -0.5), limits, 0.1)
     ramp = landing.segments[-1]
-    assert landing.moving_segment(ramp.t0_s + 3.0) == (ramp, math.inf)  # the endless creep
+    span = landing.moving_span(ramp.t0_s + 3.0)  # the endless creep
+    assert span is not None and span[1] == math.inf
+    np.testing.assert_array_equal(span[0](ramp.t0_s + 3.0).pos_ned,
+                                  landing.evaluate(ramp.t0_s + 3.0).pos_ned)
