@@ -158,7 +158,6 @@ class Reference:
 
 
 _new_object = object.__new__
-_set_attribute = object.__setattr__
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
 
@@ -175,11 +174,13 @@ def _reference_from_nine(px: float, py: float, pz: float, vx: float, vy: float, 
     # one read-only buffer (bytes) for the three vectors: half the cost of an array
     # built from nested tuples and then locked
     rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
-    ref = _new_object(Reference)  # Reference._assemble(), inline (wrap_pi() too)
-    _set_attribute(ref, "__dict__", {
-        "pos_ned": rows[0:3], "vel_ned": rows[3:6], "acc_ned": rows[6:9],
-        "yaw_rad": float((yaw_rad + _PI) % _TWO_PI - _PI),
-        "yaw_rate_rad_s": float(yaw_rate_rad_s)})
+    ref = _new_object(Reference)  # Reference._assemble(), inline
+    fields = ref.__dict__
+    fields["pos_ned"] = rows[0:3]
+    fields["vel_ned"] = rows[3:6]
+    fields["acc_ned"] = rows[6:9]
+    fields["yaw_rad"] = float((yaw_rad + _PI) % _TWO_PI - _PI)  # wrap_pi(), inline
+    fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
     return ref
 
 

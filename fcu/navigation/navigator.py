@@ -55,7 +55,6 @@ from flightdata.config import finite
 from flightdata.mission import MissionItem
 
 _new_object = object.__new__
-_set_attribute = object.__setattr__
 
 # the navigator's public face: the types its methods take and return
 __all__ = [
@@ -209,10 +208,10 @@ class Navigator(MissionExecution):
         if cruise is not None and t < cruise.until_s and cruise.leg is self._leg and \
                 not self._events and self._position_fix and self._armed and self._flying:
             # the common tick in flight (see _Cruise): only the reference moves
-            fields = cruise.fields.copy()
+            out = _new_object(NavOutput)  # NavOutput(...) without its frozen __setattr__s
+            fields = out.__dict__
+            fields.update(cruise.fields)
             fields["reference"] = cruise.evaluate(t)
-            out = _new_object(NavOutput)
-            _set_attribute(out, "__dict__", fields)
             self._output = out
             return out
         if self._armed and self._flying:
@@ -231,8 +230,8 @@ class Navigator(MissionExecution):
             return last  # nothing happened and the reference is the same object: reuse
         else:
             events = ()
-        out = _new_object(NavOutput)  # NavOutput(...) without its frozen __setattr__s
-        _set_attribute(out, "__dict__", {
+        out = object.__new__(NavOutput)  # NavOutput(...) without its frozen __setattr__s
+        object.__setattr__(out, "__dict__", {
             "reference": reference, "armed": self._armed, "mode": self._mode,
             "landed": not self._flying, "landed_state": landed_state,
             "failsafe": bool(self._failsafes), "events": events})
