@@ -134,15 +134,6 @@ class Reference:
         return cls._assemble(pos_ned, _ZERO3, _ZERO3, yaw_rad, 0.0)
 
     @classmethod
-    def _from_cubic(cls, px: float, py: float, pz: float, vx: float, vy: float, vz: float,
-                    ax: float, ay: float, az: float, yaw_rad: float,
-                    yaw_rate_rad_s: float) -> Reference:
-        """:meth:`_from_floats` for the nine floats of a guidance tick, given one by one
-        (a cubic's or a ramp's)."""
-        return _reference_from_nine(px, py, pz, vx, vy, vz, ax, ay, az, yaw_rad,
-                                    yaw_rate_rad_s)
-
-    @classmethod
     def _assemble(cls, pos_ned: np.ndarray, vel_ned: np.ndarray, acc_ned: np.ndarray,
                   yaw_rad: float, yaw_rate_rad_s: float) -> Reference:
         ref = object.__new__(cls)
@@ -166,7 +157,7 @@ def _reference_from_nine(px: float, py: float, pz: float, vx: float, vy: float, 
                          ax: float, ay: float, az: float, yaw_rad: float,
                          yaw_rate_rad_s: float) -> Reference:
     """:meth:`Reference._from_floats` for the nine floats of a guidance tick, given one by
-    one; a plain function (no class attribute lookup), as it runs once a tick."""
+    one (a cubic's or a ramp's); once a tick."""
     if not math.isfinite(px + py + pz + vx + vy + vz + ax + ay + az + yaw_rad
                          + yaw_rate_rad_s):  # (a sum of finite floats may overflow)
         return Reference._from_floats([px, py, pz], [vx, vy, vz], [ax, ay, az], yaw_rad,
@@ -534,7 +525,7 @@ class Trajectory:
         or outside the segments)."""
         if not self._start_s <= time_s < self._end_s:
             return None
-        start_s, until_s, segment = self._find_current(time_s)
+        _, until_s, segment = self._find_current(time_s)
         if isinstance(segment, HoldSegment) or not segment.t0_s <= time_s < \
                 segment.end_time_s or segment.duration_s == 0.0:
             return None

@@ -17,6 +17,7 @@ from fcu.navigation.guidance import (
     SpeedLimits,
     Trajectory,
     Waypoint,
+    _reference_from_nine,
     hold_trajectory,
     landing_trajectory,
     leg_duration_s,
@@ -279,11 +280,11 @@ def test_cubic_reference_is_the_closed_form_bit_for_bit_read_only_and_its_own() 
 def test_a_non_finite_cubic_reference_raises_the_public_error() -> None:
     seg = CubicSegment(0.0, 1.0, np.zeros(3), np.array([1.0, 0.0, 0.0]))
     with pytest.raises(ValueError, match="yaw_rad"):
-        Reference._from_cubic(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0)
+        _reference_from_nine(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0)
     with pytest.raises(ValueError, match="vel_ned"):
-        Reference._from_cubic(0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        _reference_from_nine(0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     # huge finite values whose sum overflows are still a valid reference
-    big = Reference._from_cubic(1e308, 1e308, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    big = _reference_from_nine(1e308, 1e308, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     np.testing.assert_array_equal(big.pos_ned, [1e308, 1e308, 0.0])
     assert seg.evaluate(0.5).pos_ned[0] == 0.5
 
