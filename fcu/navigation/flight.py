@@ -33,8 +33,6 @@ from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 
 _SHAPE3 = (3,)
-_FLOAT64 = np.dtype(np.float64)
-_ndarray = np.ndarray
 _isfinite = math.isfinite
 
 
@@ -163,20 +161,22 @@ class FlightLegs:
             time_s = float(time_s)
         self._time_s = time_s
         self._on_ground_hint = on_ground_hint
-        pos, vel = estimate_pos_ned, estimate_vel_ned
-        # (an estimator's float64 3-vectors, every tick: taken as they are; others converted;
-        # dtypes compared by ==: arrays from cached kernels carry their own float64 object)
-        if not (pos.__class__ is _ndarray and vel.__class__ is _ndarray
-                and pos.shape == _SHAPE3 and vel.shape == _SHAPE3
-                and pos.dtype == _FLOAT64 and vel.dtype == _FLOAT64):
-            pos = np.asarray(pos, dtype=float).reshape(-1)
-            vel = np.asarray(vel, dtype=float).reshape(-1)
+        try:  # an estimator's float64 3-vectors, every tick: their floats, as they are
+            x0, x1, x2 = estimate_pos_ned.tolist()
+            v0, v1, v2 = estimate_vel_ned.tolist()
+            plain = x0.__class__ is x1.__class__ is x2.__class__ is v0.__class__ is \
+                v1.__class__ is v2.__class__ is float
+        except (AttributeError, TypeError, ValueError):
+            plain = False
+        if not plain:  # anything else: as float64 3-vectors, if it can be
+            pos = np.asarray(estimate_pos_ned, dtype=float).reshape(-1)
+            vel = np.asarray(estimate_vel_ned, dtype=float).reshape(-1)
             if pos.shape != _SHAPE3 or vel.shape != _SHAPE3:
                 self._estimator_healthy = False
                 return time_s
+            x0, x1, x2 = pos.tolist()
+            v0, v1, v2 = vel.tolist()
         yaw = float(estimate_yaw_rad)
-        x0, x1, x2 = pos.tolist()
-        v0, v1, v2 = vel.tolist()
         # a finite sum has finite terms; a sum of finite floats may still overflow
         if _isfinite(x0 + x1 + x2 + v0 + v1 + v2 + yaw) or all(
                 map(_isfinite, (x0, x1, x2, v0, v1, v2, yaw))):

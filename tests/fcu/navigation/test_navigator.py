@@ -601,3 +601,27 @@ def test_ticks_along_a_segment_match_the_full_step_bit_for_bit() -> None:
             {k: v for k, v in vars(b).items() if k != "reference"}
     assert shortcuts > 3000  # most ticks move along a segment
     assert not fast.nav.armed and fast.nav.mission_progress().state == MissionState.COMPLETE
+
+
+@pytest.mark.parametrize(("pos_ned", "taken"), [
+    (np.array([0.5, -0.25, 0.0]), True),  # an estimator's float64 3-vector
+    (np.array([1, 2, 0]), True),  # integers: as floats
+    (np.array([0.5, -0.25, 0.0], dtype=np.float32), True),
+    ([0.5, -0.25, 0.0], True),
+    (np.array([[0.5], [-0.25], [0.0]]), True),  # (3, 1): flattened
+    (np.array([1e308, 1e308, 0.0]), True),  # finite, though its sum overflows
+    (np.array([np.nan, 0.0, 0.0]), False),  # non-finite: ignored, the estimator unhealthy
+    (np.array([0.0, -np.inf, 0.0]), False),
+    (np.zeros(4), False),  # not a 3-vector
+])
+def test_the_estimate_is_taken_as_floats_when_finite_else_kept(pos_ned: object,
+                                                                taken: bool) -> None:
+    nav = Navigator()
+    nav.step(0.0, np.array([0.1, 0.2, 0.0]), np.zeros(3), 0.0)
+    nav.step(0.01, pos_ned, np.zeros(3), 0.0)  # type: ignore[arg-type]
+    expected = np.asarray(pos_ned, dtype=float).reshape(-1) if taken else [0.1, 0.2, 0.0]
+    assert [type(v) for v in nav._est_pos_f] == [float] * 3
+    np.testing.assert_array_equal(nav._est_pos_f, expected)
+    result = nav.set_mode(Mode.GUIDED)
+    assert result.accepted is taken
+    assert taken or result.reason == "position estimate not healthy"
