@@ -33,7 +33,7 @@ from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 
 _SHAPE3 = (3,)
-_FLOAT64 = np.dtype(np.float64)
+_isfinite = math.isfinite
 
 
 class FlightLegs:
@@ -85,8 +85,11 @@ class FlightLegs:
         """ON_GROUND, TAKEOFF, IN_AIR or LANDING."""
         if not self._flying:
             return LandedState.ON_GROUND
-        kind = self._leg.kind if self._leg is not None else ""
-        if kind == "takeoff" and self._leg is not None and self._leg.reached_s is None:
+        leg = self._leg
+        if leg is None:
+            return LandedState.IN_AIR
+        kind = leg.kind
+        if kind == "takeoff" and leg.reached_s is None:
             return LandedState.TAKEOFF
         if kind == "land":
             return LandedState.LANDING
@@ -146,37 +149,44 @@ class FlightLegs:
                        estimator_healthy: bool, on_ground_hint: bool | None) -> float:
         """Advance the clock to ``time_s`` (s) and keep the estimate if it is finite (the
         arguments of :meth:`fcu.navigation.navigator.Navigator.step`); returns the time."""
-        if not (time_s.__class__ is float and math.isfinite(time_s)) and not finite(time_s):
-            raise ValueError(f"time_s = {time_s!r}: must be a finite time in s")
-        if self._time_s is not None and time_s < self._time_s:
-            raise ValueError(f"time_s = {time_s!r}: must not be earlier than the previous "
-                             f"step ({self._time_s!r})")
-        self._time_s = float(time_s)
-        pos, vel = estimate_pos_ned, estimate_vel_ned
-        # (an estimator's float64 3-vectors, every tick: taken as they are; others converted;
-        # dtypes compared by ==: arrays from cached kernels carry their own float64 object)
-        if not (pos.__class__ is np.ndarray and pos.dtype == _FLOAT64
-                and pos.shape == _SHAPE3):
-            pos = np.asarray(pos, dtype=float).reshape(-1)
-        if not (vel.__class__ is np.ndarray and vel.dtype == _FLOAT64
-                and vel.shape == _SHAPE3):
-            vel = np.asarray(vel, dtype=float).reshape(-1)
-        if pos.shape == _SHAPE3 and vel.shape == _SHAPE3:
-            yaw = float(estimate_yaw_rad)
+        previous_s = self._time_s
+        # (the common tick: a finite float, not earlier than the previous step's)
+        if time_s.__class__ is not float or not _isfinite(time_s) or (
+                previous_s is not None and time_s < previous_s):
+            if not finite(time_s):
+                raise ValueError(f"time_s = {time_s!r}: must be a finite time in s")
+            if previous_s is not None and time_s < previous_s:
+                raise ValueError(f"time_s = {time_s!r}: must not be earlier than the "
+                                 f"previous step ({previous_s!r})")
+            time_s = float(time_s)
+        self._time_s = time_s
+        self._on_ground_hint = on_ground_hint
+        try:  # an estimator's float64 3-vectors, every tick: their floats, as they are
+            x0, x1, x2 = estimate_pos_ned.tolist()
+            v0, v1, v2 = estimate_vel_ned.tolist()
+            plain = x0.__class__ is x1.__class__ is x2.__class__ is v0.__class__ is \
+                v1.__class__ is v2.__class__ is float
+        except (AttributeError, TypeError, ValueError):
+            plain = False
+        if not plain:  # anything else: as float64 3-vectors, if it can be
+            pos = np.asarray(estimate_pos_ned, dtype=float).reshape(-1)
+            vel = np.asarray(estimate_vel_ned, dtype=float).reshape(-1)
+            if pos.shape != _SHAPE3 or vel.shape != _SHAPE3:
+                self._estimator_healthy = False
+                return time_s
             x0, x1, x2 = pos.tolist()
             v0, v1, v2 = vel.tolist()
-            # a finite sum has finite terms; a sum of finite floats may still overflow
-            good = math.isfinite(x0 + x1 + x2 + v0 + v1 + v2 + yaw) or all(
-                map(math.isfinite, (x0, x1, x2, v0, v1, v2, yaw)))
-        else:
-            good = False
-        if good:
+        yaw = float(estimate_yaw_rad)
+        # a finite sum has finite terms; a sum of finite floats may still overflow
+        if _isfinite(x0 + x1 + x2 + v0 + v1 + v2 + yaw) or all(
+                map(_isfinite, (x0, x1, x2, v0, v1, v2, yaw))):
             self._est_pos_f, self._est_vel_f = (x0, x1, x2), (v0, v1, v2)
             self._est_yaw_rad = yaw
             self._has_estimate = True
-        self._estimator_healthy = bool(estimator_healthy) and good
-        self._on_ground_hint = on_ground_hint
-        return self._time_s
+            self._estimator_healthy = bool(estimator_healthy)
+        else:
+            self._estimator_healthy = False
+        return time_s
 
     @property
     def _est_pos_ned(self) -> np.ndarray:

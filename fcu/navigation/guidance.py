@@ -33,8 +33,8 @@ from __future__ import annotations
 import bisect
 import math
 import struct
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -134,28 +134,6 @@ class Reference:
         return cls._assemble(pos_ned, _ZERO3, _ZERO3, yaw_rad, 0.0)
 
     @classmethod
-    def _from_cubic(cls, px: float, py: float, pz: float, vx: float, vy: float, vz: float,
-                    ax: float, ay: float, az: float, yaw_rad: float,
-                    yaw_rate_rad_s: float) -> Reference:
-        """:meth:`_from_floats` for the nine floats of a guidance tick, given one by one
-        (a cubic's or a ramp's)."""
-        if not math.isfinite(px + py + pz + vx + vy + vz + ax + ay + az + yaw_rad
-                             + yaw_rate_rad_s):  # (a sum of finite floats may overflow)
-            return cls._from_floats([px, py, pz], [vx, vy, vz], [ax, ay, az], yaw_rad,
-                                    yaw_rate_rad_s)
-        # one read-only buffer (bytes) for the three vectors: half the cost of an array
-        # built from nested tuples and then locked
-        rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
-        ref = object.__new__(cls)  # _assemble(), inline: once a tick
-        fields = ref.__dict__
-        fields["pos_ned"] = rows[0:3]
-        fields["vel_ned"] = rows[3:6]
-        fields["acc_ned"] = rows[6:9]
-        fields["yaw_rad"] = wrap_pi(float(yaw_rad))
-        fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
-        return ref
-
-    @classmethod
     def _assemble(cls, pos_ned: np.ndarray, vel_ned: np.ndarray, acc_ned: np.ndarray,
                   yaw_rad: float, yaw_rate_rad_s: float) -> Reference:
         ref = object.__new__(cls)
@@ -168,6 +146,33 @@ class Reference:
         fields["yaw_rad"] = wrap_pi(float(yaw_rad))
         fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
         return ref
+
+
+_new_object = object.__new__
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def _reference_from_nine(px: float, py: float, pz: float, vx: float, vy: float, vz: float,
+                         ax: float, ay: float, az: float, yaw_rad: float,
+                         yaw_rate_rad_s: float) -> Reference:
+    """:meth:`Reference._from_floats` for the nine floats of a guidance tick, given one by
+    one (a cubic's or a ramp's); once a tick."""
+    if not math.isfinite(px + py + pz + vx + vy + vz + ax + ay + az + yaw_rad
+                         + yaw_rate_rad_s):  # (a sum of finite floats may overflow)
+        return Reference._from_floats([px, py, pz], [vx, vy, vz], [ax, ay, az], yaw_rad,
+                                      yaw_rate_rad_s)
+    # one read-only buffer (bytes) for the three vectors: half the cost of an array
+    # built from nested tuples and then locked
+    rows = _from_bytes(_pack9(px, py, pz, vx, vy, vz, ax, ay, az))
+    ref = _new_object(Reference)  # Reference._assemble(), inline
+    fields = ref.__dict__
+    fields["pos_ned"] = rows[0:3]
+    fields["vel_ned"] = rows[3:6]
+    fields["acc_ned"] = rows[6:9]
+    fields["yaw_rad"] = float((yaw_rad + _PI) % _TWO_PI - _PI)  # wrap_pi(), inline
+    fields["yaw_rate_rad_s"] = float(yaw_rate_rad_s)
+    return ref
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -256,20 +261,22 @@ class CubicSegment:
     end_pos_ned: np.ndarray
     start_yaw_rad: float = 0.0
     end_yaw_rad: float = 0.0
+    # evaluate() at a time inside the segment (t0_s <= t < end_time_s, s), without the
+    # checks: the cubic with the segment's constants bound once (set by __post_init__)
+    inside: Callable[[float], Reference] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         _check_times(self.t0_s, self.duration_s, allow_inf=False)
         object.__setattr__(self, "start_pos_ned", _vec3(self.start_pos_ned, "start_pos_ned"))
         object.__setattr__(self, "end_pos_ned", _vec3(self.end_pos_ned, "end_pos_ned"))
-        # per-tick constants of evaluate(), as plain floats, in one tuple: t0, T, T^2, the
-        # start point, p1 - p0, the start yaw and the yaw change
         dyaw = wrap_pi(self.end_yaw_rad - self.start_yaw_rad)
         object.__setattr__(self, "_dyaw", dyaw)
         object.__setattr__(self, "_end_s", self.t0_s + self.duration_s)
-        object.__setattr__(self, "_constants", (
-            float(self.t0_s), float(self.duration_s), self.duration_s**2,
-            *self.start_pos_ned.tolist(), *(self.end_pos_ned - self.start_pos_ned).tolist(),
-            float(self.start_yaw_rad), dyaw))
+        p0x, p0y, p0z = self.start_pos_ned.tolist()
+        dx, dy, dz = (self.end_pos_ned - self.start_pos_ned).tolist()
+        object.__setattr__(self, "inside", _cubic_inside(
+            float(self.t0_s), float(self.duration_s), self.duration_s**2, p0x, p0y, p0z,
+            dx, dy, dz, float(self.start_yaw_rad), dyaw))
         object.__setattr__(self, "_end_ref", None)  # the hold at the end, once built
 
     @property
@@ -287,25 +294,38 @@ class CubicSegment:
 
     def evaluate(self, time_s: float) -> Reference:
         """Reference at ``time_s`` (s); clamped to the end points outside the segment."""
-        t0, T, T_sq, p0x, p0y, p0z, dx, dy, dz, yaw0, dyaw = \
-            self._constants  # type: ignore[attr-defined]
-        if T == 0.0 or time_s >= self._end_s:  # type: ignore[attr-defined]
+        if self.duration_s == 0.0 or time_s >= self._end_s:  # type: ignore[attr-defined]
             end_ref: Reference | None = self._end_ref  # type: ignore[attr-defined]
             if end_ref is None:  # the same reference every time: build it once
-                end_ref = Reference._hold_checked(self.end_pos_ned, self.start_yaw_rad + dyaw)
+                end_yaw_rad = self.start_yaw_rad + self._dyaw  # type: ignore[attr-defined]
+                end_ref = Reference._hold_checked(self.end_pos_ned, end_yaw_rad)
                 object.__setattr__(self, "_end_ref", end_ref)
             return end_ref
-        if time_s < t0:
+        if time_s < self.t0_s:
             return Reference._hold_checked(self.start_pos_ned, self.start_yaw_rad)
+        return self.inside(time_s)
+
+
+def _cubic_inside(t0: float, T: float, T_sq: float, p0x: float, p0y: float, p0z: float,
+                  dx: float, dy: float, dz: float, yaw0: float, dyaw: float
+                  ) -> Callable[[float], Reference]:
+    """The cubic from ``p0`` to ``p0 + d`` (m, NED) starting at ``t0`` (s) over ``T`` (s,
+    > 0; ``T_sq`` = T^2), yaw from ``yaw0`` turning by ``dyaw`` (rad), as a function of a
+    time inside it (s): :attr:`CubicSegment.inside`. Its constants are plain floats bound
+    once (it runs every control tick)."""
+
+    def inside(time_s: float) -> Reference:
         s = (time_s - t0) / T
         s_sq = s**2
         h = 3.0 * s_sq - 2.0 * s**3  # shape function
         dh = (6.0 * s - 6.0 * s_sq) / T  # dh/dt
         ddh = (6.0 - 12.0 * s) / T_sq  # d2h/dt2
         # p = p0 + (p1 - p0) h,  v = (p1 - p0) dh/dt,  a = (p1 - p0) d2h/dt2  (plain floats)
-        return Reference._from_cubic(p0x + dx * h, p0y + dy * h, p0z + dz * h,
-                                     dx * dh, dy * dh, dz * dh, dx * ddh, dy * ddh, dz * ddh,
-                                     yaw0 + dyaw * h, dyaw * dh)
+        return _reference_from_nine(p0x + dx * h, p0y + dy * h, p0z + dz * h,
+                                    dx * dh, dy * dh, dz * dh, dx * ddh, dy * ddh, dz * ddh,
+                                    yaw0 + dyaw * h, dyaw * dh)
+
+    return inside
 
 
 @dataclass(frozen=True, eq=False)
@@ -369,12 +389,17 @@ class RampSegment:
         if time_s >= self.end_time_s:
             return Reference.hold(self.start_pos_ned + self.vel_ned * self.duration_s,
                                   self.yaw_rad)
+        return self.inside(time_s)
+
+    def inside(self, time_s: float) -> Reference:
+        """:meth:`evaluate` at a time inside the ramp (``t0_s <= t < end_time_s``, s), without
+        the checks."""
         # p = p0 + v (t - t0)  (plain floats)
         dt_s = time_s - self.t0_s
         p0x, p0y, p0z = self._start_f  # type: ignore[attr-defined]
         vx, vy, vz = self._vel_f  # type: ignore[attr-defined]
-        return Reference._from_cubic(p0x + vx * dt_s, p0y + vy * dt_s, p0z + vz * dt_s,
-                                     vx, vy, vz, 0.0, 0.0, 0.0, self.yaw_rad, 0.0)
+        return _reference_from_nine(p0x + vx * dt_s, p0y + vy * dt_s, p0z + vz * dt_s,
+                                    vx, vy, vz, 0.0, 0.0, 0.0, self.yaw_rad, 0.0)
 
 
 Segment = CubicSegment | HoldSegment | RampSegment
@@ -480,12 +505,31 @@ class Trajectory:
         # after another), else segment_index() without its clamps, which cannot apply
         current = self._current
         if current is None or not current[0] <= time_s < current[1]:
-            i = bisect.bisect_right(self._starts_s, time_s) - 1
-            segment = self._segments[i]
-            # from its start until the next segment's (the later one is active at a join)
-            current = self._current = (self._starts_s[i], self._starts_s[i + 1] if
-                                       i + 1 < len(self._starts_s) else self._end_s, segment)
+            current = self._find_current(time_s)
         return current[2].evaluate(time_s)
+
+    def _find_current(self, time_s: float) -> tuple[float, float, Segment]:
+        """The segment active at ``time_s`` (s, start <= time_s < end) with the times it is
+        active from and until, kept for the calls that follow."""
+        i = bisect.bisect_right(self._starts_s, time_s) - 1
+        # from its start until the next segment's (the later one is active at a join)
+        current = self._current = (self._starts_s[i], self._starts_s[i + 1] if
+                                   i + 1 < len(self._starts_s) else self._end_s,
+                                   self._segments[i])
+        return current
+
+    def moving_span(self, time_s: float) -> tuple[Callable[[float], Reference], float] | None:
+        """What gives :meth:`evaluate` from ``time_s`` (s) on, while the reference moves: the
+        active segment's ``inside`` (a cubic's or a ramp's) and the time until which it
+        does (s, exclusive); None when the reference is one constant object instead (a hold,
+        or outside the segments)."""
+        if not self._start_s <= time_s < self._end_s:
+            return None
+        _, until_s, segment = self._find_current(time_s)
+        if isinstance(segment, HoldSegment) or not segment.t0_s <= time_s < \
+                segment.end_time_s or segment.duration_s == 0.0:
+            return None
+        return segment.inside, min(until_s, segment.end_time_s)
 
     @classmethod
     def from_waypoints(cls, t0_s: float, start_pos_ned: np.ndarray | Sequence[float],

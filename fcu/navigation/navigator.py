@@ -26,8 +26,9 @@ Commands take effect at the time of the latest ``step`` (simulated time is only 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -35,6 +36,7 @@ from fcu.navigation.arming import PrearmCheck, auto_disarm_reason, prearm_check
 from fcu.navigation.events import CommandResult, NavEvent, Severity
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
+from fcu.navigation.legs import Leg
 from fcu.navigation.mission import (
     MissionExecution,
     MissionProgress,
@@ -51,6 +53,8 @@ from fcu.navigation.modes import (
 from fcu.navigation.settings import AUTO_TAKEOFF_WITHOUT_START, TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 from flightdata.mission import MissionItem
+
+_new_object = object.__new__
 
 # the navigator's public face: the types its methods take and return
 __all__ = [
@@ -98,6 +102,22 @@ class NavOutput:
     events: tuple[NavEvent, ...]
 
 
+class _Cruise(NamedTuple):
+    """A leg on the way along a moving guidance segment, before its arrival.
+
+    Until ``until_s`` (s), a tick with a position fix and no event (every command that
+    changes the state leaves one) changes nothing but the reference: the legs layer has
+    nothing to run before the arrival (:meth:`FlightLegs._run_flight`'s first test), the
+    output's other fields stay those of ``fields``, and the reference is ``evaluate(t)``,
+    what :meth:`Navigator._reference` returns then (:meth:`Trajectory.moving_span`).
+    """
+
+    leg: Leg
+    until_s: float  # s
+    evaluate: Callable[[float], Reference]
+    fields: dict[str, object]  # the output's fields, reference included (replaced)
+
+
 class Navigator(MissionExecution):
     """Flight-mode state machine, arming, take-off/landing and mission execution.
 
@@ -132,6 +152,7 @@ class Navigator(MissionExecution):
         self._position_fix = True
         self._fix_lost_s: float | None = None
         self._output: NavOutput | None = None  # the latest step's, while it had no events
+        self._cruise: _Cruise | None = None
         self._mission.reset_progress()
 
     @property
@@ -183,6 +204,16 @@ class Navigator(MissionExecution):
                                 estimator_healthy, on_ground_hint)
         if position_fix is not self._position_fix or not position_fix:
             self._watch_position_fix(t, position_fix)
+        cruise = self._cruise
+        if cruise is not None and t < cruise.until_s and cruise.leg is self._leg and \
+                not self._events and self._position_fix and self._armed and self._flying:
+            # the common tick in flight (see _Cruise): only the reference moves
+            out = _new_object(NavOutput)  # NavOutput(...) without its frozen __setattr__s
+            fields = out.__dict__
+            fields.update(cruise.fields)
+            fields["reference"] = cruise.evaluate(t)
+            self._output = out
+            return out
         if self._armed and self._flying:
             self._run_flight(t, len(self._mission.items) + 8)
         elif self._armed:
@@ -205,7 +236,24 @@ class Navigator(MissionExecution):
             "landed": not self._flying, "landed_state": landed_state,
             "failsafe": bool(self._failsafes), "events": events})
         self._output = out if not events else None
+        self._cruise = self._cruise_from(t, out) if reference is not None and not events \
+            else None
         return out
+
+    def _cruise_from(self, t: float, out: NavOutput) -> _Cruise | None:
+        """What the ticks after ``t`` (s) may skip while nothing happens (:class:`_Cruise`),
+        or None when they may not: the leg is on the way along a moving segment, before
+        its arrival, with a position fix."""
+        leg = self._leg
+        if leg is None or leg.trajectory is None or leg.kind in ("manual", "land") or \
+                leg.reached_s is not None or not self._position_fix:
+            return None
+        moving = leg.trajectory.moving_span(t)
+        if moving is None:
+            return None
+        inside, until_s = moving
+        return _Cruise(leg, min(until_s, leg.arrival_s - TIME_TOL_S), inside,
+                       dict(out.__dict__))
 
     def _mission_running(self) -> bool:
         return self._mode == Mode.AUTO

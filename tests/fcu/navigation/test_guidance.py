@@ -17,6 +17,7 @@ from fcu.navigation.guidance import (
     SpeedLimits,
     Trajectory,
     Waypoint,
+    _reference_from_nine,
     hold_trajectory,
     landing_trajectory,
     leg_duration_s,
@@ -279,11 +280,11 @@ def test_cubic_reference_is_the_closed_form_bit_for_bit_read_only_and_its_own() 
 def test_a_non_finite_cubic_reference_raises_the_public_error() -> None:
     seg = CubicSegment(0.0, 1.0, np.zeros(3), np.array([1.0, 0.0, 0.0]))
     with pytest.raises(ValueError, match="yaw_rad"):
-        Reference._from_cubic(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0)
+        _reference_from_nine(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0)
     with pytest.raises(ValueError, match="vel_ned"):
-        Reference._from_cubic(0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        _reference_from_nine(0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     # huge finite values whose sum overflows are still a valid reference
-    big = Reference._from_cubic(1e308, 1e308, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    big = _reference_from_nine(1e308, 1e308, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     np.testing.assert_array_equal(big.pos_ned, [1e308, 1e308, 0.0])
     assert seg.evaluate(0.5).pos_ned[0] == 0.5
 
@@ -297,3 +298,30 @@ def test_ramp_reference_is_the_constant_velocity_line() -> None:
     np.testing.assert_array_equal(ref.vel_ned, [0.0, 0.0, 0.1])
     np.testing.assert_array_equal(ref.acc_ned, 0.0)
     assert ref.yaw_rad == wrap_pi(0.2)
+
+
+def test_moving_span_gives_what_evaluate_gives_while_the_reference_moves() -> None:
+    limits = SpeedLimits()
+    traj = Trajectory.from_waypoints(2.0, (0.0, 0.0, -0.6),
+                                     [Waypoint(pos_ned=(1.0, 0.0, -0.6), hold_s=1.0),
+                                      Waypoint(pos_ned=(1.0, 1.0, -0.6), yaw_rad=1.0)], limits)
+    cubic1, hold, cubic2 = traj.segments
+    assert traj.moving_span(1.9) is None  # before the start: a constant reference
+    assert traj.moving_span(hold.t0_s + 0.5) is None  # holding
+    assert traj.moving_span(traj.end_time_s) is None  # arrived
+    assert traj.moving_span(2.5) == (cubic1.inside, cubic1.end_time_s)
+    assert traj.moving_span(cubic2.t0_s) == (cubic2.inside, traj.end_time_s)
+    for cubic in (cubic1, cubic2):
+        for t in np.linspace(cubic.t0_s, cubic.end_time_s, 50, endpoint=False):
+            span = traj.moving_span(float(t))
+            assert span is not None
+            got, inside = traj.evaluate(float(t)), span[0](float(t))
+            for name in ("pos_ned", "vel_ned", "acc_ned"):
+                np.testing.assert_array_equal(getattr(got, name), getattr(inside, name))
+            assert (got.yaw_rad, got.yaw_rate_rad_s) == (inside.yaw_rad, inside.yaw_rate_rad_s)
+    landing = landing_trajectory(0.0, (0.0, 0.0, -0.5), limits, 0.1)
+    ramp = landing.segments[-1]
+    span = landing.moving_span(ramp.t0_s + 3.0)  # the endless creep
+    assert span is not None and span[1] == math.inf
+    np.testing.assert_array_equal(span[0](ramp.t0_s + 3.0).pos_ned,
+                                  landing.evaluate(ramp.t0_s + 3.0).pos_ned)

@@ -558,3 +558,70 @@ def test_step_output_is_reused_only_while_nothing_changes() -> None:
         assert vars(out) == vars(public)
     assert f.nav.set_mode(Mode.LOITER).accepted
     assert f.tick().mode == Mode.LOITER  # a change of mode is a new output
+
+
+def test_ticks_along_a_segment_match_the_full_step_bit_for_bit() -> None:
+    # The ticks that only move along a segment take a shortcut (Navigator._cruise_from);
+    # a navigator that never takes it must give the same outputs and events, tick for tick,
+    # through a mission, a lagging vehicle, commands between ticks and a lost position fix.
+    fast, full = fly_thesis(), fly_thesis()
+    full.nav._cruise_from = lambda t, out: None  # type: ignore[method-assign]
+    shortcuts = 0
+    for tick in range(7600):
+        if tick == 1500:  # mid-leg: a refused command, then GUIDED and a go-to
+            for f in (fast, full):
+                assert not f.nav.takeoff(0.8).accepted
+                assert f.nav.set_mode(Mode.GUIDED).accepted
+                assert f.nav.go_to((0.5, 0.5, -0.8), yaw_rad=1.0).accepted
+        if tick == 1650:  # the vehicle stalls: the leg waits for it
+            fast.vehicle.frozen = full.vehicle.frozen = True
+        if tick == 1900:
+            fast.vehicle.frozen = full.vehicle.frozen = False
+        if tick == 2400:  # then back to the mission
+            assert fast.nav.start_mission().accepted and full.nav.start_mission().accepted
+        fix = not 3000 <= tick < 3100  # the position fix lost for 1 s, mid-leg
+        outs = []
+        for f in (fast, full):
+            f.time_s = f.ticks * DT_S
+            out = f.nav.step(f.time_s, f.vehicle.pos_ned, f.vehicle.vel_ned,
+                             f.vehicle.yaw_rad, position_fix=fix)
+            f.vehicle.follow(out)
+            f.ticks += 1
+            outs.append(out)
+        shortcuts += fast.nav._cruise is not None
+        a, b = outs
+        assert (a.reference is None) == (b.reference is None)
+        if a.reference is not None and b.reference is not None:
+            for name in ("pos_ned", "vel_ned", "acc_ned"):
+                np.testing.assert_array_equal(getattr(a.reference, name),
+                                              getattr(b.reference, name))
+            assert (a.reference.yaw_rad, a.reference.yaw_rate_rad_s) == \
+                (b.reference.yaw_rad, b.reference.yaw_rate_rad_s)
+        assert {k: v for k, v in vars(a).items() if k != "reference"} == \
+            {k: v for k, v in vars(b).items() if k != "reference"}
+    assert shortcuts > 3000  # most ticks move along a segment
+    assert not fast.nav.armed and fast.nav.mission_progress().state == MissionState.COMPLETE
+
+
+@pytest.mark.parametrize(("pos_ned", "taken"), [
+    (np.array([0.5, -0.25, 0.0]), True),  # an estimator's float64 3-vector
+    (np.array([1, 2, 0]), True),  # integers: as floats
+    (np.array([0.5, -0.25, 0.0], dtype=np.float32), True),
+    ([0.5, -0.25, 0.0], True),
+    (np.array([[0.5], [-0.25], [0.0]]), True),  # (3, 1): flattened
+    (np.array([1e308, 1e308, 0.0]), True),  # finite, though its sum overflows
+    (np.array([np.nan, 0.0, 0.0]), False),  # non-finite: ignored, the estimator unhealthy
+    (np.array([0.0, -np.inf, 0.0]), False),
+    (np.zeros(4), False),  # not a 3-vector
+])
+def test_the_estimate_is_taken_as_floats_when_finite_else_kept(pos_ned: object,
+                                                                taken: bool) -> None:
+    nav = Navigator()
+    nav.step(0.0, np.array([0.1, 0.2, 0.0]), np.zeros(3), 0.0)
+    nav.step(0.01, pos_ned, np.zeros(3), 0.0)  # type: ignore[arg-type]
+    expected = np.asarray(pos_ned, dtype=float).reshape(-1) if taken else [0.1, 0.2, 0.0]
+    assert [type(v) for v in nav._est_pos_f] == [float] * 3
+    np.testing.assert_array_equal(nav._est_pos_f, expected)
+    result = nav.set_mode(Mode.GUIDED)
+    assert result.accepted is taken
+    assert taken or result.reason == "position estimate not healthy"
