@@ -53,6 +53,7 @@ from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
 from fcu.mavlink.link import Address, Link
+from fcu.mavlink.messages import Fields
 from fcu.mavlink.mission import MissionProtocol
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
 from fcu.mavlink.port import (
@@ -100,6 +101,17 @@ class _Outbox:
             _log.exception("cannot pack %s", msg.get_type())
             return
         self._link.send(data, to)
+
+    def send_fields(self, cls: type[MAVLinkMessage], fields: Fields) -> None:
+        """:meth:`send` of ``cls(*fields)`` to every peer, packed without the message object
+        (the telemetry streams: most of what is sent)."""
+        try:
+            data = self._codec.pack_fields(cls, fields)
+        except Exception:  # a field out of its wire range is a bug; keep flying
+            self._stats.build_errors += 1
+            _log.exception("cannot pack %s", cls.msgname)
+            return
+        self._link.send(data, None)
 
     def status(self, severity: int, text: str) -> None:
         self._chunk_id = self._chunk_id % 0xFFFF + 1
@@ -321,15 +333,16 @@ class MavlinkEndpoint:
                 failsafe_active=last.failsafe_active)
             due = [_M.MAVLINK_MSG_ID_HEARTBEAT]
         ctx = self._context()
+        send = self._outbox.send_fields
         for msg_id in due:
             try:
-                built = streamed.build_stream(msg_id, snap, ctx)
+                cls, built = streamed.stream_fields(msg_id, snap, ctx)
             except Exception:
                 self.stats.build_errors += 1
                 _log.exception("cannot build message %d", msg_id)
                 continue
-            for msg in built:
-                self._outbox.send(msg)
+            for fields in built:
+                send(cls, fields)
 
     def _forward_events(self) -> None:
         for event in self._port.drain_events():
