@@ -89,9 +89,10 @@ class _Layout:
         pick = operator.itemgetter(*order)
         self.pick: Callable[[Sequence[Any]], Any] = (
             (lambda f: (pick(f),)) if len(order) == 1 else pick)
-        identity = order == list(range(len(order)))
-        self.wire: Callable[[Sequence[Any]], Sequence[Any]] = (
-            self._spread_fields if self.arrays else ((lambda f: f) if identity else self.pick))
+        # None: the constructor's order is the wire order and there is no array to spread
+        self.wire: Callable[[Sequence[Any]], Sequence[Any]] | None = (
+            self._spread_fields if self.arrays
+            else None if order == list(range(len(order))) else self.pick)
 
     def _spread(self, msg: MAVLinkMessage) -> list[Any]:
         return self._spread_values(self.get(msg))
@@ -209,8 +210,10 @@ class Codec:
         struct.error
             As :meth:`pack`.
         """
-        layout = _layout(cls)
-        return self._frame(layout, layout.payload.pack(*layout.wire(fields)))
+        layout = _LAYOUTS.get(cls) or _layout(cls)
+        wire = layout.wire
+        return self._frame(layout, layout.payload.pack(*(fields if wire is None
+                                                         else wire(fields))))
 
     def _frame(self, layout: _Layout, payload: bytes) -> bytes:
         """The MAVLink 2 packet around ``payload`` (signed when a key is set); the sequence

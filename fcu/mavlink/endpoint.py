@@ -168,6 +168,8 @@ class MavlinkEndpoint:
         self._failsafe = GcsFailsafe(config.sysid)
         self._failsafe_values: tuple[float, float, float] | None = None  # the config's source
         self._failsafe_settings = GcsFailsafeConfig()
+        self._context_key: tuple[int, int, bool] | None = None  # _context's source values
+        self._telemetry_context = build.TelemetryContext()
         self._time_s = 0.0
         self._wall_s = 0.0
         self._last_tc1_ns = 0
@@ -307,10 +309,15 @@ class MavlinkEndpoint:
 
     # ------------------------------------------------------------------ periodic work
     def _context(self) -> build.TelemetryContext:
-        return build.TelemetryContext(
-            pwm_max=self._config.pwm_max, mission_total=self._mission.total,
-            errors_comm=self.stats.malformed, gcs_failsafe_active=self._failsafe.active,
-            boot_unix_time_s=self._config.boot_unix_time_s)
+        """What the builders read besides the snapshot (made again only when one of the
+        values that can change has changed: it is read at every telemetry burst)."""
+        key = (self._mission.total, self.stats.malformed, self._failsafe.active)
+        if key != self._context_key:
+            self._context_key = key
+            self._telemetry_context = build.TelemetryContext(
+                pwm_max=self._config.pwm_max, mission_total=key[0], errors_comm=key[1],
+                gcs_failsafe_active=key[2], boot_unix_time_s=self._config.boot_unix_time_s)
+        return self._telemetry_context
 
     def _send_due(self, time_s: float, wall_time_s: float) -> None:
         due = self._streams.due(time_s, wall_time_s)

@@ -1,10 +1,10 @@
 """Build MAVLink messages from a :class:`~fcu.mavlink.port.VehicleSnapshot`.
 
-This is the unit-conversion edge: SI/NED inside, MAVLink units on the wire. A builder
-returns its message's constructor arguments (:data:`Fields`; :data:`BUILDERS` pairs it with
-the message class), which the endpoint packs without making a pymavlink message object. Every integer
+This is the unit-conversion edge: SI/NED inside, MAVLink units on the wire. Every integer
 field is clamped into its wire type (a NaN becomes the field's "unknown" value), so a
-diverged estimate can never make packing fail.
+diverged estimate can never make packing fail. A builder returns its message's constructor
+arguments (:data:`Fields`; :data:`BUILDERS` pairs it with the message class), which the
+endpoint packs without making a pymavlink message object.
 
 Conventions worth knowing on the ground-station side
 ----------------------------------------------------
@@ -38,7 +38,7 @@ from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.port import LandedState, VehicleSnapshot
 from fcu.navigation.modes import Mode
-from flightdata.geometry import euler_from_quat, quat_from_euler, wrap_pi
+from flightdata.geometry import euler_from_wxyz, quat_from_euler, wrap_pi
 
 __all__ = [
     "AUTOPILOT_CAPABILITIES",
@@ -402,9 +402,8 @@ def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     t = snap.truth
     if t is None:
         return None
-    q = t.quat_wxyz
-    qf = _floats(q)
-    roll, pitch, yaw = euler_from_quat(q).tolist()
+    qf = _floats(t.quat_wxyz)
+    roll, pitch, yaw = euler_from_wxyz(qf[0], qf[1], qf[2], qf[3])
     ax, ay, az = _xyz(t.accel_frd)
     p, q_rate, r = _xyz(t.rate_frd)
     vn, ve, vd = _xyz(t.vel_ned)
