@@ -177,6 +177,10 @@ class MavlinkEndpoint:
         self._last_snapshot: VehicleSnapshot | None = None
         self._clock = clock
         self._backlog: deque[tuple[bytes, Address]] = deque()  # received, not yet handled
+        # what tick does after receiving, in order; each is called (time_s, wall_time_s)
+        self._steps: tuple[Callable[[float, float], None], ...] = (
+            self.signing.tick, self._forward_events, self._run_failsafe, self._mission_tick,
+            self._send_due)
 
     # ------------------------------------------------------------------ parameters
     def _own_params(self) -> list[ParamEntry]:
@@ -253,12 +257,12 @@ class MavlinkEndpoint:
         """
         self._time_s = time_s
         self.poll(wall_time_s)
-        guard = self._guard
-        guard(self.signing.tick, time_s, wall_time_s)
-        guard(self._forward_events)
-        guard(self._run_failsafe, wall_time_s)
-        guard(self._mission.tick, wall_time_s)
-        guard(self._send_due, time_s, wall_time_s)
+        for step in self._steps:  # each on its own: one failing does not stop the others
+            try:
+                step(time_s, wall_time_s)
+            except Exception:
+                self.stats.handler_errors += 1
+                _log.exception("endpoint step failed")
 
     def poll(self, wall_time_s: float) -> int:
         """Handle the datagrams waiting on the link for at most ``receive_budget_s``; the
@@ -299,13 +303,6 @@ class MavlinkEndpoint:
             except Exception:
                 self.stats.handler_errors += 1
                 _log.exception("error handling %s", msg.get_type())
-
-    def _guard(self, action: Callable[..., None], *args: float) -> None:
-        try:
-            action(*args)
-        except Exception:
-            self.stats.handler_errors += 1
-            _log.exception("endpoint step failed")
 
     # ------------------------------------------------------------------ periodic work
     def _context(self) -> build.TelemetryContext:
@@ -351,7 +348,10 @@ class MavlinkEndpoint:
             for fields in built:
                 send(cls, fields)
 
-    def _forward_events(self) -> None:
+    def _mission_tick(self, time_s: float, wall_time_s: float) -> None:
+        self._mission.tick(wall_time_s)
+
+    def _forward_events(self, time_s: float, wall_time_s: float) -> None:
         for event in self._port.drain_events():
             if isinstance(event, StatusText):
                 self._outbox.status(event.severity, event.text)
@@ -363,7 +363,7 @@ class MavlinkEndpoint:
         for msg in self._records.due(self._time_s):
             self._outbox.send(msg)
 
-    def _run_failsafe(self, wall_time_s: float) -> None:
+    def _run_failsafe(self, time_s: float, wall_time_s: float) -> None:
         fs = self._failsafe
         if not fs.active and not fs.gcs_seen:
             return
