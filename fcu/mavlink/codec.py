@@ -17,8 +17,10 @@ once (:class:`_Layout`), then each packet is one ``struct`` call for the header 
 the CRC (CRC-16/MCRF4XX over everything after the magic byte, then the type's CRC_EXTRA) and,
 with a key, the signature block (link id, 48-bit timestamp, the first 6 bytes of
 ``sha256(key + packet)``; the timestamp then grows by one). MAVLink 2 drops the payload's
-trailing zero bytes (at least one byte stays). tests/fcu/mavlink/test_codec.py compares it with
-pymavlink for every message type of the dialect, signed and unsigned.
+trailing zero bytes (at least one byte stays). :meth:`Codec.pack_fields` packs the same packet
+from a message type and its constructor arguments, without the message object (the telemetry
+streams' path: most of what the vehicle sends). tests/fcu/mavlink/test_codec.py compares both
+with pymavlink for every message type of the dialect, signed and unsigned.
 """
 
 from __future__ import annotations
