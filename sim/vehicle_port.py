@@ -249,12 +249,15 @@ class SimVehicle:
             self.judge.rearm()
             self.judge.area.extend(nav.home_pos_ned)
         self._was_armed = armed
-        world = self.world
-        x = world.plant.state
-        w, qx, qy, qz = x[6:10].tolist()
-        self.judge.observe(world.time_s, x[0:3], euler_from_wxyz(w, qx, qy, qz),
-                           world.plant.on_ground, touchdowns, armed)
-        for outcome in self.judge.drain():
+        world = self.stack.world
+        plant = world.plant
+        n, e, d, _, _, _, w, qx, qy, qz = plant.state[:10].tolist()
+        judge = self.judge
+        judge.observe(world.time_s, (n, e, d), euler_from_wxyz(w, qx, qy, qz), plant.on_ground,
+                      touchdowns, armed)
+        if not judge.decided:
+            return  # the common tick
+        for outcome in judge.drain():
             self.port.post_record(outcome)
             severity = Severity.INFO if outcome.safe else Severity.CRITICAL
             self.port.post(severity, f"SIM: {outcome.text()}")

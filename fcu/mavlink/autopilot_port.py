@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
-from functools import cached_property
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
@@ -349,6 +349,27 @@ class AutopilotPort:
         return ""
 
 
+_T = TypeVar("_T")
+
+
+class _first_read(Generic[_T]):  # noqa: N801 (used as a decorator, like cached_property)
+    """:func:`functools.cached_property` without its lock (Python 3.11 takes one at every
+    first read, a dozen times per telemetry burst; a snapshot is used from one thread)."""
+
+    def __init__(self, func: Callable[[Any], _T]) -> None:
+        self._func = func
+        self._name = func.__name__
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self._name = name
+
+    def __get__(self, obj: Any, owner: type | None = None) -> _T:
+        if obj is None:
+            return self  # type: ignore[return-value]
+        value = obj.__dict__[self._name] = self._func(obj)  # later reads: the instance dict
+        return value
+
+
 class _LazySnapshot(VehicleSnapshot):
     """The snapshot of one autopilot tick whose costlier fields are computed when first read.
 
@@ -391,15 +412,15 @@ class _LazySnapshot(VehicleSnapshot):
                                "(take a new snapshot)")
         return self.__dict__["_ap"], self.__dict__["_status"]
 
-    @cached_property
+    @_first_read
     def home_pos_ned(self) -> np.ndarray | None:
         return self._source("home_pos_ned")[0].navigator.home_pos_ned
 
-    @cached_property
+    @_first_read
     def landed_state(self) -> int:
         return int(self._source("landed_state")[0].navigator.landed_state)
 
-    @cached_property
+    @_first_read
     def position_target(self) -> PositionTarget | None:
         _, status = self._source("position_target")
         ref = status.reference
@@ -408,7 +429,7 @@ class _LazySnapshot(VehicleSnapshot):
         return PositionTarget(pos_ned=ref.pos_ned, vel_ned=ref.vel_ned, acc_ned=ref.acc_ned,
                               yaw_rad=ref.yaw_rad)
 
-    @cached_property
+    @_first_read
     def attitude_target(self) -> AttitudeTarget | None:
         ap, status = self._source("attitude_target")
         att = status.attitude_reference
@@ -421,24 +442,24 @@ class _LazySnapshot(VehicleSnapshot):
             rate_frd=body_rates_from_euler_rates(att.euler_rad, att.rate),
             thrust=min(max(status.thrust_cmd_n / full_thrust_n, 0.0), 1.0))
 
-    @cached_property
+    @_first_read
     def pwm(self) -> np.ndarray:
         return np.array(self._source("pwm")[1].pwm)
 
-    @cached_property
+    @_first_read
     def battery(self) -> BatteryState:
         return _battery_state(self._source("battery")[0])
 
-    @cached_property
+    @_first_read
     def truth(self) -> SimTruth | None:
         self._source("truth")
         return self.__dict__["_port"]._truth()
 
-    @cached_property
+    @_first_read
     def loe(self) -> np.ndarray | None:
         return np.array(self._source("loe")[1].loe_estimate)
 
-    @cached_property
+    @_first_read
     def health(self) -> SensorHealth:
         ap, status = self._source("health")
         est = status.estimate
@@ -447,7 +468,7 @@ class _LazySnapshot(VehicleSnapshot):
         return SensorHealth(gps=healthy, ahrs=healthy, motors=not any(status.fault_detected),
                             prearm=ap.navigator.prearm_check().ok)
 
-    @cached_property
+    @_first_read
     def _progress(self) -> tuple[int, int]:
         progress = self._source("mission_seq")[0].navigator.mission_progress()
         return progress.current_seq, int(progress.state)

@@ -17,8 +17,10 @@ once (:class:`_Layout`), then each packet is one ``struct`` call for the header 
 the CRC (CRC-16/MCRF4XX over everything after the magic byte, then the type's CRC_EXTRA) and,
 with a key, the signature block (link id, 48-bit timestamp, the first 6 bytes of
 ``sha256(key + packet)``; the timestamp then grows by one). MAVLink 2 drops the payload's
-trailing zero bytes (at least one byte stays). tests/fcu/mavlink/test_codec.py compares it with
-pymavlink for every message type of the dialect, signed and unsigned.
+trailing zero bytes (at least one byte stays). :meth:`Codec.pack_fields` packs the same packet
+from a message type and its constructor arguments, without the message object (the telemetry
+streams' path: most of what the vehicle sends). tests/fcu/mavlink/test_codec.py compares both
+with pymavlink for every message type of the dialect, signed and unsigned.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-__all__ = ["Codec", "ParseResult", "heartbeat_message", "mavlink2"]
+__all__ = ["Codec", "ParseResult", "heartbeat_fields", "heartbeat_message", "mavlink2"]
 
 MAVLinkMessage: TypeAlias = mavlink2.MAVLink_message
 
@@ -59,20 +61,24 @@ class _Layout:
 
     ``values(msg)`` gives the payload's struct arguments in wire order: character arrays as
     their raw bytes (pymavlink's ``_<name>_raw``), other arrays spread element by element.
+    ``wire(fields)`` gives the same from the constructor's arguments (``fields``, in
+    ``cls.fieldnames`` order, character arrays as bytes), without a message object.
     """
 
-    def __init__(self, msg: MAVLinkMessage) -> None:
-        cls = type(msg)
+    def __init__(self, cls: type[MAVLinkMessage]) -> None:
         self.msg_id_low = cls.id & 0xFFFF
         self.msg_id_high = cls.id >> 16
         self.crc_extra = bytes([cls.crc_extra])
         self.payload = cls.unpacker
         names: list[str] = []
         self.arrays: list[tuple[int, int]] = []  # (index in names, length) of spread arrays
-        for name, length in zip(cls.ordered_fieldnames, cls.array_lengths, strict=True):
-            raw = f"_{name}_raw"
-            if raw in msg.__dict__:
-                names.append(raw)
+        order: list[int] = []  # wire field -> its index among the constructor's arguments
+        for name, length, kind in zip(cls.ordered_fieldnames, cls.array_lengths,
+                                      (cls.fieldtypes[cls.fieldnames.index(n)]
+                                       for n in cls.ordered_fieldnames), strict=True):
+            order.append(cls.fieldnames.index(name))
+            if kind == "char":
+                names.append(f"_{name}_raw")  # bytes as given to the constructor
             else:
                 if length > 0:
                     self.arrays.append((len(names), length))
@@ -82,9 +88,21 @@ class _Layout:
             (lambda m: (get(m),)) if len(names) == 1 else get)
         self.values: Callable[[MAVLinkMessage], Sequence[Any]] = (
             self._spread if self.arrays else self.get)
+        pick = operator.itemgetter(*order)
+        self.pick: Callable[[Sequence[Any]], Any] = (
+            (lambda f: (pick(f),)) if len(order) == 1 else pick)
+        # None: the constructor's order is the wire order and there is no array to spread
+        self.wire: Callable[[Sequence[Any]], Sequence[Any]] | None = (
+            self._spread_fields if self.arrays
+            else None if order == list(range(len(order))) else self.pick)
 
     def _spread(self, msg: MAVLinkMessage) -> list[Any]:
-        fields = self.get(msg)
+        return self._spread_values(self.get(msg))
+
+    def _spread_fields(self, fields: Sequence[Any]) -> list[Any]:
+        return self._spread_values(self.pick(fields))
+
+    def _spread_values(self, fields: Sequence[Any]) -> list[Any]:
         out: list[Any] = []
         start = 0
         for index, length in self.arrays:
@@ -98,13 +116,26 @@ class _Layout:
 _LAYOUTS: dict[type, _Layout] = {}
 
 
+def _layout(cls: type[MAVLinkMessage]) -> _Layout:
+    layout = _LAYOUTS.get(cls)
+    if layout is None:
+        layout = _LAYOUTS[cls] = _Layout(cls)
+    return layout
+
+
+def heartbeat_fields(base_mode: int, custom_mode: int,
+                     system_status: int) -> tuple[int, int, int, int, int, int]:
+    """The vehicle's HEARTBEAT as its constructor arguments: an ArduCopter-style quadrotor
+    (``MAV_TYPE_QUADROTOR``, ``MAV_AUTOPILOT_ARDUPILOTMEGA``, MAVLink version 3) in
+    ``base_mode`` / ``custom_mode`` with ``system_status`` (MAV_STATE)."""
+    return (mavlink2.MAV_TYPE_QUADROTOR, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode,
+            custom_mode, system_status, 3)
+
+
 def heartbeat_message(base_mode: int, custom_mode: int, system_status: int) -> MAVLinkMessage:
-    """The vehicle's HEARTBEAT: an ArduCopter-style quadrotor (``MAV_TYPE_QUADROTOR``,
-    ``MAV_AUTOPILOT_ARDUPILOTMEGA``, MAVLink version 3) in ``base_mode`` / ``custom_mode``
-    with ``system_status`` (MAV_STATE)."""
+    """The vehicle's HEARTBEAT (:func:`heartbeat_fields`) as a message."""
     return mavlink2.MAVLink_heartbeat_message(
-        mavlink2.MAV_TYPE_QUADROTOR, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode,
-        custom_mode, system_status, 3)
+        *heartbeat_fields(base_mode, custom_mode, system_status))
 
 
 @dataclass(frozen=True, slots=True)
@@ -168,11 +199,28 @@ class Codec:
         struct.error
             When a field does not fit its wire type (the builders clamp, so this is a bug).
         """
+        layout = _layout(type(msg))
+        return self._frame(layout, layout.payload.pack(*layout.values(msg)))
+
+    def pack_fields(self, cls: type[MAVLinkMessage], fields: Sequence[Any]) -> bytes:
+        """:meth:`pack` of ``cls(*fields)``, without making the message object (the
+        telemetry streams' path: ``fields`` in ``cls.fieldnames`` order, as the constructor
+        takes them).
+
+        Raises
+        ------
+        struct.error
+            As :meth:`pack`.
+        """
+        layout = _LAYOUTS.get(cls) or _layout(cls)
+        wire = layout.wire
+        return self._frame(layout, layout.payload.pack(*(fields if wire is None
+                                                         else wire(fields))))
+
+    def _frame(self, layout: _Layout, payload: bytes) -> bytes:
+        """The MAVLink 2 packet around ``payload`` (signed when a key is set); the sequence
+        number moves on."""
         mav = self._mav
-        layout = _LAYOUTS.get(type(msg))
-        if layout is None:
-            layout = _LAYOUTS[type(msg)] = _Layout(msg)
-        payload = layout.payload.pack(*layout.values(msg))
         # MAVLink 2 does not send the payload's trailing zeros (one byte at least stays)
         payload = payload.rstrip(b"\0") or payload[:1]
         signing = mav.signing

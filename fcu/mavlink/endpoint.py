@@ -53,6 +53,7 @@ from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
 from fcu.mavlink.link import Address, Link
+from fcu.mavlink.messages import Fields
 from fcu.mavlink.mission import MissionProtocol
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
 from fcu.mavlink.port import (
@@ -100,6 +101,17 @@ class _Outbox:
             _log.exception("cannot pack %s", msg.get_type())
             return
         self._link.send(data, to)
+
+    def send_fields(self, cls: type[MAVLinkMessage], fields: Fields) -> None:
+        """:meth:`send` of ``cls(*fields)`` to every peer, packed without the message object
+        (the telemetry streams: most of what is sent)."""
+        try:
+            data = self._codec.pack_fields(cls, fields)
+        except Exception:  # a field out of its wire range is a bug; keep flying
+            self._stats.build_errors += 1
+            _log.exception("cannot pack %s", cls.msgname)
+            return
+        self._link.send(data, None)
 
     def status(self, severity: int, text: str) -> None:
         self._chunk_id = self._chunk_id % 0xFFFF + 1
@@ -156,6 +168,8 @@ class MavlinkEndpoint:
         self._failsafe = GcsFailsafe(config.sysid)
         self._failsafe_values: tuple[float, float, float] | None = None  # the config's source
         self._failsafe_settings = GcsFailsafeConfig()
+        self._context_key: tuple[int, int, bool] | None = None  # _context's source values
+        self._telemetry_context = build.TelemetryContext()
         self._time_s = 0.0
         self._wall_s = 0.0
         self._last_tc1_ns = 0
@@ -163,6 +177,10 @@ class MavlinkEndpoint:
         self._last_snapshot: VehicleSnapshot | None = None
         self._clock = clock
         self._backlog: deque[tuple[bytes, Address]] = deque()  # received, not yet handled
+        # what tick does after receiving, in order; each is called (time_s, wall_time_s)
+        self._steps: tuple[Callable[[float, float], None], ...] = (
+            self.signing.tick, self._forward_events, self._run_failsafe, self._mission_tick,
+            self._send_due)
 
     # ------------------------------------------------------------------ parameters
     def _own_params(self) -> list[ParamEntry]:
@@ -239,12 +257,12 @@ class MavlinkEndpoint:
         """
         self._time_s = time_s
         self.poll(wall_time_s)
-        guard = self._guard
-        guard(self.signing.tick, time_s, wall_time_s)
-        guard(self._forward_events)
-        guard(self._run_failsafe, wall_time_s)
-        guard(self._mission.tick, wall_time_s)
-        guard(self._send_due, time_s, wall_time_s)
+        for step in self._steps:  # each on its own: one failing does not stop the others
+            try:
+                step(time_s, wall_time_s)
+            except Exception:
+                self.stats.handler_errors += 1
+                _log.exception("endpoint step failed")
 
     def poll(self, wall_time_s: float) -> int:
         """Handle the datagrams waiting on the link for at most ``receive_budget_s``; the
@@ -286,19 +304,17 @@ class MavlinkEndpoint:
                 self.stats.handler_errors += 1
                 _log.exception("error handling %s", msg.get_type())
 
-    def _guard(self, action: Callable[..., None], *args: float) -> None:
-        try:
-            action(*args)
-        except Exception:
-            self.stats.handler_errors += 1
-            _log.exception("endpoint step failed")
-
     # ------------------------------------------------------------------ periodic work
     def _context(self) -> build.TelemetryContext:
-        return build.TelemetryContext(
-            pwm_max=self._config.pwm_max, mission_total=self._mission.total,
-            errors_comm=self.stats.malformed, gcs_failsafe_active=self._failsafe.active,
-            boot_unix_time_s=self._config.boot_unix_time_s)
+        """What the builders read besides the snapshot (made again only when one of the
+        values that can change has changed: it is read at every telemetry burst)."""
+        key = (self._mission.total, self.stats.malformed, self._failsafe.active)
+        if key != self._context_key:
+            self._context_key = key
+            self._telemetry_context = build.TelemetryContext(
+                pwm_max=self._config.pwm_max, mission_total=key[0], errors_comm=key[1],
+                gcs_failsafe_active=key[2], boot_unix_time_s=self._config.boot_unix_time_s)
+        return self._telemetry_context
 
     def _send_due(self, time_s: float, wall_time_s: float) -> None:
         due = self._streams.due(time_s, wall_time_s)
@@ -321,17 +337,21 @@ class MavlinkEndpoint:
                 failsafe_active=last.failsafe_active)
             due = [_M.MAVLINK_MSG_ID_HEARTBEAT]
         ctx = self._context()
+        send = self._outbox.send_fields
         for msg_id in due:
             try:
-                built = streamed.build_stream(msg_id, snap, ctx)
+                cls, built = streamed.stream_fields(msg_id, snap, ctx)
             except Exception:
                 self.stats.build_errors += 1
                 _log.exception("cannot build message %d", msg_id)
                 continue
-            for msg in built:
-                self._outbox.send(msg)
+            for fields in built:
+                send(cls, fields)
 
-    def _forward_events(self) -> None:
+    def _mission_tick(self, time_s: float, wall_time_s: float) -> None:
+        self._mission.tick(wall_time_s)
+
+    def _forward_events(self, time_s: float, wall_time_s: float) -> None:
         for event in self._port.drain_events():
             if isinstance(event, StatusText):
                 self._outbox.status(event.severity, event.text)
@@ -343,7 +363,7 @@ class MavlinkEndpoint:
         for msg in self._records.due(self._time_s):
             self._outbox.send(msg)
 
-    def _run_failsafe(self, wall_time_s: float) -> None:
+    def _run_failsafe(self, time_s: float, wall_time_s: float) -> None:
         fs = self._failsafe
         if not fs.active and not fs.gcs_seen:
             return

@@ -2,7 +2,9 @@
 
 This is the unit-conversion edge: SI/NED inside, MAVLink units on the wire. Every integer
 field is clamped into its wire type (a NaN becomes the field's "unknown" value), so a
-diverged estimate can never make packing fail.
+diverged estimate can never make packing fail. A builder returns its message's constructor
+arguments (:data:`Fields`; :data:`BUILDERS` pairs it with the message class), which the
+endpoint packs without making a pymavlink message object.
 
 Conventions worth knowing on the ground-station side
 ----------------------------------------------------
@@ -27,15 +29,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any, TypeAlias
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage, heartbeat_message, mavlink2
+from fcu.mavlink.codec import MAVLinkMessage, heartbeat_fields, mavlink2
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.port import LandedState, VehicleSnapshot
 from fcu.navigation.modes import Mode
-from flightdata.geometry import euler_from_quat, quat_from_euler, wrap_pi
+from flightdata.geometry import euler_from_wxyz, quat_from_euler, wrap_pi
 
 __all__ = [
     "AUTOPILOT_CAPABILITIES",
@@ -43,6 +46,7 @@ __all__ = [
     "TelemetryContext",
     "BUILDERS",
     "Builder",
+    "Fields",
     "autopilot_version",
     "command_ack",
     "pwm_to_us",
@@ -69,6 +73,11 @@ AUTOPILOT_CAPABILITIES = (
     | _M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
 )
 """What AUTOPILOT_VERSION advertises (each one implemented by this endpoint)."""
+
+Fields: TypeAlias = tuple[Any, ...]
+"""A message's constructor arguments (``cls.fieldnames`` order), what the builders return:
+the endpoint packs them as they are (:meth:`fcu.mavlink.codec.Codec.pack_fields`), without a
+pymavlink message object."""
 
 # ArduCopter sets GUIDED_ENABLED for the modes under position control (GCS_Copter::base_mode).
 _GUIDED_MODES = frozenset({Mode.AUTO, Mode.GUIDED, Mode.LOITER, Mode.RTL, Mode.BRAKE})
@@ -174,7 +183,7 @@ def _cms(x: float) -> int:
 # streamed messages
 
 
-def heartbeat(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def heartbeat(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """HEARTBEAT: ArduCopter quad, custom mode, armed flag, system status."""
     base_mode = _M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | _M.MAV_MODE_FLAG_STABILIZE_ENABLED
     if snap.armed:
@@ -184,8 +193,8 @@ def heartbeat(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
     status = int(snap.system_status)
     if (ctx.gcs_failsafe_active or snap.failsafe_active) and status != MavState.BOOT:
         status = max(status, int(MavState.CRITICAL))
-    return heartbeat_message(base_mode, clamp_int(snap.custom_mode, 0, UINT32_MAX, 0),
-                             clamp_int(status, 0, UINT8_MAX, 0))
+    return heartbeat_fields(base_mode, clamp_int(snap.custom_mode, 0, UINT32_MAX, 0),
+                            clamp_int(status, 0, UINT8_MAX, 0))
 
 
 def sensor_bits(snap: VehicleSnapshot) -> tuple[int, int, int]:
@@ -226,24 +235,24 @@ def _battery_ints(snap: VehicleSnapshot) -> tuple[int, int]:
     return current_ca, remaining
 
 
-def sys_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def sys_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """SYS_STATUS: sensor bits, battery, receive-error count."""
     present, enabled, health = sensor_bits(snap)
     bat = snap.battery
     current_ca, remaining = _battery_ints(snap)
-    return _M.MAVLink_sys_status_message(
+    return (
         present, enabled, health, 0,
         clamp_int(bat.voltage_v * 1e3, 0, UINT16_MAX - 1, UINT16_MAX), current_ca, remaining,
         0, clamp_int(ctx.errors_comm, 0, UINT16_MAX, 0), 0, 0, 0, 0, 0, 0, 0)
 
 
-def gps_raw_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def gps_raw_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """GPS_RAW_INT from the estimated position (mocap in the lab)."""
     lat, lon, alt = ned_to_geo(snap.pos_ned, snap.origin)
     vn, ve = float(snap.vel_ned[0]), float(snap.vel_ned[1])
     speed = math.hypot(vn, ve)
     ok = snap.health.gps
-    return _M.MAVLink_gps_raw_int_message(
+    return (
         time_usec(snap.time_s), _M.GPS_FIX_TYPE_3D_FIX if ok else _M.GPS_FIX_TYPE_NO_FIX,
         _e7(lat), _e7(lon), _mm(alt), 100 if ok else UINT16_MAX, 100 if ok else UINT16_MAX,
         clamp_int(speed * 100.0, 0, UINT16_MAX - 1, UINT16_MAX),
@@ -251,27 +260,26 @@ def gps_raw_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
         12 if ok else 0, 0, 10, 10, 10, 0, 0)
 
 
-def attitude(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def attitude(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """ATTITUDE: ZYX Euler angles (yaw wrapped to [-pi, pi)) and body rates."""
     roll, pitch, yaw = _xyz(snap.euler_rad)
     p, q, r = _xyz(snap.rate_frd)
-    return _M.MAVLink_attitude_message(time_boot_ms(snap.time_s), roll, pitch, wrap_pi(yaw),
-                                       p, q, r)
+    return (time_boot_ms(snap.time_s), roll, pitch, wrap_pi(yaw), p, q, r)
 
 
-def attitude_quaternion(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def attitude_quaternion(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """ATTITUDE_QUATERNION: [w, x, y, z] and body rates."""
     qw, qx, qy, qz = quat_from_euler(snap.euler_rad).tolist()
     p, q, r = _xyz(snap.rate_frd)
-    return _M.MAVLink_attitude_quaternion_message(
+    return (
         time_boot_ms(snap.time_s), qw, qx, qy, qz, p, q, r, [0.0, 0.0, 0.0, 0.0])
 
 
-def local_position_ned(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def local_position_ned(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """LOCAL_POSITION_NED about the origin."""
     n, e, d = _xyz(snap.pos_ned)
     vn, ve, vd = _xyz(snap.vel_ned)
-    return _M.MAVLink_local_position_ned_message(time_boot_ms(snap.time_s), n, e, d, vn, ve, vd)
+    return (time_boot_ms(snap.time_s), n, e, d, vn, ve, vd)
 
 
 def relative_alt_m(snap: VehicleSnapshot, alt_amsl_m: float) -> float:
@@ -279,34 +287,34 @@ def relative_alt_m(snap: VehicleSnapshot, alt_amsl_m: float) -> float:
     return alt_amsl_m - home_alt_amsl_m(snap.origin, snap.home_pos_ned)
 
 
-def global_position_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def global_position_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """GLOBAL_POSITION_INT: degE7, AMSL and relative altitude in mm, velocity in cm/s."""
     lat, lon, alt = ned_to_geo(snap.pos_ned, snap.origin)
     vn, ve, vd = _xyz(snap.vel_ned)
-    return _M.MAVLink_global_position_int_message(
+    return (
         time_boot_ms(snap.time_s), _e7(lat), _e7(lon), _mm(alt), _mm(relative_alt_m(snap, alt)),
         _cms(vn), _cms(ve), _cms(vd), cdeg_heading(_f(snap.euler_rad[2])))
 
 
-def vfr_hud(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def vfr_hud(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """VFR_HUD: ground speed (also as airspeed), heading, throttle %, AMSL altitude, climb."""
     _, _, alt = ned_to_geo(snap.pos_ned, snap.origin)
     speed = math.hypot(_f(snap.vel_ned[0]), _f(snap.vel_ned[1]))
     heading = cdeg_heading(_f(snap.euler_rad[2]))
     throttle = float(np.mean(snap.pwm)) / ctx.pwm_max * 100.0
-    return _M.MAVLink_vfr_hud_message(
+    return (
         speed, speed, 0 if heading == UINT16_MAX else heading // 100,
         clamp_int(throttle, 0, 100, 0), alt, -_f(snap.vel_ned[2]))
 
 
-def servo_output_raw(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def servo_output_raw(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """SERVO_OUTPUT_RAW: motors 1..4 (thesis numbering) on servo1..servo4."""
     us = [pwm_to_us(u, ctx.pwm_max) for u in _floats(snap.pwm[:4])]
     us += [0] * (16 - len(us))
-    return _M.MAVLink_servo_output_raw_message(time_usec(snap.time_s) & UINT32_MAX, 0, *us)
+    return (time_usec(snap.time_s) & UINT32_MAX, 0, *us)
 
 
-def battery_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def battery_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """BATTERY_STATUS: pack voltage in cell 0 (cells unknown, as ArduPilot without cell
     monitoring), current, charge (mAh) and energy (hJ) used, remaining %, time to empty,
     charge state (CRITICAL, LOW from the monitor's levels or under 20 %, else OK)."""
@@ -326,82 +334,81 @@ def battery_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessa
                                                                INT32_MAX, -1)
     time_left_s = 0 if bat.time_remaining_s is None else clamp_int(bat.time_remaining_s, 0,
                                                                     INT32_MAX, 0)
-    return _M.MAVLink_battery_status_message(
+    return (
         0, _M.MAV_BATTERY_FUNCTION_ALL, _M.MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
         current_ca, consumed_mah, consumed_hj, remaining, time_left_s, charge, [0, 0, 0, 0],
         0, 0)
 
 
-def home_position(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def home_position(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """HOME_POSITION (None while home is unset): geodetic and in the local NED frame."""
     ned = snap.home_pos_ned
     if ned is None:
         return None
     lat, lon, alt = ned_to_geo(ned, snap.origin)
-    return _M.MAVLink_home_position_message(
+    return (
         _e7(lat), _e7(lon), _mm(alt), _f(ned[0]), _f(ned[1]), _f(ned[2]),
         [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, time_usec(snap.time_s))
 
 
-def extended_sys_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def extended_sys_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """EXTENDED_SYS_STATE: multicopter, landed state."""
     landed = clamp_int(snap.landed_state, 0, LandedState.LANDING, LandedState.UNDEFINED)
-    return _M.MAVLink_extended_sys_state_message(_M.MAV_VTOL_STATE_MC, landed)
+    return (_M.MAV_VTOL_STATE_MC, landed)
 
 
-def mission_current(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def mission_current(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """MISSION_CURRENT with ``total`` (items without home; UINT16_MAX: no mission) and state."""
     total = ctx.mission_total if ctx.mission_total > 0 else UINT16_MAX
     mode = 1 if snap.custom_mode == Mode.AUTO else 2
-    return _M.MAVLink_mission_current_message(
+    return (
         clamp_int(snap.mission_seq, 0, UINT16_MAX, 0), total,
         clamp_int(snap.mission_state, 0, UINT8_MAX, 0), mode)
 
 
-def system_time(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def system_time(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """SYSTEM_TIME: UNIX time (boot time + simulated time; 0 when unknown), time since boot."""
     unix_us = 0 if ctx.boot_unix_time_s is None else time_usec(ctx.boot_unix_time_s + snap.time_s)
-    return _M.MAVLink_system_time_message(unix_us, time_boot_ms(snap.time_s))
+    return (unix_us, time_boot_ms(snap.time_s))
 
 
 def position_target_local_ned(snap: VehicleSnapshot,
-                              ctx: TelemetryContext) -> MAVLinkMessage | None:
+                              ctx: TelemetryContext) -> Fields | None:
     """POSITION_TARGET_LOCAL_NED: the position controller's reference (None when idle)."""
     t = snap.position_target
     if t is None:
         return None
     p, v, a = t.pos_ned, t.vel_ned, t.acc_ned
-    return _M.MAVLink_position_target_local_ned_message(
+    return (
         time_boot_ms(snap.time_s), _M.MAV_FRAME_LOCAL_NED,
         _M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
         _f(p[0]), _f(p[1]), _f(p[2]), _f(v[0]), _f(v[1]), _f(v[2]), _f(a[0]), _f(a[1]),
         _f(a[2]), wrap_pi(_f(t.yaw_rad)), 0.0)
 
 
-def attitude_target(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def attitude_target(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """ATTITUDE_TARGET: the attitude controller's reference (None when idle)."""
     t = snap.attitude_target
     if t is None:
         return None
     q, w = quat_from_euler(t.euler_rad), t.rate_frd
-    return _M.MAVLink_attitude_target_message(
+    return (
         time_boot_ms(snap.time_s), 0, [_f(x) for x in q], _f(w[0]), _f(w[1]), _f(w[2]),
         _f(t.thrust))
 
 
-def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """SIM_STATE: simulator truth (None outside simulation)."""
     t = snap.truth
     if t is None:
         return None
-    q = t.quat_wxyz
-    qf = _floats(q)
-    roll, pitch, yaw = euler_from_quat(q).tolist()
+    qf = _floats(t.quat_wxyz)
+    roll, pitch, yaw = euler_from_wxyz(qf[0], qf[1], qf[2], qf[3])
     ax, ay, az = _xyz(t.accel_frd)
     p, q_rate, r = _xyz(t.rate_frd)
     vn, ve, vd = _xyz(t.vel_ned)
     lat, lon, alt = ned_to_geo(t.pos_ned, snap.origin)
-    return _M.MAVLink_sim_state_message(
+    return (
         qf[0], qf[1], qf[2], qf[3], roll, pitch, yaw, ax, ay, az, p, q_rate, r,
         lat, lon, alt, 0.0, 0.0, vn, ve, vd, _e7(lat), _e7(lon))
 
@@ -409,37 +416,44 @@ def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | 
 _LOE_NAMES = (b"LOE1", b"LOE2", b"LOE3", b"LOE4")
 
 
-def named_value_floats(snap: VehicleSnapshot, ctx: TelemetryContext) -> list[MAVLinkMessage]:
+def named_value_floats(snap: VehicleSnapshot, ctx: TelemetryContext) -> list[Fields]:
     """NAMED_VALUE_FLOAT ``LOE1``..``LOE4`` (none when no estimate is available)."""
     if snap.loe is None:
         return []
     t_ms = time_boot_ms(snap.time_s)
-    return [_M.MAVLink_named_value_float_message(t_ms, name, v)
+    return [(t_ms, name, v)
             for name, v in zip(_LOE_NAMES, _floats(snap.loe[:4]), strict=False)]
 
 
-Builder = Callable[[VehicleSnapshot, TelemetryContext],
-                   MAVLinkMessage | list[MAVLinkMessage] | None]
+Builder = Callable[[VehicleSnapshot, TelemetryContext], Fields | list[Fields] | None]
+"""A message's builder: the constructor arguments of its one message (a tuple), of several
+(a list of tuples; may be empty) or None (nothing to report)."""
 
-BUILDERS: dict[int, Builder] = {
-    _M.MAVLINK_MSG_ID_HEARTBEAT: heartbeat,
-    _M.MAVLINK_MSG_ID_SYS_STATUS: sys_status,
-    _M.MAVLINK_MSG_ID_GPS_RAW_INT: gps_raw_int,
-    _M.MAVLINK_MSG_ID_ATTITUDE: attitude,
-    _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: attitude_quaternion,
-    _M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: local_position_ned,
-    _M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: global_position_int,
-    _M.MAVLINK_MSG_ID_VFR_HUD: vfr_hud,
-    _M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: servo_output_raw,
-    _M.MAVLINK_MSG_ID_BATTERY_STATUS: battery_status,
-    _M.MAVLINK_MSG_ID_HOME_POSITION: home_position,
-    _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: extended_sys_state,
-    _M.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
-    _M.MAVLINK_MSG_ID_SYSTEM_TIME: system_time,
-    _M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: position_target_local_ned,
-    _M.MAVLINK_MSG_ID_ATTITUDE_TARGET: attitude_target,
-    _M.MAVLINK_MSG_ID_SIM_STATE: sim_state,
-    _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: named_value_floats,
+BUILDERS: dict[int, tuple[type[MAVLinkMessage], Builder]] = {
+    _M.MAVLINK_MSG_ID_HEARTBEAT: (_M.MAVLink_heartbeat_message, heartbeat),
+    _M.MAVLINK_MSG_ID_SYS_STATUS: (_M.MAVLink_sys_status_message, sys_status),
+    _M.MAVLINK_MSG_ID_GPS_RAW_INT: (_M.MAVLink_gps_raw_int_message, gps_raw_int),
+    _M.MAVLINK_MSG_ID_ATTITUDE: (_M.MAVLink_attitude_message, attitude),
+    _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: (
+        _M.MAVLink_attitude_quaternion_message, attitude_quaternion),
+    _M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: (
+        _M.MAVLink_local_position_ned_message, local_position_ned),
+    _M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: (
+        _M.MAVLink_global_position_int_message, global_position_int),
+    _M.MAVLINK_MSG_ID_VFR_HUD: (_M.MAVLink_vfr_hud_message, vfr_hud),
+    _M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: (_M.MAVLink_servo_output_raw_message, servo_output_raw),
+    _M.MAVLINK_MSG_ID_BATTERY_STATUS: (_M.MAVLink_battery_status_message, battery_status),
+    _M.MAVLINK_MSG_ID_HOME_POSITION: (_M.MAVLink_home_position_message, home_position),
+    _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: (
+        _M.MAVLink_extended_sys_state_message, extended_sys_state),
+    _M.MAVLINK_MSG_ID_MISSION_CURRENT: (_M.MAVLink_mission_current_message, mission_current),
+    _M.MAVLINK_MSG_ID_SYSTEM_TIME: (_M.MAVLink_system_time_message, system_time),
+    _M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: (
+        _M.MAVLink_position_target_local_ned_message, position_target_local_ned),
+    _M.MAVLINK_MSG_ID_ATTITUDE_TARGET: (_M.MAVLink_attitude_target_message, attitude_target),
+    _M.MAVLINK_MSG_ID_SIM_STATE: (_M.MAVLink_sim_state_message, sim_state),
+    _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: (
+        _M.MAVLink_named_value_float_message, named_value_floats),
 }
 
 

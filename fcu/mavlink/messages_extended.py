@@ -34,6 +34,8 @@ from fcu.mavlink.messages import (
     INT16_MAX,
     UINT16_MAX,
     UINT32_MAX,
+    Builder,
+    Fields,
     TelemetryContext,
     clamp_int,
     time_boot_ms,
@@ -70,57 +72,56 @@ def _imu_ints(snap: VehicleSnapshot) -> tuple[int, list[int], int] | None:
     return time_usec(reading.time_s), acc + gyro + [0, 0, 0], _cdeg_c(reading.temperature_c)
 
 
-def raw_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def raw_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """RAW_IMU: the latest IMU sample (ArduPilot's scaling: mG, mrad/s)."""
     ints = _imu_ints(snap)
     if ints is None:
         return None
     time_us, values, temperature = ints
-    return _M.MAVLink_raw_imu_message(time_us, *values, 0, temperature)
+    return (time_us, *values, 0, temperature)
 
 
-def scaled_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def scaled_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """SCALED_IMU: the same sample, time since boot in ms."""
     ints = _imu_ints(snap)
     if ints is None:
         return None
     time_us, values, temperature = ints
-    return _M.MAVLink_scaled_imu_message((time_us // 1000) & UINT32_MAX, *values, temperature)
+    return ((time_us // 1000) & UINT32_MAX, *values, temperature)
 
 
-def scaled_pressure(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def scaled_pressure(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """SCALED_PRESSURE: the barometer's pressure (hPa) and temperature (cdegC)."""
     reading = snap.extended.pressure() if snap.extended is not None else None
     if reading is None:
         return None
-    return _M.MAVLink_scaled_pressure_message(
+    return (
         time_boot_ms(reading.time_s), _f(reading.pressure_pa / 100.0), 0.0,
         _cdeg_c(reading.temperature_c), 0)
 
 
-def vibration(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def vibration(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """VIBRATION: ArduPilot's vibration levels (m/s^2) and clip counts."""
     levels = snap.extended.vibration() if snap.extended is not None else None
     if levels is None:
         return None
     v = levels.vibration_m_s2
     clips = [clamp_int(float(c), 0, UINT32_MAX, 0) for c in levels.clipping]
-    return _M.MAVLink_vibration_message(time_usec(levels.time_s), _f(v[0]), _f(v[1]),
-                                        _f(v[2]), *clips)
+    return (time_usec(levels.time_s), _f(v[0]), _f(v[1]), _f(v[2]), *clips)
 
 
-def ekf_status_report(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def ekf_status_report(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """EKF_STATUS_REPORT: the flying estimator's variances and flags."""
     report = snap.extended.ekf() if snap.extended is not None else None
     if report is None:
         return None
-    return _M.MAVLink_ekf_status_report_message(
+    return (
         clamp_int(report.flags, 0, UINT16_MAX, 0), _f(report.velocity_variance),
         _f(report.pos_horiz_variance), _f(report.pos_vert_variance),
         _f(report.compass_variance), _f(report.terrain_alt_variance), 0.0)
 
 
-def ahrs2(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def ahrs2(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """AHRS2: the second estimator's attitude (rad) and position (degE7, m AMSL)."""
     second = snap.extended.secondary() if snap.extended is not None else None
     if second is None:
@@ -128,9 +129,8 @@ def ahrs2(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None
     e = second.euler_rad
     lat, lon, alt = ned_to_geo(second.pos_ned, snap.origin)
     e7 = 2**31 - 1
-    return _M.MAVLink_ahrs2_message(_f(e[0]), _f(e[1]), _f(e[2]), _f(alt),
-                                    clamp_int(lat * 1e7, -e7, e7, 0),
-                                    clamp_int(lon * 1e7, -e7, e7, 0))
+    return (_f(e[0]), _f(e[1]), _f(e[2]), _f(alt), clamp_int(lat * 1e7, -e7, e7, 0),
+            clamp_int(lon * 1e7, -e7, e7, 0))
 
 
 def _deg360(angle_rad: float) -> int:
@@ -140,19 +140,19 @@ def _deg360(angle_rad: float) -> int:
     return clamp_int(math.degrees(angle_rad) % 360.0, 0, 360, 0) % 360
 
 
-def nav_controller_output(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def nav_controller_output(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """NAV_CONTROLLER_OUTPUT: desired attitude and heading, distance and errors."""
     nav = snap.extended.nav_controller() if snap.extended is not None else None
     if nav is None:
         return None
-    return _M.MAVLink_nav_controller_output_message(
+    return (
         _f(math.degrees(nav.roll_rad)), _f(math.degrees(nav.pitch_rad)),
         _deg360(nav.bearing_rad), _deg360(nav.target_bearing_rad),
         clamp_int(nav.wp_dist_m, 0, UINT16_MAX, 0), _f(nav.alt_error_m), 0.0,
         _f(nav.xtrack_error_m))
 
 
-def wind(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
+def wind(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     """WIND (ardupilotmega): the simulator's wind at the vehicle (truth, like SIM_STATE)."""
     truth = snap.truth
     if truth is None or truth.wind_ned is None:
@@ -161,24 +161,24 @@ def wind(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage | None:
     speed = math.hypot(wn, we)
     # the air moves towards atan2(we, wn); it comes from the opposite direction
     direction = math.degrees(math.atan2(-we, -wn)) % 360.0 if speed > 0.0 else 0.0
-    return _M.MAVLink_wind_message(_f(direction), _f(speed), _f(wd))
+    return (_f(direction), _f(speed), _f(wd))
 
 
-def rc_channels(snap: VehicleSnapshot, ctx: TelemetryContext) -> MAVLinkMessage:
+def rc_channels(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """RC_CHANNELS: no receiver (module docstring)."""
-    return _M.MAVLink_rc_channels_message(time_boot_ms(snap.time_s), 0, *([UINT16_MAX] * 18),
-                                          0xFF)
+    return (time_boot_ms(snap.time_s), 0, *([UINT16_MAX] * 18), 0xFF)
 
 
-EXTENDED_BUILDERS = {
-    _M.MAVLINK_MSG_ID_RAW_IMU: raw_imu,
-    _M.MAVLINK_MSG_ID_SCALED_IMU: scaled_imu,
-    _M.MAVLINK_MSG_ID_SCALED_PRESSURE: scaled_pressure,
-    _M.MAVLINK_MSG_ID_VIBRATION: vibration,
-    _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT: ekf_status_report,
-    _M.MAVLINK_MSG_ID_AHRS2: ahrs2,
-    _M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: nav_controller_output,
-    _M.MAVLINK_MSG_ID_WIND: wind,
-    _M.MAVLINK_MSG_ID_RC_CHANNELS: rc_channels,
+EXTENDED_BUILDERS: dict[int, tuple[type[MAVLinkMessage], Builder]] = {
+    _M.MAVLINK_MSG_ID_RAW_IMU: (_M.MAVLink_raw_imu_message, raw_imu),
+    _M.MAVLINK_MSG_ID_SCALED_IMU: (_M.MAVLink_scaled_imu_message, scaled_imu),
+    _M.MAVLINK_MSG_ID_SCALED_PRESSURE: (_M.MAVLink_scaled_pressure_message, scaled_pressure),
+    _M.MAVLINK_MSG_ID_VIBRATION: (_M.MAVLink_vibration_message, vibration),
+    _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT: (_M.MAVLink_ekf_status_report_message, ekf_status_report),
+    _M.MAVLINK_MSG_ID_AHRS2: (_M.MAVLink_ahrs2_message, ahrs2),
+    _M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: (
+        _M.MAVLink_nav_controller_output_message, nav_controller_output),
+    _M.MAVLINK_MSG_ID_WIND: (_M.MAVLink_wind_message, wind),
+    _M.MAVLINK_MSG_ID_RC_CHANNELS: (_M.MAVLink_rc_channels_message, rc_channels),
 }
-"""Message id -> builder (the same signature as :mod:`fcu.mavlink.messages`' builders)."""
+"""Message id -> (its message class, its builder), as :data:`fcu.mavlink.messages.BUILDERS`."""

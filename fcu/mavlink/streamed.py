@@ -2,24 +2,47 @@
 
 The builders of :mod:`fcu.mavlink.messages` (the core set) and of
 :mod:`fcu.mavlink.messages_extended` (ArduPilot SITL's extended telemetry), in one table.
+A builder gives its messages' constructor arguments: :func:`stream_fields` hands them to the
+packer as they are (the endpoint's telemetry path, no message object made), and
+:func:`build_stream` makes the messages (replies to REQUEST_MESSAGE, tests).
 """
 
 from __future__ import annotations
 
 from fcu.mavlink.codec import MAVLinkMessage
-from fcu.mavlink.messages import BUILDERS, Builder, TelemetryContext
+from fcu.mavlink.messages import BUILDERS, Builder, Fields, TelemetryContext
 from fcu.mavlink.messages_extended import EXTENDED_BUILDERS
 from fcu.mavlink.port import VehicleSnapshot
 
-__all__ = ["ALL_BUILDERS", "build_stream", "can_build"]
+__all__ = ["ALL_BUILDERS", "build_stream", "can_build", "stream_fields"]
 
-ALL_BUILDERS: dict[int, Builder] = {**BUILDERS, **EXTENDED_BUILDERS}
-"""Message id -> its builder."""
+ALL_BUILDERS: dict[int, tuple[type[MAVLinkMessage], Builder]] = {
+    **BUILDERS, **EXTENDED_BUILDERS}
+"""Message id -> (its message class, its builder)."""
 
 
 def can_build(msg_id: int) -> bool:
     """True when ``msg_id`` can be built from a snapshot (streamed or requested)."""
     return msg_id in ALL_BUILDERS
+
+
+def stream_fields(msg_id: int, snap: VehicleSnapshot,
+                  ctx: TelemetryContext) -> tuple[type[MAVLinkMessage], list[Fields]]:
+    """The message class of stream ``msg_id`` and the constructor arguments of each of its
+    messages now (an empty list when there is nothing to report).
+
+    Raises
+    ------
+    KeyError
+        When ``msg_id`` has no builder (see :func:`can_build`).
+    """
+    cls, builder = ALL_BUILDERS[msg_id]
+    built = builder(snap, ctx)
+    if built is None:
+        return cls, []
+    if isinstance(built, list):
+        return cls, built
+    return cls, [built]
 
 
 def build_stream(msg_id: int, snap: VehicleSnapshot,
@@ -31,9 +54,5 @@ def build_stream(msg_id: int, snap: VehicleSnapshot,
     KeyError
         When ``msg_id`` has no builder (see :func:`can_build`).
     """
-    built = ALL_BUILDERS[msg_id](snap, ctx)
-    if built is None:
-        return []
-    if isinstance(built, list):
-        return built
-    return [built]
+    cls, built = stream_fields(msg_id, snap, ctx)
+    return [cls(*fields) for fields in built]

@@ -37,11 +37,16 @@ def _value(kind: str, length: int, rng: np.random.Generator, zero: bool) -> Any:
     return one()
 
 
-def _message(cls: type, rng: np.random.Generator, zero: bool) -> Any:
+def _fields(cls: type, rng: np.random.Generator, zero: bool) -> list[Any]:
+    """Constructor arguments of ``cls``: random values, or all zeros."""
     lengths = dict(zip(cls.ordered_fieldnames, cls.array_lengths, strict=True))
     kinds = dict(zip(cls.fieldnames, cls.fieldtypes, strict=True))
     params = list(inspect.signature(cls.__init__).parameters)[1:]
-    return cls(*(_value(kinds[name], lengths[name], rng, zero) for name in params))
+    return [_value(kinds[name], lengths[name], rng, zero) for name in params]
+
+
+def _message(cls: type, rng: np.random.Generator, zero: bool) -> Any:
+    return cls(*_fields(cls, rng, zero))
 
 
 def _reference(sysid: int, compid: int) -> Any:
@@ -77,6 +82,33 @@ def test_every_message_type_packs_as_pymavlink_packs_it(signed: bool) -> None:
     assert packed == 3 * len(MESSAGE_TYPES) > 300  # the whole dialect, seq wrapping around
     if signed:
         assert codec.signing.timestamp == ref.signing.timestamp == 123_456_789 + packed
+
+
+@pytest.mark.parametrize("signed", [False, True], ids=["unsigned", "signed"])
+def test_packing_from_the_constructor_arguments_is_packing_the_message(signed: bool) -> None:
+    """``pack_fields(cls, fields)`` (the telemetry streams' path) writes what pymavlink's
+    ``cls(*fields).pack`` writes, for every message type, field for field: each field in
+    turn is given a random value while the others are zero."""
+    rng = np.random.default_rng(20261125)
+    codec = Codec(3, 1)
+    ref = _reference(3, 1)
+    if signed:
+        _sign(codec.signing, 987_654, 2)
+        _sign(ref.signing, 987_654, 2)
+    packed = 0
+    for cls in MESSAGE_TYPES:
+        zeros = _fields(cls, rng, zero=True)
+        full = _fields(cls, rng, zero=False)
+        cases = [full, zeros] + [zeros[:k] + [full[k]] + zeros[k + 1:]
+                                 for k in range(len(full))]
+        for fields in cases:
+            expected = cls(*fields).pack(ref)
+            ref.seq = (ref.seq + 1) % 256
+            assert codec.pack_fields(cls, tuple(fields)) == expected, cls.msgname
+            packed += 1
+    assert packed > 2000
+    if signed:
+        assert codec.signing.timestamp == ref.signing.timestamp == 987_654 + packed
 
 
 def test_sequence_numbers_and_ids_follow_the_codec() -> None:
