@@ -76,6 +76,7 @@ _FLOAT64 = np.dtype(np.float64)
 GATE_PROBABILITY = 1e-9
 """Probability that a consistent measurement exceeds its NIS gate (about 6 sigma)."""
 
+
 def pwm_array(pwm_applied: ArrayLike) -> FloatArray:
     """``pwm_applied`` as a float64 array of shape (4,) (itself when it is one)."""
     u = pwm_applied
