@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from fcu.estimation.ekf import ExtendedKalmanEstimator
@@ -12,9 +14,11 @@ from fcu.navigation.modes import Mode
 from flightdata.vocabulary import BATTERY_SENSOR
 from sim.scenario import load_scenario
 from sim.stack import SimulatedStack
+from sim.world.samples import SensorSample
 
 
-def _flight(n_ticks: int) -> tuple[list[tuple[float, np.ndarray, object]], float]:
+def _flight(n_ticks: int) -> tuple[list[tuple[float, np.ndarray, Sequence[SensorSample]]],
+                                   float]:
     """(tick time s, PWM held, samples) of each tick of a seeded take-off, and the tick
     period (s)."""
     scenario = load_scenario("lqg_abdob_loe")
