@@ -43,8 +43,9 @@ from fcu.control.position import PositionCommand, PositionController
 from fcu.control.reduced_attitude import SPINNING_POSITION_GAINS, ReducedAttitudeController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
 from fcu.estimation.ekf import ExtendedKalmanEstimator
+from fcu.estimation.pair import step_pair
 from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
-from fcu.estimation.state import SampleBatch, StateEstimate, group_samples
+from fcu.estimation.state import StateEstimate, group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.hal import SensorSampleLike
 from fcu.monitoring.battery import BatteryMonitor
@@ -228,7 +229,7 @@ class Autopilot:
         """One control tick at ``time_s``; returns PWM u1..u4 to hold until the next tick."""
         # one averaging of the tick's samples, shared by both estimators
         batches = group_samples(samples, self._grouped_kinds)
-        self._battery_step(time_s, batches.pop(BATTERY_SENSOR, None))
+        self._battery_step(time_s, batches.pop_value(BATTERY_SENSOR))
         health = self.sensor_health
         excluded = health.excluded
         source = health.height_source
@@ -241,14 +242,18 @@ class Autopilot:
         prior = self.estimator.estimate
         reject = (self.navigator.landed_state == LandedState.IN_AIR and prior.alt_m > 0.2
                   and self._hover_regime(prior) and not self.detector.lost)
-        if self.estimator is self.tskf:
+        estimator = self.estimator
+        if estimator is self.tskf:
             estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded,
                                               reject=reject)
+        elif isinstance(estimator, ExtendedKalmanEstimator):  # both in one compiled call
+            estimate = step_pair(estimator, self.tskf, time_s, self._pwm, batches,
+                                 excluded=excluded, reject=reject)
         else:  # the TSKF's own estimate is built only if read
             self.tskf.advance_grouped(time_s, self._pwm, batches, excluded=excluded,
                                       reject=reject)
-            estimate = self.estimator.step_grouped(time_s, self._pwm, batches,
-                                                   excluded=excluded, reject=reject)
+            estimate = estimator.step_grouped(time_s, self._pwm, batches, excluded=excluded,
+                                              reject=reject)
         records = health.step(time_s, batches, self.estimator.screening, reject,
                               self._sensor_noise)
         low_thrust = self._thrust_n < self._low_thrust_n  # throttle at minimum
@@ -480,14 +485,13 @@ class Autopilot:
             raise ValueError(f"ftc = {mode!r}: must be one of {', '.join(FTC_MODES)}")
         self.ftc_active = mode == "active"
 
-    def _battery_step(self, time_s: float, batch: SampleBatch | None) -> None:
-        """The battery monitor (:mod:`fcu.monitoring.battery`) on the power module's reading;
-        a rise of its level is announced and triggers the failsafe its action names."""
+    def _battery_step(self, time_s: float, value: list[float] | None) -> None:
+        """The battery monitor (:mod:`fcu.monitoring.battery`) on the power module's reading
+        (the tick's mean voltage and current, or None); a rise of its level is announced and
+        triggers the failsafe its action names."""
         volts = amps = None
-        if batch is not None:
-            value = batch.value.tolist()
-            if len(value) >= 2:
-                volts, amps = value[0], value[1]
+        if value is not None and len(value) >= 2:
+            volts, amps = value[0], value[1]
         event = self.battery.step(time_s, volts, amps)
         if event is None:
             return

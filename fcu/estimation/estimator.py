@@ -76,6 +76,15 @@ _FLOAT64 = np.dtype(np.float64)
 GATE_PROBABILITY = 1e-9
 """Probability that a consistent measurement exceeds its NIS gate (about 6 sigma)."""
 
+
+def pwm_array(pwm_applied: ArrayLike) -> FloatArray:
+    """``pwm_applied`` as a float64 array of shape (4,) (itself when it is one)."""
+    u = pwm_applied
+    if type(u) is not np.ndarray or u.dtype != _FLOAT64 or u.shape != (4,):
+        u = np.asarray(pwm_applied, dtype=float).reshape(4)
+    return u
+
+
 class ChannelCheck(NamedTuple):
     """One sensor's measurement at one tick, screened against the prior (module docstring).
 
@@ -324,14 +333,7 @@ class ChannelSet:
         Batches grouped by :func:`~fcu.estimation.state.group_samples` are read straight
         from their table (one gather); other mappings batch by batch."""
         if isinstance(batches, GroupedSamples):
-            # the table's slots: mean value, mean time (w), count (w + 1); a slot without
-            # samples is all zeros there, as an absent batch reads; the spare zero after the
-            # table pads and stands for kinds without a slot
-            key = (batches.slot_names, batches.width)
-            gather = self._gathers.get(key)
-            if gather is None:
-                gather = self._gathers[key] = self._gather_index(*key)
-            return batches.flat[gather]
+            return batches.flat[self.gather(batches)]
         flat: list[float] = []
         get = batches.get
         for sensor, value_slice, pad in self._reads:
@@ -347,6 +349,19 @@ class ChannelSet:
             flat += vals[value_slice]
             flat += pad
         return np.array(flat, dtype=np.float64).reshape(len(self._reads), MEAS_WIDTH)
+
+    def gather(self, grouped: GroupedSamples) -> np.ndarray:
+        """Indices into ``grouped.flat`` giving :meth:`measurements`' table, int, shape
+        (n_ch, MEAS_WIDTH) (made once per slot layout).
+
+        The table's slots: mean value, mean time (w), count (w + 1); a slot without samples
+        is all zeros there, as an absent batch reads; the spare zero after the table pads
+        and stands for kinds without a slot."""
+        key = (grouped.slot_names, grouped.width)
+        gather = self._gathers.get(key)
+        if gather is None:
+            gather = self._gathers[key] = self._gather_index(*key)
+        return gather
 
     def _gather_index(self, slot_names: tuple[str, ...], width: int) -> np.ndarray:
         """Indices into :attr:`GroupedSamples.flat` (a flattened table and one spare zero,
@@ -432,7 +447,7 @@ class TickEstimator:
         self._estimate: StateEstimate | None = None
         self._tick_out: FloatArray | None = None  # the latest tick's, until read as estimate
         # the latest tick's screening, as computed (ChannelCheck records built on request)
-        self._screen_out: tuple[ChannelSet, FloatArray] | None = None
+        self._screen_out: tuple[ChannelSet, FloatArray, int] | None = None
         self._screening: Screening | None = None
 
     # ---- the measurement channels ------------------------------------------------------------
@@ -470,16 +485,25 @@ class TickEstimator:
         return common_channels(height_source, self.model, self.accel_z_model_sigma)
 
     # ---- screening ---------------------------------------------------------------------------
-    def _keep_screening(self, channel_set: ChannelSet, screen: FloatArray) -> None:
-        """Keep the tick's :func:`screen_channels` output for :attr:`screening`."""
-        self._screen_out = (channel_set, screen)
+    def _keep_screening(self, channel_set: ChannelSet, out: FloatArray, at: int) -> None:
+        """Keep the tick's :func:`screen_channels` output for :attr:`screening`: the
+        ``2 * rows + 2 * n_ch`` entries of ``out`` from ``at`` (sliced when read)."""
+        self._screen_out = (channel_set, out, at)
         self._screening = None
+
+    def _screen_table(self) -> tuple[ChannelSet, FloatArray] | None:
+        """The latest tick's channels and screening table, or None before the first tick."""
+        if self._screen_out is None:
+            return None
+        cs, out, at = self._screen_out
+        return cs, out[at:at + 2 * cs.n_rows + 2 * len(cs.channels)]
 
     def _statuses(self) -> list[int]:
         """The latest tick's status code of each channel (:func:`screen_channels`)."""
-        if self._screen_out is None:
+        table = self._screen_table()
+        if table is None:
             return []
-        cs, screen = self._screen_out
+        cs, screen = table
         return [int(code) for code in screen[-len(cs.channels):].tolist()]
 
     @property
@@ -488,9 +512,10 @@ class TickEstimator:
         :class:`Screening`."""
         screening = self._screening
         if screening is None:
-            if self._screen_out is None:
+            table = self._screen_table()
+            if table is None:
                 return {}
-            screening = self._screening = Screening(*self._screen_out)
+            screening = self._screening = Screening(*table)
         return screening
 
     def _initial_state(self, initial: StateEstimate | None) -> tuple[FloatArray, FloatArray]:
@@ -550,12 +575,15 @@ class TickEstimator:
         the :class:`StateEstimate` record is built when :attr:`estimate` is read."""
         time_s = float(time_s)
         cs = self._set
-        u = pwm_applied
-        if type(u) is not np.ndarray or u.dtype != _FLOAT64 or u.shape != (4,):
-            u = np.asarray(pwm_applied, dtype=float).reshape(4)
+        u = pwm_array(pwm_applied)
         out = np.empty(cs.tick_size)  # the estimate's own array, and the screening's
         self._tick(time_s, u, cs, cs.measurements(batches), cs.exclusion(excluded),
                    bool(reject), out)
+        self._ticked(time_s, out)
+
+    def _ticked(self, time_s: float, out: FloatArray) -> None:
+        """After a tick to ``time_s`` (s) whose estimate :meth:`_tick` wrote at the start of
+        ``out`` (fresh, held by no one else): the estimate is built from it when read."""
         self._time_s = time_s
         self._estimate = None
         self._tick_out = out

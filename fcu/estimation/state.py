@@ -344,6 +344,19 @@ class GroupedSamples(BuiltOnRead[SampleBatch]):
                                                 int(rows[at + width - 2]))
         return batches
 
+    def pop_value(self, sensor: str) -> list[float] | None:
+        """:meth:`pop` of ``sensor``'s batch returning its mean value only, as a list (None
+        when there is no batch)."""
+        if self._batches is not None or sensor in self.popped or sensor not in self.slot_names:
+            batch = self.pop(sensor)
+            return None if batch is None else batch.value.tolist()
+        s = self.slot_names.index(sensor)
+        at = s * self.width
+        if self.flat.item(at + self.width - 2) <= 0:  # no sample: no batch
+            return None
+        self.popped += (sensor,)
+        return self.flat[at:at + self.slot_axes[s]].tolist()
+
     def pop(self, sensor: str, default: SampleBatch | None = None) -> SampleBatch | None:
         """Remove ``sensor``'s batch and return it (``default`` when there is none)."""
         if self._batches is not None:
@@ -482,6 +495,8 @@ def group_samples(samples: Iterable[SensorSampleLike],
         index, times, values = arrays.sensor_index, arrays.time_s, arrays.values
     else:
         index, times, values, slot_of, axes, yaw_slot, names = _sample_arrays(samples, kinds)
+        if not names:  # nothing kept (the boot tick's empty list): no slot to fill
+            return GroupedSamples(np.zeros(1), values.shape[1] + 3, (), ())
         slots, axes_t = pack_slots(slot_of, axes, yaw_slot), tuple(axes.tolist())
     width = values.shape[1] + 3
     flat = np.zeros(len(names) * width + 1)

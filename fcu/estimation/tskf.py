@@ -487,19 +487,33 @@ class TwoStageKalmanFilter(TickEstimator):
         ``time_s`` is the previous tick's plus a whole number of ``dt_s`` (within 25 % of
         ``dt_s``); zero steps (same time) update only.
         """
+        cs = channel_set
+        gamma = self.gamma_raw.copy()  # updated in place: gamma_raw is a fresh array each tick
+        on_ground, accel_power, m = tskf_tick(
+            self._work, self._scratch, gamma, out, self._model, cs.tables, cs.layout, u, meas,
+            excluded, self._steps_to(time_s), time_s, reject, self.on_ground,
+            self._accel_power)
+        self._kept(cs, out, 0, gamma, on_ground, accel_power, m)
+
+    def _steps_to(self, time_s: float) -> int:
+        """Time updates from the latest tick to ``time_s`` (s): a whole number of ``dt_s``
+        (within 25 %), else ValueError."""
         n_steps_f = (time_s - self._time_s) / self.dt_s
         n_steps = round(n_steps_f)
         if n_steps < 0 or abs(n_steps_f - n_steps) > 0.25:
             raise ValueError(f"time_s = {time_s!r}: the TSKF is discretised at dt_s = "
                              f"{self.dt_s} s and was last stepped at {self._time_s!r} s; "
                              "call it at whole multiples of dt_s")
-        cs = channel_set
-        gamma = self.gamma_raw.copy()  # updated in place: gamma_raw is a fresh array each tick
-        self.on_ground, self._accel_power, self._m = tskf_tick(
-            self._work, self._scratch, gamma, out, self._model, cs.tables, cs.layout, u, meas,
-            excluded, n_steps, time_s, reject, self.on_ground, self._accel_power)
+        return n_steps
+
+    def _kept(self, cs: ChannelSet, out: FloatArray, at: int, gamma: FloatArray,
+              on_ground: bool, accel_power: float, m: int) -> None:
+        """What :func:`tskf_tick` with the channels ``cs`` returned (the ground flag, the
+        accelerometer's innovation power, the update's rows) and wrote (``gamma``, fresh;
+        into ``out`` from ``at`` the estimate, then the screening), kept."""
+        self.on_ground, self._accel_power, self._m = on_ground, accel_power, m
         self.gamma_raw = gamma
-        self._keep_screening(cs, out[2 * N:])
+        self._keep_screening(cs, out, at + 2 * N)
 
     # ---- the workspace, read (copies) ------------------------------------------------------
     def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:

@@ -38,15 +38,14 @@ lands after its position failsafe timeout (:mod:`fcu.autopilot`). :attr:`SensorH
 is True while any sensor is excluded, or was rejected within ``quiet_s``: motor fault
 evidence is not taken then (a sensor fault would otherwise raise motor alarms).
 
-The innovation and frozen-signal checks and the re-admission run in one compiled call a tick
-(:func:`watch_sensors`) over a table of each sensor's state, reading the tick's grouped
-batches and the screening's table as arrays; the cross-check's window stays in Python.
+The three checks and the re-admission run in one compiled call a tick (:func:`watch_sensors`)
+over a table of each sensor's state and the cross-check's window, reading the tick's grouped
+batches and the screening's table as arrays.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -95,7 +94,16 @@ _STATE_WIDTH = _LAST_VALUE + 3  # the latest batch value, _LAST_N entries (0: no
 _KINDS: tuple[str, ...] = ("", "sensor_frozen", "sensor_rejected", "sensor_inconsistent")
 _TRUSTED, _FROZEN, _REJECTED, _INCONSISTENT = range(4)
 # its parameter vector (SensorHealthConfig)
-_P_REJECT_TICKS, _P_FROZEN_TICKS, _P_RECOVER_S, _P_JUMP_SIGMA, _P_MAX_SPEED = range(5)
+(_P_REJECT_TICKS, _P_FROZEN_TICKS, _P_RECOVER_S, _P_JUMP_SIGMA, _P_MAX_SPEED,
+ _P_CROSS_WINDOW_S, _P_CROSS_LIMIT_M) = range(7)
+# the rows of the state table the cross-check reads
+_BARO_ROW, _MOCAP_POS_ROW = SENSORS.index("baro"), SENSORS.index("mocap_pos")
+# where the cross-check finds the tick's heights in the grouped samples' flat array: the
+# barometer's value and count, the motion-capture position's (-1: no cross-check)
+_X_BARO_AT, _X_BARO_COUNT_AT, _X_MOCAP_AT, _X_MOCAP_COUNT_AT = range(4)
+# the cross-check's window, a ring of (tick time, baro alt - mocap alt) rows: the index of
+# its oldest row and its rows, in an int array
+_W_FIRST, _W_ROWS = range(2)
 # the tick's index: one row per channel screened (floats): the sensor's row in the state
 # table, where its batch value and count are in the grouped samples' flat array (value -1:
 # no slot), its entries, the third a yaw, its NIS gate, where its NIS and status code are
@@ -125,11 +133,66 @@ def _exclude(state: np.ndarray, events: np.ndarray, n_events: int, row: int, kin
 
 
 @njit(cache=True, error_model="numpy")
+def cross_check(par: np.ndarray, state: np.ndarray, events: np.ndarray, n_events: int,
+                cross: np.ndarray, window: np.ndarray, window_at: np.ndarray,
+                flat: np.ndarray, time_s: float) -> int:
+    """The barometer against the motion-capture height (module docstring), on the tick's
+    batches ``flat`` (``cross``: where the heights are in it, ``_X_*``), with the window
+    ``window`` (a ring of (tick time s, baro alt - mocap alt m) rows, ``window_at``: its
+    oldest row and its rows, advanced; it has room for one more row); writes an exclusion
+    or re-admission of the barometer after the ``n_events`` events; returns the events."""
+    if (flat[cross[_X_BARO_COUNT_AT]] <= 0 or flat[cross[_X_MOCAP_COUNT_AT]] <= 0
+            or state[_MOCAP_POS_ROW, _EXCLUDED_AS] != _TRUSTED):
+        return n_events
+    cap = window.shape[0]
+    first = window_at[_W_FIRST]
+    rows = window_at[_W_ROWS]
+    # alt = -z (NED); both averaged over the tick
+    last = (first + rows) % cap
+    window[last, 0] = time_s
+    window[last, 1] = flat[cross[_X_BARO_AT]] + flat[cross[_X_MOCAP_AT] + 2]
+    rows += 1
+    while rows > 0 and window[first, 0] <= time_s - par[_P_CROSS_WINDOW_S]:
+        first = (first + 1) % cap
+        rows -= 1
+    window_at[_W_FIRST] = first
+    window_at[_W_ROWS] = rows
+    if rows < 2 or window[last, 0] - window[first, 0] < 0.5 * par[_P_CROSS_WINDOW_S]:
+        return n_events
+    # the mean difference, summed oldest first
+    total = 0.0
+    for k in range(rows):
+        total += window[(first + k) % cap, 1]
+    mean = total / rows
+    limit = par[_P_CROSS_LIMIT_M]
+    baro = state[_BARO_ROW]
+    kind = baro[_EXCLUDED_AS]
+    if kind == _TRUSTED and abs(mean) > limit:
+        return _exclude(state, events, n_events, _BARO_ROW, _INCONSISTENT, time_s, mean)
+    if kind == _INCONSISTENT and abs(mean) < 0.5 * limit:
+        if math.isnan(baro[_GOOD_SINCE_S]):
+            baro[_GOOD_SINCE_S] = time_s
+        if time_s - baro[_GOOD_SINCE_S] >= par[_P_RECOVER_S] - 1e-9:
+            baro[_EXCLUDED_AS] = _TRUSTED
+            baro[_GOOD_SINCE_S] = np.nan
+            events[n_events, _E_ACTION] = 1.0
+            events[n_events, _E_KIND] = _INCONSISTENT
+            events[n_events, _E_ROW] = _BARO_ROW
+            events[n_events, _E_MAGNITUDE] = mean
+            n_events += 1
+    elif kind == _INCONSISTENT:
+        baro[_GOOD_SINCE_S] = np.nan
+    return n_events
+
+
+@njit(cache=True, error_model="numpy")
 def watch_sensors(par: np.ndarray, state: np.ndarray, events: np.ndarray, index: np.ndarray,
+                  cross: np.ndarray, window: np.ndarray, window_at: np.ndarray,
                   flat: np.ndarray, screen: np.ndarray, time_s: float,
                   airborne: bool) -> tuple[int, bool]:
     """The innovation and frozen-signal checks of one tick, and the re-admission of sensors
-    they excluded (module docstring), for each channel of ``index`` screened this tick.
+    they excluded (module docstring), for each channel of ``index`` screened this tick; then
+    the cross-check (:func:`cross_check`, unless ``cross`` is -1).
 
     ``par``: the settings (``_P_*``); ``state``: the state table, advanced; ``events``: the
     exclusions and re-admissions, written in order; ``flat``: the tick's batches
@@ -210,15 +273,20 @@ def watch_sensors(par: np.ndarray, state: np.ndarray, events: np.ndarray, index:
         events[n_events, _E_ROW] = r
         events[n_events, _E_MAGNITUDE] = time_s - state[r, _EXCLUDED_S]
         n_events += 1
+    if cross[0] >= 0:
+        n_events = cross_check(par, state, events, n_events, cross, window, window_at, flat,
+                               time_s)
     return n_events, rejected
 
 
 # the sensor each height source reads
 _HEIGHT_SENSOR = {"mocap": "mocap_pos", "baro": "baro"}
 _ROW = {sensor: r for r, sensor in enumerate(SENSORS)}  # rows of the state table
-# watch_sensors' index of a tick's channels, and where _cross_check reads the tick's heights
-_Index = tuple[np.ndarray, tuple[int, int, int, int] | None]
+# watch_sensors' index of a tick's channels, and where cross_check reads the tick's heights
+_Index = tuple[np.ndarray, np.ndarray]
+_NO_CROSS = np.full(4, -1, dtype=np.int64)  # no height to cross-check
 _STATUS_CODES = {name: code for code, name in enumerate(STATUS_NAMES)}
+_WINDOW_ROWS = 256  # the cross-check window's first room (grown when full)
 
 
 class SensorHealth:
@@ -235,8 +303,9 @@ class SensorHealth:
         self.config = config
         self.configured_height_source = height_source
         self._par = np.array([config.reject_ticks, config.frozen_ticks, config.recover_s,
-                              config.jump_sigma, config.max_speed], dtype=float)
-        self._events = np.zeros((2 * len(SENSORS), 4))
+                              config.jump_sigma, config.max_speed, config.cross_window_s,
+                              config.cross_limit_m], dtype=float)
+        self._events = np.zeros((2 * len(SENSORS) + 1, 4))
         # watch_sensors' index, by (channels screened, grouped slots, slots popped)
         self._indexes: dict[tuple[object, ...], _Index] = {}
         self.reset()
@@ -246,9 +315,10 @@ class SensorHealth:
         self._state = np.zeros((len(SENSORS), _STATE_WIDTH))
         self._state[:, _GOOD_SINCE_S] = np.nan
         self._noise: dict[str, float] | None = None  # the noise the _SIGMA column holds
-        # the cross-check's window: tick times and baro alt - mocap alt, m
-        self._cross_t: deque[float] = deque()
-        self._cross_v: deque[float] = deque()
+        # the cross-check's window (cross_check): a ring of (tick time s, baro alt - mocap
+        # alt m) rows, its oldest row and its rows
+        self._window = np.zeros((_WINDOW_ROWS, 2))
+        self._window_at = np.zeros(2, dtype=np.int64)
         self._last_rejected_s = -math.inf  # the latest rejection of any sensor
         self._exclusions_changed()
 
@@ -298,8 +368,12 @@ class SensorHealth:
             self._noise = dict(noise)
             self._state[:, _SIGMA] = [noise.get(sensor, 0.0) for sensor in SENSORS]
         records: list[DetectionRecord] = []
-        n_events, rejected = watch_sensors(self._par, self._state, self._events, index,
-                                           grouped.flat, screen, time_s, bool(airborne))
+        window = self._window
+        n_events, rejected = watch_sensors(self._par, self._state, self._events, index, cross,
+                                           window, self._window_at, grouped.flat, screen,
+                                           time_s, bool(airborne))
+        if self._window_at.item(_W_ROWS) == window.shape[0]:  # full: room for the next row
+            self._grow_window()
         if rejected:
             self._last_rejected_s = max(self._last_rejected_s, time_s)
         if n_events:
@@ -308,9 +382,15 @@ class SensorHealth:
                     time_s=time_s, action="cleared" if action else "detected",
                     kind=_KINDS[int(kind)], sensor=SENSORS[int(row)], magnitude=magnitude))
             self._exclusions_changed()
-        if cross is not None:
-            self._cross_check(records, time_s, grouped.flat, cross)
         return records
+
+    def _grow_window(self) -> None:
+        """Twice the room in the cross-check's window, its rows kept (oldest first)."""
+        window, (first, rows) = self._window, self._window_at.tolist()
+        order = (first + np.arange(rows)) % window.shape[0]
+        self._window = np.zeros((2 * window.shape[0], 2))
+        self._window[:rows] = window[order]
+        self._window_at[:] = (0, rows)
 
     def _index(self, key: tuple[object, ...], checks: Sequence[tuple[str, float, int, int]],
                nis_at: int, grouped: GroupedSamples) -> _Index:
@@ -330,54 +410,12 @@ class SensorHealth:
                         grouped.slot_axes[s] if s >= 0 else 0, sensor == "mocap_att", gate,
                         nis_at + c, nis_at + len(checks) + c)
         baro, mocap = slots.get("baro", -1), slots.get("mocap_pos", -1)
-        cross = None
+        cross = _NO_CROSS
         if baro >= 0 and mocap >= 0 and grouped.slot_axes[mocap] >= 3:  # a height to compare
-            cross = (baro * width, baro * width + width - 2, mocap * width,
-                     mocap * width + width - 2)
+            cross = np.array([baro * width, baro * width + width - 2, mocap * width,
+                              mocap * width + width - 2], dtype=np.int64)
         self._indexes[key] = index, cross
         return index, cross
-
-    def _cross_check(self, records: list[DetectionRecord], time_s: float, flat: np.ndarray,
-                     cross: tuple[int, int, int, int]) -> None:
-        """Barometer against motion-capture height (module docstring), on the tick's batches
-        (``flat``: :attr:`~fcu.estimation.state.GroupedSamples.flat`; ``cross``: where the
-        barometer's value and count are in it, then the motion-capture position's)."""
-        baro_at, baro_count_at, mocap_at, mocap_count_at = cross
-        if (flat.item(baro_count_at) <= 0 or flat.item(mocap_count_at) <= 0
-                or "mocap_pos" in self._excluded):
-            return
-        cfg = self.config
-        times, values = self._cross_t, self._cross_v
-        # alt = -z (NED); both averaged over the tick
-        times.append(time_s)
-        values.append(flat.item(baro_at) + flat.item(mocap_at + 2))
-        while times and times[0] <= time_s - cfg.cross_window_s:
-            times.popleft()
-            values.popleft()
-        if len(times) < 2 or times[-1] - times[0] < 0.5 * cfg.cross_window_s:
-            return
-        mean = sum(values) / len(values)
-        baro = self._state[_ROW["baro"]]
-        kind = baro[_EXCLUDED_AS]
-        if kind == _TRUSTED and abs(mean) > cfg.cross_limit_m:
-            baro[_EXCLUDED_AS], baro[_EXCLUDED_S], baro[_GOOD_SINCE_S] = (
-                _INCONSISTENT, time_s, np.nan)
-            self._exclusions_changed()
-            records.append(DetectionRecord(time_s=time_s, action="detected",
-                                           kind="sensor_inconsistent", sensor="baro",
-                                           magnitude=mean))
-            return
-        if kind == _INCONSISTENT and abs(mean) < 0.5 * cfg.cross_limit_m:
-            if math.isnan(baro[_GOOD_SINCE_S]):
-                baro[_GOOD_SINCE_S] = time_s
-            if time_s - baro[_GOOD_SINCE_S] >= cfg.recover_s - 1e-9:
-                baro[_EXCLUDED_AS], baro[_GOOD_SINCE_S] = _TRUSTED, np.nan
-                self._exclusions_changed()
-                records.append(DetectionRecord(time_s=time_s, action="cleared",
-                                               kind="sensor_inconsistent", sensor="baro",
-                                               magnitude=mean))
-        elif kind == _INCONSISTENT:
-            baro[_GOOD_SINCE_S] = np.nan
 
     # ------------------------------------------------------------------ observation
     def excluded_as(self, sensor: str) -> str | None:

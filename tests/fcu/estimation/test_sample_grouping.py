@@ -121,3 +121,20 @@ def test_a_grouping_read_lazily_holds_what_an_eager_one_holds_and_pop_removes_a_
             assert gone not in lazy and lazy.get(gone) is None
             # the spare zero after the table, which absent channels read
             assert lazy.flat[-1] == 0.0 and lazy.flat.size == lazy.table.size + 1
+
+
+def test_pop_value_removes_a_kind_as_pop_does_and_gives_its_mean() -> None:
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        samples = random_tick(rng)
+        for source in (samples, ArraySamples(samples)):
+            sensor = SENSORS[int(rng.integers(0, len(SENSORS)))]
+            by_pop, by_value = group_samples(source), group_samples(source)  # type: ignore[arg-type]
+            if rng.random() < 0.5:  # either before the batches are built or after
+                dict(by_pop), dict(by_value)
+            batch = by_pop.pop(sensor)
+            value = by_value.pop_value(sensor)
+            assert value == (None if batch is None else batch.value.tolist())
+            assert by_value.popped == by_pop.popped
+            assert by_value.pop_value(sensor) is None  # once only
+            assert dict(by_value).keys() == dict(by_pop).keys()

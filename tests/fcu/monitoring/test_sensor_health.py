@@ -87,3 +87,39 @@ def test_an_estimators_screening_is_read_alike_as_records_and_as_entries() -> No
         assert a.excluded == b.excluded
     # the garbage was rejected, then excluded (the entries' path saw both)
     assert {"rejected", "excluded"} <= seen and a.excluded == frozenset({"mocap_pos"})
+
+
+def test_a_drifting_barometer_is_excluded_by_the_window_mean_and_readmitted() -> None:
+    # 1 kHz ticks: the 1 s window holds a thousand rows (its ring grows past its first room)
+    cfg = SensorHealthConfig(cross_window_s=1.0, cross_limit_m=0.06, recover_s=0.5)
+    health = SensorHealth(cfg, "mocap")
+    checks = screening("mocap_pos", "mocap_att", "baro")
+    rng = np.random.default_rng(5)
+    window: list[tuple[float, float]] = []  # the cross-check's window, kept here too
+    records = []
+    for k in range(1, 4001):
+        t = 0.001 * k
+        alt = 1.0
+        # the barometer drifts up at 0.1 m/s from 0.5 s on, and is back from 2.5 s on
+        offset = 0.1 * min(max(t - 0.5, 0.0), 1.0) if t < 2.5 else 0.0
+        baro = alt + offset + 0.001 * rng.normal()
+        pos = [0.0, 0.0, -alt + 0.0001 * rng.normal()]
+        samples = [*tick_samples(t, pos, [0.0, 0.0, 0.001 * k]),
+                   SensorSample("baro", t - 0.0002, np.array([baro]))]
+        batches = group_samples(samples, KINDS)
+        window.append((t, baro + pos[2]))  # alt = -z
+        window = [(ti, v) for ti, v in window if ti > t - cfg.cross_window_s]
+        new = health.step(t, batches, checks, True, NOISE)
+        if new:
+            # the mean of the window, summed oldest first
+            assert [r.magnitude for r in new] == [sum(v for _, v in window) / len(window)]
+        records += new
+    kinds = [(r.action, r.kind, r.sensor) for r in records]
+    assert kinds == [("detected", "sensor_inconsistent", "baro"),
+                     ("cleared", "sensor_inconsistent", "baro")]
+    detected, cleared = records
+    # the window mean passes 0.06 m about 1.1 s into the drift (its mean lags by half the
+    # window); it falls below 0.03 m about 0.7 s after the drift ends, 0.5 s of recovery on
+    assert 1.5 < detected.time_s < 1.7 and detected.magnitude > cfg.cross_limit_m
+    assert 3.2 < cleared.time_s < 3.8 and abs(cleared.magnitude) < 0.5 * cfg.cross_limit_m
+    assert health.excluded == frozenset()
