@@ -102,16 +102,18 @@ class _Outbox:
             return
         self._link.send(data, to)
 
-    def send_fields(self, cls: type[MAVLinkMessage], fields: Fields) -> None:
-        """:meth:`send` of ``cls(*fields)`` to every peer, packed without the message object
-        (the telemetry streams: most of what is sent)."""
+    def send_fields(self, cls: type[MAVLinkMessage], fields: Fields,
+                    to: Address | None = None) -> None:
+        """:meth:`send` of ``cls(*fields)``, packed without the message object: what the
+        builders of :mod:`fcu.mavlink.messages` return (the telemetry streams are most of
+        what is sent)."""
         try:
             data = self._codec.pack_fields(cls, fields)
         except Exception:  # a field out of its wire range is a bug; keep flying
             self._stats.build_errors += 1
             _log.exception("cannot pack %s", cls.msgname)
             return
-        self._link.send(data, None)
+        self._link.send(data, to)
 
     def status(self, severity: int, text: str) -> None:
         self._chunk_id = self._chunk_id % 0xFFFF + 1
@@ -516,7 +518,8 @@ class MavlinkEndpoint:
             if not result.accepted:
                 self._outbox.status(Severity.WARNING, f"Set mission current: {result.reason}")
         snap = self._port.snapshot()
-        self._outbox.send(build.mission_current(snap, self._context()), addr)
+        self._outbox.send_fields(_M.MAVLink_mission_current_message,
+                                 build.mission_current(snap, self._context()), addr)
 
     def _setup_signing(self, msg: MAVLinkMessage, src: tuple[int, int],
                        addr: Address) -> None:

@@ -519,13 +519,16 @@ def started(gcs: Gcs, **kwargs: Any) -> VehicleThread:
 @contextmanager
 def linked(**kwargs: Any) -> Iterator[tuple[Gcs, VehicleThread]]:
     """A ground station and a vehicle sending to it (:func:`started` with ``kwargs``); the
-    vehicle is stopped and the station closed on the way out."""
+    vehicle is stopped and the station closed on the way out. Whatever the test sent, the
+    endpoint must have answered it without an error in a handler or in building a message."""
     with Gcs() as gcs:
         vehicle = started(gcs, **kwargs)
         try:
             yield gcs, vehicle
         finally:
             vehicle.stop()
+        stats = vehicle.endpoint.stats
+        assert (stats.handler_errors, stats.build_errors) == (0, 0), stats
 
 
 GCS_ADDR = ("127.0.0.1", 50000)  # a made-up peer address for in-memory tests
