@@ -46,7 +46,6 @@ from gcs.table import FlightReport
 
 __all__ = ["FlightOutcome", "FlightPlan", "config_params", "fly"]
 
-_MAV_LANDED_STATE_IN_AIR = 2
 
 
 def config_params(*, attitude: str | None = None, estimator: str | None = None,
@@ -181,6 +180,8 @@ class _Injector:
         if self._start_s is None:
             return
         self._gs.resend_lost_injections(clock_s)
+        if not self._queue:
+            return
         lead = self._gs.lead_s()
         while self._queue and clock_s >= self._start_s + self._queue[0].at_s - lead:
             fault = self._queue.pop(0)
@@ -281,7 +282,10 @@ def _watch(gs: GroundStation, plan: FlightPlan, injector: _Injector, start_s: fl
            progress: Callable[[GroundStation], None] | None, wall0: float) -> None:
     """Pump until landed and disarmed; raise on a crash, a lost link or a time-out."""
     a = gs.analyzer
-    was_airborne = False
+    # counted as the messages are handled: one pump may cover the whole flight when the
+    # station runs behind the vehicle (a loaded machine), so sampling the state here could
+    # miss the time in the air
+    takeoffs_before = a.takeoffs
     last_progress = time.monotonic()
     while True:
         gs.pump(0.02)
@@ -290,13 +294,11 @@ def _watch(gs: GroundStation, plan: FlightPlan, injector: _Injector, start_s: fl
         if a.crashed:
             raise Crashed(f"{a.crash_text} at vehicle t = {clock:.2f} s "
                           f"(mission +{clock - start_s:.2f} s)")
-        if a.landed_state == _MAV_LANDED_STATE_IN_AIR:
-            was_airborne = True
         if a.armed is False:
             if injector.left:
                 gs.log("INJECT", "not sent (the flight ended first): "
                        + ", ".join(f.describe() for f in injector.left))
-            if not was_airborne:
+            if a.takeoffs == takeoffs_before:
                 raise FlightError(f"the vehicle disarmed at t = {clock:.2f} s without taking "
                                   "off")
             return

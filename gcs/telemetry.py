@@ -115,6 +115,7 @@ class TelemetryReader:
         self.armed: bool | None = None
         self.custom_mode: int | None = None
         self.landed_state: int | None = None
+        self.takeoffs = 0  # changes of the landed state into IN_AIR, however briefly seen
         self.mission_seq: int | None = None
         self.mission_state: int | None = None
         self.mission_total: int | None = None
@@ -274,6 +275,8 @@ class TelemetryReader:
                 if state in _M.enums["MAV_LANDED_STATE"] else str(state)
             self._emit(self.clock_s, "LANDED", f"landed state {name}")
             self.landed_state = state
+            if state == _M.MAV_LANDED_STATE_IN_AIR:
+                self.takeoffs += 1
 
     def _on_mission_current(self, msg: MAVLinkMessage) -> None:
         seq = int(msg.seq)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,6 +14,8 @@ from flightdata.geometry import euler_from_quat
 from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord, Record
 from gcs.alignment import metres_per_degree, velocity_aided
 from gcs.analysis import FlightAnalyzer
+from gcs.errors import FlightError
+from gcs.flight import _watch
 from gcs.mavlink import decode_packet, mavlink2
 from gcs.table import format_report
 
@@ -386,3 +390,53 @@ def test_normal_flight_has_no_spin() -> None:
     for k in range(500):
         s.v(M.MAVLink_attitude_message(10 * k, 0, 0, 0, 0, 0, 0.8 * math.sin(0.05 * k)))
     assert s.analyzer.report().spin is None
+
+
+class _BehindStation:
+    """A ground station so far behind the vehicle that its first pump handles a whole
+    flight (HEARTBEATs and landed states from boot to disarm), what ``_watch`` sees when
+    the machine is loaded: the time in the air never shows between two pumps."""
+
+    def __init__(self, *, fly: bool) -> None:
+        self.stream = Stream()
+        self.stream.boot()
+        self.analyzer = self.stream.analyzer
+        self._states = (M.MAV_LANDED_STATE_ON_GROUND, M.MAV_LANDED_STATE_TAKEOFF,
+                        M.MAV_LANDED_STATE_IN_AIR, M.MAV_LANDED_STATE_LANDING,
+                        M.MAV_LANDED_STATE_ON_GROUND) if fly else (
+                            M.MAV_LANDED_STATE_ON_GROUND,)
+        self.pumps = 0
+
+    def pump(self, wait_s: float = 0.0) -> int:
+        self.pumps += 1
+        armed = M.MAV_MODE_FLAG_SAFETY_ARMED | M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        for i, state in enumerate(self._states):
+            self.stream.v(M.MAVLink_heartbeat_message(2, 3, armed, 3, 4, 3))
+            self.stream.v(M.MAVLink_extended_sys_state_message(0, state))
+            self.stream.v(M.MAVLink_attitude_message(1000 * (i + 1), 0, 0, 0, 0, 0, 0))
+        self.stream.v(M.MAVLink_heartbeat_message(2, 3, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                                                  3, 3, 3))
+        return 3 * len(self._states) + 1
+
+    def confirm_param_faults(self) -> None:
+        pass
+
+    def wall_since_vehicle_s(self) -> float:
+        return 0.0
+
+    def log(self, kind: str, text: str) -> None:
+        pass
+
+
+@pytest.mark.parametrize("fly", [True, False])
+def test_a_flight_handled_in_one_pump_still_counts_its_time_in_the_air(fly: bool) -> None:
+    gs = _BehindStation(fly=fly)
+    plan = SimpleNamespace(link_timeout_s=10.0, max_flight_s=300.0, wall_timeout_s=60.0)
+    injector = SimpleNamespace(left=[])
+    if fly:
+        _watch(gs, plan, injector, 0.0, None, time.monotonic())  # type: ignore[arg-type]
+        assert gs.analyzer.takeoffs == 1
+    else:
+        with pytest.raises(FlightError, match="without taking off"):
+            _watch(gs, plan, injector, 0.0, None, time.monotonic())  # type: ignore[arg-type]
+    assert gs.pumps == 1 and gs.analyzer.armed is False
