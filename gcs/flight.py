@@ -266,6 +266,9 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     gs.wait_armable(plan.ready_timeout_s)
     gs.upload_mission(plan.mission)
     injector = _Injector(gs, plan.faults, plan.inject_via)
+    # the takeoff is counted from here: on a slow link the vehicle may be in the air before
+    # the last start-up step (SIM_PAUSE = 0 below) is confirmed
+    takeoffs_before = gs.analyzer.takeoffs
     gs.arm()
     gs.set_mode(COPTER_MODE_AUTO)
     start_s = gs.start_mission()
@@ -275,17 +278,19 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     if gs.param_names.get("SIM_PAUSE", 0.0) != 0.0:
         gs.set_param("SIM_PAUSE", 0.0)
         gs.log("FLIGHT", "simulated time started (SIM_PAUSE = 0)")
-    _watch(gs, plan, injector, start_s, progress, wall0)
+    _watch(gs, plan, injector, start_s, progress, wall0, takeoffs_before)
 
 
 def _watch(gs: GroundStation, plan: FlightPlan, injector: _Injector, start_s: float,
-           progress: Callable[[GroundStation], None] | None, wall0: float) -> None:
-    """Pump until landed and disarmed; raise on a crash, a lost link or a time-out."""
+           progress: Callable[[GroundStation], None] | None, wall0: float,
+           takeoffs_before: int) -> None:
+    """Pump until landed and disarmed; raise on a crash, a lost link or a time-out.
+
+    ``takeoffs_before`` is the analyzer's takeoff count before the arm command: takeoffs are
+    counted as the messages are handled, since one pump may cover the whole flight when the
+    station runs behind the vehicle (a loaded machine), and sampling the landed state here
+    could miss the time in the air."""
     a = gs.analyzer
-    # counted as the messages are handled: one pump may cover the whole flight when the
-    # station runs behind the vehicle (a loaded machine), so sampling the state here could
-    # miss the time in the air
-    takeoffs_before = a.takeoffs
     last_progress = time.monotonic()
     while True:
         gs.pump(0.02)

@@ -392,28 +392,36 @@ def test_normal_flight_has_no_spin() -> None:
     assert s.analyzer.report().spin is None
 
 
-class _BehindStation:
-    """A ground station so far behind the vehicle that its first pump handles a whole
-    flight (HEARTBEATs and landed states from boot to disarm), what ``_watch`` sees when
-    the machine is loaded: the time in the air never shows between two pumps."""
+_FLIGHT_STATES = (M.MAV_LANDED_STATE_ON_GROUND, M.MAV_LANDED_STATE_TAKEOFF,
+                  M.MAV_LANDED_STATE_IN_AIR, M.MAV_LANDED_STATE_LANDING,
+                  M.MAV_LANDED_STATE_ON_GROUND)
 
-    def __init__(self, *, fly: bool) -> None:
+
+class _BehindStation:
+    """A ground station so far behind the vehicle that its first pump handles the rest of a
+    flight to the disarm (HEARTBEATs, landed states), what ``_watch`` sees when the machine
+    is loaded: the time in the air never shows between two pumps. ``before`` are the landed
+    states handled before ``_watch`` (by the start-up steps' own pumps on a slow link)."""
+
+    def __init__(self, before: tuple[int, ...], during: tuple[int, ...]) -> None:
         self.stream = Stream()
         self.stream.boot()
         self.analyzer = self.stream.analyzer
-        self._states = (M.MAV_LANDED_STATE_ON_GROUND, M.MAV_LANDED_STATE_TAKEOFF,
-                        M.MAV_LANDED_STATE_IN_AIR, M.MAV_LANDED_STATE_LANDING,
-                        M.MAV_LANDED_STATE_ON_GROUND) if fly else (
-                            M.MAV_LANDED_STATE_ON_GROUND,)
+        self.takeoffs_before_arming = self.analyzer.takeoffs
+        self._states = during
         self.pumps = 0
+        self._send(before, 0)
+
+    def _send(self, states: tuple[int, ...], first_s: int) -> None:
+        armed = M.MAV_MODE_FLAG_SAFETY_ARMED | M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        for i, state in enumerate(states, first_s + 1):
+            self.stream.v(M.MAVLink_heartbeat_message(2, 3, armed, 3, 4, 3))
+            self.stream.v(M.MAVLink_extended_sys_state_message(0, state))
+            self.stream.v(M.MAVLink_attitude_message(1000 * i, 0, 0, 0, 0, 0, 0))
 
     def pump(self, wait_s: float = 0.0) -> int:
         self.pumps += 1
-        armed = M.MAV_MODE_FLAG_SAFETY_ARMED | M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
-        for i, state in enumerate(self._states):
-            self.stream.v(M.MAVLink_heartbeat_message(2, 3, armed, 3, 4, 3))
-            self.stream.v(M.MAVLink_extended_sys_state_message(0, state))
-            self.stream.v(M.MAVLink_attitude_message(1000 * (i + 1), 0, 0, 0, 0, 0, 0))
+        self._send(self._states, 10)
         self.stream.v(M.MAVLink_heartbeat_message(2, 3, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                                                   3, 3, 3))
         return 3 * len(self._states) + 1
@@ -428,15 +436,24 @@ class _BehindStation:
         pass
 
 
-@pytest.mark.parametrize("fly", [True, False])
-def test_a_flight_handled_in_one_pump_still_counts_its_time_in_the_air(fly: bool) -> None:
-    gs = _BehindStation(fly=fly)
+@pytest.mark.parametrize("before, during", [
+    ((), _FLIGHT_STATES),  # the whole flight in one pump
+    (_FLIGHT_STATES[:3], _FLIGHT_STATES[3:]),  # in the air before the watch began
+])
+def test_a_flight_handled_in_one_pump_still_counts_its_time_in_the_air(
+        before: tuple[int, ...], during: tuple[int, ...]) -> None:
+    gs = _BehindStation(before, during)
     plan = SimpleNamespace(link_timeout_s=10.0, max_flight_s=300.0, wall_timeout_s=60.0)
     injector = SimpleNamespace(left=[])
-    if fly:
-        _watch(gs, plan, injector, 0.0, None, time.monotonic())  # type: ignore[arg-type]
-        assert gs.analyzer.takeoffs == 1
-    else:
-        with pytest.raises(FlightError, match="without taking off"):
-            _watch(gs, plan, injector, 0.0, None, time.monotonic())  # type: ignore[arg-type]
-    assert gs.pumps == 1 and gs.analyzer.armed is False
+    _watch(gs, plan, injector, 0.0, None, time.monotonic(),  # type: ignore[arg-type]
+           gs.takeoffs_before_arming)
+    assert gs.pumps == 1 and gs.analyzer.armed is False and gs.analyzer.takeoffs == 1
+
+
+def test_a_flight_that_never_left_the_ground_is_a_failure() -> None:
+    gs = _BehindStation((), (M.MAV_LANDED_STATE_ON_GROUND,))
+    plan = SimpleNamespace(link_timeout_s=10.0, max_flight_s=300.0, wall_timeout_s=60.0)
+    with pytest.raises(FlightError, match="without taking off"):
+        _watch(gs, plan, SimpleNamespace(left=[]), 0.0, None,  # type: ignore[arg-type]
+               time.monotonic(), gs.takeoffs_before_arming)
+    assert gs.analyzer.takeoffs == 0
