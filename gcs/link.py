@@ -592,6 +592,11 @@ class Link:
             return longest_s
         return min(longest_s, max(_RETRY_FLOOR_S, 4.0 * max(self._round_trips_s)))
 
+    def _note_round_trip(self, sent_at: float) -> None:
+        """A reply came to a request sent at ``time.monotonic()`` = ``sent_at``; the caller
+        makes sure no earlier copy of the request can have drawn it (Karn's rule)."""
+        self._round_trips_s.append(time.monotonic() - sent_at)
+
     @property
     def received_wall_s(self) -> float | None:
         """Wall time (``time.time``) the message being handled was received by the reader

@@ -99,7 +99,7 @@ class ParameterClient(Link):
                     if first and int(msg.param_index) in missing:
                         # one sample, from the first round only (Karn's rule); the other
                         # answers queue behind it
-                        self._round_trips_s.append(time.monotonic() - sent_at)
+                        self._note_round_trip(sent_at)
                         first = False
                     self._note_param(msg, seen)
             first = False

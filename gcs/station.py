@@ -230,7 +230,7 @@ class GroundStation(ParameterClient):
                     if int(reply.interval_us) == pending[msg_id][1]:
                         del pending[msg_id]
                         if rounds == 1:  # (later, the answer may be to an earlier round)
-                            self._round_trips_s.append(time.monotonic() - sent_at)
+                            self._note_round_trip(sent_at)
             self._take_all("COMMAND_ACK", lambda m: int(m.command) in (
                 _M.MAV_CMD_SET_MESSAGE_INTERVAL, _M.MAV_CMD_GET_MESSAGE_INTERVAL))
         self.log("STREAM", ", ".join(f"{n} {r:g} Hz" for n, r in rates.items()))
@@ -410,7 +410,7 @@ class GroundStation(ParameterClient):
             if seq > last_seq:
                 progress_at = time.monotonic()
                 if not nudged:
-                    self._round_trips_s.append(progress_at - sent_at)
+                    self._note_round_trip(sent_at)
             last_seq = seq
             send_item(seq)
             nudged = False

@@ -484,7 +484,7 @@ class ExtendedKalmanEstimator(TickEstimator):
             self._work, self._s_stack, self._scratch, out, self._constants, cs.tables,
             cs.layout, u, meas, excluded, self._dt_to(time_s), time_s, reject,
             self._on_ground)
-        self._kept(time_s, cs, out, 0, on_ground, last)
+        self._kept(time_s, cs, out, on_ground, last)
 
     def _dt_to(self, time_s: float) -> float:
         """Time from the latest tick to ``time_s``, s (ValueError when ``time_s`` is
@@ -495,13 +495,13 @@ class ExtendedKalmanEstimator(TickEstimator):
                              f"({self._time_s!r})")
         return dt
 
-    def _kept(self, time_s: float, cs: ChannelSet, out: FloatArray, at: int, on_ground: bool,
+    def _kept(self, time_s: float, cs: ChannelSet, out: FloatArray, on_ground: bool,
               last: int) -> None:
         """What :func:`ekf_tick` at ``time_s`` (s) with the channels ``cs`` returned (the
-        ground flag, the last channel updated) and wrote into ``out`` from ``at`` (the
-        estimate, then the screening), kept."""
+        ground flag, the last channel updated) and wrote into ``out`` (the estimate, then
+        the screening), kept."""
         self._on_ground = on_ground
-        self._keep_screening(cs, out, at + 2 * N)
+        self._keep_screening(cs, out)
         # the Innovation records and the filterpy view are built on request from the
         # workspace, which holds the updates of the latest tick that had some
         self._innovations = None if last >= 0 else {}

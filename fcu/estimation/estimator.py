@@ -447,7 +447,7 @@ class TickEstimator:
         self._estimate: StateEstimate | None = None
         self._tick_out: FloatArray | None = None  # the latest tick's, until read as estimate
         # the latest tick's screening, as computed (ChannelCheck records built on request)
-        self._screen_out: tuple[ChannelSet, FloatArray, int] | None = None
+        self._screen_out: tuple[ChannelSet, FloatArray] | None = None
         self._screening: Screening | None = None
 
     # ---- the measurement channels ------------------------------------------------------------
@@ -485,18 +485,19 @@ class TickEstimator:
         return common_channels(height_source, self.model, self.accel_z_model_sigma)
 
     # ---- screening ---------------------------------------------------------------------------
-    def _keep_screening(self, channel_set: ChannelSet, out: FloatArray, at: int) -> None:
-        """Keep the tick's :func:`screen_channels` output for :attr:`screening`: the
-        ``2 * rows + 2 * n_ch`` entries of ``out`` from ``at`` (sliced when read)."""
-        self._screen_out = (channel_set, out, at)
+    def _keep_screening(self, channel_set: ChannelSet, out: FloatArray) -> None:
+        """Keep the tick's :func:`screen_channels` output for :attr:`screening`: ``out`` is
+        the tick's output (:meth:`_tick`), whose entries after the estimate's ``2 *
+        STATE_DIM`` are the screening (sliced when read)."""
+        self._screen_out = (channel_set, out)
         self._screening = None
 
     def _screen_table(self) -> tuple[ChannelSet, FloatArray] | None:
         """The latest tick's channels and screening table, or None before the first tick."""
         if self._screen_out is None:
             return None
-        cs, out, at = self._screen_out
-        return cs, out[at:at + 2 * cs.n_rows + 2 * len(cs.channels)]
+        cs, out = self._screen_out
+        return cs, out[2 * STATE_DIM:cs.tick_size]
 
     def _statuses(self) -> list[int]:
         """The latest tick's status code of each channel (:func:`screen_channels`)."""

@@ -44,8 +44,8 @@ def gathered(flat: FloatArray, gather: np.ndarray) -> FloatArray:
 
 @njit(cache=True, error_model="numpy")
 def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out: FloatArray,
-              t_work: FloatArray, t_scratch: FloatArray, t_gamma: FloatArray,
-              t_model: FloatArray, t_tables: FloatArray, t_layout: np.ndarray,
+              e_size: int, t_size: int, t_work: FloatArray, t_scratch: FloatArray,
+              t_gamma: FloatArray, t_model: FloatArray, t_tables: FloatArray, t_layout: np.ndarray,
               t_gather: np.ndarray, t_excluded: np.ndarray, n_steps: int, t_on_ground: bool,
               accel_power: float, e_work: FloatArray, e_s_stack: FloatArray,
               e_scratch: FloatArray, e_constants: FloatArray, e_tables: FloatArray,
@@ -64,6 +64,8 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     out : ndarray, shape (e_size + t_size + 4,)
         Written: the EKF's tick output (its estimate and screening, ``e_size`` entries), the
         TSKF's (``t_size``), then the TSKF's new ``gamma_hat``.
+    e_size, t_size : int
+        Each filter's :attr:`~fcu.estimation.estimator.ChannelSet.tick_size`.
     t_work, t_scratch, t_model, t_tables, t_layout, n_steps, t_on_ground, accel_power
         :func:`~fcu.estimation.tskf.tskf_tick`'s, ``t_gamma`` its ``gamma_hat`` before the
         tick (read only).
@@ -81,9 +83,6 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
         power, update rows), then :func:`~fcu.estimation.ekf.ekf_tick`'s (ground flag, last
         channel updated).
     """
-    # a tick output: state, covariance diagonal (2 * 16), then 2 entries a row, 2 a channel
-    e_size = 32 + 2 * e_layout[e_layout.shape[0] - 1, 1] + 2 * e_layout.shape[0]
-    t_size = 32 + 2 * t_layout[t_layout.shape[0] - 1, 1] + 2 * t_layout.shape[0]
     gamma = out[e_size + t_size:]
     gamma[:] = t_gamma
     t_on_ground, accel_power, m = tskf_tick(
@@ -109,20 +108,20 @@ def step_pair(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: 
     n_steps = tskf._steps_to(time_s)
     dt = ekf._dt_to(time_s)
     e_cs, t_cs = ekf._set, tskf._set
-    e_size = e_cs.tick_size
+    e_size, t_size = e_cs.tick_size, t_cs.tick_size
     # the estimates' own array (each a part), the screenings' and the new gamma_hat's
-    out = np.empty(e_size + t_cs.tick_size + N_MOTORS)
+    out = np.empty(e_size + t_size + N_MOTORS)
     t_on_ground, accel_power, m, e_on_ground, last = pair_tick(
-        grouped.flat, u, time_s, bool(reject), out,
+        grouped.flat, u, time_s, bool(reject), out, e_size, t_size,
         tskf._work, tskf._scratch, tskf.gamma_raw, tskf._model, t_cs.tables, t_cs.layout,
         t_cs.gather(grouped), t_cs.exclusion(excluded), n_steps, tskf.on_ground,
         tskf._accel_power,
         ekf._work, ekf._s_stack, ekf._scratch, ekf._constants, e_cs.tables, e_cs.layout,
         e_cs.gather(grouped), e_cs.exclusion(excluded), dt, ekf._on_ground)
     tskf_out = out[e_size:]
-    tskf._kept(t_cs, tskf_out, 0, out[-N_MOTORS:], t_on_ground, accel_power, m)
+    tskf._kept(t_cs, tskf_out, out[-N_MOTORS:], t_on_ground, accel_power, m)
     tskf._ticked(time_s, tskf_out)
-    ekf._kept(time_s, e_cs, out, 0, e_on_ground, last)
+    ekf._kept(time_s, e_cs, out, e_on_ground, last)
     ekf._ticked(time_s, out)
     return ekf.estimate
 

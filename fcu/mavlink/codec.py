@@ -73,11 +73,10 @@ class _Layout:
         names: list[str] = []
         self.arrays: list[tuple[int, int]] = []  # (index in names, length) of spread arrays
         order: list[int] = []  # wire field -> its index among the constructor's arguments
-        for name, length, kind in zip(cls.ordered_fieldnames, cls.array_lengths,
-                                      (cls.fieldtypes[cls.fieldnames.index(n)]
-                                       for n in cls.ordered_fieldnames), strict=True):
-            order.append(cls.fieldnames.index(name))
-            if kind == "char":
+        for name, length in zip(cls.ordered_fieldnames, cls.array_lengths, strict=True):
+            index = cls.fieldnames.index(name)
+            order.append(index)
+            if cls.fieldtypes[index] == "char":
                 names.append(f"_{name}_raw")  # bytes as given to the constructor
             else:
                 if length > 0:
@@ -212,7 +211,7 @@ class Codec:
         struct.error
             As :meth:`pack`.
         """
-        layout = _LAYOUTS.get(cls) or _layout(cls)
+        layout = _layout(cls)
         wire = layout.wire
         return self._frame(layout, layout.payload.pack(*(fields if wire is None
                                                          else wire(fields))))

@@ -517,9 +517,10 @@ class MavlinkEndpoint:
             result = self._port.mission_set_current(max(seq, 1))
             if not result.accepted:
                 self._outbox.status(Severity.WARNING, f"Set mission current: {result.reason}")
-        snap = self._port.snapshot()
-        self._outbox.send_fields(_M.MAVLink_mission_current_message,
-                                 build.mission_current(snap, self._context()), addr)
+        cls, built = streamed.stream_fields(_M.MAVLINK_MSG_ID_MISSION_CURRENT,
+                                            self._port.snapshot(), self._context())
+        for fields in built:
+            self._outbox.send_fields(cls, fields, addr)
 
     def _setup_signing(self, msg: MAVLinkMessage, src: tuple[int, int],
                        addr: Address) -> None:

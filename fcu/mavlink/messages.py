@@ -46,8 +46,10 @@ __all__ = [
     "TelemetryContext",
     "BUILDERS",
     "Builder",
+    "BuilderTable",
     "Fields",
     "autopilot_version",
+    "builder_table",
     "command_ack",
     "pwm_to_us",
     "statustext_chunks",
@@ -429,32 +431,35 @@ Builder = Callable[[VehicleSnapshot, TelemetryContext], Fields | list[Fields] | 
 """A message's builder: the constructor arguments of its one message (a tuple), of several
 (a list of tuples; may be empty) or None (nothing to report)."""
 
-BUILDERS: dict[int, tuple[type[MAVLinkMessage], Builder]] = {
-    _M.MAVLINK_MSG_ID_HEARTBEAT: (_M.MAVLink_heartbeat_message, heartbeat),
-    _M.MAVLINK_MSG_ID_SYS_STATUS: (_M.MAVLink_sys_status_message, sys_status),
-    _M.MAVLINK_MSG_ID_GPS_RAW_INT: (_M.MAVLink_gps_raw_int_message, gps_raw_int),
-    _M.MAVLINK_MSG_ID_ATTITUDE: (_M.MAVLink_attitude_message, attitude),
-    _M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION: (
-        _M.MAVLink_attitude_quaternion_message, attitude_quaternion),
-    _M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: (
-        _M.MAVLink_local_position_ned_message, local_position_ned),
-    _M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: (
-        _M.MAVLink_global_position_int_message, global_position_int),
-    _M.MAVLINK_MSG_ID_VFR_HUD: (_M.MAVLink_vfr_hud_message, vfr_hud),
-    _M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: (_M.MAVLink_servo_output_raw_message, servo_output_raw),
-    _M.MAVLINK_MSG_ID_BATTERY_STATUS: (_M.MAVLink_battery_status_message, battery_status),
-    _M.MAVLINK_MSG_ID_HOME_POSITION: (_M.MAVLink_home_position_message, home_position),
-    _M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: (
-        _M.MAVLink_extended_sys_state_message, extended_sys_state),
-    _M.MAVLINK_MSG_ID_MISSION_CURRENT: (_M.MAVLink_mission_current_message, mission_current),
-    _M.MAVLINK_MSG_ID_SYSTEM_TIME: (_M.MAVLink_system_time_message, system_time),
-    _M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED: (
-        _M.MAVLink_position_target_local_ned_message, position_target_local_ned),
-    _M.MAVLINK_MSG_ID_ATTITUDE_TARGET: (_M.MAVLink_attitude_target_message, attitude_target),
-    _M.MAVLINK_MSG_ID_SIM_STATE: (_M.MAVLink_sim_state_message, sim_state),
-    _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT: (
-        _M.MAVLink_named_value_float_message, named_value_floats),
-}
+BuilderTable = dict[int, tuple[type[MAVLinkMessage], Builder]]
+"""Message id -> (its message class, its builder)."""
+
+
+def builder_table(*entries: tuple[type[MAVLinkMessage], Builder]) -> BuilderTable:
+    """A :data:`BuilderTable` of (message class, builder) pairs, keyed by each class's id."""
+    return {cls.id: (cls, builder) for cls, builder in entries}
+
+
+BUILDERS = builder_table(
+    (_M.MAVLink_heartbeat_message, heartbeat),
+    (_M.MAVLink_sys_status_message, sys_status),
+    (_M.MAVLink_gps_raw_int_message, gps_raw_int),
+    (_M.MAVLink_attitude_message, attitude),
+    (_M.MAVLink_attitude_quaternion_message, attitude_quaternion),
+    (_M.MAVLink_local_position_ned_message, local_position_ned),
+    (_M.MAVLink_global_position_int_message, global_position_int),
+    (_M.MAVLink_vfr_hud_message, vfr_hud),
+    (_M.MAVLink_servo_output_raw_message, servo_output_raw),
+    (_M.MAVLink_battery_status_message, battery_status),
+    (_M.MAVLink_home_position_message, home_position),
+    (_M.MAVLink_extended_sys_state_message, extended_sys_state),
+    (_M.MAVLink_mission_current_message, mission_current),
+    (_M.MAVLink_system_time_message, system_time),
+    (_M.MAVLink_position_target_local_ned_message, position_target_local_ned),
+    (_M.MAVLink_attitude_target_message, attitude_target),
+    (_M.MAVLink_sim_state_message, sim_state),
+    (_M.MAVLink_named_value_float_message, named_value_floats),
+)
 
 
 # ---------------------------------------------------------------------------------------------

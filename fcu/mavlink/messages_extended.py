@@ -28,15 +28,15 @@ from __future__ import annotations
 
 import math
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.geo import ned_to_geo
 from fcu.mavlink.messages import (
     INT16_MAX,
     UINT16_MAX,
     UINT32_MAX,
-    Builder,
     Fields,
     TelemetryContext,
+    builder_table,
     clamp_int,
     time_boot_ms,
     time_usec,
@@ -169,16 +169,15 @@ def rc_channels(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     return (time_boot_ms(snap.time_s), 0, *([UINT16_MAX] * 18), 0xFF)
 
 
-EXTENDED_BUILDERS: dict[int, tuple[type[MAVLinkMessage], Builder]] = {
-    _M.MAVLINK_MSG_ID_RAW_IMU: (_M.MAVLink_raw_imu_message, raw_imu),
-    _M.MAVLINK_MSG_ID_SCALED_IMU: (_M.MAVLink_scaled_imu_message, scaled_imu),
-    _M.MAVLINK_MSG_ID_SCALED_PRESSURE: (_M.MAVLink_scaled_pressure_message, scaled_pressure),
-    _M.MAVLINK_MSG_ID_VIBRATION: (_M.MAVLink_vibration_message, vibration),
-    _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT: (_M.MAVLink_ekf_status_report_message, ekf_status_report),
-    _M.MAVLINK_MSG_ID_AHRS2: (_M.MAVLink_ahrs2_message, ahrs2),
-    _M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT: (
-        _M.MAVLink_nav_controller_output_message, nav_controller_output),
-    _M.MAVLINK_MSG_ID_WIND: (_M.MAVLink_wind_message, wind),
-    _M.MAVLINK_MSG_ID_RC_CHANNELS: (_M.MAVLink_rc_channels_message, rc_channels),
-}
+EXTENDED_BUILDERS = builder_table(
+    (_M.MAVLink_raw_imu_message, raw_imu),
+    (_M.MAVLink_scaled_imu_message, scaled_imu),
+    (_M.MAVLink_scaled_pressure_message, scaled_pressure),
+    (_M.MAVLink_vibration_message, vibration),
+    (_M.MAVLink_ekf_status_report_message, ekf_status_report),
+    (_M.MAVLink_ahrs2_message, ahrs2),
+    (_M.MAVLink_nav_controller_output_message, nav_controller_output),
+    (_M.MAVLink_wind_message, wind),
+    (_M.MAVLink_rc_channels_message, rc_channels),
+)
 """Message id -> (its message class, its builder), as :data:`fcu.mavlink.messages.BUILDERS`."""

@@ -10,15 +10,13 @@ packer as they are (the endpoint's telemetry path, no message object made), and
 from __future__ import annotations
 
 from fcu.mavlink.codec import MAVLinkMessage
-from fcu.mavlink.messages import BUILDERS, Builder, Fields, TelemetryContext
+from fcu.mavlink.messages import BUILDERS, BuilderTable, Fields, TelemetryContext
 from fcu.mavlink.messages_extended import EXTENDED_BUILDERS
 from fcu.mavlink.port import VehicleSnapshot
 
 __all__ = ["ALL_BUILDERS", "build_stream", "can_build", "stream_fields"]
 
-ALL_BUILDERS: dict[int, tuple[type[MAVLinkMessage], Builder]] = {
-    **BUILDERS, **EXTENDED_BUILDERS}
-"""Message id -> (its message class, its builder)."""
+ALL_BUILDERS: BuilderTable = {**BUILDERS, **EXTENDED_BUILDERS}
 
 
 def can_build(msg_id: int) -> bool:

@@ -133,6 +133,29 @@ def _exclude(state: np.ndarray, events: np.ndarray, n_events: int, row: int, kin
 
 
 @njit(cache=True, error_model="numpy")
+def _good_for(state: np.ndarray, row: int, time_s: float, recover_s: float) -> bool:
+    """Sensor ``row`` found good at ``time_s``: whether it has been since ``recover_s`` (its
+    good spell starts now unless one runs)."""
+    if math.isnan(state[row, _GOOD_SINCE_S]):
+        state[row, _GOOD_SINCE_S] = time_s
+    return time_s - state[row, _GOOD_SINCE_S] >= recover_s - 1e-9
+
+
+@njit(cache=True, error_model="numpy")
+def _readmit(state: np.ndarray, events: np.ndarray, n_events: int, row: int,
+             magnitude: float) -> int:
+    """Trust sensor ``row`` again, writing the event (the kind it was excluded as); returns
+    the events written."""
+    events[n_events, _E_ACTION] = 1.0
+    events[n_events, _E_KIND] = state[row, _EXCLUDED_AS]
+    events[n_events, _E_ROW] = row
+    events[n_events, _E_MAGNITUDE] = magnitude
+    state[row, _EXCLUDED_AS] = _TRUSTED
+    state[row, _GOOD_SINCE_S] = np.nan
+    return n_events + 1
+
+
+@njit(cache=True, error_model="numpy")
 def cross_check(par: np.ndarray, state: np.ndarray, events: np.ndarray, n_events: int,
                 cross: np.ndarray, window: np.ndarray, window_at: np.ndarray,
                 flat: np.ndarray, time_s: float) -> int:
@@ -170,16 +193,8 @@ def cross_check(par: np.ndarray, state: np.ndarray, events: np.ndarray, n_events
     if kind == _TRUSTED and abs(mean) > limit:
         return _exclude(state, events, n_events, _BARO_ROW, _INCONSISTENT, time_s, mean)
     if kind == _INCONSISTENT and abs(mean) < 0.5 * limit:
-        if math.isnan(baro[_GOOD_SINCE_S]):
-            baro[_GOOD_SINCE_S] = time_s
-        if time_s - baro[_GOOD_SINCE_S] >= par[_P_RECOVER_S] - 1e-9:
-            baro[_EXCLUDED_AS] = _TRUSTED
-            baro[_GOOD_SINCE_S] = np.nan
-            events[n_events, _E_ACTION] = 1.0
-            events[n_events, _E_KIND] = _INCONSISTENT
-            events[n_events, _E_ROW] = _BARO_ROW
-            events[n_events, _E_MAGNITUDE] = mean
-            n_events += 1
+        if _good_for(state, _BARO_ROW, time_s, par[_P_RECOVER_S]):
+            n_events = _readmit(state, events, n_events, _BARO_ROW, mean)
     elif kind == _INCONSISTENT:
         baro[_GOOD_SINCE_S] = np.nan
     return n_events
@@ -261,18 +276,9 @@ def watch_sensors(par: np.ndarray, state: np.ndarray, events: np.ndarray, index:
                 and state[r, _JUMPED] == 0):
             state[r, _GOOD_SINCE_S] = np.nan
             continue
-        if math.isnan(state[r, _GOOD_SINCE_S]):
-            state[r, _GOOD_SINCE_S] = time_s
-        if time_s - state[r, _GOOD_SINCE_S] < par[_P_RECOVER_S] - 1e-9:
-            continue
-        state[r, _EXCLUDED_AS] = _TRUSTED
-        state[r, _GOOD_SINCE_S] = np.nan
-        state[r, _REJECTIONS] = 0.0
-        events[n_events, _E_ACTION] = 1.0
-        events[n_events, _E_KIND] = kind
-        events[n_events, _E_ROW] = r
-        events[n_events, _E_MAGNITUDE] = time_s - state[r, _EXCLUDED_S]
-        n_events += 1
+        if _good_for(state, r, time_s, par[_P_RECOVER_S]):
+            n_events = _readmit(state, events, n_events, r, time_s - state[r, _EXCLUDED_S])
+            state[r, _REJECTIONS] = 0.0
     if cross[0] >= 0:
         n_events = cross_check(par, state, events, n_events, cross, window, window_at, flat,
                                time_s)

@@ -60,17 +60,25 @@ def _sign(state: Any, timestamp: int, link_id: int) -> None:
     state.timestamp = timestamp
 
 
+def _codec_and_reference(sysid: int, signed: bool, timestamp: int,
+                         link_id: int) -> tuple[Codec, Any]:
+    """Our codec and pymavlink's packer as (sysid, 1), both signing from ``timestamp`` on
+    link ``link_id`` when ``signed``."""
+    codec = Codec(sysid, 1)
+    ref = _reference(sysid, 1)
+    if signed:
+        _sign(codec.signing, timestamp, link_id)
+        _sign(ref.signing, timestamp, link_id)
+    return codec, ref
+
+
 MESSAGE_TYPES = sorted(M.mavlink_map.values(), key=lambda c: c.id)
 
 
 @pytest.mark.parametrize("signed", [False, True], ids=["unsigned", "signed"])
 def test_every_message_type_packs_as_pymavlink_packs_it(signed: bool) -> None:
     rng = np.random.default_rng(20261124)
-    codec = Codec(7, 1)
-    ref = _reference(7, 1)
-    if signed:
-        _sign(codec.signing, 123_456_789, 0)
-        _sign(ref.signing, 123_456_789, 0)
+    codec, ref = _codec_and_reference(7, signed, 123_456_789, 0)
     packed = 0
     for cls in MESSAGE_TYPES:
         for zero in (False, True, False):  # random values, all zero (trailing bytes dropped)
@@ -90,11 +98,7 @@ def test_packing_from_the_constructor_arguments_is_packing_the_message(signed: b
     ``cls(*fields).pack`` writes, for every message type, field for field: each field in
     turn is given a random value while the others are zero."""
     rng = np.random.default_rng(20261125)
-    codec = Codec(3, 1)
-    ref = _reference(3, 1)
-    if signed:
-        _sign(codec.signing, 987_654, 2)
-        _sign(ref.signing, 987_654, 2)
+    codec, ref = _codec_and_reference(3, signed, 987_654, 2)
     packed = 0
     for cls in MESSAGE_TYPES:
         zeros = _fields(cls, rng, zero=True)
