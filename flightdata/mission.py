@@ -1,12 +1,14 @@
 """Mission items: what a mission is made of, in local NED, and the thesis's mission.
 
 One definition for the autopilot (which flies them), the simulator's scenario files (which
-load them from TOML) and the ground station (which turns them into MAVLink mission items).
+load them from TOML) and both ends of the mission protocol (:func:`mavlink_form`: what a
+ground station uploads, what a vehicle booted with a mission reports in a download).
 As in ArduPilot, seq 0 is home: ``items[k]`` has seq ``k + 1``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -27,6 +29,11 @@ MAV_CMD_BY_COMMAND: dict[str, int] = {
 COMMAND_BY_MAV_CMD: dict[int, str] = {v: k for k, v in MAV_CMD_BY_COMMAND.items()}
 #: DO_CHANGE_SPEED param1 (speed type) -> SpeedType; airspeed is taken as ground speed.
 SPEED_TYPE_BY_MAV_PARAM: dict[int, str] = {0: "ground", 1: "ground", 2: "climb", 3: "descent"}
+#: SpeedType -> DO_CHANGE_SPEED param1 (what a mission item is uploaded with).
+MAV_PARAM_BY_SPEED_TYPE: dict[str, int] = {"ground": 1, "climb": 2, "descent": 3}
+MAV_FRAME_LOCAL_NED = 1
+MAV_FRAME_MISSION = 2
+MAV_FRAME_GLOBAL_RELATIVE_ALT_INT = 6
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -104,6 +111,57 @@ class MissionItem:
         if self.command == "rtl":
             return "NAV_RETURN_TO_LAUNCH"
         return f"NAV_WAYPOINT {where} hold {self.hold_s:.1f} s"
+
+
+@dataclass(frozen=True, kw_only=True)
+class MavlinkForm:
+    """A mission item as MISSION_ITEM_INT carries it, before scaling to integers.
+
+    Attributes
+    ----------
+    command : int
+        MAV_CMD.
+    frame : int
+        MAV_FRAME: LOCAL_NED (x, y, z = north, east, down, m), GLOBAL_RELATIVE_ALT_INT with
+        x = y = 0 ("here", z = altitude above home, m), or MISSION (no position).
+    params : tuple of 4 float
+        param1..param4 in the units MAV_CMD defines; NaN yaw = keep the heading mode.
+    x, y, z : float
+    """
+
+    command: int
+    frame: int = MAV_FRAME_MISSION
+    params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+
+
+def mavlink_form(item: MissionItem) -> MavlinkForm:
+    """How ``item`` goes on the wire: local NED targets; take-off and landing "here" as
+    lat = lon = 0 in a relative-altitude frame, altitude above home, as ArduPilot reads them.
+    """
+    nan = math.nan
+    if item.command == "change_speed":
+        return MavlinkForm(command=item.mav_cmd,
+                           params=(float(MAV_PARAM_BY_SPEED_TYPE[item.speed_type]),
+                                   float(item.speed_m_s), -1.0, 0.0))
+    if item.command == "takeoff":
+        return MavlinkForm(command=item.mav_cmd, frame=MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                           params=(0.0, 0.0, 0.0, nan), z=float(item.alt_m))
+    if item.command == "rtl":
+        return MavlinkForm(command=item.mav_cmd)
+    if item.command == "land" and item.pos_ned is None:
+        return MavlinkForm(command=item.mav_cmd, frame=MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                           params=(0.0, 0.0, 0.0, nan))
+    assert item.pos_ned is not None, "a waypoint has a position (MissionItem checks it)"
+    north, east, down = item.pos_ned
+    if item.command == "land":
+        return MavlinkForm(command=item.mav_cmd, frame=MAV_FRAME_LOCAL_NED,
+                           params=(0.0, 0.0, 0.0, nan), x=north, y=east, z=down)
+    yaw_deg = nan if item.yaw_rad is None else math.degrees(item.yaw_rad)
+    return MavlinkForm(command=item.mav_cmd, frame=MAV_FRAME_LOCAL_NED,
+                       params=(float(item.hold_s), 0.0, 0.0, yaw_deg), x=north, y=east, z=down)
 
 
 def thesis_mission(*, alt_m: float = 0.6, side_m: float = 1.0, takeoff_s: float = 5.0,

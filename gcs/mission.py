@@ -39,7 +39,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from flightdata.mission import MissionItem
+from flightdata.mission import MissionItem, mavlink_form
 from flightdata.mission import thesis_mission as shared_thesis_mission
 from gcs.mavlink import MAVLinkMessage, mavlink2
 
@@ -59,11 +59,9 @@ _GLOBAL_FRAMES = frozenset({_M.MAV_FRAME_GLOBAL, _M.MAV_FRAME_GLOBAL_INT,
                             _M.MAV_FRAME_GLOBAL_TERRAIN_ALT, _M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT})
 _LOCAL_FRAMES = frozenset({_M.MAV_FRAME_LOCAL_NED, _M.MAV_FRAME_LOCAL_ENU,
                            _M.MAV_FRAME_LOCAL_OFFSET_NED})
-_SPEED_TYPES = {"ground": 1, "climb": 2, "descent": 3}  # DO_CHANGE_SPEED param1
 _NAMED_COMMANDS = {"waypoint": _M.MAV_CMD_NAV_WAYPOINT, "takeoff": _M.MAV_CMD_NAV_TAKEOFF,
                    "land": _M.MAV_CMD_NAV_LAND, "rtl": _M.MAV_CMD_NAV_RETURN_TO_LAUNCH,
                    "change_speed": _M.MAV_CMD_DO_CHANGE_SPEED}
-_NAN = math.nan
 
 
 class MissionFileError(ValueError):
@@ -141,30 +139,10 @@ def home_item(lat_deg: float = 0.0, lon_deg: float = 0.0, alt_amsl_m: float = 0.
 
 
 def wire_item(item: MissionItem) -> WireItem:
-    """The MISSION_ITEM_INT of one mission item (local NED targets; take-off and landing
-    "here" as lat = lon = 0 in a relative-altitude frame, altitude above home, as ArduPilot
-    reads them)."""
-    if item.command == "change_speed":
-        return WireItem(command=_M.MAV_CMD_DO_CHANGE_SPEED,
-                        params=(float(_SPEED_TYPES[item.speed_type]), float(item.speed_m_s),
-                                -1.0, 0.0))
-    if item.command == "takeoff":
-        return WireItem(command=_M.MAV_CMD_NAV_TAKEOFF,
-                        frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-                        params=(0.0, 0.0, 0.0, _NAN), z=float(item.alt_m))
-    if item.command == "rtl":
-        return WireItem(command=_M.MAV_CMD_NAV_RETURN_TO_LAUNCH)
-    if item.command == "land" and item.pos_ned is None:
-        return WireItem(command=_M.MAV_CMD_NAV_LAND, frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-                        params=(0.0, 0.0, 0.0, _NAN))
-    assert item.pos_ned is not None, "a waypoint has a position (MissionItem checks it)"
-    north, east, down = item.pos_ned
-    if item.command == "land":
-        return WireItem(command=_M.MAV_CMD_NAV_LAND, frame=_M.MAV_FRAME_LOCAL_NED,
-                        params=(0.0, 0.0, 0.0, _NAN), x=north, y=east, z=down)
-    yaw = _NAN if item.yaw_rad is None else math.degrees(item.yaw_rad)
-    return WireItem(command=_M.MAV_CMD_NAV_WAYPOINT, frame=_M.MAV_FRAME_LOCAL_NED,
-                    params=(float(item.hold_s), 0.0, 0.0, yaw), x=north, y=east, z=down)
+    """The MISSION_ITEM_INT of one mission item (:func:`flightdata.mission.mavlink_form`)."""
+    form = mavlink_form(item)
+    return WireItem(command=form.command, frame=form.frame, params=form.params, x=form.x,
+                    y=form.y, z=form.z)
 
 
 def thesis_mission(**plan: float) -> list[WireItem]:

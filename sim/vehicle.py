@@ -42,6 +42,7 @@ from fcu.mavlink.autopilot_port import vehicle_autopilot_config
 from fcu.mavlink.boot_beacon import BootBeacon
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
+from fcu.mavlink.enums import Severity
 from fcu.mavlink.link import Address
 from fcu.mavlink.port import GeoPoint
 from fcu.mavlink.udp import DEFAULT_PEERS, UdpLink
@@ -96,12 +97,12 @@ class VehicleOptions:
 
 
 def build_setup(options: VehicleOptions) -> VehicleSetup:
-    """The simulated vehicle an options set describes (no faults/mission unless asked)."""
+    """The simulated vehicle an options set describes (no faults unless asked; the boot
+    mission is loaded by :meth:`VehicleProcess.open`)."""
     sc = options.scenario
     return VehicleSetup(world=sc.world, autopilot=vehicle_autopilot_config(sc.autopilot),
                         seed=sc.seed, origin=options.origin, speedup=options.speedup,
                         faults=sc.faults if options.with_faults else (),
-                        mission=sc.mission if options.load_mission else (),
                         start_paused=options.start_paused)
 
 
@@ -172,8 +173,17 @@ class VehicleProcess:
         """
         self.link.open()
         self.vehicle.first_tick()
+        if self.options.load_mission:
+            self._load_boot_mission()
         self.endpoint.tick(time_s=self.vehicle.time_s, wall_time_s=time.monotonic())
         return self.link.local_address
+
+    def _load_boot_mission(self) -> None:
+        """The scenario's mission, through the mission protocol (so that a ground station's
+        download and MISSION_CURRENT see it); a refusal is announced, the vehicle boots."""
+        result = self.endpoint.mission.load(self.options.scenario.mission)
+        if not result.accepted:
+            self.vehicle.port.post(Severity.WARNING, f"Boot mission refused: {result.reason}")
 
     def _warm_up(self) -> None:
         """Load the numba code by flying a throwaway copy of the vehicle, the endpoint

@@ -107,7 +107,6 @@ class VehicleSetup:
     origin: GeoPoint  # home at boot: geodetic position of the NED origin
     speedup: float = 1.0  # simulated s per wall s, math.inf = unthrottled (SIM_SPEEDUP 0)
     faults: tuple[Fault, ...] = ()  # scheduled in simulated time at boot
-    mission: tuple[NavItem, ...] = ()  # loaded at boot (not started)
     start_paused: bool = False  # SIM_PAUSE = 1 at boot
 
 
@@ -138,7 +137,7 @@ class SimVehicle:
     Parameters
     ----------
     setup : VehicleSetup
-        World and autopilot configuration, seed, origin, boot faults and mission.
+        World and autopilot configuration, seed, origin and boot faults.
 
     Attributes
     ----------
@@ -205,14 +204,10 @@ class SimVehicle:
         return self.sim_params.paused
 
     def first_tick(self) -> None:
-        """The boot tick at t = 0 (before any plant step), then the boot mission, if any."""
+        """The boot tick at t = 0 (before any plant step)."""
         if self.stack.ticks or self.stack.autopilot.status is not None:
             return
         self.stack.first_tick()
-        if self.setup.mission:
-            result = self.stack.autopilot.navigator.load_mission(self.setup.mission)
-            if not result.accepted:
-                self.port.post(Severity.WARNING, f"Boot mission refused: {result.reason}")
         self._collect()
 
     def tick(self) -> None:

@@ -25,6 +25,9 @@ ArduPilot conventions kept here:
   coordinates (|lat| > 90, |lon| > 180, |alt| > ``max_alt_m``, local |x|, |y|, |z| >
   ``max_local_m``) -> INVALID_PARAM5_X / 6_Y / 7. Fields the frame does not use (x, y, z of
   MAV_FRAME_MISSION) are not judged.
+- A mission the vehicle boots with (``ftc-vehicle --load-mission``) is loaded through
+  :meth:`MissionProtocol.load`, in the form a ground station would upload it
+  (:func:`flightdata.mission.mavlink_form`), so a download and MISSION_CURRENT report it.
 - Mission types other than MISSION (fence, rally) are answered MAV_MISSION_UNSUPPORTED.
 - Time-outs are judged on the clock passed in (the vehicle process passes the wall-clock
   monotonic time, so a simulation speed-up does not shorten them).
@@ -34,7 +37,7 @@ ArduPilot conventions kept here:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,6 +47,8 @@ from fcu.mavlink.enums import Severity
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.link import Address, Outbox
 from fcu.mavlink.port import CommandResult, GeoPoint, MissionItem, VehicleSnapshot
+from flightdata.mission import MissionItem as PlannedItem
+from flightdata.mission import mavlink_form
 
 __all__ = [
     "MissionConfig",
@@ -113,6 +118,13 @@ class WireItem:
         if frame in LOCAL_FRAMES:
             return 1e4
         return 1.0
+
+    @classmethod
+    def from_planned(cls, seq: int, item: PlannedItem) -> WireItem:
+        """A mission item from a scenario file, as a ground station would upload it."""
+        form = mavlink_form(item)
+        return cls(seq=seq, frame=form.frame, command=form.command, current=0,
+                   autocontinue=1, params=form.params, x=form.x, y=form.y, z=form.z)
 
     @classmethod
     def from_message(cls, msg: MAVLinkMessage) -> WireItem:
@@ -312,6 +324,16 @@ class MissionProtocol:
         if result.accepted:
             self._items = list(items)
         return result
+
+    def load(self, items: Sequence[PlannedItem]) -> CommandResult:
+        """Replace the mission by ``items`` (seq 1..) without a ground station: the boot
+        mission. Validated and handed to the vehicle as an upload would be."""
+        wire = [WireItem.from_planned(seq, item) for seq, item in enumerate(items, 1)]
+        for item in wire:
+            code, reason = validate_item(item, self._config)
+            if code != _M.MAV_MISSION_ACCEPTED:
+                return CommandResult.denied(reason)
+        return self._store(wire)
 
     # ----------------------------------------------------------------- upload
     def handle_count(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address,

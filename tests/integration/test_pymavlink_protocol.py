@@ -13,7 +13,7 @@ from collections import Counter
 from collections.abc import Iterator
 
 import pytest
-from vehicle_harness import ANSWER_S, Gcs, M, VehicleProcess, mission_item
+from vehicle_harness import ANSWER_S, STARTUP_S, Gcs, M, VehicleProcess, mission_item
 
 GROUND_SPEEDUP = "5"  # the ground tests need no speed, and leave CPU to parallel tests
 FLIGHT_SPEEDUP = "10"
@@ -275,3 +275,27 @@ def test_mission_with_a_dropped_packet_completes(start_vehicle, gcs: Gcs) -> Non
     assert landed.landed_state == M.MAV_LANDED_STATE_ON_GROUND
     sim = gcs.wait("SIM_STATE")
     assert abs(sim.vd) < 0.05  # at rest on the ground (truth)
+
+
+def test_a_mission_loaded_at_boot_is_the_one_a_ground_station_sees(start_vehicle,
+                                                                     gcs: Gcs) -> None:
+    """``--load-mission``: the download, MISSION_CURRENT and MISSION_SET_CURRENT all see
+    the scenario's mission (the thesis mission: 10 items after home)."""
+    start_vehicle("--load-mission", "--speedup", GROUND_SPEEDUP, outs=[gcs.port])
+    gcs.wait_heartbeat()  # the boot beacon: the autopilot streams once it has loaded
+    assert gcs.wait("MISSION_CURRENT", timeout_s=STARTUP_S).total == 10
+    since = gcs.mark()
+    gcs.send(M.MAVLink_mission_request_list_message(1, 1, M.MAV_MISSION_TYPE_MISSION))
+    assert gcs.wait("MISSION_COUNT", since=since).count == 11
+    since = gcs.mark()
+    gcs.send(M.MAVLink_mission_request_int_message(1, 1, 5, M.MAV_MISSION_TYPE_MISSION))
+    item = gcs.wait("MISSION_ITEM_INT", since=since)  # NAV_WAYPOINT (1, 0, -0.6) hold 1 s
+    assert (item.seq, item.command, item.frame) == (5, M.MAV_CMD_NAV_WAYPOINT,
+                                                    M.MAV_FRAME_LOCAL_NED)
+    assert (item.x, item.y, item.z, item.param1) == (10000, 0, pytest.approx(-0.6), 1.0)
+    gcs.send(M.MAVLink_mission_ack_message(1, 1, M.MAV_MISSION_ACCEPTED,
+                                           M.MAV_MISSION_TYPE_MISSION))
+    since = gcs.mark()
+    gcs.send(M.MAVLink_mission_set_current_message(1, 1, 3))
+    assert gcs.wait("MISSION_CURRENT", lambda m: m.seq == 3, since=since).total == 10
+    assert not [t for t in statustexts(gcs, since) if "not in" in t]

@@ -27,6 +27,8 @@ from fcu.mavlink.geo import geo_to_ned, ned_to_geo
 from fcu.mavlink.mission import MissionConfig, WireItem, to_mission_item, validate_item
 from fcu.mavlink.port import GeoPoint, MissionState
 from fcu.navigation.modes import Mode
+from flightdata.mission import MissionItem as PlannedItem
+from flightdata.mission import thesis_mission
 
 M = mavlink2
 NAN, INF = math.nan, math.inf
@@ -351,3 +353,30 @@ def test_download_seq_0_is_the_current_home() -> None:
     (home,) = link.take("MISSION_ITEM_INT")
     lat, _, _ = ned_to_geo(np.array([10.0, 0.0, 0.0]), GeoPoint(LAT, LON, 100.0))
     assert home.x == round(lat * 1e7)
+
+
+def test_a_boot_mission_is_handed_over_and_downloaded_as_uploaded() -> None:
+    """:meth:`MissionProtocol.load`: the thesis mission reaches the vehicle as it would from
+    a ground station (NED targets kept to the millimetre), and a download returns it."""
+    endpoint, vehicle, link, gcs = memory_endpoint()
+    planned = thesis_mission()
+    assert endpoint.mission.load(planned).accepted
+    assert endpoint.mission.total == len(vehicle.mission) == len(planned) == 10
+    for item, flown in zip(planned, vehicle.mission, strict=True):
+        assert flown.command == item.mav_cmd
+        if item.command == "waypoint":
+            assert item.pos_ned is not None and flown.north_east_m is not None
+            assert_allclose([*flown.north_east_m, flown.down_m], item.pos_ned, atol=1e-9)
+    gcs.put(M.MAVLink_mission_request_int_message(1, 1, 6, 0))  # (1, 1, -0.6) hold 1 s
+    endpoint.tick(0.0, 0.0)
+    (wp,) = link.take("MISSION_ITEM_INT")
+    assert (wp.frame, wp.x, wp.y, wp.z, wp.param1) == (M.MAV_FRAME_LOCAL_NED, 10000, 10000,
+                                                       pytest.approx(-0.6), 1.0)
+
+
+def test_a_boot_mission_out_of_bounds_is_refused_and_the_vehicle_keeps_none() -> None:
+    endpoint, vehicle, _, _ = memory_endpoint()
+    far = PlannedItem(command="waypoint", pos_ned=(2e6, 0.0, -1.0))
+    result = endpoint.mission.load([*thesis_mission()[:3], far])
+    assert not result.accepted and "Mission item 4: x 2e+06 m" in result.reason
+    assert endpoint.mission.total == len(vehicle.mission) == 0
