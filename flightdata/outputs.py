@@ -8,8 +8,9 @@ tool: missing folders are created (a file's folder, or the folder itself for ``-
 cannot be created or written (a read-only place, ``/proc``, a file where a folder is needed)
 is refused.
 
-The checks leave nothing behind: a probe file is created and removed, and the folders created
-for the probe are removed again (the command creates them for real when it writes).
+The checks leave nothing behind: a probe file is created and removed, and a missing folder is
+judged by creating and removing a uniquely named folder where it would go (the command creates
+the real one when it writes).
 """
 
 from __future__ import annotations
@@ -104,24 +105,17 @@ def _probe_folder(folder: Path) -> None:
 
 
 def _in_folder(folder: Path, probe: Callable[[Path], None], failure: str) -> None:
-    """Run ``probe(folder)`` with the missing part of ``folder`` created, then removed;
-    an OSError becomes ``OutputError(f"{failure}: {why}")``."""
-    missing: list[Path] = []
-    q = folder
-    while not q.exists() and q != q.parent:
-        missing.append(q)
-        q = q.parent
-    created: list[Path] = []
+    """Run ``probe(folder)``, or, when ``folder`` is missing, check that a folder can be
+    created in its nearest existing ancestor (a uniquely named one, created and removed: two
+    commands checking the same missing folder at once cannot trip over each other); an
+    OSError becomes ``OutputError(f"{failure}: {why}")``."""
     try:
-        for part in reversed(missing):
-            part.mkdir()
-            created.append(part)
-        probe(folder)
+        if folder.exists():
+            probe(folder)
+            return
+        ancestor = folder.parent
+        while not ancestor.exists() and ancestor != ancestor.parent:
+            ancestor = ancestor.parent
+        Path(tempfile.mkdtemp(dir=ancestor, prefix=".probe-")).rmdir()
     except OSError as err:
         raise OutputError(f"{failure}: {_reason(err)}") from None
-    finally:
-        for part in reversed(created):
-            try:
-                part.rmdir()
-            except OSError:
-                pass

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
 import pytest
@@ -55,3 +56,25 @@ def test_a_file_where_a_folder_is_wanted_is_refused(tmp_path: Path) -> None:
     (tmp_path / "f").write_text("")
     with pytest.raises(OutputError, match="is a file, not a folder"):
         check_folder_output("--report", tmp_path / "f")
+
+
+def test_two_checks_of_the_same_missing_folder_at_once_both_pass(tmp_path: Path) -> None:
+    """Two ground stations started together with the same ``--out-dir``: the check creates
+    nothing under the folder's name, so neither can find it half made by the other."""
+    errors: list[BaseException] = []
+
+    def check() -> None:
+        try:
+            for _ in range(200):
+                check_folder_output("--out-dir", tmp_path / "out")
+                check_file_output("--tlog", tmp_path / "out" / "f.tlog")
+        except OutputError as err:
+            errors.append(err)
+
+    threads = [threading.Thread(target=check) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=60.0)
+    assert errors == []
+    assert list(tmp_path.iterdir()) == []
