@@ -285,6 +285,20 @@ def _missing_folders(path: Path) -> list[Path]:
     return out
 
 
+def _claim_stem(out_dir: Path, stem: str) -> str:
+    """``stem``, or ``stem-2``, ``stem-3``... : the first whose tlog did not exist, created
+    here (empty) so that a ground station started in the same second takes the next one."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    claimed, n = stem, 1
+    while True:
+        try:
+            with open(out_dir / f"{claimed}.tlog", "xb"):
+                return claimed
+        except FileExistsError:
+            n += 1
+            claimed = f"{stem}-{n}"
+
+
 def _remove_empty_records(paths: Sequence[Path | None], folders: Sequence[Path]) -> None:
     """A flight that never found its vehicle leaves nothing: its records hold only our own
     packets and lines; folders created for them go too when empty."""
@@ -330,10 +344,19 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
     except OutputError as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return EXIT_USAGE
-    vehicle_log = tlog.with_suffix(".vehicle.log")
-    new_folders = sorted({f for p in (tlog, event_log, vehicle_log)
+    new_folders = sorted({f for p in (tlog, event_log, tlog.with_suffix(".vehicle.log"))
                           for f in _missing_folders(p.parent)},
                          key=lambda f: len(f.parts), reverse=True)
+    if args.tlog is None:
+        try:
+            stem = _claim_stem(args.out_dir, stem)
+        except OSError as err:
+            print(f"{PROG}: error: --out-dir {args.out_dir}: cannot write there: "
+                  f"{err.strerror or err}", file=sys.stderr)
+            return EXIT_USAGE
+        tlog = args.out_dir / f"{stem}.tlog"
+        event_log = args.event_log or tlog.with_suffix(".events.log")
+    vehicle_log = tlog.with_suffix(".vehicle.log")
     try:
         gs = GroundStation.open(url, tlog=tlog, event_log=event_log,
                                 echo=None if args.quiet else sys.stderr,

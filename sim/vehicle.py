@@ -183,7 +183,8 @@ class VehicleProcess:
         download and MISSION_CURRENT see it); a refusal is announced, the vehicle boots."""
         result = self.endpoint.mission.load(self.options.scenario.mission)
         if not result.accepted:
-            self.vehicle.port.post(Severity.WARNING, f"Boot mission refused: {result.reason}")
+            reason = result.reason.removeprefix("Mission refused: ")
+            self.vehicle.port.post(Severity.WARNING, f"Boot mission refused: {reason}")
 
     def _warm_up(self) -> None:
         """Load the numba code by flying a throwaway copy of the vehicle, the endpoint

@@ -254,8 +254,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{PROG}: cannot write --timing-log {args.timing_log}: "
                   f"{err.strerror or err}", file=sys.stderr)
             return 1
+    speed = (f"({summary.ratio:.2f}x; {summary.cpu_ratio:.1f}x per CPU second)"
+             if summary.running_wall_s > 0 else "(never ran: paused throughout)")
     print(f"{PROG}: stopped at {summary.sim_s:.2f} s simulated, {summary.running_wall_s:.2f} s "
-          f"running wall time ({summary.ratio:.2f}x; {summary.cpu_ratio:.1f}x per CPU second), "
+          f"running wall time {speed}, "
           f"{summary.ticks} ticks, {summary.malformed} malformed datagrams"
           + (f", {summary.signing_rejected} packets failing the signing check"
              if args.signing_key is not None or summary.signing_rejected else ""), flush=True)

@@ -72,6 +72,7 @@ NAV_YAW_COMMANDS = frozenset({_M.MAV_CMD_NAV_WAYPOINT, _M.MAV_CMD_NAV_LOITER_UNL
 _INVALID_PARAM = (_M.MAV_MISSION_INVALID_PARAM1, _M.MAV_MISSION_INVALID_PARAM2,
                   _M.MAV_MISSION_INVALID_PARAM3, _M.MAV_MISSION_INVALID_PARAM4)
 INT32_MAX = 0x7FFFFFFF
+FLOAT32_MAX = 3.4028234663852886e38
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -168,6 +169,8 @@ def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
         nan_ok = i == 3 and item.command in NAV_YAW_COMMANDS
         if math.isinf(value) or (math.isnan(value) and not nan_ok):
             return _INVALID_PARAM[i], f"{where}: param{i + 1} = {value} is not a number"
+        if abs(value) > FLOAT32_MAX:  # (only a boot mission can hold one: the wire is float32)
+            return _INVALID_PARAM[i], f"{where}: param{i + 1} = {value:g} beyond float32"
     if item.frame == _M.MAV_FRAME_MISSION:
         return _M.MAV_MISSION_ACCEPTED, ""
     codes = (_M.MAV_MISSION_INVALID_PARAM5_X, _M.MAV_MISSION_INVALID_PARAM6_Y,
@@ -328,6 +331,9 @@ class MissionProtocol:
     def load(self, items: Sequence[PlannedItem]) -> CommandResult:
         """Replace the mission by ``items`` (seq 1..) without a ground station: the boot
         mission. Validated and handed to the vehicle as an upload would be."""
+        if len(items) + 1 > self._config.max_items:
+            return CommandResult.denied(f"Mission of {len(items) + 1} items exceeds "
+                                        f"{self._config.max_items}")
         wire = [WireItem.from_planned(seq, item) for seq, item in enumerate(items, 1)]
         for item in wire:
             code, reason = validate_item(item, self._config)

@@ -150,3 +150,35 @@ def test_a_spawned_vehicle_that_cannot_start_is_reported_at_once(tmp_path: Path)
                            "2: ftc-vehicle: error: ")
     assert "no_such_scenario" in line
     assert time.monotonic() - start < 30.0  # s: well before the 60 s connect timeout
+
+
+def test_two_stations_in_one_out_dir_keep_their_own_records(tmp_path: Path) -> None:
+    """Records are named by the second a station starts: a second station in the same folder
+    (and second) takes ``-2``, and when it finds no vehicle it removes only its own."""
+    waiting = subprocess.Popen(
+        [sys.executable, "-m", "gcs", "fly", "--connect", f"udpin:127.0.0.1:{free_udp_port()}",
+         "--connect-timeout", "300", "--quiet", "--out-dir", str(tmp_path)],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdin=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + WALL_LIMIT_S
+        while not list(tmp_path.glob("*.tlog")) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        (first,) = tmp_path.glob("*.tlog")
+        proc = run_gcs("fly", "--connect", f"udpin:127.0.0.1:{free_udp_port()}",
+                       "--connect-timeout", "1", "--quiet", "--out-dir", str(tmp_path))
+        assert proc.returncode == 3, proc.stderr
+        assert first.exists()  # the waiting station's tlog survived the other's clean-up
+    finally:
+        waiting.kill()
+        waiting.communicate(timeout=WALL_LIMIT_S)
+
+
+def test_a_record_name_is_claimed_once(tmp_path: Path) -> None:
+    from gcs.cli import _claim_stem
+
+    stems = [_claim_stem(tmp_path / "out", "flight-20261124-120000") for _ in range(3)]
+    assert stems == ["flight-20261124-120000", "flight-20261124-120000-2",
+                     "flight-20261124-120000-3"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(f"{s}.tlog"
+                                                                          for s in stems)

@@ -11,6 +11,7 @@ import math
 import time
 from collections import Counter
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from vehicle_harness import ANSWER_S, STARTUP_S, Gcs, M, VehicleProcess, mission_item
@@ -299,3 +300,17 @@ def test_a_mission_loaded_at_boot_is_the_one_a_ground_station_sees(start_vehicle
     gcs.send(M.MAVLink_mission_set_current_message(1, 1, 3))
     assert gcs.wait("MISSION_CURRENT", lambda m: m.seq == 3, since=since).total == 10
     assert not [t for t in statustexts(gcs, since) if "not in" in t]
+
+
+def test_a_boot_mission_the_vehicle_refuses_is_announced_and_none_is_held(
+        start_vehicle, gcs: Gcs, tmp_path: Path) -> None:
+    scenario = tmp_path / "far.toml"
+    scenario.write_text('name = "far"\nduration_s = 60.0\n[mission]\nkind = "items"\n'
+                        '[[mission.items]]\ncommand = "takeoff"\nalt_m = 1.0\n'
+                        '[[mission.items]]\ncommand = "waypoint"\npos_ned = [1e6, 0.0, -1.0]\n')
+    start_vehicle("--scenario", str(scenario), "--load-mission", "--speedup", GROUND_SPEEDUP,
+                  outs=[gcs.port])
+    gcs.wait_heartbeat()
+    text = gcs.wait_text("Boot mission refused", since=0, timeout_s=STARTUP_S)
+    assert text == "Boot mission refused: Mission item 2: x 1e+06 m beyond +-10000 m"
+    assert gcs.wait("MISSION_CURRENT", timeout_s=STARTUP_S).total == 65535  # no mission

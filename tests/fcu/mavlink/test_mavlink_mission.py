@@ -380,3 +380,26 @@ def test_a_boot_mission_out_of_bounds_is_refused_and_the_vehicle_keeps_none() ->
     result = endpoint.mission.load([*thesis_mission()[:3], far])
     assert not result.accepted and "Mission item 4: x 2e+06 m" in result.reason
     assert endpoint.mission.total == len(vehicle.mission) == 0
+
+
+@pytest.mark.parametrize(("item", "words"), [
+    # finite in a scenario file, beyond what MISSION_ITEM_INT's float32 params can carry
+    (PlannedItem(command="waypoint", pos_ned=(1.0, 0.0, -1.0), hold_s=1e300),
+     "Mission item 2: param1 = 1e+300 beyond float32"),
+    (PlannedItem(command="waypoint", pos_ned=(1.0, 0.0, -1.0), yaw_rad=1e300),
+     "Mission item 2: param4 = 5.72958e+301 beyond float32"),
+])
+def test_a_boot_mission_the_wire_cannot_carry_is_refused(item: PlannedItem, words: str) -> None:
+    endpoint, vehicle, _, _ = memory_endpoint()
+    result = endpoint.mission.load([thesis_mission()[1], item])
+    assert not result.accepted and result.reason == words
+    assert endpoint.mission.total == len(vehicle.mission) == 0
+
+
+def test_a_boot_mission_longer_than_the_vehicle_holds_is_refused() -> None:
+    endpoint, vehicle, _, _ = memory_endpoint()
+    hover = PlannedItem(command="waypoint", pos_ned=(0.0, 0.0, -1.0))
+    assert endpoint.mission.load([hover] * 699).accepted  # 700 with home: the upload limit
+    result = endpoint.mission.load([hover] * 700)
+    assert not result.accepted and result.reason == "Mission of 701 items exceeds 700"
+    assert endpoint.mission.total == 699  # the mission before is kept
