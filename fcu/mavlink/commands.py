@@ -44,7 +44,12 @@ import numpy as np
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.enums import FailureType, FailureUnit
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m
-from fcu.mavlink.mission import GLOBAL_FRAMES, LOCAL_FRAMES, RELATIVE_ALT_FRAMES
+from fcu.mavlink.mission import (
+    GLOBAL_FRAMES,
+    LOCAL_FRAMES,
+    RELATIVE_ALT_FRAMES,
+    set_current_refusal,
+)
 from fcu.mavlink.port import CommandResult, FailureInjector, VehiclePort, VehicleSnapshot
 from fcu.mavlink.streams import StreamScheduler
 
@@ -322,7 +327,7 @@ class CommandDispatcher:
         total = self._mission_total()
         seq = _whole(r.params[0], 0, max(total, 0))
         if seq is None or total == 0:
-            return _denied(f"Set mission current: {r.params[0]} not in 1..{total}")
+            return _denied(set_current_refusal(r.params[0], total))
         return _from_result(self._port.mission_set_current(max(seq, 1)))
 
     def _reboot(self, r: CommandRequest) -> CommandOutcome:

@@ -54,7 +54,7 @@ from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
 from fcu.mavlink.link import Address, Link
 from fcu.mavlink.messages import Fields
-from fcu.mavlink.mission import MissionProtocol
+from fcu.mavlink.mission import MissionProtocol, set_current_refusal
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
 from fcu.mavlink.port import (
     CommandResult,
@@ -512,7 +512,7 @@ class MavlinkEndpoint:
         seq = int(msg.seq)
         total = self._mission.total
         if not 0 <= seq <= total or total == 0:
-            self._outbox.status(Severity.WARNING, f"Set mission current: {seq} not in 1..{total}")
+            self._outbox.status(Severity.WARNING, set_current_refusal(seq, total))
         else:
             result = self._port.mission_set_current(max(seq, 1))
             if not result.accepted:

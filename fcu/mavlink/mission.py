@@ -52,6 +52,7 @@ from flightdata.mission import mavlink_form
 
 __all__ = [
     "MissionConfig",
+    "set_current_refusal",
     "MissionProtocol",
     "WireItem",
     "to_mission_item",
@@ -223,6 +224,14 @@ def to_mission_item(item: WireItem, origin: GeoPoint,
     return MissionItem(seq=item.seq, command=item.command, autocontinue=bool(item.autocontinue),
                        params=item.params, north_east_m=north_east, down_m=down, alt_m=alt_m,
                        yaw_rad=yaw_rad)
+
+
+def set_current_refusal(seq: object, total: int) -> str:
+    """Why MISSION_SET_CURRENT / DO_SET_MISSION_CURRENT ``seq`` is refused by a vehicle
+    holding ``total`` items (seq is out of range, or there is no mission)."""
+    if total == 0:
+        return "Set mission current: no mission loaded"
+    return f"Set mission current: {seq} not in 1..{total}"
 
 
 @dataclass

@@ -403,3 +403,18 @@ def test_a_boot_mission_longer_than_the_vehicle_holds_is_refused() -> None:
     result = endpoint.mission.load([hover] * 700)
     assert not result.accepted and result.reason == "Mission of 701 items exceeds 700"
     assert endpoint.mission.total == 699  # the mission before is kept
+
+
+def test_set_current_without_a_mission_says_there_is_none() -> None:
+    """MISSION_SET_CURRENT and DO_SET_MISSION_CURRENT on a vehicle with no mission: refused
+    with the same words (was "1 not in 1..0")."""
+    endpoint, _, link, gcs = memory_endpoint()
+    gcs.put(M.MAVLink_mission_set_current_message(1, 1, 1))
+    gcs.put(M.MAVLink_command_long_message(1, 1, M.MAV_CMD_DO_SET_MISSION_CURRENT, 0,
+                                           1, 0, 0, 0, 0, 0, 0))
+    endpoint.tick(0.0, 0.0)
+    sent = link.take()
+    texts = [m.text for m in sent if m.get_type() == "STATUSTEXT"]
+    assert texts == ["Set mission current: no mission loaded"] * 2
+    (ack,) = [m for m in sent if m.get_type() == "COMMAND_ACK"]
+    assert ack.result == M.MAV_RESULT_DENIED
