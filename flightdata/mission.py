@@ -122,11 +122,15 @@ class MavlinkForm:
     command : int
         MAV_CMD.
     frame : int
-        MAV_FRAME: LOCAL_NED (x, y, z = north, east, down, m), GLOBAL_RELATIVE_ALT_INT with
-        x = y = 0 ("here", z = altitude above home, m), or MISSION (no position).
+        MAV_FRAME (:func:`mavlink_form` uses LOCAL_NED, GLOBAL_RELATIVE_ALT_INT with
+        x = y = 0 for "here", and MISSION).
     params : tuple of 4 float
-        param1..param4 in the units MAV_CMD defines; NaN yaw = keep the heading mode.
-    x, y, z : float
+        param1..param4 in the units MAV_CMD defines; NaN where the spec allows "default"
+        (a NaN yaw keeps the heading mode).
+    x, y : float
+        Latitude, longitude in degrees (global frames) or north, east in metres (local).
+    z : float
+        Altitude in metres (by frame), or down in metres (MAV_FRAME_LOCAL_NED).
     """
 
     command: int

@@ -35,11 +35,11 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from flightdata.mission import MissionItem, mavlink_form
+from flightdata.mission import MavlinkForm, MissionItem, mavlink_form
 from flightdata.mission import thesis_mission as shared_thesis_mission
 from gcs.mavlink import MAVLinkMessage, mavlink2
 
@@ -69,30 +69,11 @@ class MissionFileError(ValueError):
 
 
 @dataclass(frozen=True, kw_only=True)
-class WireItem:
-    """One mission item as MISSION_ITEM_INT carries it.
+class WireItem(MavlinkForm):
+    """One mission item as MISSION_ITEM_INT carries it: a
+    :class:`flightdata.mission.MavlinkForm` (command, frame, params, x, y, z; x, y in
+    degrees in global frames) and its autocontinue flag."""
 
-    Attributes
-    ----------
-    command : int
-        MAV_CMD.
-    frame : int
-        MAV_FRAME.
-    params : tuple of 4 float
-        param1..param4 in the units MAV_CMD defines (NaN where the spec allows "default").
-    x, y : float
-        Latitude, longitude in degrees (global frames) or north, east in metres (local).
-    z : float
-        Altitude in metres (by frame), or down in metres (MAV_FRAME_LOCAL_NED).
-    autocontinue : bool
-    """
-
-    command: int
-    frame: int = _M.MAV_FRAME_MISSION
-    params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
-    x: float = 0.0
-    y: float = 0.0
-    z: float = 0.0
     autocontinue: bool = True
 
     def _int_scale(self) -> float:
@@ -140,9 +121,7 @@ def home_item(lat_deg: float = 0.0, lon_deg: float = 0.0, alt_amsl_m: float = 0.
 
 def wire_item(item: MissionItem) -> WireItem:
     """The MISSION_ITEM_INT of one mission item (:func:`flightdata.mission.mavlink_form`)."""
-    form = mavlink_form(item)
-    return WireItem(command=form.command, frame=form.frame, params=form.params, x=form.x,
-                    y=form.y, z=form.z)
+    return WireItem(**asdict(mavlink_form(item)))
 
 
 def thesis_mission(**plan: float) -> list[WireItem]:
