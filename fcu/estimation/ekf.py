@@ -51,7 +51,7 @@ from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
     mul_nonzero_left,
     nonzero_columns,
-    symmetrize,
+    shaped,
     transpose_into,
 )
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
@@ -130,7 +130,8 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
     the non-zero columns of ``F``).
 
     ``F`` is block upper triangular like ``A``: ``F P F'`` is taken as ``F (F P)'`` (``P``
-    symmetric), two products by the sparse ``F`` (its non-zero entries listed once).
+    symmetric), two products by the sparse ``F`` (its non-zero entries listed once), the
+    second one over the upper triangle only.
     """
     # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
     discrete_transition_into(x, f_mat, q_mat, x, u, dt, p, on_ground, qc_diag, scratch)
@@ -141,12 +142,19 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
     mul_nonzero_left(fp, f_mat, nz_f, p_mat)
     # (F P)' = P F'
     transpose_into(fp_t, fp)
-    # P = F (P F') + Q, made symmetric
-    mul_nonzero_left(p_mat, f_mat, nz_f, fp_t)
+    # P = F (P F') + Q: the upper triangle j >= i (the result is symmetric), mirrored
     for i in range(N):
-        for j in range(N):
+        for j in range(i, N):
+            p_mat[i, j] = 0.0
+        for t in range(int(nz_f[i, 0])):
+            k = int(nz_f[i, 1 + t])
+            f_ik = f_mat[i, k]
+            for j in range(i, N):
+                p_mat[i, j] += f_ik * fp_t[k, j]
+        for j in range(i, N):
             p_mat[i, j] += q_mat[i, j]
-    symmetrize(p_mat)
+        for j in range(i):
+            p_mat[i, j] = p_mat[j, i]
 
 
 # ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
@@ -243,15 +251,15 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
     dt_max = constants[_C_DT_MAX]
     sel_stack, noise, _ = screening.channel_tables(tables, layout)
     x = work[_X:_X + N]
-    p_mat = work[_P:_P + NN].reshape(N, N)
+    p_mat = shaped(work[_P:_P + NN], (N, N))
     if dt > 1e-9:
         # a longer gap than dt_max: several equal RK4 steps
         n_sub = max(1, math.ceil(dt / dt_max - 1e-6))
         on_ground = screening.on_ground_at(x, ground)
-        f_mat = work[_F:_F + NN].reshape(N, N)
-        q_mat = work[_Q:_Q + NN].reshape(N, N)
-        sc_tr = scratch[_SC_TRANSITION:_SC_TRANSITION + 8 * NN].reshape(8, N, N)
-        nz_f = scratch[_SC_NZ_F:_SC_NZ_F + N * (N + 1)].reshape(N, N + 1)
+        f_mat = shaped(work[_F:_F + NN], (N, N))
+        q_mat = shaped(work[_Q:_Q + NN], (N, N))
+        sc_tr = shaped(scratch[_SC_TRANSITION:_SC_TRANSITION + 8 * NN], (8, N, N))
+        nz_f = shaped(scratch[_SC_NZ_F:_SC_NZ_F + N * (N + 1)], (N, N + 1))
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
             predict_covariance_into(x, p_mat, u, dt / n_sub, p, on_ground, qc_diag, f_mat,
@@ -276,7 +284,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
             work[_COUNTS + c] = 0.0
         s_stack[:, :, :] = 0.0
     sc_update = scratch[_SC_UPDATE:_SC_UPDATE + UPDATE_SCRATCH]
-    jac = scratch[_SC_JAC:_SC_JAC + NN].reshape(N, N)
+    jac = shaped(scratch[_SC_JAC:_SC_JAC + NN], (N, N))
     xd = scratch[_SC_XD:_SC_XD + N]
     # per channel: h(x) = S (x - delta f(x, u)), H = S (I - delta A(x));  y = z - h(x);
     # S = H P H' + R;  K = P H' S^-1;  x = x + K y;  P = (I - K H) P (I - K H)' + K R K'
@@ -289,13 +297,13 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         # s, how long before the tick the batch was taken
         delta = time_s - meas[c, screening.TIME]
         sel = sel_stack[i0:i1]
-        h_mat = scratch[_SC_H:_SC_H + m * N].reshape(m, N)
+        h_mat = shaped(scratch[_SC_H:_SC_H + m * N], (m, N))
         hx = scratch[_SC_HX:_SC_HX + m]
         y = scratch[_SC_Y:_SC_Y + m]
-        r_mat = scratch[_SC_R:_SC_R + m * m].reshape(m, m)
-        s_mat = scratch[_SC_S:_SC_S + m * m].reshape(m, m)
-        s_inv = scratch[_SC_S_INV:_SC_S_INV + m * m].reshape(m, m)
-        k_gain = scratch[_SC_K:_SC_K + N * m].reshape(N, m)
+        r_mat = shaped(scratch[_SC_R:_SC_R + m * m], (m, m))
+        s_mat = shaped(scratch[_SC_S:_SC_S + m * m], (m, m))
+        s_inv = shaped(scratch[_SC_S_INV:_SC_S_INV + m * m], (m, m))
+        k_gain = shaped(scratch[_SC_K:_SC_K + N * m], (N, m))
         mapped = abs(delta) >= 1e-9
         if mapped:
             model_jacobian_into(jac, x, p, on_ground)

@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import mul_sparse_left, symmetrize, transpose_into
+from fcu.estimation.small_matrix import mul_sparse_left, transpose_into
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -340,12 +340,11 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     mul_sparse_left(ad4, ad3, ad)
     # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row: off the
     # diagonal with the identity's 0, then the diagonal entry with its 1)
+    f2, f3, f4 = 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0
     for i in range(n):
         for j in range(n):
-            f_mat[i, j] = (0.0 + ad[i, j] + ad2[i, j] / 2.0 + ad3[i, j] / 6.0
-                           + ad4[i, j] / 24.0)
-        f_mat[i, i] = (1.0 + ad[i, i] + ad2[i, i] / 2.0 + ad3[i, i] / 6.0
-                       + ad4[i, i] / 24.0)
+            f_mat[i, j] = 0.0 + ad[i, j] + ad2[i, j] * f2 + ad3[i, j] * f3 + ad4[i, j] * f4
+        f_mat[i, i] = 1.0 + ad[i, i] + ad2[i, i] * f2 + ad3[i, i] * f3 + ad4[i, i] * f4
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
     for i in range(n):
@@ -362,19 +361,20 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             phi[i, i] = (1.0 + ad[i, i] * c + ad2[i, i] * c2 + ad3[i, i] * c3
                          + ad4[i, i] * c4)
         transpose_into(phi_t, phi)
-        # Q += w Phi Qc Phi':  Q[i, :] += (w Phi[i, k] Qc[k]) Phi'[k, :]  (Qc diagonal)
+        # Q += w Phi Qc Phi':  Q[i, j] += sum_k (w Phi[i, k] Qc[k]) Phi'[k, j]  (Qc
+        # diagonal), the upper triangle j >= i only (Q is symmetric)
         for i in range(n):
             for k in range(n):
                 phi_ik = phi[i, k]
                 if phi_ik != 0.0:
                     coef = weight * phi_ik * qc_diag[k]
-                    for j in range(n):
+                    for j in range(i, n):
                         q_mat[i, j] += coef * phi_t[k, j]
-    # Q *= dt, made exactly symmetric
+    # Q *= dt; the lower triangle mirrors the upper
     for i in range(n):
-        for j in range(n):
+        for j in range(i, n):
             q_mat[i, j] *= dt
-    symmetrize(q_mat)
+            q_mat[j, i] = q_mat[i, j]
 
 
 __all__ = [

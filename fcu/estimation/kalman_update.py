@@ -14,10 +14,10 @@ from numba import njit
 from fcu.estimation.small_matrix import (
     mul_at_t_into,
     mul_bt_nonzero_into,
-    mul_sparse_left,
+    mul_nonzero_left,
     nonzero_columns,
+    shaped,
     spd_inverse,
-    symmetrize,
 )
 from fcu.estimation.state import FloatArray
 from flightdata.kernel_cache import drop_stale_kernels
@@ -39,22 +39,21 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     ``s_mat``, ``s_inv``, ``k_gain`` (``scratch``: :data:`UPDATE_SCRATCH` entries, n <= 16).
 
     ``y`` (m,), ``h_mat`` (m, n) and ``r_mat`` (m, m) as for :func:`kalman_update`. The
-    products run over the rank-m structure of the update (zero entries of ``H`` skipped):
-    the Joseph form is evaluated as ``M = P - K (H P)``, ``P = M - (M H') K' + K R K'``,
-    which is ``(I - K H) P (I - K H)' + K R K'`` without its n x n x n products.
+    products run over the rank-m structure of the update (zero entries of ``H`` skipped).
+    With the optimal gain the Joseph form ``(I - K H) P (I - K H)' + K R K'`` equals
+    ``P - K (H P) = P - (H P)' S^-1 (H P)``, a symmetric rank-m downdate: only its upper
+    triangle is computed, and mirrored, so ``P`` stays exactly symmetric.
     """
     n, m = p_mat.shape[0], y.shape[0]
-    ut = scratch[:m * n].reshape(m, n)
-    m_row = scratch[16 * 16:16 * 16 + n]  # a row of M
-    low = scratch[2 * 16 * 16:2 * 16 * 16 + m * m].reshape(m, m)
-    low_inv = scratch[2 * 16 * 16 + m * m:2 * 16 * 16 + 2 * m * m].reshape(m, m)
-    g_row = scratch[3 * 16 * 16:3 * 16 * 16 + m]  # a row of G
-    k_t = scratch[4 * 16 * 16:4 * 16 * 16 + m * n].reshape(m, n)  # K', rows along the state
-    nz = scratch[5 * 16 * 16:5 * 16 * 16 + m * (n + 1)].reshape(m, n + 1)
+    ut = shaped(scratch[:m * n], (m, n))
+    low = shaped(scratch[2 * 16 * 16:2 * 16 * 16 + m * m], (m, m))
+    low_inv = shaped(scratch[2 * 16 * 16 + m * m:2 * 16 * 16 + 2 * m * m], (m, m))
+    k_t = shaped(scratch[4 * 16 * 16:4 * 16 * 16 + m * n], (m, n))  # K', rows along the state
+    nz = shaped(scratch[5 * 16 * 16:5 * 16 * 16 + m * (n + 1)], (m, n + 1))
     # the non-zero entries of each row of H (the products below skip the others)
     nonzero_columns(nz, h_mat)
     # (P H')' = H P   (P symmetric)
-    mul_sparse_left(ut, h_mat, p_mat)
+    mul_nonzero_left(ut, h_mat, nz, p_mat)
     # S = H P H' + R
     mul_bt_nonzero_into(s_mat, ut, h_mat, nz)
     for r in range(m):
@@ -70,36 +69,14 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
         for r in range(m):
             acc += k_t[r, i] * y[r]
         x[i] += acc
-    # row by row (row i of M and G needs only row i of P, and H P is already taken):
-    # M = (I - K H) P = P - K (H P);  G = M H';
-    # P = M (I - K H)' + K R K' = M + (K R - M H') K'   (Joseph form)
-    # (zero entries of R, off its diagonal in both filters, skipped)
+    # P = P - K (H P): row i, columns j >= i, then mirrored
     for i in range(n):
-        for j in range(n):
-            m_row[j] = p_mat[i, j]
         for r in range(m):
             kir = k_t[r, i]
-            for j in range(n):
-                m_row[j] -= kir * ut[r, j]
-        for r in range(m):
-            # G[i, r] = sum_k M[i, k] H[r, k]   (over the non-zero H[r, k])
-            acc = 0.0
-            for t in range(int(nz[r, 0])):
-                k = int(nz[r, 1 + t])
-                acc += m_row[k] * h_mat[r, k]
-            g_row[r] = acc
-        for j in range(n):
-            p_mat[i, j] = m_row[j]
-        for r in range(m):
-            kr = -g_row[r]
-            for q in range(m):
-                r_qr = r_mat[q, r]
-                if r_qr != 0.0:
-                    kr += k_t[q, i] * r_qr
-            for j in range(n):
-                p_mat[i, j] += kr * k_t[r, j]
-    # made symmetric
-    symmetrize(p_mat)
+            for j in range(i, n):
+                p_mat[i, j] -= kir * ut[r, j]
+        for j in range(i):
+            p_mat[i, j] = p_mat[j, i]
     # K
     for i in range(n):
         for r in range(m):

@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike
 from fcu.estimation.ekf import ExtendedKalmanEstimator, ekf_tick
 from fcu.estimation.estimator import pwm_array
 from fcu.estimation.screening import MEAS_WIDTH
+from fcu.estimation.small_matrix import borrowed
 from fcu.estimation.state import FloatArray, GroupedSamples, StateEstimate
 from fcu.estimation.tskf import TwoStageKalmanFilter, tskf_tick
 from fcu.estimation.tskf_model import N_MOTORS
@@ -83,6 +84,14 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
         power, update rows), then :func:`~fcu.estimation.ekf.ekf_tick`'s (ground flag, last
         channel updated).
     """
+    # the arguments as views that hold no references: no reference counting in the tick
+    flat, u, out, t_gamma = borrowed(flat), borrowed(u), borrowed(out), borrowed(t_gamma)
+    t_work, t_scratch, t_model = borrowed(t_work), borrowed(t_scratch), borrowed(t_model)
+    t_tables, t_layout, t_gather = borrowed(t_tables), borrowed(t_layout), borrowed(t_gather)
+    t_excluded, e_work, e_s_stack = borrowed(t_excluded), borrowed(e_work), borrowed(e_s_stack)
+    e_scratch, e_constants, e_tables = (borrowed(e_scratch), borrowed(e_constants),
+                                        borrowed(e_tables))
+    e_layout, e_gather, e_excluded = borrowed(e_layout), borrowed(e_gather), borrowed(e_excluded)
     gamma = out[e_size + t_size:]
     gamma[:] = t_gamma
     t_on_ground, accel_power, m = tskf_tick(

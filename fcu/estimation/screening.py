@@ -13,6 +13,7 @@ from numba import njit
 from fcu.estimation.small_matrix import (
     mul_bt_sparse_into,
     mul_sparse_left,
+    shaped,
     spd_quadratic,
     sub_mul_vec_into,
 )
@@ -67,9 +68,9 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
     """:func:`screen_channel` written into ``nu`` and ``var`` (m,); returns the NIS
     (``scratch``: at least :data:`SCREEN_SCRATCH` entries)."""
     m, n = sel.shape
-    sp = scratch[:m * n].reshape(m, n)
-    s_mat = scratch[16 * 16:16 * 16 + m * m].reshape(m, m)
-    low = scratch[2 * 16 * 16:2 * 16 * 16 + m * m].reshape(m, m)
+    sp = shaped(scratch[:m * n], (m, n))
+    s_mat = shaped(scratch[16 * 16:16 * 16 + m * m], (m, m))
+    low = shaped(scratch[2 * 16 * 16:2 * 16 * 16 + m * m], (m, m))
     tmp = scratch[4 * 16 * 16:4 * 16 * 16 + m]
     # nu = z - S x   (zero entries of S skipped)
     sub_mul_vec_into(nu, z, sel, x)
@@ -129,8 +130,8 @@ def channel_tables(tables: FloatArray, layout: np.ndarray) -> tuple[FloatArray, 
     offset after them (where a filter's own tables follow)."""
     n_ch = layout.shape[0]
     n_sel = layout[n_ch - 1, ROW1] * STATE_DIM
-    sel_stack = tables[:n_sel].reshape(layout[n_ch - 1, ROW1], STATE_DIM)
-    noise = tables[n_sel:n_sel + 3 * n_ch].reshape(n_ch, 3)
+    sel_stack = shaped(tables[:n_sel], (layout[n_ch - 1, ROW1], STATE_DIM))
+    noise = shaped(tables[n_sel:n_sel + 3 * n_ch], (n_ch, 3))
     return sel_stack, noise, n_sel + 3 * n_ch
 
 

@@ -50,7 +50,11 @@ from fcu.estimation.estimator import (
     StateEstimate,
     TickEstimator,
 )
-from fcu.estimation.small_matrix import sub_mul_vec_into, transpose_into
+from fcu.estimation.small_matrix import (
+    shaped,
+    sub_mul_vec_into,
+    transpose_into,
+)
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.estimation.tskf_algebra import (
     PREDICT_SCRATCH,
@@ -193,24 +197,24 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
     on_ground, accel_power, m
         The ground flag; the innovation power; the rows of the update (0: none).
     """
-    a_d = model[_M_A:_M_A + 2 * N * N].reshape(2, N, N)
-    b_d = model[_M_B:_M_B + 2 * N * G].reshape(2, N, G)
-    g_d = model[_M_G:_M_G + 2 * N].reshape(2, N)
-    q_d = model[_M_Q:_M_Q + 2 * N * N].reshape(2, N, N)
+    a_d = shaped(model[_M_A:_M_A + 2 * N * N], (2, N, N))
+    b_d = shaped(model[_M_B:_M_B + 2 * N * G], (2, N, G))
+    g_d = shaped(model[_M_G:_M_G + 2 * N], (2, N))
+    q_d = shaped(model[_M_Q:_M_Q + 2 * N * N], (2, N, N))
     q_gamma = model[_M_Q_GAMMA]
     dt_s = model[_M_DT]
     ground = model[_M_GROUND:_M_GROUND + 3]
     sel_stack, noise, at = screening.channel_tables(tables, layout)
     rows = sel_stack.shape[0]
-    sel_a = tables[at:at + 2 * rows * N].reshape(2, rows, N)  # S A_c
+    sel_a = shaped(tables[at:at + 2 * rows * N], (2, rows, N))  # S A_c
     at += 2 * rows * N
-    sel_b = tables[at:at + 2 * rows * G].reshape(2, rows, G)  # S B_c
+    sel_b = shaped(tables[at:at + 2 * rows * G], (2, rows, G))  # S B_c
     at += 2 * rows * G
-    sel_g = tables[at:at + 2 * rows].reshape(2, rows)  # S g_c
+    sel_g = shaped(tables[at:at + 2 * rows], (2, rows))  # S g_c
     x_bar = work[_XB:_XB + N]
-    p_x = work[_PX:_PX + N * N].reshape(N, N)
-    p_gamma = work[_PG:_PG + G * G].reshape(G, G)
-    v = work[_V:_V + N * G].reshape(N, G)
+    p_x = shaped(work[_PX:_PX + N * N], (N, N))
+    p_gamma = shaped(work[_PG:_PG + G * G], (G, G))
+    v = shaped(work[_V:_V + N * G], (N, G))
     x_hat = scratch[_SC_X_HAT:_SC_X_HAT + N]
     sc_predict = scratch[_SC_PREDICT:_SC_PREDICT + PREDICT_SCRATCH]
     for _ in range(n_steps):
@@ -231,8 +235,8 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
     # V P^gamma V' + P^x (eq. 6.26); on the ground the accelerometer feels the ground
     prior = scratch[_SC_X_HAT:_SC_X_HAT + 2 * N]  # x_hat, then the diagonal (overwritten)
     tskf_output_into(prior, x_bar, p_x, gamma, p_gamma, v)
-    p_hat = scratch[_SC_P_HAT:_SC_P_HAT + N * N].reshape(N, N)
-    v_t = scratch[_SC_V_T:_SC_V_T + G * N].reshape(G, N)
+    p_hat = shaped(scratch[_SC_P_HAT:_SC_P_HAT + N * N], (N, N))
+    v_t = shaped(scratch[_SC_V_T:_SC_V_T + G * N], (G, N))
     transpose_into(v_t, v)
     for i in range(N):
         for g in range(G):
@@ -263,7 +267,7 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
                 accel_power += rate * (sq - accel_power)
     if m > 0:
         g = 1 if on_ground else 0
-        c_mat = scratch[_SC_C:_SC_C + m * N].reshape(m, N)
+        c_mat = shaped(scratch[_SC_C:_SC_C + m * N], (m, N))
         y = scratch[_SC_Y:_SC_Y + m]
         r_diag = scratch[_SC_R_DIAG:_SC_R_DIAG + m]
         yaw_row = -1
@@ -299,8 +303,8 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
             res[yaw_row] = (res[yaw_row] + math.pi) % (2.0 * math.pi) - math.pi
         # eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24
         tskf_update_into(c_mat, res, r_diag, x_bar, p_x, gamma, p_gamma, v,
-                         work[_RES_COV:_RES_COV + m * m].reshape(m, m), work[_INN:_INN + m],
-                         work[_INN_COV:_INN_COV + m * m].reshape(m, m),
+                         shaped(work[_RES_COV:_RES_COV + m * m], (m, m)), work[_INN:_INN + m],
+                         shaped(work[_INN_COV:_INN_COV + m * m], (m, m)),
                          scratch[_SC_UPDATE:_SC_UPDATE + TSKF_UPDATE_SCRATCH])
         x_bar[YAW_INDEX] = (x_bar[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
     # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal

@@ -21,6 +21,7 @@ from fcu.estimation.small_matrix import (
     mul_nonzero_left,
     mul_sparse_left,
     nonzero_columns,
+    shaped,
     spd_inverse,
     sub_mul_vec_into,
     symmetrize,
@@ -69,33 +70,33 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     """
     n, n_g = v.shape
     o = 0
-    ap = scratch[o:o + n * n].reshape(n, n)
+    ap = shaped(scratch[o:o + n * n], (n, n))
     o += n * n
-    ap_t = scratch[o:o + n * n].reshape(n, n)
+    ap_t = shaped(scratch[o:o + n * n], (n, n))
     o += n * n
-    w = scratch[o:o + n * n_g].reshape(n, n_g)
+    w = shaped(scratch[o:o + n * n_g], (n, n_g))
     o += n * n_g
-    wp = scratch[o:o + n * n_g].reshape(n, n_g)
+    wp = shaped(scratch[o:o + n * n_g], (n, n_g))
     o += n * n_g
-    v_pred = scratch[o:o + n * n_g].reshape(n, n_g)
+    v_pred = shaped(scratch[o:o + n * n_g], (n, n_g))
     o += n * n_g
-    vp = scratch[o:o + n * n_g].reshape(n, n_g)
+    vp = shaped(scratch[o:o + n * n_g], (n, n_g))
     o += n * n_g
-    p_gamma_pred = scratch[o:o + n_g * n_g].reshape(n_g, n_g)
+    p_gamma_pred = shaped(scratch[o:o + n_g * n_g], (n_g, n_g))
     o += n_g * n_g
-    pgp_inv = scratch[o:o + n_g * n_g].reshape(n_g, n_g)
+    pgp_inv = shaped(scratch[o:o + n_g * n_g], (n_g, n_g))
     o += n_g * n_g
-    low = scratch[o:o + 2 * n_g * n_g].reshape(2, n_g, n_g)
+    low = shaped(scratch[o:o + 2 * n_g * n_g], (2, n_g, n_g))
     o += 2 * n_g * n_g
     x_pred = scratch[o:o + n]
     o += n
-    w_t = scratch[o:o + n_g * n].reshape(n_g, n)  # W', V_{k+1|k}': rows along the state
+    w_t = shaped(scratch[o:o + n_g * n], (n_g, n))  # W', V_{k+1|k}': rows along the state
     o += n_g * n
-    v_pred_t = scratch[o:o + n_g * n].reshape(n_g, n)
+    v_pred_t = shaped(scratch[o:o + n_g * n], (n_g, n))
     o += n_g * n
     row = scratch[o:o + n]
     o += n
-    nz_a = scratch[o:o + n * (n + 1)].reshape(n, n + 1)
+    nz_a = shaped(scratch[o:o + n * (n + 1)], (n, n + 1))
     # the non-zero entries of A, listed once for its four products below
     nonzero_columns(nz_a, a)
     # W_k = A_k V_{k|k} + E_k,  E_k = -B_k diag(u_k)   (eq. 6.21, 6.6 discrete)
@@ -183,19 +184,19 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     m, n = c.shape
     n_g = gamma.shape[0]
     o = UPDATE_SCRATCH
-    r_mat = scratch[o:o + m * m].reshape(m, m)
+    r_mat = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
-    k_x = scratch[o:o + n * m].reshape(n, m)
+    k_x = shaped(scratch[o:o + n * m], (n, m))
     o += 16 * 16
-    h = scratch[o:o + m * n_g].reshape(m, n_g)
+    h = shaped(scratch[o:o + m * n_g], (m, n_g))
     o += 16 * n_g
-    hp = scratch[o:o + m * n_g].reshape(m, n_g)
+    hp = shaped(scratch[o:o + m * n_g], (m, n_g))
     o += 16 * n_g
-    k_g = scratch[o:o + n_g * m].reshape(n_g, m)
+    k_g = shaped(scratch[o:o + n_g * m], (n_g, m))
     o += 16 * n_g
-    s_inv = scratch[o:o + m * m].reshape(m, m)
+    s_inv = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
-    low = scratch[o:o + 2 * m * m].reshape(2, m, m)
+    low = shaped(scratch[o:o + 2 * m * m], (2, m, m))
     for i in range(m):
         for j in range(m):
             r_mat[i, j] = 0.0
