@@ -30,7 +30,7 @@ __all__ = ["add_mul_vec", "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into",
 
 
 @intrinsic
-def _c_order_view(typingctx, flat, shape):  # type: ignore[no-untyped-def]
+def _c_order_view(typingctx, flat, shape):
     """``flat`` (1D, C-contiguous) viewed with ``shape`` (a tuple of ints), C order, sharing
     its memory; the size is not checked (:func:`shaped` does).
 
@@ -43,7 +43,7 @@ def _c_order_view(typingctx, flat, shape):  # type: ignore[no-untyped-def]
     ndim = shape.count
     view_type = flat.copy(ndim=ndim, layout="C")
 
-    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+    def codegen(context, builder, signature, args):
         flat_value, shape_value = args
         src = make_array(signature.args[0])(context, builder, flat_value)
         view = make_array(view_type)(context, builder)
@@ -64,14 +64,13 @@ def _c_order_view(typingctx, flat, shape):  # type: ignore[no-untyped-def]
 
 
 @intrinsic
-def borrowed(typingctx, array):  # type: ignore[no-untyped-def]
-    """``array`` (C-contiguous) again, holding no reference to its memory, as the views of
-    :func:`shaped`: slices of it then cost no reference counting either. For a kernel's own
-    arguments, which outlive the call; never returned or kept."""
+def _unreferenced(typingctx, array):
+    """``array`` (C-contiguous) again, holding no reference to its memory
+    (:func:`borrowed`)."""
     if not (isinstance(array, types.Array) and array.layout == "C"):
         return None
 
-    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+    def codegen(context, builder, signature, args):
         src = make_array(array)(context, builder, args[0])
         view = make_array(array)(context, builder)
         populate_array(view, data=src.data, shape=src.shape, strides=src.strides,
@@ -79,6 +78,14 @@ def borrowed(typingctx, array):  # type: ignore[no-untyped-def]
         return view._getvalue()
 
     return array(array), codegen
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def borrowed(array: FloatArray) -> FloatArray:
+    """``array`` (C-contiguous) again, holding no reference to its memory, as the views of
+    :func:`shaped`: slices of it then cost no reference counting either. For a kernel's own
+    arguments, which outlive the call; never returned or kept."""
+    return _unreferenced(array)  # type: ignore[call-arg]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -92,7 +99,7 @@ def shaped(flat: FloatArray, shape: tuple[int, ...]) -> FloatArray:
         size *= dim
     if size != flat.size:
         raise ValueError("shaped: the shape does not match the size")
-    return _c_order_view(flat, shape)
+    return _c_order_view(flat, shape)  # type: ignore[call-arg]
 
 
 @njit(cache=True, error_model="numpy")
