@@ -5,8 +5,9 @@ that module's source file only. A kernel that calls kernels of *other* modules h
 compiled into its own, so after one of those modules changes (an edit, a ``git pull``) the
 cached caller would go on running the old callee: silently wrong numbers. A module whose
 kernels call other modules' kernels calls :func:`drop_stale_kernels` at import, before any of
-its kernels runs: when a module of its folder is newer than its oldest cached kernel, its
-cached kernels are deleted, and numba compiles them again (once) on first call.
+its kernels runs: when a module of its folder (or a module elsewhere it names) is newer than
+its oldest cached kernel, its cached kernels are deleted, and numba compiles them again
+(once) on first call.
 
 :func:`preload_blas_bindings`, called by a composition root before its first kernel runs
 (the world's constructor), readies the BLAS and LAPACK bindings numba links compiled code
@@ -25,10 +26,11 @@ __all__ = ["drop_stale_kernels", "preload_blas_bindings"]
 _BLAS_MODULES = ("scipy.linalg.cython_blas", "scipy.linalg.cython_lapack")
 
 
-def drop_stale_kernels(module_file: str) -> list[Path]:
+def drop_stale_kernels(module_file: str, *also: str) -> list[Path]:
     """Delete the cached kernels of the module at ``module_file`` when any ``.py`` file in
-    its folder is newer than the oldest of them; returns the files deleted (none when the
-    cache is fresh, absent or cannot be read)."""
+    its folder, or any of the files ``also`` (modules elsewhere whose kernels it compiles
+    in), is newer than the oldest of them; returns the files deleted (none when the cache is
+    fresh, absent or cannot be read)."""
     source = Path(module_file)
     cache = source.parent / "__pycache__"
     try:
@@ -37,7 +39,8 @@ def drop_stale_kernels(module_file: str) -> list[Path]:
         if not cached:
             return []
         oldest_s = min(p.stat().st_mtime for p in cached)
-        newest_source_s = max(p.stat().st_mtime for p in source.parent.glob("*.py"))
+        sources = [*source.parent.glob("*.py"), *map(Path, also)]
+        newest_source_s = max(p.stat().st_mtime for p in sources)
     except OSError:
         return []
     if newest_source_s <= oldest_s:

@@ -124,7 +124,13 @@ def allocate_tick(par: np.ndarray, e: np.ndarray, thrust_n: float, t_roll: float
 @njit(cache=True, error_model="numpy")
 def mix_tick(mixer: np.ndarray, e: np.ndarray, pwm: np.ndarray) -> np.ndarray:
     """Eq. 3.2 with the effectiveness: ``[U1, U2, U3, U4] = B diag(e) u`` (N, N*m), (4,)."""
-    return mixer @ (pwm * e)
+    wrench = np.empty(4)
+    for i in range(4):  # 4 x 4: plain loops, no BLAS call
+        acc = 0.0
+        for j in range(4):
+            acc += mixer[i, j] * (pwm[j] * e[j])
+        wrench[i] = acc
+    return wrench
 
 
 @dataclass(frozen=True, slots=True)

@@ -46,9 +46,12 @@ from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
 from fcu.control.position import PositionController, position_tick
 from fcu.control.registry import AttitudeLaw, ControlAllocator, DisturbanceObserver
 from fcu.control.scalar import py_max, py_min
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import borrowed, shaped
 
-drop_stale_kernels(__file__)  # control_tick compiles in the kernels of the parts' modules
+# control_tick compiles in the kernels of the parts' modules and of kernel_views
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 __all__ = ["ControlChain", "attitude_reference", "control_tick", "crash_measures"]
 
@@ -71,6 +74,15 @@ OUT_LEAN = 29  # rad, angle of the body z axis from the vertical
 OUT_ATT_ERROR = 30  # rad, larger of the roll and pitch errors against the reference
 OUT_COLLECTIVE = 31  # U1 as a fraction of full thrust
 OUT_SIZE = 32
+
+# control_tick's scratch: each part's output
+_S_POS = 0
+_S_REF = _S_POS + position_module.OUT_SIZE
+_S_TORQUE = _S_REF + reference_module.OUT_SIZE
+_S_D_HAT = _S_TORQUE + 3
+_S_REPORT = _S_D_HAT + 3
+_S_PWM = _S_REPORT + REPORT_SIZE
+_SCRATCH_SIZE = _S_PWM + 4
 
 _EULER = OUT_REF + reference_module.OUT_EULER
 _RATE = OUT_REF + reference_module.OUT_RATE
@@ -101,11 +113,10 @@ def crash_measures(euler_rad: np.ndarray, ref_euler_rad: np.ndarray, pos_ned: np
 INDEX_SIZE = 27
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _matrix(ws: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
-    """The (rows, cols) matrix stored row-major in ``ws`` from ``start`` (a contiguous copy,
-    as the BLAS products want)."""
-    return np.ascontiguousarray(ws[start:start + rows * cols]).reshape((rows, cols))
+    """The (rows, cols) matrix stored row-major in ``ws`` from ``start`` (a view)."""
+    return shaped(ws[start:start + rows * cols], (rows, cols))
 
 
 @njit(cache=True, error_model="numpy")
@@ -121,14 +132,24 @@ def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run:
     in place. ``out[OUT_D_HAT:OUT_D_HAT + 3]`` must hold the DOB estimate already unless
     ``dob_run`` (zeros without a DOB; the observer's own first step after a reset).
     """
+    # the arguments as views that hold no references: no reference counting in the tick
+    ws, idx, out, torque_applied = borrowed(ws), borrowed(idx), borrowed(out), borrowed(
+        torque_applied)
+    pos_ned, vel_ned, euler_rad = borrowed(pos_ned), borrowed(vel_ned), borrowed(euler_rad)
+    rate_frd, ref_pos, ref_vel = borrowed(rate_frd), borrowed(ref_pos), borrowed(ref_vel)
+    ref_acc = borrowed(ref_acc)
+    # the parts' outputs, in one scratch vector (owned here: not borrowed)
+    scratch = np.empty(_SCRATCH_SIZE)
+    pos_out = scratch[_S_POS:_S_POS + position_module.OUT_SIZE]
+    reference = scratch[_S_REF:_S_REF + reference_module.OUT_SIZE]
+    torque, d_hat = scratch[_S_TORQUE:_S_TORQUE + 3], scratch[_S_D_HAT:_S_D_HAT + 3]
+    report, pwm = scratch[_S_REPORT:_S_REPORT + REPORT_SIZE], scratch[_S_PWM:_S_PWM + 4]
     # position loop, eq. 5.1-5.4: U1, roll_d, pitch_d, mu
-    pos_out = np.empty(position_module.OUT_SIZE)
     position_tick(ws[idx[I_POS_PAR]:idx[I_POS_PAR] + position_module.PAR_SIZE],
                   ws[idx[I_POS_INTEGRAL]:idx[I_POS_INTEGRAL] + 3], pos_ned, vel_ned, ref_pos,
                   ref_vel, ref_acc, yaw_ref, pos_out)
     thrust_n = pos_out[position_module.OUT_THRUST]
     # the attitude reference: (roll_d, pitch_d, psi_d) through the second-order filter
-    reference = np.empty(reference_module.OUT_SIZE)
     reference_filter_tick(ws[idx[I_REF_PAR]:idx[I_REF_PAR] + reference_module.PAR_SIZE],
                           ws[idx[I_REF_STATE]:idx[I_REF_STATE] + reference_module.STATE_SIZE],
                           pos_out[position_module.OUT_ROLL],
@@ -137,7 +158,6 @@ def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run:
     ref_rate = reference[reference_module.OUT_RATE:reference_module.OUT_RATE + 3]
     ref_accel = reference[reference_module.OUT_ACC:reference_module.OUT_ACC + 3]
     # the attitude law (eq. 5.6 or 5.9) through the motor lead
-    torque = np.empty(3)
     law_par = ws[idx[I_LAW_PAR]:idx[I_LAW_PAR_END]]
     law_state = ws[idx[I_LAW_STATE]:idx[I_LAW_STATE_END]]
     lead_par = ws[idx[I_LEAD_PAR]:idx[I_LEAD_PAR] + LEAD_PAR_SIZE]
@@ -149,7 +169,6 @@ def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run:
         pd_tick(law_par, law_state, lead_par, lead_state, euler_rad, rate_frd, ref_euler,
                 ref_rate, ref_accel, torque)
     # the DOB (eq. 6.27-6.30) on the torque applied over the interval just ended
-    d_hat = np.empty(3)
     if dob_run:
         n_m, n_t = idx[I_N_XM], idx[I_N_XT]
         dob_tick(idx[I_DOB_KIND] == DOB_AB, _matrix(ws, idx[I_AM], n_m, n_m),
@@ -163,8 +182,6 @@ def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run:
         d_hat[:] = out[OUT_D_HAT:OUT_D_HAT + 3]
     # tau = tau_controller - d_hat, then the allocation (inverse of eq. 3.2) and eq. 3.2 back
     effectiveness = ws[idx[I_EFFECTIVENESS]:idx[I_EFFECTIVENESS] + 4]
-    report = np.empty(REPORT_SIZE)
-    pwm = np.empty(4)
     allocate_tick(ws[idx[I_ALLOC_PAR]:idx[I_ALLOC_PAR] + ALLOC_PAR_SIZE], effectiveness,
                   thrust_n, torque[0] - d_hat[0], torque[1] - d_hat[1], torque[2] - d_hat[2],
                   pwm, report)

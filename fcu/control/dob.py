@@ -97,22 +97,17 @@ def _block_system(systems: list[control.StateSpace]) -> control.StateSpace:
 
 
 @njit(cache=True, error_model="numpy")
-def dob_update(am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np.ndarray,
-               cm: np.ndarray, dm: np.ndarray, ct: np.ndarray, xm: np.ndarray,
-               xt: np.ndarray, prev_meas: np.ndarray, meas: np.ndarray,
-               tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One tick of both discrete DOB channels (all three axes).
-
-    ``x_y[k] = A_y x_y[k-1] + B_y y[k-1]``, ``x_tau[k] = A_tau x_tau[k-1] + B_tau tau[k-1]``,
-    ``d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]``; returns the two states and
-    ``d_hat`` (N*m, shape (3,)).
-    """
-    # x[k] = A x[k-1] + B u[k-1], for each channel
-    xm_next = am @ xm + bm @ prev_meas
-    xt_next = at @ xt + bt @ tau
-    # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]   (D_tau = 0)
-    d_hat = cm @ xm_next + dm @ meas + ct @ xt_next
-    return xm_next, xt_next, d_hat
+def _mul_add_into(out: np.ndarray, a: np.ndarray, x: np.ndarray, b: np.ndarray,
+                  u: np.ndarray) -> None:
+    """``out = a x + b u`` (the observers' matrices are a few rows: plain loops, no BLAS
+    call; ``out`` must not share memory with ``x`` or ``u``)."""
+    for i in range(a.shape[0]):
+        acc = 0.0
+        for j in range(a.shape[1]):
+            acc += a[i, j] * x[j]
+        for j in range(b.shape[1]):
+            acc += b[i, j] * u[j]
+        out[i] = acc
 
 
 @njit(cache=True, error_model="numpy")
@@ -120,24 +115,38 @@ def dob_tick(abdob: bool, am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np
              cm: np.ndarray, dm: np.ndarray, ct: np.ndarray, xm: np.ndarray, xt: np.ndarray,
              prev_meas: np.ndarray, euler_rad: np.ndarray, rate_frd: np.ndarray,
              tau: np.ndarray, d_hat: np.ndarray) -> None:
-    """One tick of a started observer (:meth:`_DiscreteDob.step` after the first): writes
-    ``d_hat`` (N*m, (3,)) and advances ``xm``, ``xt`` and ``prev_meas`` in place.
+    """One tick of a started observer (:meth:`_DiscreteDob.step` after the first), both
+    discrete channels, all three axes: writes ``d_hat`` (N*m, (3,)) and advances ``xm``,
+    ``xt`` and ``prev_meas`` in place.
 
-    The measurement is the body rate (VbDOB) or, with ``abdob``, the Euler angles unwrapped
-    against the previous measurement (``prev_meas``, which then holds the unwrapped angles).
+    ``x_y[k] = A_y x_y[k-1] + B_y y[k-1]``, ``x_tau[k] = A_tau x_tau[k-1] + B_tau tau[k-1]``,
+    ``d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]`` (``D_tau = 0``). The measurement
+    ``y`` is the body rate (VbDOB) or, with ``abdob``, the Euler angles unwrapped against
+    the previous measurement (``prev_meas``, which then holds the unwrapped angles).
     """
-    y = np.empty(3)
+    n_m, n_t = xm.shape[0], xt.shape[0]
+    work = np.empty(n_m + n_t + 6)
+    xm_next, xt_next = work[:n_m], work[n_m:n_m + n_t]
+    y, d_y = work[n_m + n_t:n_m + n_t + 3], work[n_m + n_t + 3:]
     for i in range(3):
         if abdob:  # unwrap: u + wrap(e - wrap(u)), so a pass through +/-pi is no 2 pi jump
             u = prev_meas[i]
             y[i] = u + wrap_pi(euler_rad[i] - wrap_pi(u))
         else:
             y[i] = rate_frd[i]
-    xm_next, xt_next, d = dob_update(am, bm, at, bt, cm, dm, ct, xm, xt, prev_meas, y, tau)
+    # x[k] = A x[k-1] + B u[k-1], for each channel
+    _mul_add_into(xm_next, am, xm, bm, prev_meas)
+    _mul_add_into(xt_next, at, xt, bt, tau)
+    # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]
+    _mul_add_into(d_y, cm, xm_next, dm, y)
+    for i in range(3):
+        acc = d_y[i]
+        for j in range(n_t):
+            acc += ct[i, j] * xt_next[j]
+        d_hat[i] = acc
     xm[:] = xm_next
     xt[:] = xt_next
     prev_meas[:] = y
-    d_hat[:] = d
 
 
 _Channel = tuple["control.TransferFunction", "control.TransferFunction"]
@@ -273,7 +282,7 @@ class _DiscreteDob:
             return self.start(euler, rate)
         tau = np.asarray(torque_applied_nm, dtype=float).reshape(3)
         d_hat = np.empty(3)
-        # x[k] = A x[k-1] + B u[k-1] for each channel; d_hat[k] (dob_tick, dob_update)
+        # x[k] = A x[k-1] + B u[k-1] for each channel; d_hat[k] (dob_tick)
         dob_tick(self.kind == "abdob", self._k_am, self._k_bm, self._k_at, self._k_bt,
                  self._k_cm, self._k_dm, self._k_ct, self._xm, self._xt, self._prev_meas,
                  euler, rate, tau, d_hat)

@@ -51,15 +51,16 @@ from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
     mul_nonzero_left,
     nonzero_columns,
-    shaped,
     transpose_into,
 )
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import shaped
 
 # ekf_tick compiles in the kernels of ekf_model, screening, kalman_update and small_matrix
-drop_stale_kernels(__file__)
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view is asked for
     from fcu.estimation.ekf_filterpy import QuadrotorEKF

@@ -16,13 +16,15 @@ from fcu.estimation.small_matrix import (
     mul_bt_nonzero_into,
     mul_nonzero_left,
     nonzero_columns,
-    shaped,
     spd_inverse,
 )
 from fcu.estimation.state import FloatArray
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import shaped
 
-drop_stale_kernels(__file__)  # kalman_update_into compiles in the kernels of small_matrix
+# kalman_update_into compiles in the kernels of small_matrix and kernel_views
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 __all__ = ["UPDATE_SCRATCH", "kalman_update_into"]
 

@@ -21,14 +21,15 @@ from numpy.typing import ArrayLike
 from fcu.estimation.ekf import ExtendedKalmanEstimator, ekf_tick
 from fcu.estimation.estimator import pwm_array
 from fcu.estimation.screening import MEAS_WIDTH
-from fcu.estimation.small_matrix import borrowed
 from fcu.estimation.state import FloatArray, GroupedSamples, StateEstimate
 from fcu.estimation.tskf import TwoStageKalmanFilter, tskf_tick
 from fcu.estimation.tskf_model import N_MOTORS
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import borrowed
 
 # pair_tick compiles in the kernels of ekf, tskf and the modules they call
-drop_stale_kernels(__file__)
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 
 @njit(cache=True, error_model="numpy")

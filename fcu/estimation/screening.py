@@ -13,14 +13,16 @@ from numba import njit
 from fcu.estimation.small_matrix import (
     mul_bt_sparse_into,
     mul_sparse_left,
-    shaped,
     spd_quadratic,
     sub_mul_vec_into,
 )
 from fcu.estimation.state import STATE_DIM, Z_INDEX, FloatArray
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import shaped
 
-drop_stale_kernels(__file__)  # screen_channel compiles in the kernels of small_matrix
+# screen_channel compiles in the kernels of small_matrix and kernel_views
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 ChannelStatus = str  # "applied" | "rejected" | "excluded" | "skipped"
 

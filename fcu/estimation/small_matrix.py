@@ -5,101 +5,20 @@ pattern (the EKF's Jacobian and its series, the TSKF's discrete model, the measu
 At that size a BLAS call costs more in its set-up than in its arithmetic, so these kernels
 work in place on preallocated buffers, skip zero entries of the left factor, and run their
 inner loops along rows (``out[i, :] += a[i, k] b[k, :]``), which the compiler vectorises.
-
-The buffers are carved out of one flat workspace per filter; :func:`shaped` views a stretch
-of it as a matrix or a stack of matrices, as ``reshape`` does but without numba's general
-reshape call (which checks every layout at run time: about 20 ns a view, and a tick takes
-over a hundred of them).
 """
 
 from __future__ import annotations
 
 import math
 
-from numba import njit, types
-from numba.core import cgutils
-from numba.extending import intrinsic
-from numba.np.arrayobj import make_array, populate_array
+from numba import njit
 
 from fcu.estimation.state import FloatArray
 
 __all__ = ["add_mul_vec", "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into",
            "mul_bt_sparse_into", "mul_into", "mul_nonzero_left", "mul_sparse_left",
-           "borrowed", "nonzero_columns", "shaped",
+           "nonzero_columns",
            "spd_inverse", "spd_quadratic", "sub_mul_vec_into", "symmetrize", "transpose_into"]
-
-
-@intrinsic
-def _c_order_view(typingctx, flat, shape):
-    """``flat`` (1D, C-contiguous) viewed with ``shape`` (a tuple of ints), C order, sharing
-    its memory; the size is not checked (:func:`shaped` does).
-
-    The view holds no reference to ``flat``'s memory (as ``numba.carray``), so making and
-    dropping it costs no reference counting: it must not outlive ``flat``, which the
-    kernels here guarantee by using their views only within the call they are made in."""
-    if not (isinstance(flat, types.Array) and flat.ndim == 1 and flat.layout == "C"
-            and isinstance(shape, types.UniTuple) and isinstance(shape.dtype, types.Integer)):
-        return None
-    ndim = shape.count
-    view_type = flat.copy(ndim=ndim, layout="C")
-
-    def codegen(context, builder, signature, args):
-        flat_value, shape_value = args
-        src = make_array(signature.args[0])(context, builder, flat_value)
-        view = make_array(view_type)(context, builder)
-        dims = [context.cast(builder, builder.extract_value(shape_value, i), shape.dtype,
-                             types.intp) for i in range(ndim)]
-        itemsize = context.get_constant(
-            types.intp, context.get_abi_sizeof(context.get_data_type(flat.dtype)))
-        # C order: the last axis steps one item, each axis before it a whole row of the next
-        strides = [itemsize]
-        for dim in reversed(dims[1:]):
-            strides.insert(0, builder.mul(strides[0], dim))
-        populate_array(view, data=src.data, shape=cgutils.pack_array(builder, dims),
-                       strides=cgutils.pack_array(builder, strides), itemsize=itemsize,
-                       meminfo=None, parent=None)
-        return view._getvalue()
-
-    return view_type(flat, shape), codegen
-
-
-@intrinsic
-def _unreferenced(typingctx, array):
-    """``array`` (C-contiguous) again, holding no reference to its memory
-    (:func:`borrowed`)."""
-    if not (isinstance(array, types.Array) and array.layout == "C"):
-        return None
-
-    def codegen(context, builder, signature, args):
-        src = make_array(array)(context, builder, args[0])
-        view = make_array(array)(context, builder)
-        populate_array(view, data=src.data, shape=src.shape, strides=src.strides,
-                       itemsize=src.itemsize, meminfo=None, parent=None)
-        return view._getvalue()
-
-    return array(array), codegen
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def borrowed(array: FloatArray) -> FloatArray:
-    """``array`` (C-contiguous) again, holding no reference to its memory, as the views of
-    :func:`shaped`: slices of it then cost no reference counting either. For a kernel's own
-    arguments, which outlive the call; never returned or kept."""
-    return _unreferenced(array)  # type: ignore[call-arg]
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def shaped(flat: FloatArray, shape: tuple[int, ...]) -> FloatArray:
-    """``flat.reshape(shape)`` for a C-contiguous 1D ``flat`` of exactly that many entries
-    (ValueError otherwise): a view in C order, without numba's general reshape call and
-    without a reference to ``flat``'s memory, so valid only while ``flat`` is (a kernel's
-    view of its own arguments, never returned or kept)."""
-    size = 1
-    for dim in shape:
-        size *= dim
-    if size != flat.size:
-        raise ValueError("shaped: the shape does not match the size")
-    return _c_order_view(flat, shape)  # type: ignore[call-arg]
 
 
 @njit(cache=True, error_model="numpy")

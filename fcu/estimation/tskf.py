@@ -50,11 +50,7 @@ from fcu.estimation.estimator import (
     StateEstimate,
     TickEstimator,
 )
-from fcu.estimation.small_matrix import (
-    shaped,
-    sub_mul_vec_into,
-    transpose_into,
-)
+from fcu.estimation.small_matrix import sub_mul_vec_into, transpose_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.estimation.tskf_algebra import (
     PREDICT_SCRATCH,
@@ -72,10 +68,12 @@ from fcu.estimation.tskf_model import (
 )
 from fcu.floats import clip
 from fcu.model import VehicleModel
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import shaped
 
 # tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
-drop_stale_kernels(__file__)
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 
 class _ChannelSet(ChannelSet):

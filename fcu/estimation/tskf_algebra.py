@@ -21,16 +21,18 @@ from fcu.estimation.small_matrix import (
     mul_nonzero_left,
     mul_sparse_left,
     nonzero_columns,
-    shaped,
     spd_inverse,
     sub_mul_vec_into,
     symmetrize,
     transpose_into,
 )
 from fcu.estimation.state import FloatArray
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import shaped
 
-drop_stale_kernels(__file__)  # compiles in the kernels of kalman_update and small_matrix
+# compiles in the kernels of kalman_update and small_matrix and kernel_views
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output_into",
            "tskf_predict_into", "tskf_update_into"]

@@ -34,6 +34,20 @@ def test_a_newer_sibling_drops_only_the_callers_kernels(tmp_path: Path) -> None:
     assert not index.exists() and not data.exists() and other.exists()
 
 
+def test_a_newer_module_named_from_elsewhere_drops_the_callers_kernels(
+        tmp_path: Path) -> None:
+    pkg, (index, data, other) = _package(tmp_path)
+    shared = tmp_path / "other" / "shared.py"  # another folder's module it compiles in
+    shared.parent.mkdir()
+    shared.write_text("")
+    for f in (pkg / "caller.py", pkg / "callee.py", index, data, other):
+        _age(f, 1000.0)
+    _age(shared, 2000.0)
+    assert drop_stale_kernels(str(pkg / "caller.py")) == []  # not named: not looked at
+    deleted = drop_stale_kernels(str(pkg / "caller.py"), str(shared))
+    assert sorted(deleted) == sorted([index, data])
+
+
 def test_a_fresh_cache_is_kept(tmp_path: Path) -> None:
     pkg, files = _package(tmp_path)
     for f in (pkg / "caller.py", pkg / "callee.py"):

@@ -3,14 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
-from numba import njit
 
 from fcu.estimation.ekf import EkfProcessNoise
 from fcu.estimation.ekf_model import model_jacobian, pack_params
 from fcu.estimation.small_matrix import (
     add_mul_vec,
-    borrowed,
     mul_at_into,
     mul_at_t_into,
     mul_bt_nonzero_into,
@@ -19,7 +16,6 @@ from fcu.estimation.small_matrix import (
     mul_nonzero_left,
     mul_sparse_left,
     nonzero_columns,
-    shaped,
     spd_inverse,
     spd_quadratic,
     sub_mul_vec_into,
@@ -145,33 +141,6 @@ def test_transposed_product_is_the_product_transposed_to_the_bit() -> None:
         out = np.full((w, n), np.nan)
         mul_at_t_into(out, a, b)
         np.testing.assert_array_equal(out, ref.T)
-
-
-@njit(cache=False)
-def _views(flat: np.ndarray, rows: int, cols: int) -> tuple[np.ndarray, np.ndarray, float]:
-    """A matrix and a stack of two matrices out of ``flat`` (written through), and the sum
-    of a borrowed copy's slice."""
-    matrix = shaped(flat[1:1 + rows * cols], (rows, cols))
-    matrix[rows - 1, cols - 1] = -1.0
-    stack = shaped(flat[:2 * rows * cols], (2, rows, cols))
-    return matrix.copy(), stack.copy(), borrowed(flat)[2:5].sum()
-
-
-def test_shaped_views_are_reshapes_sharing_memory() -> None:
-    flat = np.arange(40.0)
-    matrix, stack, part = _views(flat, 3, 4)
-    # a write through the view lands in flat, C order: row 2, column 3 of the block at 1
-    assert flat[1 + 2 * 4 + 3] == -1.0
-    expected = np.arange(40.0)
-    expected[12] = -1.0
-    np.testing.assert_array_equal(matrix, expected[1:13].reshape(3, 4))
-    np.testing.assert_array_equal(stack, expected[:24].reshape(2, 3, 4))
-    assert part == 2.0 + 3.0 + 4.0
-
-
-def test_a_shape_that_does_not_fit_is_refused() -> None:
-    with pytest.raises(ValueError, match="shape does not match"):
-        _views(np.zeros(10), 3, 4)
 
 
 def test_the_update_keeps_the_covariance_symmetric_and_positive() -> None:
