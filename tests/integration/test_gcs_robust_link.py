@@ -16,10 +16,14 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
-from flown import metrics
+from flown import flight
 from lossy_proxy import LossyProxy
 from vehicle_harness import ROOT, VehicleProcess, free_port
+
+from flightdata.metrics import tracking_errors
+from gcs.analysis import replay_tlog
 
 LOSS = 0.30  # each way
 FLIGHT_WALL_S = 300.0  # s: a ~60 s mission at speed-up 10 is ~2 min with set-up; loaded CI
@@ -57,17 +61,35 @@ def test_the_mission_is_flown_through_a_link_losing_30_percent_each_way(
         assert direction.loss == pytest.approx(LOSS, abs=5 * math.sqrt(LOSS * (1 - LOSS) / n))
     data = json.loads(js.read_text())
     assert data["result"] == "ok" and not data["crashed"]
-    true_s = metrics("baseline", seed)["flight_s"]  # the headless runner, same seed
+    runner = flight("baseline", seed)  # the headless runner, same seed
+    true_s = runner.metrics["flight_s"]
     assert true_s > 50.0
     # within 2 %: the bridged stretches around take-off and touchdown are a few ticks
     assert data["flight_s"] == pytest.approx(true_s, rel=0.02)
-    # the errors are taken over the samples that all arrived: still the runner's errors, to
-    # within the two outcomes seen on a fast machine for seed 2 (x, y at 0.98, 1.04 of the
-    # runner's in most runs, 1.15, 1.36 in some: a timing-dependent difference of the flown
-    # trajectory, not yet explained; the flight time agrees to 0.2 % in both)
-    headless = metrics("baseline", seed)
+    # the vehicle flew the runner's trajectory: every SIM_STATE that arrived carries the
+    # runner's true attitude at its tick (to float32), but for the few the reader dates a
+    # tick early (that tick's time-stamped messages all lost); a vehicle whose timeline
+    # depended on the link (a command a tick late, a different noise stream) fails here
+    series = replay_tlog(tlog).series()
+    log = runner.log
+    rate_hz = runner.scenario.autopilot.loop_rate_hz
+    row = np.rint(series.time_s * rate_hz).astype(int) - 1  # the log's rows: ticks 1, 2...
+    known = (row >= 0) & (row < len(log.time_s))
+    assert np.allclose(log.time_s[row[known]], series.time_s[known], rtol=0, atol=1e-6)
+    same = np.abs(series.euler_rad[known] - log.euler_rad[row[known]]).max(axis=1) < 1e-6
+    assert np.count_nonzero(known) > 3000 and np.mean(same) > 0.98, np.mean(same)
+    # the errors are taken over the random subset of ticks whose truth and references all
+    # arrived (which ticks depends on how the seeded drops fall on the traffic, so on timing:
+    # 0.95-1.03 (x), 0.97-1.10 (y) of the runner's for seed 2): over those same ticks they are
+    # the runner's, up to the truth's horizontal anchor (velocity integrated and anchored to
+    # the degE7 fixes: a fraction of a millimetre, +3 to +5 % in y for seed 2)
+    headless = runner.metrics
+    on = row[series.flying]
+    same_ticks = tracking_errors(log.ref_pos_ned[on], log.pos_ned[on], log.ref_euler_rad[on],
+                                 log.euler_rad[on])
     for axis in ("x", "y", "z"):
-        assert data["rms"][axis] == pytest.approx(headless["rms"][axis], rel=0.5), axis
+        assert data["rms"][axis] == pytest.approx(same_ticks[axis].rms, rel=0.07), axis
+        assert data["rms"][axis] == pytest.approx(headless["rms"][axis], rel=0.15), axis
 
 
 def test_the_ground_station_waits_for_a_vehicle_started_later(tmp_path: Path) -> None:
