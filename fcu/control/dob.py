@@ -125,9 +125,8 @@ def dob_tick(abdob: bool, am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np
     the previous measurement (``prev_meas``, which then holds the unwrapped angles).
     """
     n_m, n_t = xm.shape[0], xt.shape[0]
-    work = np.empty(n_m + n_t + 6)
-    xm_next, xt_next = work[:n_m], work[n_m:n_m + n_t]
-    y, d_y = work[n_m + n_t:n_m + n_t + 3], work[n_m + n_t + 3:]
+    work = np.empty(n_m + n_t + 3)
+    xm_next, xt_next, y = work[:n_m], work[n_m:n_m + n_t], work[n_m + n_t:]
     for i in range(3):
         if abdob:  # unwrap: u + wrap(e - wrap(u)), so a pass through +/-pi is no 2 pi jump
             u = prev_meas[i]
@@ -138,12 +137,10 @@ def dob_tick(abdob: bool, am: np.ndarray, bm: np.ndarray, at: np.ndarray, bt: np
     _mul_add_into(xm_next, am, xm, bm, prev_meas)
     _mul_add_into(xt_next, at, xt, bt, tau)
     # d_hat[k] = C_y x_y[k] + D_y y[k] + C_tau x_tau[k]
-    _mul_add_into(d_y, cm, xm_next, dm, y)
+    _mul_add_into(d_hat, cm, xm_next, dm, y)
     for i in range(3):
-        acc = d_y[i]
         for j in range(n_t):
-            acc += ct[i, j] * xt_next[j]
-        d_hat[i] = acc
+            d_hat[i] += ct[i, j] * xt_next[j]
     xm[:] = xm_next
     xt[:] = xt_next
     prev_meas[:] = y

@@ -59,7 +59,8 @@ from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
 from flightdata.kernel_views import shaped
 
-# ekf_tick compiles in the kernels of ekf_model, screening, kalman_update and small_matrix
+# ekf_tick compiles in the kernels of ekf_model, screening, kalman_update, small_matrix and
+# kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
 
 if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view is asked for

@@ -28,7 +28,7 @@ drop_stale_kernels(__file__, kernel_views.__file__)
 
 __all__ = ["UPDATE_SCRATCH", "kalman_update_into"]
 
-UPDATE_SCRATCH = 5 * 16 * 16 + 16 * 17
+UPDATE_SCRATCH = 4 * 16 * 16 + 16 * 17
 """Size of the scratch :func:`kalman_update_into` works in (n, m <= 16)."""
 
 
@@ -48,10 +48,10 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     """
     n, m = p_mat.shape[0], y.shape[0]
     ut = shaped(scratch[:m * n], (m, n))
-    low = shaped(scratch[2 * 16 * 16:2 * 16 * 16 + m * m], (m, m))
-    low_inv = shaped(scratch[2 * 16 * 16 + m * m:2 * 16 * 16 + 2 * m * m], (m, m))
-    k_t = shaped(scratch[4 * 16 * 16:4 * 16 * 16 + m * n], (m, n))  # K', rows along the state
-    nz = shaped(scratch[5 * 16 * 16:5 * 16 * 16 + m * (n + 1)], (m, n + 1))
+    low = shaped(scratch[16 * 16:16 * 16 + m * m], (m, m))
+    low_inv = shaped(scratch[16 * 16 + m * m:16 * 16 + 2 * m * m], (m, m))
+    k_t = shaped(scratch[3 * 16 * 16:3 * 16 * 16 + m * n], (m, n))  # K', rows along the state
+    nz = shaped(scratch[4 * 16 * 16:4 * 16 * 16 + m * (n + 1)], (m, n + 1))
     # the non-zero entries of each row of H (the products below skip the others)
     nonzero_columns(nz, h_mat)
     # (P H')' = H P   (P symmetric)
