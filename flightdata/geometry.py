@@ -22,6 +22,7 @@ __all__ = [
     "body_rates_from_euler_rates",
     "euler_from_quat",
     "euler_from_wxyz",
+    "eulers_from_quats",
     "quat_from_euler",
     "quats_from_euler",
     "wrap_pi",
@@ -71,6 +72,28 @@ def euler_from_wxyz(w: float, x: float, y: float, z: float) -> tuple[float, floa
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
     return roll, pitch, yaw
+
+
+def eulers_from_quats(quats_wxyz: npt.ArrayLike) -> np.ndarray:
+    """:func:`euler_from_wxyz` of each row of an (n, 4) array of quaternions [w, x, y, z]:
+    roll, pitch, yaw, rad, shape (n, 3) (the same formulas, gimbal lock included; equal to
+    within a unit or two in the last place, numpy's and math's libraries differing)."""
+    q = np.asarray(quats_wxyz, dtype=float).reshape(-1, 4)
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    # sin(theta) = -R[2, 0]; clipped against round-off beyond +-1 at the poles
+    s = 2.0 * (w * y - z * x)
+    pitch = np.arcsin(np.clip(s, -1.0, 1.0))
+    # roll = atan2(R[2, 1], R[2, 2]), yaw = atan2(R[1, 0], R[0, 0])
+    roll = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    lock = np.abs(s) > 1.0 - 1e-15
+    if lock.any():  # gimbal lock: roll 0, yaw from q = (c cos(psi/2), .., .., c sin(psi/2))
+        yaw_lock = 2.0 * np.arctan2(z[lock], w[lock])
+        yaw_lock = np.where(yaw_lock > np.pi, yaw_lock - 2.0 * np.pi,
+                            np.where(yaw_lock <= -np.pi, yaw_lock + 2.0 * np.pi, yaw_lock))
+        roll[lock] = 0.0
+        yaw[lock] = yaw_lock
+    return np.column_stack((roll, pitch, yaw))
 
 
 def quat_from_euler(euler_rad: Sequence[float] | np.ndarray) -> np.ndarray:

@@ -121,9 +121,12 @@ def mission_area(mission: Sequence[MissionItem], home_ned: Vector = (0.0, 0.0, 0
     return area
 
 
-def tilt_deg(euler_rad: Vector) -> float:
-    """Angle between the body z axis and the vertical, deg: acos(cos(roll) cos(pitch))."""
-    c = math.cos(float(euler_rad[0])) * math.cos(float(euler_rad[1]))
+def tilt_deg(quat_wxyz: Vector) -> float:
+    """Angle between the body z axis and the vertical, deg, of the attitude ``quat_wxyz``
+    (unit quaternion [w, x, y, z]): acos(R[2, 2]), R[2, 2] = cos(roll) cos(pitch)
+    = 1 - 2 (x^2 + y^2)."""
+    x, y = float(quat_wxyz[1]), float(quat_wxyz[2])
+    c = 1.0 - 2.0 * (x * x + y * y)
     return math.degrees(math.acos(max(-1.0, min(1.0, c))))
 
 
@@ -154,16 +157,17 @@ class OutcomeJudge:
         self._flying = False
         self._flew = False
         self._was_on_ground = True
-        self._last_air_roll_pitch = (0.0, 0.0)  # rad, the attitude last seen in the air
+        self._last_air_quat: Vector = (1.0, 0.0, 0.0, 0.0)  # the attitude last seen in the air
         self._contact_speeds: list[float] = []
         self._max_contact_tilt_deg = 0.0
         self._tilted_since_s: float | None = None
         self._last_touchdown_s: float | None = None
         self._max_outside_m = 0.0
 
-    def observe(self, time_s: float, pos_ned: Vector, euler_rad: Vector,
+    def observe(self, time_s: float, pos_ned: Vector, quat_wxyz: Vector,
                 on_ground: bool, touchdowns: Sequence[tuple[float, float]], armed: bool) -> None:
-        """One tick of truth: time (s), position (m, NED), attitude (rad), ground contact,
+        """One tick of truth: time (s), position (m, NED), attitude (unit quaternion
+        [w, x, y, z], body FRD to NED), ground contact,
         the touchdowns of the tick as (time s, speed m/s), and whether the autopilot is
         armed.
 
@@ -176,7 +180,7 @@ class OutcomeJudge:
                 if self._flying:
                     self._touchdown(t_contact, speed)
         if not on_ground:
-            self._last_air_roll_pitch = (euler_rad[0], euler_rad[1])
+            self._last_air_quat = quat_wxyz
             if not self._flying and self.outcome is None:
                 self._start_flight()
             if self._flying:
@@ -185,7 +189,7 @@ class OutcomeJudge:
                     self._check_distance(time_s, float(x), float(y), float(z))
         elif self._flying:
             if self._flying:
-                self._check_tilted_contact(time_s, tilt_deg(euler_rad))
+                self._check_tilted_contact(time_s, tilt_deg(quat_wxyz))
             if self._flying and not armed:
                 self._decide("landed", time_s if self._last_touchdown_s is None
                              else self._last_touchdown_s, "touchdown")
@@ -226,7 +230,7 @@ class OutcomeJudge:
 
     def _touchdown(self, time_s: float, speed_m_s: float) -> None:
         speed = float(speed_m_s)
-        tilt = tilt_deg(self._last_air_roll_pitch)  # just before contact
+        tilt = tilt_deg(self._last_air_quat)  # just before contact
         self._contact_speeds.append(speed)
         self._max_contact_tilt_deg = max(self._max_contact_tilt_deg, tilt)
         self._last_touchdown_s = time_s

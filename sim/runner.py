@@ -25,7 +25,7 @@ import numpy as np
 
 from fcu.autopilot import Autopilot
 from fcu.navigation.navigator import LandedState
-from flightdata.geometry import euler_from_wxyz
+from flightdata.geometry import eulers_from_quats
 from flightdata.metrics import detection_rows, series_metrics
 from flightdata.recording import LiveRecorder, RecordingConfig, open_stream
 from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord
@@ -58,25 +58,31 @@ class FlightResult:
     interrupted: bool = False  # ended early by Ctrl-C (``fly(..., interruptible=True)``)
 
 
-# the columns of a TickLog row: name, first column, width
-_COLUMNS = (("t", 0, 1), ("pos", 1, 3), ("euler", 4, 3), ("est_pos", 7, 3), ("pwm", 10, 4),
-            ("loe_est", 14, 4), ("loe_injected", 18, 4), ("wind", 22, 3), ("ref_pos", 25, 3),
-            ("ref_euler", 28, 3))
-_WIDTH = 31
+# the columns of a TickLog row: name, first column, width. The attitude is stored as the
+# plant's quaternion (w, x, y, z) and turned into Euler angles for the whole log at once
+# (series); "flying" and "free_flight" are 1.0 or 0.0; a tick not flying leaves the
+# reference columns for series to fill with the truth.
+_COLUMNS = (("t", 0, 1), ("pos", 1, 3), ("quat", 4, 4), ("est_pos", 8, 3), ("pwm", 11, 4),
+            ("loe_est", 15, 4), ("loe_injected", 19, 4), ("wind", 23, 3), ("ref_pos", 26, 3),
+            ("ref_euler", 29, 3), ("flying", 32, 1), ("free_flight", 33, 1),
+            ("euler", 34, 3))
+_WIDTH = 37  # the row appended per tick: the first 34 columns (the Euler angles: series)
+_NOT_FLYING = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # ref_pos, ref_euler, the two flags
 _CHUNK_TICKS = 6000  # rows added when the log is full (60 s at 100 Hz)
-# a row's 31 floats written straight into the table's buffer (float64, native order, as
+# a row's floats written straight into the table's buffer (float64, native order, as
 # numpy stores them): a third of the cost of assigning a list to a row of the array
-_PACK_ROW = struct.Struct(f"{_WIDTH}d").pack_into
+_PACK_ROW = struct.Struct(f"{_WIDTH - 3}d").pack_into
 _ROW_BYTES = _WIDTH * 8
 
 
 class TickLog:
     """Preallocated per-tick storage of a headless flight (the runner's and the recorder's).
 
-    One float table, a row per tick, written with one assignment; its columns are the
-    attributes ``t`` (s), ``pos``, ``euler``, ``est_pos``, ``pwm``, ``loe_est``,
-    ``loe_injected``, ``wind``, ``ref_pos`` and ``ref_euler`` (views); ``flying`` and
-    ``free_flight`` are bool columns. Full, it grows by a chunk of rows.
+    One float table, a row per tick, written with one call; its columns are the attributes
+    ``t`` (s), ``pos``, ``quat`` (true attitude, [w, x, y, z]), ``est_pos``, ``pwm``,
+    ``loe_est``, ``loe_injected``, ``wind``, ``ref_pos``, ``ref_euler``, ``flying`` and
+    ``free_flight`` (views; the flags 1.0 or 0.0), and ``euler`` (roll, pitch, yaw, rad, of
+    the rows :meth:`series` has seen). Full, it grows by a chunk of rows.
 
     Parameters
     ----------
@@ -88,7 +94,7 @@ class TickLog:
 
     t: np.ndarray
     pos: np.ndarray
-    euler: np.ndarray
+    quat: np.ndarray
     est_pos: np.ndarray
     pwm: np.ndarray
     loe_est: np.ndarray
@@ -96,13 +102,15 @@ class TickLog:
     wind: np.ndarray
     ref_pos: np.ndarray
     ref_euler: np.ndarray
+    flying: np.ndarray
+    free_flight: np.ndarray
+    euler: np.ndarray
 
     def __init__(self, capacity: int, pwm_max: float) -> None:
         self.n = 0
+        self._converted = 0  # rows whose Euler angles and ground references series wrote
         self.pwm_max = pwm_max
         self._rows = np.zeros((0, _WIDTH))
-        self.flying = np.zeros(0, dtype=bool)
-        self.free_flight = np.zeros(0, dtype=bool)
         self._grow(max(capacity, 1))
 
     def _grow(self, capacity: int) -> None:
@@ -110,19 +118,15 @@ class TickLog:
         k = self.n
         rows = np.zeros((capacity, _WIDTH))
         rows[:k] = self._rows[:k]
-        flying = np.zeros(capacity, dtype=bool)
-        flying[:k] = self.flying[:k]
-        free_flight = np.zeros(capacity, dtype=bool)
-        free_flight[:k] = self.free_flight[:k]
-        self._rows, self.flying, self.free_flight = rows, flying, free_flight
+        self._rows = rows
         self._row_bytes = rows.data.cast("B")  # the table's memory, for _PACK_ROW
         for name, first, width in _COLUMNS:
-            setattr(self, name, rows[:, first] if name == "t" else rows[:, first:first + width])
+            setattr(self, name, rows[:, first] if width == 1 else rows[:, first:first + width])
 
     def append(self, world: World, autopilot: Autopilot) -> tuple[list[float], bool]:
         """Store the tick just flown: truth, estimate, references, commands, wind; returns
         the row stored (:data:`_COLUMNS` layout: the true position is ``row[1:4]``, m NED,
-        the true attitude ``row[4:7]``, roll, pitch, yaw, rad) and the ground contact."""
+        the true attitude ``row[4:8]``, a quaternion [w, x, y, z]) and the ground contact."""
         status = autopilot.status
         assert status is not None
         k = self.n
@@ -130,41 +134,47 @@ class TickLog:
             self._grow(k + _CHUNK_TICKS)
         x = world.plant.state.tolist()
         t = world.time_s
-        roll, pitch, yaw = euler_from_wxyz(x[6], x[7], x[8], x[9])
         reference = status.reference
         att_ref = status.attitude_reference
         on_ground = world.plant.on_ground
         if reference is not None and att_ref is not None and not on_ground:
-            self.flying[k] = True
-            self.free_flight[k] = status.nav.landed_state == LandedState.IN_AIR
-            rx, ry, rz = reference.pos_ned.tolist()
-            e_roll, e_pitch, e_yaw = att_ref.euler_rad.tolist()
+            flight = [*reference.pos_ned.tolist(), *att_ref.euler_rad.tolist(), 1.0,
+                      1.0 if status.nav.landed_state == LandedState.IN_AIR else 0.0]
         else:
-            self.flying[k] = self.free_flight[k] = False
-            rx, ry, rz = x[0], x[1], x[2]
-            e_roll, e_pitch, e_yaw = roll, pitch, yaw
-        # one row: t, pos, euler, est_pos, pwm, loe_est, loe_injected, wind, ref_pos, ref_euler
-        row = [t, x[0], x[1], x[2], roll, pitch, yaw, *status.estimate.pos_ned.tolist(),
-               *status.pwm.tolist(), *status.loe_estimate.tolist(),
-               *world.faults.true_loe_values(t), *world.wind_ned.tolist(),
-               rx, ry, rz, e_roll, e_pitch, e_yaw]
+            flight = _NOT_FLYING
+        # one row: t, pos, quat, est_pos, pwm, loe_est, loe_injected, wind, ref_pos,
+        # ref_euler, flying, free_flight
+        row = [t, x[0], x[1], x[2], x[6], x[7], x[8], x[9],
+               *status.estimate.pos_ned.tolist(), *status.pwm.tolist(),
+               *status.loe_estimate.tolist(), *world.faults.true_loe_values(t),
+               *world.wind_ned.tolist(), *flight]
         _PACK_ROW(self._row_bytes, k * _ROW_BYTES, *row)  # self._rows[k] = row
         self.n = k + 1  # the row counts only once complete (an interrupt may land anywhere)
         return row, on_ground
 
     def series(self, events: Sequence[tuple[float, str, str]] = (),
                faults: Sequence[FaultRecord] = ()) -> FlightSeries:
-        """The ticks so far as a :class:`FlightSeries` (views, not copies), with the onsets
-        of the injected ``faults``."""
+        """The ticks so far as a :class:`FlightSeries` (views, not copies, but the two
+        flags), with the onsets of the injected ``faults``. The Euler angles of the new rows
+        and the references of those not flying (the truth) are written into the table
+        here."""
         k = self.n
         t = self.t[:k]
+        done = self._converted  # (a live recorder asks again and again: the new rows only)
+        if done < k:
+            self.euler[done:k] = euler = eulers_from_quats(self.quat[done:k])
+            ground = self.flying[done:k] == 0.0
+            self.ref_pos[done:k][ground] = self.pos[done:k][ground]
+            self.ref_euler[done:k][ground] = euler[ground]
+            self._converted = k
         return FlightSeries(
-            time_s=t, flying=self.flying[:k], pos_ned=self.pos[:k], euler_rad=self.euler[:k],
+            time_s=t, flying=self.flying[:k] != 0.0, pos_ned=self.pos[:k],
+            euler_rad=self.euler[:k],
             ref_pos_ned=self.ref_pos[:k], ref_euler_rad=self.ref_euler[:k],
             pwm_time_s=t, pwm=self.pwm[:k], pwm_max=self.pwm_max,
             loe_estimate_time_s=(t,) * 4,
             loe_estimate=tuple(self.loe_est[:k, j] for j in range(4)),
-            loe_injected=self.loe_injected[:k], free_flight=self.free_flight[:k],
+            loe_injected=self.loe_injected[:k], free_flight=self.free_flight[:k] != 0.0,
             est_pos_ned=self.est_pos[:k], wind_ned=self.wind[:k],
             fault_times_s=tuple(sorted({f.time_s for f in faults if f.action == "started"})),
             events=tuple(FlightEvent(t_s, source, text) for t_s, source, text in events))
@@ -275,7 +285,7 @@ class _Records:
                 self.event(wev.time_s, "sim", wev.description)
                 if wev.kind in ("touchdown", "crash"):
                     touchdowns.append((wev.time_s, wev.speed_m_s))
-        self.judge.observe(row[0], row[1:4], row[4:7], on_ground, touchdowns,
+        self.judge.observe(row[0], row[1:4], row[4:8], on_ground, touchdowns,
                            stack.autopilot.navigator.armed)
         if self.judge.decided:
             self._outcomes()

@@ -86,7 +86,6 @@ from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import AutopilotPort
 from fcu.mavlink.enums import FailureType, FailureUnit, Severity
 from fcu.mavlink.port import CommandResult, GeoPoint, SimTruth
-from flightdata.geometry import euler_from_wxyz
 from flightdata.mission import MissionItem as NavItem
 from sim.outcome import MissionArea, OutcomeJudge, mission_area
 from sim.sim_params import SimParams
@@ -248,8 +247,8 @@ class SimVehicle:
         plant = world.plant
         n, e, d, _, _, _, w, qx, qy, qz = plant.state[:10].tolist()
         judge = self.judge
-        judge.observe(world.time_s, (n, e, d), euler_from_wxyz(w, qx, qy, qz), plant.on_ground,
-                      touchdowns, armed)
+        judge.observe(world.time_s, (n, e, d), (w, qx, qy, qz), plant.on_ground, touchdowns,
+                      armed)
         if not judge.decided:
             return  # the common tick
         for outcome in judge.drain():

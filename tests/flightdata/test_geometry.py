@@ -14,6 +14,8 @@ from numpy.testing import assert_allclose
 from flightdata.geometry import (
     body_rates_from_euler_rates,
     euler_from_quat,
+    euler_from_wxyz,
+    eulers_from_quats,
     quat_from_euler,
     quats_from_euler,
     wrap_pi,
@@ -75,6 +77,22 @@ def test_euler_from_quat_is_the_simulators_to_the_last_bit() -> None:
     poles = np.array([quat_from_euler([0.0, s * math.pi / 2, 0.7]) for s in (1.0, -1.0)])
     for q in np.vstack([quats, poles]):
         np.testing.assert_array_equal(euler_from_quat(q), quat_to_euler(q))
+
+
+def test_eulers_of_quaternion_rows_are_the_scalar_ones() -> None:
+    rng = np.random.default_rng(11)
+    quats = rng.normal(size=(2000, 4))
+    quats /= np.linalg.norm(quats, axis=1)[:, None]
+    # both poles (gimbal lock: roll 0), and yaw near +-pi there
+    poles = np.array([quat_from_euler([0.0, s * math.pi / 2, y])
+                      for s in (1.0, -1.0) for y in (0.7, math.pi - 1e-9, -math.pi + 1e-9)])
+    quats = np.vstack([quats, poles])
+    rows = eulers_from_quats(quats)
+    assert rows.shape == (quats.shape[0], 3)
+    scalar = np.array([euler_from_wxyz(*q) for q in quats.tolist()])
+    # 1e-15: numpy's and libm's asin and atan2 may differ in the last place
+    assert_allclose(rows, scalar, rtol=0, atol=1e-15)
+    assert np.all(rows[-6:, 0] == 0.0)
 
 
 def test_euler_at_gimbal_lock_puts_the_rotation_in_yaw() -> None:

@@ -6,9 +6,11 @@ import math
 
 import pytest
 
+from flightdata.geometry import quat_from_euler
 from sim.outcome import MissionArea, OutcomeJudge, OutcomeLimits, tilt_deg
 
 LEVEL = (0.0, 0.0, 0.0)
+LEVEL_QUAT = (1.0, 0.0, 0.0, 0.0)
 AREA = [(0.0, 0.0, 0.0), (1.0, 1.0, -0.6)]  # home and the thesis square at 0.6 m
 
 
@@ -17,7 +19,7 @@ def fly(judge: OutcomeJudge, seconds: float, t0: float = 0.0, z: float = -0.6,
     t = t0
     for _ in range(int(round(seconds / 0.01))):
         t += 0.01
-        judge.observe(t, (north, 0.5, z), euler, False, (), True)
+        judge.observe(t, (north, 0.5, z), quat_from_euler(euler), False, (), True)
     return t
 
 
@@ -25,7 +27,7 @@ def touch(judge: OutcomeJudge, t: float, speed: float | None, armed: bool = True
           euler: tuple[float, float, float] = LEVEL) -> float:
     """A tick on the ground; ``speed``: of a touchdown during it (None: it sat there)."""
     t += 0.01
-    judge.observe(t, (0.5, 0.5, 0.0), euler, True,
+    judge.observe(t, (0.5, 0.5, 0.0), quat_from_euler(euler), True,
                   [] if speed is None else [(t - 0.005, speed)], armed)
     return t
 
@@ -100,7 +102,7 @@ def test_end_of_run_in_the_air_on_the_ground_and_never_flown() -> None:
     outcome = judge.finish(t + 3.0)
     assert (outcome.kind, outcome.time_s) == ("landed", pytest.approx(t - 0.005))
     judge = OutcomeJudge(MissionArea(AREA))
-    judge.observe(0.01, (0.0, 0.0, 0.0), LEVEL, True, (), False)
+    judge.observe(0.01, (0.0, 0.0, 0.0), LEVEL_QUAT, True, (), False)
     assert (judge.finish(60.0).kind, judge.finish(60.0).cause) == ("landed", "no_flight")
 
 
@@ -108,7 +110,7 @@ def test_a_crash_between_two_ticks_counts_even_if_a_soft_contact_follows() -> No
     judge = OutcomeJudge(MissionArea(AREA))
     t = fly(judge, 1.0)
     # within one tick: a hard touchdown, a bounce, a soft one (what the plant reports)
-    judge.observe(t + 0.01, (0.5, 0.5, 0.0), LEVEL, True, [(t + 0.002, 5.1), (t + 0.006, 0.0)],
+    judge.observe(t + 0.01, (0.5, 0.5, 0.0), LEVEL_QUAT, True, [(t + 0.002, 5.1), (t + 0.006, 0.0)],
                   True)
     assert judge.outcome is not None
     assert (judge.outcome.kind, judge.outcome.impact_speed_m_s) == ("crashed", 5.1)
@@ -124,6 +126,8 @@ def test_rearming_starts_a_new_flight() -> None:
 
 
 def test_tilt_is_the_angle_of_the_body_z_axis_from_the_vertical() -> None:
-    assert tilt_deg((math.radians(30.0), 0.0, 1.0)) == pytest.approx(30.0)
-    assert tilt_deg((math.radians(30.0), math.radians(40.0), 0.0)) == pytest.approx(
-        math.degrees(math.acos(math.cos(math.radians(30.0)) * math.cos(math.radians(40.0)))))
+    assert tilt_deg(quat_from_euler((math.radians(30.0), 0.0, 1.0))) == pytest.approx(30.0)
+    expected = math.degrees(math.acos(math.cos(math.radians(30.0))
+                                      * math.cos(math.radians(40.0))))
+    assert tilt_deg(quat_from_euler((math.radians(30.0), math.radians(40.0), 0.0))) == \
+        pytest.approx(expected)
