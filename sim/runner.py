@@ -138,8 +138,9 @@ class TickLog:
         att_ref = status.attitude_reference
         on_ground = world.plant.on_ground
         if reference is not None and att_ref is not None and not on_ground:
-            flight = [*reference.pos_ned.tolist(), *att_ref.euler_rad.tolist(), 1.0,
-                      1.0 if status.nav.landed_state == LandedState.IN_AIR else 0.0]
+            free = 1.0 if status.nav.landed_state == LandedState.IN_AIR else 0.0
+            flight: Sequence[float] = [*reference.pos_ned.tolist(),
+                                       *att_ref.euler_rad.tolist(), 1.0, free]
         else:
             flight = _NOT_FLYING
         # one row: t, pos, quat, est_pos, pwm, loe_est, loe_injected, wind, ref_pos,
