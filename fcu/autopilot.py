@@ -198,10 +198,8 @@ class Autopilot:
         self._spinning_since_s = 0.0  # s, when relaxed hover began
         self._loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
         self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
-        self._motors_blocked = True  # the motors' arming blocker may be set
-        # the motors and lost per cent the blocker names (None: not set since the reset)
+        # the declared motors the arming blocker was set for (None: not since the reset)
         self._blocker_motors: tuple[int, ...] | None = None
-        self._blocker_percent: list[int] = []
         # the latest estimate _hover_regime judged, and its verdict: the estimate of a tick
         # is the next tick's prior, judged again then
         self._regime_of: StateEstimate | None = None
@@ -358,19 +356,21 @@ class Autopilot:
                                 evidence=learn and landed_state == LandedState.IN_AIR,
                                 learn=learn)
         active = detector.active
-        if active or self._motors_blocked:
-            # the text names the latest LOE in whole per cent: written when that changes
-            loe = detector.loe
-            lost_percent = [round(100 * loe.item(m - 1)) for m in active]
-            # (the detector's tuple of declared motors is a new one whenever they change)
-            if active is not self._blocker_motors or lost_percent != self._blocker_percent:
-                self._blocker_motors, self._blocker_percent = active, lost_percent
-                self.navigator.set_arming_blocker("motors", None if not active else "; ".join(
-                    f"motor {m} detected failed (lost about {p} %): "
-                    "restart the autopilot to clear"
-                    for m, p in zip(active, lost_percent, strict=True)))
-            self._motors_blocked = bool(active)
+        # (the detector's tuple of declared motors is a new one whenever they change)
+        if active is not self._blocker_motors:
+            self._blocker_motors = active
+            self.navigator.set_arming_blocker("motors",
+                                              self._motors_blocker if active else None)
         return records
+
+    def _motors_blocker(self) -> str:
+        """The arming blocker of the declared motors, naming each one's latest estimated LOE
+        in whole per cent (written when read)."""
+        detector = self.detector
+        loe = detector.loe
+        return "; ".join(f"motor {m} detected failed (lost about "
+                         f"{round(100 * loe.item(m - 1))} %): restart the autopilot to clear"
+                         for m in detector.active)
 
     def _ftc_effectiveness(self) -> np.ndarray | None:
         """Active FTC: per motor, ``1 - LOE`` of the motors the detector has declared or

@@ -148,7 +148,7 @@ class Navigator(MissionExecution):
         self._mode = Mode(self.config.initial_mode)
         self._armed = False
         self._failsafes: dict[str, str] = {}
-        self._blockers: dict[str, str] = {}
+        self._blockers: dict[str, str | Callable[[], str]] = {}
         self._position_fix = True
         self._fix_lost_s: float | None = None
         self._output: NavOutput | None = None  # the latest step's, while it had no events
@@ -298,11 +298,13 @@ class Navigator(MissionExecution):
     def arming_blockers(self) -> tuple[str, ...]:
         """The reasons arming is forbidden for now (:meth:`set_arming_blocker`), in the order
         they were first set."""
-        return tuple(self._blockers.values())
+        return tuple(r if isinstance(r, str) else r() for r in self._blockers.values())
 
-    def set_arming_blocker(self, key: str, reason: str | None) -> None:
+    def set_arming_blocker(self, key: str, reason: str | Callable[[], str] | None) -> None:
         """Forbid arming for ``reason`` under ``key`` (None lifts it): the health monitor's
-        verdicts (a motor detected failed) enter the pre-arm check this way."""
+        verdicts (a motor detected failed) enter the pre-arm check this way. A reason that
+        changes with time (an estimate it quotes) may be given as a function returning the
+        text, called whenever the reasons are read."""
         if reason is None:
             self._blockers.pop(key, None)
         else:
@@ -412,7 +414,7 @@ class Navigator(MissionExecution):
                             on_ground=self._looks_on_ground(), est_pos_ned=self._est_pos_ned,
                             est_vel_ned=self._est_vel_ned, mode=self._mode, config=self.config,
                             position_fix=self._position_fix,
-                            blockers=tuple(self._blockers.values()),
+                            blockers=self.arming_blockers,
                             auto_start_problem=self._ground_start_problem()
                             if self._mode == Mode.AUTO else "")
 
