@@ -474,6 +474,9 @@ class RigidBodyPlant:
         self._s["dt_s"] = self.dt_s
         self._s["params"] = pack_params(airframe)
         self._x = self.kernel_state["x"][0]
+        # the flags read every tick, as field views (item() is a quarter of a record's read)
+        self._on_ground = self.kernel_state["on_ground"]
+        self._crashed = self.kernel_state["crashed"]
         # read-only view sharing memory with _x: callers see each step, cannot corrupt it
         self._state_view = self._x.view()
         self._state_view.flags.writeable = False
@@ -577,12 +580,12 @@ class RigidBodyPlant:
     @property
     def on_ground(self) -> bool:
         """True while the vehicle rests on the ground plane z_ned = 0."""
-        return bool(self._s["on_ground"])
+        return bool(self._on_ground.item(0))
 
     @property
     def crashed(self) -> bool:
         """True once a touchdown exceeded ``crash_speed_m_s`` since the last reset."""
-        return bool(self._s["crashed"])
+        return bool(self._crashed.item(0))
 
     @property
     def touchdown_speed_m_s(self) -> float | None:
