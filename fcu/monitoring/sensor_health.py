@@ -321,6 +321,7 @@ class SensorHealth:
         self._state = np.zeros((len(SENSORS), _STATE_WIDTH))
         self._state[:, _GOOD_SINCE_S] = np.nan
         self._noise: dict[str, float] | None = None  # the noise the _SIGMA column holds
+        self._noise_given: Mapping[str, float] | None = None  # the mapping it was read from
         # the cross-check's window (cross_check): a ring of (tick time s, baro alt - mocap
         # alt m) rows, its oldest row and its rows
         self._window = np.zeros((_WINDOW_ROWS, 2))
@@ -350,7 +351,9 @@ class SensorHealth:
         airborne : bool
             The vehicle is in flight (the checks count only then).
         noise : mapping of str to float
-            Each sensor's noise, one sample, 1 sigma, sensor units (the jump test).
+            Each sensor's noise, one sample, 1 sigma, sensor units (the jump test); read
+            when a mapping other than the previous tick's is given (not watched for changes
+            made in place).
         """
         grouped = (batches if isinstance(batches, GroupedSamples)
                    else _grouped(batches))
@@ -370,9 +373,11 @@ class SensorHealth:
                               dtype=float)
             index, cross = self._indexes.get(key) or self._index(
                 key, [(sensor, gate, 0, 0) for sensor, gate in checks], 0, grouped)
-        if noise != self._noise:
-            self._noise = dict(noise)
-            self._state[:, _SIGMA] = [noise.get(sensor, 0.0) for sensor in SENSORS]
+        if noise is not self._noise_given:
+            self._noise_given = noise
+            if noise != self._noise:
+                self._noise = dict(noise)
+                self._state[:, _SIGMA] = [noise.get(sensor, 0.0) for sensor in SENSORS]
         records: list[DetectionRecord] = []
         window = self._window
         n_events, rejected = watch_sensors(self._par, self._state, self._events, index, cross,
