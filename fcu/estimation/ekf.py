@@ -162,7 +162,8 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
 # ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
 N = STATE_DIM
 NN = N * N
-MAX_CHANNELS, MAX_ROWS = 5, 3  # channels of a height source, rows of one channel
+MAX_ROWS = 3  # rows of one channel at the most
+MAX_CHANNELS = screening.MAX_CHANNELS  # channels of a height source
 _X = 0  # posterior x (N)
 _P = _X + N  # posterior P (N x N, row-major)
 _X_PRIOR = _P + NN  # prior x
@@ -189,7 +190,8 @@ _SC_S = _SC_R + MAX_ROWS * MAX_ROWS  # S, S^-1 (MAX_ROWS x MAX_ROWS each)
 _SC_S_INV = _SC_S + MAX_ROWS * MAX_ROWS
 _SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K (N x MAX_ROWS)
 _SC_NZ_F = _SC_K + N * MAX_ROWS  # F's non-zero columns (N x (N + 1))
-SCRATCH_SIZE = _SC_NZ_F + N * (N + 1)
+SC_MEAS = _SC_NZ_F + N * (N + 1)  # the tick's measurement table, when gathered here (pair_tick)
+SCRATCH_SIZE = SC_MEAS + MAX_CHANNELS * screening.MEAS_WIDTH
 # the estimator's constants (ekf_tick): one float array, these offsets
 N_PARAMS = 9  # entries of pack_params' model
 _C_PARAMS = 0  # the packed model (pack_params)
@@ -269,8 +271,9 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
     for i in range(N + NN):  # the prior: x, P
         work[_X_PRIOR + i] = work[_X + i]
     # screened against the prior; on the ground the accelerometer is skipped
-    status = screening.screen_channels_into(out[2 * N:], x, p_mat, meas, sel_stack, layout,
-                                            noise, excluded, on_ground, reject)
+    status = screening.screen_channels_into(
+        out[2 * N:], x, p_mat, meas, sel_stack, layout, noise, excluded, on_ground, reject,
+        scratch[_SC_TRANSITION:_SC_TRANSITION + screening.SCREEN_SCRATCH])
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
     last = -1
