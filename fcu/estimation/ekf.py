@@ -49,6 +49,7 @@ from fcu.estimation.estimator import (
 )
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
+    add_scaled_row,
     mul_nonzero_left,
     nonzero_columns,
     transpose_into,
@@ -144,17 +145,17 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
     mul_nonzero_left(fp, f_mat, nz_f, p_mat)
     # (F P)' = P F'
     transpose_into(fp_t, fp)
-    # P = F (P F') + Q: the upper triangle j >= i (the result is symmetric), mirrored
+    # P = F (P F') + Q: whole rows (the products two vector operations each), then the
+    # upper triangle j >= i mirrored (the result is symmetric)
     for i in range(N):
-        for j in range(i, N):
+        for j in range(N):
             p_mat[i, j] = 0.0
         for t in range(int(nz_f[i, 0])):
             k = int(nz_f[i, 1 + t])
-            f_ik = f_mat[i, k]
-            for j in range(i, N):
-                p_mat[i, j] += f_ik * fp_t[k, j]
-        for j in range(i, N):
+            add_scaled_row(p_mat, i, f_mat[i, k], fp_t, k)
+        for j in range(N):
             p_mat[i, j] += q_mat[i, j]
+    for i in range(N):
         for j in range(i):
             p_mat[i, j] = p_mat[j, i]
 
@@ -162,7 +163,8 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
 # ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
 N = STATE_DIM
 NN = N * N
-MAX_CHANNELS, MAX_ROWS = 5, 3  # channels of a height source, rows of one channel
+MAX_ROWS = 3  # rows of one channel at the most
+MAX_CHANNELS = screening.MAX_CHANNELS  # channels of a height source
 _X = 0  # posterior x (N)
 _P = _X + N  # posterior P (N x N, row-major)
 _X_PRIOR = _P + NN  # prior x
@@ -177,8 +179,8 @@ _S_INV = _COUNTS + MAX_CHANNELS  # the last update's S^-1 (m x m, row-major, str
 _K = _S_INV + MAX_ROWS * MAX_ROWS  # and K (N x m, stride MAX_ROWS)
 WORK_SIZE = _K + N * MAX_ROWS
 # scratch of ekf_tick (no state: only within a tick)
-_SC_TRANSITION = 0  # discrete_transition_into's (8 x N x N)
-_SC_UPDATE = _SC_TRANSITION + 8 * NN  # kalman_update_into's
+_SC_TRANSITION = 0  # discrete_transition_into's (9 x N x N)
+_SC_UPDATE = _SC_TRANSITION + 9 * NN  # kalman_update_into's
 _SC_JAC = _SC_UPDATE + UPDATE_SCRATCH  # A at the update's x (N x N)
 _SC_XD = _SC_JAC + NN  # f at the update's x (N)
 _SC_H = _SC_XD + N  # H (MAX_ROWS x N)
@@ -189,7 +191,8 @@ _SC_S = _SC_R + MAX_ROWS * MAX_ROWS  # S, S^-1 (MAX_ROWS x MAX_ROWS each)
 _SC_S_INV = _SC_S + MAX_ROWS * MAX_ROWS
 _SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K (N x MAX_ROWS)
 _SC_NZ_F = _SC_K + N * MAX_ROWS  # F's non-zero columns (N x (N + 1))
-SCRATCH_SIZE = _SC_NZ_F + N * (N + 1)
+SC_MEAS = _SC_NZ_F + N * (N + 1)  # the tick's measurement table, when gathered here (pair_tick)
+SCRATCH_SIZE = SC_MEAS + MAX_CHANNELS * screening.MEAS_WIDTH
 # the estimator's constants (ekf_tick): one float array, these offsets
 N_PARAMS = 9  # entries of pack_params' model
 _C_PARAMS = 0  # the packed model (pack_params)
@@ -260,7 +263,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         on_ground = screening.on_ground_at(x, ground)
         f_mat = shaped(work[_F:_F + NN], (N, N))
         q_mat = shaped(work[_Q:_Q + NN], (N, N))
-        sc_tr = shaped(scratch[_SC_TRANSITION:_SC_TRANSITION + 8 * NN], (8, N, N))
+        sc_tr = shaped(scratch[_SC_TRANSITION:_SC_TRANSITION + 9 * NN], (9, N, N))
         nz_f = shaped(scratch[_SC_NZ_F:_SC_NZ_F + N * (N + 1)], (N, N + 1))
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)
@@ -269,8 +272,9 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
     for i in range(N + NN):  # the prior: x, P
         work[_X_PRIOR + i] = work[_X + i]
     # screened against the prior; on the ground the accelerometer is skipped
-    status = screening.screen_channels_into(out[2 * N:], x, p_mat, meas, sel_stack, layout,
-                                            noise, excluded, on_ground, reject)
+    status = screening.screen_channels_into(
+        out[2 * N:], x, p_mat, meas, sel_stack, layout, noise, excluded, on_ground, reject,
+        scratch[_SC_TRANSITION:_SC_TRANSITION + screening.SCREEN_SCRATCH])
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
     last = -1

@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import mul_sparse_left, transpose_into
+from fcu.estimation.small_matrix import add_scaled_row
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -272,7 +272,7 @@ def rk4_step_into(x_next: FloatArray, x: FloatArray, u: FloatArray, dt: float, p
         x_next[i] = x[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
-TRANSITION_SCRATCH = (8, 16, 16)
+TRANSITION_SCRATCH = (9, 16, 16)
 """Shape of the scratch :func:`discrete_transition_into` works in."""
 
 
@@ -322,22 +322,39 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     """:func:`discrete_transition` written into ``x_next`` (16,), ``f_mat`` and ``q_mat``
     (16, 16), with ``scratch`` of shape :data:`TRANSITION_SCRATCH` (``x_next`` may be ``x``).
 
-    The powers of ``A dt`` are products by the sparse ``A dt`` (zeros skipped); ``Phi`` is
-    block upper triangular like ``A``, and its zeros are skipped in ``Phi Qc Phi'``.
+    The powers of ``A dt`` are products by the sparse ``A dt`` on the left (its non-zero
+    entries listed once; the powers commute); ``Phi`` is block upper triangular like ``A``,
+    and its zeros (those of every power) are skipped in ``Phi Qc Phi'``, taken a whole row at
+    a time (:func:`~fcu.estimation.small_matrix.add_scaled_row`) and its upper triangle
+    mirrored.
     """
     n = 16
     ad, ad2, ad3, ad4 = scratch[0], scratch[1], scratch[2], scratch[3]
-    phi, phi_t = scratch[4], scratch[5]
+    phi_t, q_rows = scratch[4], scratch[5]
+    # the non-zero entries of A dt (row i: count nz_count[i], columns nz_cols[i, :count]) and
+    # of Phi (= of any power of A dt, or the diagonal): phi_count, phi_cols
+    nz_count, phi_count = scratch[6, 5], scratch[6, 6]
+    nz_cols, phi_cols = scratch[7], scratch[8]
     # A at x_{k|k}, before x_next (which may be x) is written
     model_jacobian_into(ad, x, p, on_ground)
     rk4_step_into(x_next, x, u, dt, p, on_ground, scratch[6, :5])
     for i in range(n):
+        count = 0
         for j in range(n):
             ad[i, j] *= dt  # A dt
-    # (A dt)^2 = (A dt) (A dt);  (A dt)^3 = (A dt)^2 (A dt);  (A dt)^4 = (A dt)^3 (A dt)
-    mul_sparse_left(ad2, ad, ad)
-    mul_sparse_left(ad3, ad2, ad)
-    mul_sparse_left(ad4, ad3, ad)
+            if ad[i, j] != 0.0:
+                nz_cols[i, count] = j
+                count += 1
+        nz_count[i] = count
+    # (A dt)^2 = (A dt) (A dt);  (A dt)^3 = (A dt) (A dt)^2;  (A dt)^4 = (A dt) (A dt)^3:
+    # row i of each is sum_k (A dt)[i, k] (row k of the previous), over the non-zero (A dt)[i, k]
+    for prev, power in ((ad, ad2), (ad2, ad3), (ad3, ad4)):
+        for i in range(n):
+            for j in range(n):
+                power[i, j] = 0.0
+            for t in range(int(nz_count[i])):
+                k = int(nz_cols[i, t])
+                add_scaled_row(power, i, ad[i, k], prev, k)
     # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row: off the
     # diagonal with the identity's 0, then the diagonal entry with its 1)
     f2, f3, f4 = 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0
@@ -345,35 +362,38 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
         for j in range(n):
             f_mat[i, j] = 0.0 + ad[i, j] + ad2[i, j] * f2 + ad3[i, j] * f3 + ad4[i, j] * f4
         f_mat[i, i] = 1.0 + ad[i, i] + ad2[i, i] * f2 + ad3[i, i] * f3 + ad4[i, i] * f4
+        count = 0
+        for k in range(n):
+            if (k == i or ad[i, k] != 0.0 or ad2[i, k] != 0.0 or ad3[i, k] != 0.0
+                    or ad4[i, k] != 0.0):
+                phi_cols[i, count] = k
+                count += 1
+        phi_count[i] = count
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
     for i in range(n):
         for j in range(n):
-            q_mat[i, j] = 0.0
+            q_rows[i, j] = 0.0
     r = math.sqrt(0.6) / 2.0
     for c, weight in ((0.5 - r, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + r, 5.0 / 18.0)):
         c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
+        for j in range(n):
+            # Phi' = I + (A dt)' c + ((A dt)^2)' c^2/2 + ((A dt)^3)' c^3/6 + ((A dt)^4)' c^4/24
+            for i in range(n):
+                phi_t[i, j] = (0.0 + ad[j, i] * c + ad2[j, i] * c2 + ad3[j, i] * c3
+                               + ad4[j, i] * c4)
+            phi_t[j, j] = (1.0 + ad[j, j] * c + ad2[j, j] * c2 + ad3[j, j] * c3
+                           + ad4[j, j] * c4)
+        # Q += w Phi Qc Phi':  Q[i, :] += sum_k (w Phi[i, k] Qc[k]) Phi'[k, :]  (Qc
+        # diagonal; k over the non-zero Phi[i, k]), whole rows
         for i in range(n):
-            # Phi = I + A dt c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24
-            for j in range(n):
-                phi[i, j] = (0.0 + ad[i, j] * c + ad2[i, j] * c2 + ad3[i, j] * c3
-                             + ad4[i, j] * c4)
-            phi[i, i] = (1.0 + ad[i, i] * c + ad2[i, i] * c2 + ad3[i, i] * c3
-                         + ad4[i, i] * c4)
-        transpose_into(phi_t, phi)
-        # Q += w Phi Qc Phi':  Q[i, j] += sum_k (w Phi[i, k] Qc[k]) Phi'[k, j]  (Qc
-        # diagonal), the upper triangle j >= i only (Q is symmetric)
-        for i in range(n):
-            for k in range(n):
-                phi_ik = phi[i, k]
-                if phi_ik != 0.0:
-                    coef = weight * phi_ik * qc_diag[k]
-                    for j in range(i, n):
-                        q_mat[i, j] += coef * phi_t[k, j]
-    # Q *= dt; the lower triangle mirrors the upper
+            for t in range(int(phi_count[i])):
+                k = int(phi_cols[i, t])
+                add_scaled_row(q_rows, i, weight * phi_t[k, i] * qc_diag[k], phi_t, k)
+    # Q *= dt; its upper triangle, mirrored (Q is symmetric)
     for i in range(n):
         for j in range(i, n):
-            q_mat[i, j] *= dt
+            q_mat[i, j] = q_rows[i, j] * dt
             q_mat[j, i] = q_mat[i, j]
 
 

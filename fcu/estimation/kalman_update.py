@@ -12,6 +12,8 @@ from __future__ import annotations
 from numba import njit
 
 from fcu.estimation.small_matrix import (
+    ROW,
+    add_scaled_row,
     mul_at_t_into,
     mul_bt_nonzero_into,
     mul_nonzero_left,
@@ -71,12 +73,17 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
         for r in range(m):
             acc += k_t[r, i] * y[r]
         x[i] += acc
-    # P = P - K (H P): row i, columns j >= i, then mirrored
+    # P = P - K (H P): whole rows (16 entries: two vector operations each), then the upper
+    # triangle j >= i mirrored onto the lower
     for i in range(n):
         for r in range(m):
-            kir = k_t[r, i]
-            for j in range(i, n):
-                p_mat[i, j] -= kir * ut[r, j]
+            if n == ROW:
+                add_scaled_row(p_mat, i, -k_t[r, i], ut, r)  # p - k u, to the bit
+            else:
+                kir = k_t[r, i]
+                for j in range(i, n):
+                    p_mat[i, j] -= kir * ut[r, j]
+    for i in range(n):
         for j in range(i):
             p_mat[i, j] = p_mat[j, i]
     # K

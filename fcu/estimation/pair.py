@@ -18,15 +18,17 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from fcu.estimation.ekf import SC_MEAS as E_MEAS
 from fcu.estimation.ekf import ExtendedKalmanEstimator, ekf_tick
 from fcu.estimation.estimator import pwm_array
 from fcu.estimation.screening import MEAS_WIDTH
 from fcu.estimation.state import FloatArray, GroupedSamples, StateEstimate
+from fcu.estimation.tskf import SC_MEAS as T_MEAS
 from fcu.estimation.tskf import TwoStageKalmanFilter, tskf_tick
 from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import borrowed
+from flightdata.kernel_views import borrowed, shaped
 
 # pair_tick compiles in the kernels of ekf, tskf and the modules they call
 drop_stale_kernels(__file__, kernel_views.__file__)
@@ -35,13 +37,19 @@ drop_stale_kernels(__file__, kernel_views.__file__)
 @njit(cache=True, error_model="numpy")
 def gathered(flat: FloatArray, gather: np.ndarray) -> FloatArray:
     """A filter's measurement table from grouped samples: ``flat[gather]``
-    (:meth:`fcu.estimation.estimator.ChannelSet.gather`), shape (n_ch, MEAS_WIDTH)."""
-    n_ch = gather.shape[0]
-    meas = np.empty((n_ch, MEAS_WIDTH))
-    for c in range(n_ch):
+    (:meth:`fcu.estimation.estimator.ChannelSet.gather`), shape (n_ch, MEAS_WIDTH), in a
+    fresh array (:func:`gather_into`)."""
+    meas = np.empty((gather.shape[0], MEAS_WIDTH))
+    gather_into(meas, flat, gather)
+    return meas
+
+
+@njit(cache=True, error_model="numpy")
+def gather_into(meas: FloatArray, flat: FloatArray, gather: np.ndarray) -> None:
+    """:func:`gathered` written into ``meas`` (n_ch, MEAS_WIDTH)."""
+    for c in range(gather.shape[0]):
         for k in range(MEAS_WIDTH):
             meas[c, k] = flat[gather[c, k]]
-    return meas
 
 
 @njit(cache=True, error_model="numpy")
@@ -95,13 +103,19 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     e_layout, e_gather, e_excluded = borrowed(e_layout), borrowed(e_gather), borrowed(e_excluded)
     gamma = out[e_size + t_size:]
     gamma[:] = t_gamma
+    # each filter's measurement table, gathered into its scratch (which the tick leaves alone
+    # there)
+    n_t, n_e = t_gather.shape[0], e_gather.shape[0]
+    t_meas = shaped(t_scratch[T_MEAS:T_MEAS + n_t * MEAS_WIDTH], (n_t, MEAS_WIDTH))
+    e_meas = shaped(e_scratch[E_MEAS:E_MEAS + n_e * MEAS_WIDTH], (n_e, MEAS_WIDTH))
+    gather_into(t_meas, flat, t_gather)
+    gather_into(e_meas, flat, e_gather)
     t_on_ground, accel_power, m = tskf_tick(
         t_work, t_scratch, gamma, out[e_size:e_size + t_size], t_model, t_tables, t_layout,
-        u, gathered(flat, t_gather), t_excluded, n_steps, time_s, reject, t_on_ground,
-        accel_power)
+        u, t_meas, t_excluded, n_steps, time_s, reject, t_on_ground, accel_power)
     e_on_ground, last = ekf_tick(
         e_work, e_s_stack, e_scratch, out[:e_size], e_constants, e_tables, e_layout, u,
-        gathered(flat, e_gather), e_excluded, dt, time_s, reject, e_on_ground)
+        e_meas, e_excluded, dt, time_s, reject, e_on_ground)
     return t_on_ground, accel_power, m, e_on_ground, last
 
 

@@ -10,12 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import (
-    mul_bt_sparse_into,
-    mul_sparse_left,
-    spd_quadratic,
-    sub_mul_vec_into,
-)
+from fcu.estimation.small_matrix import nonzero_columns, spd_quadratic
 from fcu.estimation.state import STATE_DIM, Z_INDEX, FloatArray
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
@@ -59,7 +54,7 @@ def screen_channel(sel: FloatArray, z: FloatArray, x: FloatArray, p_mat: FloatAr
     return nu, var, nis
 
 
-SCREEN_SCRATCH = 4 * 16 * 16 + 16
+SCREEN_SCRATCH = 16 * 17 + 2 * 16 * 16 + 16
 """Size of the scratch :func:`screen_channel_into` works in (channels of up to 16 rows)."""
 
 
@@ -68,20 +63,43 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
                         x: FloatArray, p_mat: FloatArray, r_var: float, wrap_yaw: bool,
                         scratch: FloatArray) -> float:
     """:func:`screen_channel` written into ``nu`` and ``var`` (m,); returns the NIS
-    (``scratch``: at least :data:`SCREEN_SCRATCH` entries)."""
+    (``scratch``: at least :data:`SCREEN_SCRATCH` entries).
+
+    A row of ``S`` picks one or a few state entries: ``S P S'`` is summed over the non-zero
+    entries of ``S`` only (listed once), so for pick rows it is a sub-matrix of ``P``, and
+    ``S P`` is never formed in full. The products are those of ``(S P) S'`` with the zeros
+    of ``S`` skipped, in the same order.
+    """
     m, n = sel.shape
-    sp = shaped(scratch[:m * n], (m, n))
-    s_mat = shaped(scratch[16 * 16:16 * 16 + m * m], (m, m))
-    low = shaped(scratch[2 * 16 * 16:2 * 16 * 16 + m * m], (m, m))
-    tmp = scratch[4 * 16 * 16:4 * 16 * 16 + m]
-    # nu = z - S x   (zero entries of S skipped)
-    sub_mul_vec_into(nu, z, sel, x)
+    nz = shaped(scratch[:m * (n + 1)], (m, n + 1))
+    o = 16 * 17
+    s_mat = shaped(scratch[o:o + m * m], (m, m))
+    low = shaped(scratch[o + 16 * 16:o + 16 * 16 + m * m], (m, m))
+    tmp = scratch[o + 2 * 16 * 16:o + 2 * 16 * 16 + m]
+    # the non-zero entries of each row of S
+    nonzero_columns(nz, sel)
+    for r in range(m):
+        # nu = z - S x
+        acc = 0.0
+        for t in range(int(nz[r, 0])):
+            k = int(nz[r, 1 + t])
+            acc += sel[r, k] * x[k]
+        nu[r] = z[r] - acc
     if wrap_yaw:
         nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
-    # S P
-    mul_sparse_left(sp, sel, p_mat)
-    # S P S' + R
-    mul_bt_sparse_into(s_mat, sp, sel)
+    # S P S' + R:  (S P S')[r, q] = sum_b (S P)[r, b] S[q, b],  (S P)[r, b] = sum_a S[r, a] P[a, b]
+    # (a over the non-zero S[r, a], b over the non-zero S[q, b])
+    for r in range(m):
+        for q in range(m):
+            acc = 0.0
+            for tb in range(int(nz[q, 0])):
+                b = int(nz[q, 1 + tb])
+                sp_rb = 0.0
+                for ta in range(int(nz[r, 0])):
+                    a = int(nz[r, 1 + ta])
+                    sp_rb += sel[r, a] * p_mat[a, b]
+                acc += sp_rb * sel[q, b]
+            s_mat[r, q] = acc
     for r in range(m):
         s_mat[r, r] += r_var
         var[r] = s_mat[r, r]
@@ -102,6 +120,7 @@ SAMPLE_VAR, MODEL_VAR, GATE = 0, 1, 2
 # samples averaged (0: no batch), their mean time (s), the measured entries (first m used)
 COUNT, TIME, VALUE = 0, 1, 2
 MEAS_WIDTH = 5
+MAX_CHANNELS = 5  # channels of a filter's set at the most
 
 
 @njit(cache=True, error_model="numpy")
@@ -170,23 +189,24 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
     """
     screen = np.empty(2 * sel_stack.shape[0] + 2 * layout.shape[0])
     status = screen_channels_into(screen, x, p_mat, meas, sel_stack, layout, noise, excluded,
-                                  on_ground, reject)
-    return screen, status
+                                  on_ground, reject, np.empty(SCREEN_SCRATCH))
+    return screen, status.astype(np.int64)
 
 
 @njit(cache=True, error_model="numpy")
 def screen_channels_into(screen: FloatArray, x: FloatArray, p_mat: FloatArray,
                          meas: FloatArray, sel_stack: FloatArray, layout: np.ndarray,
                          noise: FloatArray, excluded: np.ndarray, on_ground: bool,
-                         reject: bool) -> np.ndarray:
+                         reject: bool, scratch: FloatArray) -> FloatArray:
     """:func:`screen_channels` written into ``screen`` (shape (2 rows_total + 2 n_ch,),
-    every entry set); returns the status codes."""
+    every entry set; ``scratch``: :data:`SCREEN_SCRATCH` entries); returns the status codes,
+    the view of ``screen`` that holds them (as floats)."""
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
     screen[:] = 0.0
     nis = screen[2 * n_rows:2 * n_rows + n_ch]
-    status = np.full(n_ch, ABSENT, dtype=np.int64)
-    scratch = np.empty(SCREEN_SCRATCH)
+    status = screen[2 * n_rows + n_ch:]
+    status[:] = ABSENT
     n_outliers = 0
     outlier = -1
     for c in range(n_ch):
@@ -212,5 +232,4 @@ def screen_channels_into(screen: FloatArray, x: FloatArray, p_mat: FloatArray,
                 outlier = c
     if reject and not on_ground and n_outliers == 1:  # a lone outlier is that sensor's fault
         status[outlier] = REJECTED
-    screen[2 * n_rows + n_ch:] = status
     return status

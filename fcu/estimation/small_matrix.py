@@ -10,15 +10,78 @@ inner loops along rows (``out[i, :] += a[i, k] b[k, :]``), which the compiler ve
 from __future__ import annotations
 
 import math
+from typing import Any
 
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
+from numba.np.arrayobj import make_array
 
 from fcu.estimation.state import FloatArray
 
-__all__ = ["add_mul_vec", "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into",
-           "mul_bt_sparse_into", "mul_into", "mul_nonzero_left", "mul_sparse_left",
-           "nonzero_columns",
-           "spd_inverse", "spd_quadratic", "sub_mul_vec_into", "symmetrize", "transpose_into"]
+__all__ = ["ROW", "add_mul_vec", "add_scaled_row", "mul_at_into", "mul_at_t_into",
+           "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into", "mul_nonzero_left",
+           "mul_sparse_left", "nonzero_columns", "spd_inverse", "spd_quadratic",
+           "sub_mul_vec_into", "symmetrize", "transpose_into"]
+
+
+ROW = 16
+"""Entries of a row that :func:`add_scaled_row` updates (the filters' 16 states)."""
+_LANES = 8  # doubles of one vector register (AVX-512); a row is two of them
+
+
+@intrinsic
+def _add_scaled_row(typingctx: Any, out: Any, i: Any, a: Any, b: Any, k: Any) -> Any:
+    """``out[i, :ROW] += a * b[k, :ROW]`` as two vector operations of ``_LANES`` entries,
+    each lane the scalar ``out[i, j] + a * b[k, j]`` (a product, then a sum: the same
+    rounding); rows not checked (:func:`add_scaled_row` does)."""
+    if not all(isinstance(m, types.Array) and m.ndim == 2 and m.layout == "C"
+               and m.dtype == types.float64 for m in (out, b)):
+        return None
+    vec = ir.VectorType(ir.DoubleType(), _LANES)
+    intp = ir.IntType(64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        out_v, i_v, a_v, b_v, k_v = args
+        out_t, i_t, a_t, b_t, k_t = signature.args
+
+        def row(ary_t: Any, ary_v: Any, r_t: Any, r_v: Any) -> Any:
+            data = make_array(ary_t)(context, builder, ary_v).data
+            r = context.cast(builder, r_v, r_t, types.intp)
+            return builder.gep(data, [builder.mul(r, ir.Constant(intp, ROW))])
+
+        out_row, b_row = row(out_t, out_v, i_t, i_v), row(b_t, b_v, k_t, k_v)
+        scale = context.cast(builder, a_v, a_t, types.float64)
+        splat = builder.insert_element(ir.Constant(vec, ir.Undefined), scale,
+                                       ir.Constant(ir.IntType(32), 0))
+        splat = builder.shuffle_vector(splat, ir.Constant(vec, ir.Undefined),
+                                       ir.Constant(ir.VectorType(ir.IntType(32), _LANES),
+                                                   [0] * _LANES))
+        for at in range(0, ROW, _LANES):
+            dst = builder.bitcast(builder.gep(out_row, [ir.Constant(intp, at)]),
+                                  vec.as_pointer())
+            src = builder.bitcast(builder.gep(b_row, [ir.Constant(intp, at)]),
+                                  vec.as_pointer())
+            acc, term = builder.load(dst, align=8), builder.load(src, align=8)
+            builder.store(builder.fadd(acc, builder.fmul(splat, term)), dst, align=8)
+        return context.get_dummy_value()
+
+    return types.none(out, i, a, b, k), codegen
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def add_scaled_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int) -> None:
+    """``out[i, :] += a * b[k, :]`` for ``out`` and ``b`` of :data:`ROW` columns (the
+    filters' 16 states; ValueError otherwise) and rows ``0 <= i, k`` within them, to the bit
+    the loop ``for j in range(ROW): out[i, j] += a * b[k, j]``.
+
+    The compiler unrolls that loop, of a known count, before it could vectorise it, and it
+    cannot keep the row's entries apart from ``b``'s (both may be views of one array), so it
+    stays scalar: this makes it two vector operations of eight lanes. Same-row updates
+    follow one another in memory, so ``out`` and ``b`` may be the same array."""
+    if out.shape[1] != ROW or b.shape[1] != ROW:
+        raise ValueError("add_scaled_row: rows of 16 entries only")
+    _add_scaled_row(out, i, a, b, k)  # type: ignore[call-arg]
 
 
 @njit(cache=True, error_model="numpy")
@@ -34,8 +97,11 @@ def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
         for k in range(kk):
             aik = a[i, k]
             if aik != 0.0:
-                for j in range(w):
-                    out[i, j] += aik * b[k, j]
+                if w == ROW and out.shape[1] == ROW:
+                    add_scaled_row(out, i, aik, b, k)
+                else:
+                    for j in range(w):
+                        out[i, j] += aik * b[k, j]
 
 
 @njit(cache=True, error_model="numpy")
@@ -51,9 +117,12 @@ def mul_nonzero_left(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatArr
         # out[i, :] = sum_k a[i, k] b[k, :]   (over the non-zero a[i, k])
         for t in range(int(nz[i, 0])):
             k = int(nz[i, 1 + t])
-            aik = a[i, k]
-            for j in range(w):
-                out[i, j] += aik * b[k, j]
+            if w == ROW and out.shape[1] == ROW:
+                add_scaled_row(out, i, a[i, k], b, k)
+            else:
+                aik = a[i, k]
+                for j in range(w):
+                    out[i, j] += aik * b[k, j]
 
 
 @njit(cache=True, error_model="numpy")
@@ -99,9 +168,12 @@ def mul_at_t_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             out[j, i] = 0.0
         # out[j, :] = sum_k b[k, j] a[k, :]
         for k in range(kk):
-            b_kj = b[k, j]
-            for i in range(n):
-                out[j, i] += b_kj * a[k, i]
+            if n == ROW and out.shape[1] == ROW:
+                add_scaled_row(out, j, b[k, j], a, k)
+            else:
+                b_kj = b[k, j]
+                for i in range(n):
+                    out[j, i] += b_kj * a[k, i]
 
 
 @njit(cache=True, error_model="numpy")

@@ -50,7 +50,7 @@ from fcu.estimation.estimator import (
     StateEstimate,
     TickEstimator,
 )
-from fcu.estimation.small_matrix import sub_mul_vec_into, transpose_into
+from fcu.estimation.small_matrix import sub_mul_vec_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.estimation.tskf_algebra import (
     PREDICT_SCRATCH,
@@ -127,8 +127,9 @@ _SC_C = _SC_P_HAT + N * N  # C (MAX_M x N)
 _SC_Y = _SC_C + MAX_M * N  # y, then r (MAX_M)
 _SC_R_DIAG = _SC_Y + MAX_M  # diagonal of R (MAX_M)
 _SC_ROW_DELTA = _SC_R_DIAG + MAX_M  # delta of each row (MAX_M)
-_SC_V_T = _SC_ROW_DELTA + MAX_M  # V' (G x N)
-SCRATCH_SIZE = _SC_V_T + G * N
+_SC_USED = _SC_ROW_DELTA + MAX_M  # the state entries the channels read (N at the most)
+SC_MEAS = _SC_USED + N  # the tick's measurement table, when gathered here (pair_tick)
+SCRATCH_SIZE = SC_MEAS + screening.MAX_CHANNELS * screening.MEAS_WIDTH
 # ---- the filter's constants (tskf_tick): one float array, these offsets --------------------
 _M_A = 0  # A_d of the flight and ground models (2 x N x N)
 _M_B = _M_A + 2 * N * N  # B_d (2 x N x G)
@@ -234,24 +235,33 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
     prior = scratch[_SC_X_HAT:_SC_X_HAT + 2 * N]  # x_hat, then the diagonal (overwritten)
     tskf_output_into(prior, x_bar, p_x, gamma, p_gamma, v)
     p_hat = shaped(scratch[_SC_P_HAT:_SC_P_HAT + N * N], (N, N))
-    v_t = shaped(scratch[_SC_V_T:_SC_V_T + G * N], (G, N))
-    transpose_into(v_t, v)
-    for i in range(N):
+    # the state entries the channels read (a column of S with a non-zero entry): screening
+    # reads P only in their rows and columns, and only those entries are formed
+    used = scratch[_SC_USED:_SC_USED + N]
+    n_used = 0
+    for j in range(N):
+        for r in range(rows):
+            if sel_stack[r, j] != 0.0:
+                used[n_used] = j
+                n_used += 1
+                break
+    for ti in range(n_used):
+        i = int(used[ti])
         for g in range(G):
             acc = 0.0
             for h in range(G):
                 acc += v[i, h] * p_gamma[h, g]
             prior[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
-        # P[i, :] = P^x[i, :] + sum_g (V P^gamma)[i, g] V'[g, :]
-        for j in range(N):
-            p_hat[i, j] = p_x[i, j]
-        for g in range(G):
-            vpg = prior[N + g]
-            for j in range(N):
-                p_hat[i, j] += vpg * v_t[g, j]
+        # P[i, j] = P^x[i, j] + sum_g (V P^gamma)[i, g] V'[g, j]
+        for tj in range(n_used):
+            j = int(used[tj])
+            acc = p_x[i, j]
+            for g in range(G):
+                acc += prior[N + g] * v[j, g]
+            p_hat[i, j] = acc
     screen = out[2 * N:]
     status = screening.screen_channels_into(screen, x_hat, p_hat, meas, sel_stack, layout,
-                                            noise, excluded, on_ground, reject)
+                                            noise, excluded, on_ground, reject, sc_predict)
     n_ch = layout.shape[0]
     m = 0
     for c in range(n_ch):
