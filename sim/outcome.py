@@ -65,6 +65,9 @@ class OutcomeLimits:
                 "tilted_contact_s", self.tilted_contact_s, "must be >= 0 s")
 
 
+_HALF_SQRT2 = math.sqrt(0.5)
+
+
 class MissionArea:
     """Axis-aligned box (NED, m) around home and every target the vehicle was sent to."""
 
@@ -90,10 +93,16 @@ class MissionArea:
         lo, hi = self._lo.tolist(), self._hi.tolist()
         return [(lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])]
 
-    def inside(self, x: float, y: float, z: float) -> bool:
-        """``(x, y, z)`` (m, NED) is in the box or below it: :meth:`outside_m` is (0, 0)."""
+    def inside(self, x: float, y: float, z: float, margin_m: float = 0.0) -> bool:
+        """``(x, y, z)`` (m, NED) is in the box or below it (:meth:`outside_m` is (0, 0));
+        with a ``margin_m`` (m), in the box grown by ``margin_m / sqrt(2)`` horizontally and
+        by ``margin_m`` upwards, where both of :meth:`outside_m`'s distances are at most
+        ``margin_m`` (a quick test: near a corner a point that close may still answer
+        False)."""
         lo, hi = self._lo_l, self._hi_l
-        return lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and z >= lo[2]
+        h = margin_m * _HALF_SQRT2
+        return (lo[0] - h <= x <= hi[0] + h and lo[1] - h <= y <= hi[1] + h
+                and z >= lo[2] - margin_m)
 
     def outside_m(self, pos_ned: Vector) -> tuple[float, float]:
         """(horizontal distance outside the box, height above its top), m (0 inside)."""
@@ -185,7 +194,8 @@ class OutcomeJudge:
                 self._start_flight()
             if self._flying:
                 x, y, z = pos_ned
-                if not self.area.inside(x, y, z):  # (inside: 0 m outside, nothing to do)
+                # no farther outside than the farthest so far: nothing to do (0 m inside)
+                if not self.area.inside(x, y, z, self._max_outside_m):
                     self._check_distance(time_s, float(x), float(y), float(z))
         elif self._flying:
             if self._flying:
