@@ -539,7 +539,7 @@ class ExtendedKalmanEstimator(TickEstimator):
         ground flag, the last channel updated) and wrote into ``out`` (the estimate, then
         the screening), kept."""
         self._on_ground = on_ground
-        self._keep_screening(cs, out)
+        self._ticked(time_s, cs, out)
         # the Innovation records and the filterpy view are built on request from the
         # workspace, which holds the updates of the latest tick that had some
         self._innovations = None if last >= 0 else {}

@@ -71,7 +71,8 @@ from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
 from flightdata.vocabulary import HEIGHT_SOURCES
 
-_FLOAT64 = np.dtype(np.float64)
+_FLOAT64 = np.dtype(np.float64)  # (the dtype of float64 arrays, compared by identity)
+_NDARRAY = np.ndarray
 
 GATE_PROBABILITY = 1e-9
 """Probability that a consistent measurement exceeds its NIS gate (about 6 sigma)."""
@@ -80,7 +81,7 @@ GATE_PROBABILITY = 1e-9
 def pwm_array(pwm_applied: ArrayLike) -> FloatArray:
     """``pwm_applied`` as a float64 array of shape (4,) (itself when it is one)."""
     u = pwm_applied
-    if type(u) is not np.ndarray or u.dtype != _FLOAT64 or u.shape != (4,):
+    if type(u) is not _NDARRAY or u.dtype is not _FLOAT64 or u.shape != (4,):
         u = np.asarray(pwm_applied, dtype=float).reshape(4)
     return u
 
@@ -455,7 +456,8 @@ class TickEstimator:
         accelerometer out.
 
     Subclasses build their channels by :meth:`_build_channel_sets` (after what their
-    :meth:`_make_channels` needs) and keep each tick's screening by :meth:`_keep_screening`.
+    :meth:`_make_channels` needs) and keep each tick's estimate and screening by
+    :meth:`_ticked`.
     """
 
     _sets: Mapping[str, ChannelSet]  # every height source's channels
@@ -544,13 +546,6 @@ class TickEstimator:
         return common_channels(height_source, self.model, self.accel_z_model_sigma)
 
     # ---- screening ---------------------------------------------------------------------------
-    def _keep_screening(self, channel_set: ChannelSet, out: FloatArray) -> None:
-        """Keep the tick's :func:`screen_channels` output for :attr:`screening`: ``out`` is
-        the tick's output (:meth:`_tick`), whose entries after the estimate's ``2 *
-        STATE_DIM`` are the screening (sliced when read)."""
-        self._screen_out = (channel_set, out)
-        self._screening = None
-
     def _screen_table(self) -> tuple[ChannelSet, FloatArray] | None:
         """The latest tick's channels and screening table, or None before the first tick."""
         if self._screen_out is None:
@@ -639,14 +634,18 @@ class TickEstimator:
         out = np.empty(cs.tick_size)  # the estimate's own array, and the screening's
         self._tick(time_s, u, cs, cs.measurements(batches), cs.exclusion(excluded),
                    bool(reject), out)
-        self._ticked(time_s, out)
 
-    def _ticked(self, time_s: float, out: FloatArray) -> None:
-        """After a tick to ``time_s`` (s) whose estimate :meth:`_tick` wrote at the start of
-        ``out`` (fresh, held by no one else): the estimate is built from it when read."""
+    def _ticked(self, time_s: float, channel_set: ChannelSet, out: FloatArray) -> None:
+        """After a tick to ``time_s`` (s) with the channels ``channel_set`` whose output
+        :meth:`_tick` wrote into ``out`` (fresh, held by no one else): the estimate at its
+        start, then the :func:`screen_channels` table. Both are kept as ``out``: the
+        :class:`StateEstimate` is built from it when :attr:`estimate` is read, the
+        :attr:`screening` when that is."""
         self._time_s = time_s
         self._estimate = None
         self._tick_out = out
+        self._screen_out = (channel_set, out)
+        self._screening = None
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
               excluded: np.ndarray, reject: bool, out: FloatArray) -> None:
@@ -656,8 +655,8 @@ class TickEstimator:
         channel) and whether a lone outlier may be rejected. Writes into ``out`` (fresh,
         shape (``channel_set.tick_size``,)) the estimate's state (yaw wrapped to
         [-pi, pi)) and covariance diagonal (first 32 entries), then the screening
-        (:func:`~fcu.estimation.screening.screen_channels`' table), which it keeps
-        (:meth:`_keep_screening`)."""
+        (:func:`~fcu.estimation.screening.screen_channels`' table), and keeps them
+        (:meth:`_ticked`)."""
         raise NotImplementedError
 
     @property

@@ -177,11 +177,8 @@ def step_pair(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: 
         tskf._buf, t_cs.kernel_ints(grouped), t_excluded, tskf.gamma_raw, n_steps,
         tskf.on_ground, tskf._accel_power,
         ekf._buf, e_cs.kernel_ints(grouped), e_excluded, dt, ekf._on_ground)
-    tskf_out = out[e_size:]
-    tskf._kept(t_cs, tskf_out, out[-N_MOTORS:], t_on_ground, accel_power, m)
-    tskf._ticked(time_s, tskf_out)
+    tskf._kept(time_s, t_cs, out[e_size:], out[-N_MOTORS:], t_on_ground, accel_power, m)
     ekf._kept(time_s, e_cs, out, e_on_ground, last)
-    ekf._ticked(time_s, out)
     return ekf.estimate
 
 

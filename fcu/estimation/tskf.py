@@ -524,7 +524,7 @@ class TwoStageKalmanFilter(TickEstimator):
             self._work, self._scratch, gamma, out, self._model, cs.tables, cs.layout, u, meas,
             excluded, self._steps_to(time_s), time_s, reject, self.on_ground,
             self._accel_power)
-        self._kept(cs, out, gamma, on_ground, accel_power, m)
+        self._kept(time_s, cs, out, gamma, on_ground, accel_power, m)
 
     def _steps_to(self, time_s: float) -> int:
         """Time updates from the latest tick to ``time_s`` (s): a whole number of ``dt_s``
@@ -537,14 +537,14 @@ class TwoStageKalmanFilter(TickEstimator):
                              "call it at whole multiples of dt_s")
         return n_steps
 
-    def _kept(self, cs: ChannelSet, out: FloatArray, gamma: FloatArray, on_ground: bool,
-              accel_power: float, m: int) -> None:
-        """What :func:`tskf_tick` with the channels ``cs`` returned (the ground flag, the
-        accelerometer's innovation power, the update's rows) and wrote (``gamma``, fresh;
-        into ``out`` the estimate, then the screening), kept."""
+    def _kept(self, time_s: float, cs: ChannelSet, out: FloatArray, gamma: FloatArray,
+              on_ground: bool, accel_power: float, m: int) -> None:
+        """What :func:`tskf_tick` at ``time_s`` (s) with the channels ``cs`` returned (the
+        ground flag, the accelerometer's innovation power, the update's rows) and wrote
+        (``gamma``, fresh; into ``out`` the estimate, then the screening), kept."""
         self.on_ground, self._accel_power, self._m = on_ground, accel_power, m
         self.gamma_raw = gamma
-        self._keep_screening(cs, out)
+        self._ticked(time_s, cs, out)
 
     # ---- the workspace, read (copies) ------------------------------------------------------
     def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:
