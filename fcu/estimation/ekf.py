@@ -200,6 +200,24 @@ _C_QC = _C_PARAMS + N_PARAMS  # Qc diagonal (N)
 _C_GROUND = _C_QC + N  # the ground plane (3, on_ground_at)
 _C_DT_MAX = _C_GROUND + 3  # the longest prediction step, s
 CONSTANTS_SIZE = _C_DT_MAX + 1
+# the estimator's float arrays, kept in one (ExtendedKalmanEstimator._buf) at these offsets,
+# so that a compiled call takes them as one argument (fcu.estimation.pair); then every height
+# source's channel tables (ChannelSet.tables_at)
+B_WORK = 0  # work (WORK_SIZE)
+B_S_STACK = B_WORK + WORK_SIZE  # s_stack (MAX_CHANNELS x MAX_ROWS x MAX_ROWS)
+B_SCRATCH = B_S_STACK + MAX_CHANNELS * MAX_ROWS * MAX_ROWS  # scratch (SCRATCH_SIZE)
+B_CONSTANTS = B_SCRATCH + SCRATCH_SIZE  # constants (CONSTANTS_SIZE)
+B_TABLES = B_CONSTANTS + CONSTANTS_SIZE
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def buffer_views(buf: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """:func:`ekf_tick`'s ``work``, ``s_stack``, ``scratch`` and ``constants``: views of the
+    estimator's buffer ``buf`` (offsets ``B_*``), holding no reference (:func:`shaped`)."""
+    return (buf[B_WORK:B_WORK + WORK_SIZE],
+            shaped(buf[B_S_STACK:B_SCRATCH], (MAX_CHANNELS, MAX_ROWS, MAX_ROWS)),
+            buf[B_SCRATCH:B_SCRATCH + SCRATCH_SIZE],
+            buf[B_CONSTANTS:B_CONSTANTS + CONSTANTS_SIZE])
 
 
 @njit(cache=True, error_model="numpy")
@@ -445,11 +463,17 @@ class ExtendedKalmanEstimator(TickEstimator):
         self.process_noise = process_noise if process_noise is not None else EkfProcessNoise()
         self._params = pack_params(model)
         self._qc_diag = self.process_noise.diagonal()
-        # packed for ekf_tick (offsets _C_*)
-        self._constants = np.concatenate((self._params, self._qc_diag, self._ground,
-                                          [self.dt_s]))
-        assert self._constants.shape == (CONSTANTS_SIZE,)
         self._build_channel_sets()
+        # the float arrays of ekf_tick in one (offsets B_*), then the channel tables
+        self._buf = self._packed_buffer(B_TABLES)
+        self._work = self._buf[B_WORK:B_WORK + WORK_SIZE]
+        self._s_stack = self._buf[B_S_STACK:B_SCRATCH].reshape(MAX_CHANNELS, MAX_ROWS,
+                                                                MAX_ROWS)
+        self._scratch = self._buf[B_SCRATCH:B_SCRATCH + SCRATCH_SIZE]
+        # packed for ekf_tick (offsets _C_*)
+        self._constants = self._buf[B_CONSTANTS:B_CONSTANTS + CONSTANTS_SIZE]
+        self._constants[:] = np.concatenate((self._params, self._qc_diag, self._ground,
+                                             [self.dt_s]))
         self.reset()
 
     def _make_channels(self, height_source: str) -> ChannelSet:
@@ -473,9 +497,9 @@ class ExtendedKalmanEstimator(TickEstimator):
         """
         x0, p0 = self._initial_state(initial)
         # x, P, priors, F, Q and the latest updates, as ekf_tick keeps them
-        self._work = np.zeros(WORK_SIZE)
-        self._s_stack = np.zeros((MAX_CHANNELS, MAX_ROWS, MAX_ROWS))
-        self._scratch = np.zeros(SCRATCH_SIZE)
+        self._work[:] = 0.0
+        self._s_stack[:] = 0.0
+        self._scratch[:] = 0.0
         w = self._work
         w[_X:_X + N] = w[_X_PRIOR:_X_PRIOR + N] = x0
         w[_P:_P + NN] = w[_P_PRIOR:_P_PRIOR + NN] = np.diag(p0).ravel()
@@ -515,7 +539,7 @@ class ExtendedKalmanEstimator(TickEstimator):
         ground flag, the last channel updated) and wrote into ``out`` (the estimate, then
         the screening), kept."""
         self._on_ground = on_ground
-        self._keep_screening(cs, out)
+        self._ticked(time_s, cs, out)
         # the Innovation records and the filterpy view are built on request from the
         # workspace, which holds the updates of the latest tick that had some
         self._innovations = None if last >= 0 else {}

@@ -71,7 +71,8 @@ from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
 from flightdata.vocabulary import HEIGHT_SOURCES
 
-_FLOAT64 = np.dtype(np.float64)
+_FLOAT64 = np.dtype(np.float64)  # (the dtype of float64 arrays, compared by identity)
+_NDARRAY = np.ndarray
 
 GATE_PROBABILITY = 1e-9
 """Probability that a consistent measurement exceeds its NIS gate (about 6 sigma)."""
@@ -80,7 +81,7 @@ GATE_PROBABILITY = 1e-9
 def pwm_array(pwm_applied: ArrayLike) -> FloatArray:
     """``pwm_applied`` as a float64 array of shape (4,) (itself when it is one)."""
     u = pwm_applied
-    if type(u) is not np.ndarray or u.dtype != _FLOAT64 or u.shape != (4,):
+    if type(u) is not _NDARRAY or u.dtype is not _FLOAT64 or u.shape != (4,):
         u = np.asarray(pwm_applied, dtype=float).reshape(4)
     return u
 
@@ -272,6 +273,17 @@ def common_channels(height_source: str, model: VehicleModel, accel_model_sigma: 
     return channels
 
 
+# A channel set's integer tables for one slot layout of the grouped samples, packed into one
+# int64 array (ChannelSet.kernel_ints) at these offsets, for a compiled call that takes the
+# filter's floats as one array too (fcu.estimation.pair)
+I_TABLES_AT = 0  # where tables starts in the filter's float buffer (ChannelSet.tables_at)
+I_TABLES_SIZE = 1  # its entries
+I_N_CH = 2  # channels
+I_LAYOUT_COLS = 3  # columns of layout
+I_LAYOUT = 4  # then layout (n_ch x cols), the gather index (n_ch x MEAS_WIDTH) and the
+# exclusions (n_ch, written by the kernel each tick)
+
+
 class ChannelSet:
     """One height source's channels, stacked for the compiled tick of an estimator.
 
@@ -296,6 +308,9 @@ class ChannelSet:
         (:func:`~fcu.estimation.screening.channel_tables`).
     tick_size : int
         Entries of a tick's output (:meth:`TickEstimator._tick`).
+    tables_at : int
+        Where :attr:`tables` sits in its estimator's float buffer
+        (:meth:`TickEstimator._packed_buffer`; -1 before).
     """
 
     def __init__(self, channels: tuple[Channel, ...]) -> None:
@@ -325,6 +340,10 @@ class ChannelSet:
         self.no_exclusion = np.zeros(len(channels), dtype=np.bool_)
         self._absent = [0.0] * MEAS_WIDTH
         self._gathers: dict[tuple[tuple[str, ...], int], np.ndarray] = {}
+        self.tables_at = -1
+        # kernel_ints' arrays by slot layout, and the latest one asked for
+        self._ints: dict[tuple[tuple[str, ...], int], np.ndarray] = {}
+        self._last_ints: tuple[tuple[str, ...], int, np.ndarray] = ((), -1, self.layout)
 
     def measurements(self, batches: Mapping[str, SampleBatch]) -> FloatArray:
         """The tick's measurement table, shape (n_ch, MEAS_WIDTH): per channel the count
@@ -362,6 +381,33 @@ class ChannelSet:
         if gather is None:
             gather = self._gathers[key] = self._gather_index(*key)
         return gather
+
+    def kernel_ints(self, grouped: GroupedSamples) -> np.ndarray:
+        """The integer tables for a compiled tick on ``grouped`` (offsets ``I_*``): where
+        :attr:`tables` sits in the estimator's float buffer, :attr:`layout`, :meth:`gather`'s
+        index and room for the tick's exclusions (made once per slot layout; the slot names
+        of a flight's ticks are one tuple, compared by identity first)."""
+        names, width, ints = self._last_ints
+        if grouped.slot_names is not names or grouped.width != width:
+            key = (grouped.slot_names, grouped.width)
+            made = self._ints.get(key)
+            if made is None:
+                assert self.tables_at >= 0, "the tables are not in a buffer"
+                n_ch, cols = self.layout.shape
+                made = self._ints[key] = np.concatenate((
+                    [self.tables_at, self.tables.size, n_ch, cols], self.layout.ravel(),
+                    self.gather(grouped).ravel(), np.zeros(n_ch))).astype(np.int64)
+            ints = made
+            self._last_ints = (grouped.slot_names, grouped.width, ints)
+        return ints
+
+    def exclusion_bits(self, excluded: Collection[str]) -> int:
+        """:meth:`exclusion` as bits, channel ``c`` the bit ``1 << c``."""
+        bits = 0
+        for c, sensor in enumerate(self.sensors):
+            if sensor in excluded:
+                bits |= 1 << c
+        return bits
 
     def _gather_index(self, slot_names: tuple[str, ...], width: int) -> np.ndarray:
         """Indices into :attr:`GroupedSamples.flat` (a flattened table and one spare zero,
@@ -410,7 +456,8 @@ class TickEstimator:
         accelerometer out.
 
     Subclasses build their channels by :meth:`_build_channel_sets` (after what their
-    :meth:`_make_channels` needs) and keep each tick's screening by :meth:`_keep_screening`.
+    :meth:`_make_channels` needs) and keep each tick's estimate and screening by
+    :meth:`_ticked`.
     """
 
     _sets: Mapping[str, ChannelSet]  # every height source's channels
@@ -479,19 +526,26 @@ class TickEstimator:
         self._set = self._sets[self._height_source]
         self._kinds = frozenset(s for cs in self._sets.values() for s in cs.sensors)
 
+    def _packed_buffer(self, at: int) -> FloatArray:
+        """A float buffer of ``at`` entries (zeros) for the filter's own arrays, then the
+        :attr:`ChannelSet.tables` of every height source, which become views of it
+        (:attr:`ChannelSet.tables_at`): one argument of a compiled call
+        (:mod:`fcu.estimation.pair`)."""
+        sets = list(self._sets.values())
+        buf = np.zeros(at + sum(cs.tables.size for cs in sets))
+        for cs in sets:
+            size = cs.tables.size
+            buf[at:at + size] = cs.tables
+            cs.tables, cs.tables_at = buf[at:at + size], at
+            at += size
+        return buf
+
     def _common_channels(self, height_source: str) -> list[tuple[str, FloatArray,
                                                                  tuple[int, ...], float]]:
         """:func:`common_channels` of this estimator."""
         return common_channels(height_source, self.model, self.accel_z_model_sigma)
 
     # ---- screening ---------------------------------------------------------------------------
-    def _keep_screening(self, channel_set: ChannelSet, out: FloatArray) -> None:
-        """Keep the tick's :func:`screen_channels` output for :attr:`screening`: ``out`` is
-        the tick's output (:meth:`_tick`), whose entries after the estimate's ``2 *
-        STATE_DIM`` are the screening (sliced when read)."""
-        self._screen_out = (channel_set, out)
-        self._screening = None
-
     def _screen_table(self) -> tuple[ChannelSet, FloatArray] | None:
         """The latest tick's channels and screening table, or None before the first tick."""
         if self._screen_out is None:
@@ -580,14 +634,18 @@ class TickEstimator:
         out = np.empty(cs.tick_size)  # the estimate's own array, and the screening's
         self._tick(time_s, u, cs, cs.measurements(batches), cs.exclusion(excluded),
                    bool(reject), out)
-        self._ticked(time_s, out)
 
-    def _ticked(self, time_s: float, out: FloatArray) -> None:
-        """After a tick to ``time_s`` (s) whose estimate :meth:`_tick` wrote at the start of
-        ``out`` (fresh, held by no one else): the estimate is built from it when read."""
+    def _ticked(self, time_s: float, channel_set: ChannelSet, out: FloatArray) -> None:
+        """After a tick to ``time_s`` (s) with the channels ``channel_set`` whose output
+        :meth:`_tick` wrote into ``out`` (fresh, held by no one else): the estimate at its
+        start, then the :func:`screen_channels` table. Both are kept as ``out``: the
+        :class:`StateEstimate` is built from it when :attr:`estimate` is read, the
+        :attr:`screening` when that is."""
         self._time_s = time_s
         self._estimate = None
         self._tick_out = out
+        self._screen_out = (channel_set, out)
+        self._screening = None
 
     def _tick(self, time_s: float, u: FloatArray, channel_set: ChannelSet, meas: FloatArray,
               excluded: np.ndarray, reject: bool, out: FloatArray) -> None:
@@ -597,8 +655,8 @@ class TickEstimator:
         channel) and whether a lone outlier may be rejected. Writes into ``out`` (fresh,
         shape (``channel_set.tick_size``,)) the estimate's state (yaw wrapped to
         [-pi, pi)) and covariance diagonal (first 32 entries), then the screening
-        (:func:`~fcu.estimation.screening.screen_channels`' table), which it keeps
-        (:meth:`_keep_screening`)."""
+        (:func:`~fcu.estimation.screening.screen_channels`' table), and keeps them
+        (:meth:`_ticked`)."""
         raise NotImplementedError
 
     @property

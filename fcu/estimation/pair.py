@@ -20,11 +20,20 @@ from numpy.typing import ArrayLike
 
 from fcu.estimation.ekf import SC_MEAS as E_MEAS
 from fcu.estimation.ekf import ExtendedKalmanEstimator, ekf_tick
-from fcu.estimation.estimator import pwm_array
-from fcu.estimation.screening import MEAS_WIDTH
-from fcu.estimation.state import FloatArray, GroupedSamples, StateEstimate
+from fcu.estimation.ekf import buffer_views as ekf_buffer_views
+from fcu.estimation.estimator import (
+    I_LAYOUT,
+    I_LAYOUT_COLS,
+    I_N_CH,
+    I_TABLES_AT,
+    I_TABLES_SIZE,
+    pwm_array,
+)
+from fcu.estimation.screening import MEAS_WIDTH, ROW1
+from fcu.estimation.state import STATE_DIM, FloatArray, GroupedSamples, StateEstimate
 from fcu.estimation.tskf import SC_MEAS as T_MEAS
 from fcu.estimation.tskf import TwoStageKalmanFilter, tskf_tick
+from fcu.estimation.tskf import buffer_views as tskf_buffer_views
 from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
@@ -52,15 +61,36 @@ def gather_into(meas: FloatArray, flat: FloatArray, gather: np.ndarray) -> None:
             meas[c, k] = flat[gather[c, k]]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def channel_views(buf: FloatArray, ints: np.ndarray, excluded_bits: int
+                  ) -> tuple[FloatArray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """A filter's channel tables for a tick: ``tables`` (a view of its float buffer ``buf``),
+    ``layout``, the gather index and the exclusions (views of ``ints``,
+    :meth:`~fcu.estimation.estimator.ChannelSet.kernel_ints`, offsets ``I_*``), the last
+    written from ``excluded_bits`` (channel ``c`` excluded: bit ``1 << c``), and the tick
+    output's size (:attr:`~fcu.estimation.estimator.ChannelSet.tick_size`)."""
+    n_ch, cols = ints[I_N_CH], ints[I_LAYOUT_COLS]
+    at = ints[I_TABLES_AT]
+    tables = buf[at:at + ints[I_TABLES_SIZE]]
+    o = I_LAYOUT
+    layout = shaped(ints[o:o + n_ch * cols], (n_ch, cols))
+    o += n_ch * cols
+    gather = shaped(ints[o:o + n_ch * MEAS_WIDTH], (n_ch, MEAS_WIDTH))
+    o += n_ch * MEAS_WIDTH
+    excluded = ints[o:o + n_ch]
+    for c in range(n_ch):
+        excluded[c] = (excluded_bits >> c) & 1
+    # the estimate's state and covariance diagonal, then the screening (2 rows + 2 n_ch)
+    tick_size = 2 * STATE_DIM + 2 * layout[n_ch - 1, ROW1] + 2 * n_ch
+    return tables, layout, gather, excluded, tick_size
+
+
 @njit(cache=True, error_model="numpy")
 def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out: FloatArray,
-              e_size: int, t_size: int, t_work: FloatArray, t_scratch: FloatArray,
-              t_gamma: FloatArray, t_model: FloatArray, t_tables: FloatArray, t_layout: np.ndarray,
-              t_gather: np.ndarray, t_excluded: np.ndarray, n_steps: int, t_on_ground: bool,
-              accel_power: float, e_work: FloatArray, e_s_stack: FloatArray,
-              e_scratch: FloatArray, e_constants: FloatArray, e_tables: FloatArray,
-              e_layout: np.ndarray, e_gather: np.ndarray, e_excluded: np.ndarray, dt: float,
-              e_on_ground: bool) -> tuple[bool, float, int, bool, int]:
+              t_buf: FloatArray, t_ints: np.ndarray, t_excluded: int, t_gamma: FloatArray,
+              n_steps: int, t_on_ground: bool, accel_power: float, e_buf: FloatArray,
+              e_ints: np.ndarray, e_excluded: int, dt: float, e_on_ground: bool
+              ) -> tuple[bool, float, int, bool, int]:
     """:func:`~fcu.estimation.tskf.tskf_tick` and :func:`~fcu.estimation.ekf.ekf_tick` of one
     tick, on the grouped samples ``flat`` (:attr:`~fcu.estimation.state.GroupedSamples.flat`).
 
@@ -73,18 +103,23 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
         rejected: both filters'.
     out : ndarray, shape (e_size + t_size + 4,)
         Written: the EKF's tick output (its estimate and screening, ``e_size`` entries), the
-        TSKF's (``t_size``), then the TSKF's new ``gamma_hat``.
-    e_size, t_size : int
-        Each filter's :attr:`~fcu.estimation.estimator.ChannelSet.tick_size`.
-    t_work, t_scratch, t_model, t_tables, t_layout, n_steps, t_on_ground, accel_power
-        :func:`~fcu.estimation.tskf.tskf_tick`'s, ``t_gamma`` its ``gamma_hat`` before the
-        tick (read only).
-    e_work, e_s_stack, e_scratch, e_constants, e_tables, e_layout, dt, e_on_ground
+        TSKF's (``t_size``), then the TSKF's new ``gamma_hat`` (each filter's size:
+        :attr:`~fcu.estimation.estimator.ChannelSet.tick_size`).
+    t_buf, e_buf : ndarrays
+        Each filter's float buffer: its workspace, scratch, model or constants (and the
+        EKF's ``s_stack``) at the offsets ``B_*`` of :mod:`~fcu.estimation.tskf` and
+        :mod:`~fcu.estimation.ekf`, then the channel tables.
+    t_ints, e_ints : ndarrays of int
+        The current channels' integer tables for this slot layout
+        (:meth:`~fcu.estimation.estimator.ChannelSet.kernel_ints`).
+    t_excluded, e_excluded : int
+        Each filter's excluded channels, as bits (:func:`channel_views`).
+    t_gamma : ndarray, shape (4,)
+        The TSKF's ``gamma_hat`` before the tick (read only).
+    n_steps, t_on_ground, accel_power
+        :func:`~fcu.estimation.tskf.tskf_tick`'s.
+    dt, e_on_ground
         :func:`~fcu.estimation.ekf.ekf_tick`'s.
-    t_gather, e_gather : ndarrays of int
-        Each filter's measurement table in ``flat`` (:func:`gathered`).
-    t_excluded, e_excluded : ndarrays of bool
-        Each filter's excluded channels.
 
     Returns
     -------
@@ -95,12 +130,12 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     """
     # the arguments as views that hold no references: no reference counting in the tick
     flat, u, out, t_gamma = borrowed(flat), borrowed(u), borrowed(out), borrowed(t_gamma)
-    t_work, t_scratch, t_model = borrowed(t_work), borrowed(t_scratch), borrowed(t_model)
-    t_tables, t_layout, t_gather = borrowed(t_tables), borrowed(t_layout), borrowed(t_gather)
-    t_excluded, e_work, e_s_stack = borrowed(t_excluded), borrowed(e_work), borrowed(e_s_stack)
-    e_scratch, e_constants, e_tables = (borrowed(e_scratch), borrowed(e_constants),
-                                        borrowed(e_tables))
-    e_layout, e_gather, e_excluded = borrowed(e_layout), borrowed(e_gather), borrowed(e_excluded)
+    t_buf, t_ints, e_buf, e_ints = borrowed(t_buf), borrowed(t_ints), borrowed(e_buf), \
+        borrowed(e_ints)
+    t_work, t_scratch, t_model = tskf_buffer_views(t_buf)
+    t_tables, t_layout, t_gather, t_excl, t_size = channel_views(t_buf, t_ints, t_excluded)
+    e_work, e_s_stack, e_scratch, e_constants = ekf_buffer_views(e_buf)
+    e_tables, e_layout, e_gather, e_excl, e_size = channel_views(e_buf, e_ints, e_excluded)
     gamma = out[e_size + t_size:]
     gamma[:] = t_gamma
     # each filter's measurement table, gathered into its scratch (which the tick leaves alone
@@ -112,10 +147,10 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     gather_into(e_meas, flat, e_gather)
     t_on_ground, accel_power, m = tskf_tick(
         t_work, t_scratch, gamma, out[e_size:e_size + t_size], t_model, t_tables, t_layout,
-        u, t_meas, t_excluded, n_steps, time_s, reject, t_on_ground, accel_power)
+        u, t_meas, t_excl, n_steps, time_s, reject, t_on_ground, accel_power)
     e_on_ground, last = ekf_tick(
         e_work, e_s_stack, e_scratch, out[:e_size], e_constants, e_tables, e_layout, u,
-        e_meas, e_excluded, dt, time_s, reject, e_on_ground)
+        e_meas, e_excl, dt, time_s, reject, e_on_ground)
     return t_on_ground, accel_power, m, e_on_ground, last
 
 
@@ -135,18 +170,15 @@ def step_pair(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: 
     e_size, t_size = e_cs.tick_size, t_cs.tick_size
     # the estimates' own array (each a part), the screenings' and the new gamma_hat's
     out = np.empty(e_size + t_size + N_MOTORS)
+    t_excluded = t_cs.exclusion_bits(excluded) if excluded else 0
+    e_excluded = e_cs.exclusion_bits(excluded) if excluded else 0
     t_on_ground, accel_power, m, e_on_ground, last = pair_tick(
-        grouped.flat, u, time_s, bool(reject), out, e_size, t_size,
-        tskf._work, tskf._scratch, tskf.gamma_raw, tskf._model, t_cs.tables, t_cs.layout,
-        t_cs.gather(grouped), t_cs.exclusion(excluded), n_steps, tskf.on_ground,
-        tskf._accel_power,
-        ekf._work, ekf._s_stack, ekf._scratch, ekf._constants, e_cs.tables, e_cs.layout,
-        e_cs.gather(grouped), e_cs.exclusion(excluded), dt, ekf._on_ground)
-    tskf_out = out[e_size:]
-    tskf._kept(t_cs, tskf_out, out[-N_MOTORS:], t_on_ground, accel_power, m)
-    tskf._ticked(time_s, tskf_out)
+        grouped.flat, u, time_s, bool(reject), out,
+        tskf._buf, t_cs.kernel_ints(grouped), t_excluded, tskf.gamma_raw, n_steps,
+        tskf.on_ground, tskf._accel_power,
+        ekf._buf, e_cs.kernel_ints(grouped), e_excluded, dt, ekf._on_ground)
+    tskf._kept(time_s, t_cs, out[e_size:], out[-N_MOTORS:], t_on_ground, accel_power, m)
     ekf._kept(time_s, e_cs, out, e_on_ground, last)
-    ekf._ticked(time_s, out)
     return ekf.estimate
 
 

@@ -183,7 +183,7 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
     screen : ndarray, shape (2 rows_total + 2 n_ch,)
         ``nu = z - S x`` and ``diag(S P S' + R)``, each stacked like ``sel_stack``, then each
         channel's NIS and status code (``APPLIED`` ... ``SKIPPED``, ``ABSENT`` without a
-        batch), one array for :meth:`TickEstimator._keep_screening`.
+        batch), one array for :meth:`TickEstimator._ticked`.
     status : ndarray of int, shape (n_ch,)
         The status codes again.
     """

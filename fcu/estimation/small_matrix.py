@@ -21,7 +21,7 @@ from fcu.estimation.state import FloatArray
 
 __all__ = ["ROW", "add_mul_vec", "add_scaled_row", "mul_at_into", "mul_at_t_into",
            "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into", "mul_nonzero_left",
-           "mul_sparse_left", "nonzero_columns", "spd_inverse", "spd_quadratic",
+           "mul_sparse_left", "nonzero_columns", "spd_inverse", "spd_quadratic", "spd_solve",
            "sub_mul_vec_into", "symmetrize", "transpose_into"]
 
 
@@ -315,6 +315,39 @@ def spd_inverse(a: FloatArray, m: int, out: FloatArray, low: FloatArray,
                 s += low_inv[k, i] * low_inv[k, j]
             out[i, j] = s
             out[j, i] = s
+
+
+@njit(cache=True, error_model="numpy")
+def spd_solve(a: FloatArray, m: int, b: FloatArray, out: FloatArray, low: FloatArray) -> None:
+    """``a^-1 b`` for the symmetric positive definite top-left (m, m) block of ``a`` and ``b``
+    of shape (m, k), written to ``out`` (m, k) (``low``: scratch of at least (m, m)), without
+    forming ``a^-1``.
+
+    ``a = L L'`` (Cholesky); ``z = L^-1 b`` by forward, ``out = L^-T z`` by back
+    substitution, a row of k entries at a time (``z`` kept in ``out``).
+    """
+    _cholesky(a, m, low)
+    k = b.shape[1]
+    # z = L^-1 b:  z[i] = (b[i] - sum_{q < i} L[i, q] z[q]) / L[i, i]
+    for i in range(m):
+        for j in range(k):
+            out[i, j] = b[i, j]
+        for q in range(i):
+            l_iq = low[i, q]
+            for j in range(k):
+                out[i, j] -= l_iq * out[q, j]
+        d = low[i, i]
+        for j in range(k):
+            out[i, j] /= d
+    # out = L^-T z:  out[i] = (z[i] - sum_{q > i} L[q, i] out[q]) / L[i, i]
+    for i in range(m - 1, -1, -1):
+        for q in range(i + 1, m):
+            l_qi = low[q, i]
+            for j in range(k):
+                out[i, j] -= l_qi * out[q, j]
+        d = low[i, i]
+        for j in range(k):
+            out[i, j] /= d
 
 
 @njit(cache=True, error_model="numpy")

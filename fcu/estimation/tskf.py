@@ -139,6 +139,21 @@ _M_Q_GAMMA = _M_Q + 2 * N * N  # Q^gamma per step in flight
 _M_DT = _M_Q_GAMMA + 1  # filter period, s
 _M_GROUND = _M_DT + 1  # the ground plane (3, on_ground_at)
 MODEL_SIZE = _M_GROUND + 3
+# the filter's float arrays, kept in one (TwoStageKalmanFilter._buf) at these offsets, so that
+# a compiled call takes them as one argument (fcu.estimation.pair); then every height
+# source's channel tables (ChannelSet.tables_at)
+B_WORK = 0  # work (WORK_SIZE)
+B_SCRATCH = B_WORK + WORK_SIZE  # scratch (SCRATCH_SIZE)
+B_MODEL = B_SCRATCH + SCRATCH_SIZE  # model (MODEL_SIZE)
+B_TABLES = B_MODEL + MODEL_SIZE
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def buffer_views(buf: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`tskf_tick`'s ``work``, ``scratch`` and ``model``: views of the filter's buffer
+    ``buf`` (offsets ``B_*``)."""
+    return (buf[B_WORK:B_WORK + WORK_SIZE], buf[B_SCRATCH:B_SCRATCH + SCRATCH_SIZE],
+            buf[B_MODEL:B_MODEL + MODEL_SIZE])
 
 
 @njit(cache=True, error_model="numpy")
@@ -438,12 +453,16 @@ class TwoStageKalmanFilter(TickEstimator):
         self._a_d, self._b_d, self._g_d, self._q_d = (
             np.ascontiguousarray([getattr(lm, name) for lm in models])
             for name in ("a_d", "b_d", "g_d", "q_d"))
-        # packed for tskf_tick (offsets _M_*)
-        self._model = np.concatenate((self._a_d.ravel(), self._b_d.ravel(),
-                                      self._g_d.ravel(), self._q_d.ravel(),
-                                      [self.q_gamma, self.dt_s], self._ground))
-        assert self._model.shape == (MODEL_SIZE,)
         self._build_channel_sets()
+        # the float arrays of tskf_tick in one (offsets B_*), then the channel tables
+        self._buf = self._packed_buffer(B_TABLES)
+        self._work = self._buf[B_WORK:B_WORK + WORK_SIZE]
+        self._scratch = self._buf[B_SCRATCH:B_SCRATCH + SCRATCH_SIZE]
+        # packed for tskf_tick (offsets _M_*)
+        self._model = self._buf[B_MODEL:B_MODEL + MODEL_SIZE]
+        self._model[:] = np.concatenate((self._a_d.ravel(), self._b_d.ravel(),
+                                         self._g_d.ravel(), self._q_d.ravel(),
+                                         [self.q_gamma, self.dt_s], self._ground))
         self.reset()
 
     def _make_channels(self, height_source: str) -> _ChannelSet:
@@ -475,8 +494,8 @@ class TwoStageKalmanFilter(TickEstimator):
         # bias-free filter x_bar, P^x (eq. 6.15-6.19), bias filter P^gamma (eq. 6.10-6.14),
         # coupling V_{k|k} (eq. 6.24), their priors and the update's residual and innovation,
         # as tskf_tick keeps them (read through the properties below)
-        self._work = np.zeros(WORK_SIZE)
-        self._scratch = np.zeros(SCRATCH_SIZE)
+        self._work[:] = 0.0
+        self._scratch[:] = 0.0
         for at in (0, _PRIOR):
             self._work[at + _XB:at + _XB + N] = x0
             self._work[at + _PX:at + _PX + N * N] = np.diag(p0).ravel()
@@ -505,7 +524,7 @@ class TwoStageKalmanFilter(TickEstimator):
             self._work, self._scratch, gamma, out, self._model, cs.tables, cs.layout, u, meas,
             excluded, self._steps_to(time_s), time_s, reject, self.on_ground,
             self._accel_power)
-        self._kept(cs, out, gamma, on_ground, accel_power, m)
+        self._kept(time_s, cs, out, gamma, on_ground, accel_power, m)
 
     def _steps_to(self, time_s: float) -> int:
         """Time updates from the latest tick to ``time_s`` (s): a whole number of ``dt_s``
@@ -518,14 +537,14 @@ class TwoStageKalmanFilter(TickEstimator):
                              "call it at whole multiples of dt_s")
         return n_steps
 
-    def _kept(self, cs: ChannelSet, out: FloatArray, gamma: FloatArray, on_ground: bool,
-              accel_power: float, m: int) -> None:
-        """What :func:`tskf_tick` with the channels ``cs`` returned (the ground flag, the
-        accelerometer's innovation power, the update's rows) and wrote (``gamma``, fresh;
-        into ``out`` the estimate, then the screening), kept."""
+    def _kept(self, time_s: float, cs: ChannelSet, out: FloatArray, gamma: FloatArray,
+              on_ground: bool, accel_power: float, m: int) -> None:
+        """What :func:`tskf_tick` at ``time_s`` (s) with the channels ``cs`` returned (the
+        ground flag, the accelerometer's innovation power, the update's rows) and wrote
+        (``gamma``, fresh; into ``out`` the estimate, then the screening), kept."""
         self.on_ground, self._accel_power, self._m = on_ground, accel_power, m
         self.gamma_raw = gamma
-        self._keep_screening(cs, out)
+        self._ticked(time_s, cs, out)
 
     # ---- the workspace, read (copies) ------------------------------------------------------
     def _read(self, at: int, shape: tuple[int | str, ...]) -> FloatArray:

@@ -16,12 +16,12 @@ from numba import njit
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
     add_mul_vec,
-    mul_at_into,
     mul_into,
     mul_nonzero_left,
     mul_sparse_left,
     nonzero_columns,
     spd_inverse,
+    spd_solve,
     sub_mul_vec_into,
     symmetrize,
     transpose_into,
@@ -39,7 +39,7 @@ __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output
 
 PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16 + 16 * 17
 """Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
-TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 3 * 16 * 16 + 3 * 16 * 4 + 2 * 16 * 16
+TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 4 * 16 * 16 + 4 * 16 * 4
 """Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
 
 
@@ -198,7 +198,9 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     o += 16 * n_g
     s_inv = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
-    low = shaped(scratch[o:o + 2 * m * m], (2, m, m))
+    low = shaped(scratch[o:o + m * m], (m, m))
+    o += 16 * 16
+    k_g_t = shaped(scratch[o:o + m * n_g], (m, n_g))
     for i in range(m):
         for j in range(m):
             r_mat[i, j] = 0.0
@@ -218,9 +220,11 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
             for g in range(n_g):
                 acc += hp[i, g] * h[j, g]
             s_gamma[i, j] = acc
-    # K^gamma = P^gamma H' (H P^gamma H' + S_bar)^-1   (eq. 6.12)
-    spd_inverse(s_gamma, m, s_inv, low[0], low[1])
-    mul_at_into(k_g, hp, s_inv)  # P^gamma H' = (H P^gamma)'
+    # K^gamma = P^gamma H' (H P^gamma H' + S_bar)^-1   (eq. 6.12), as its transpose
+    # K^gamma' = (H P^gamma H' + S_bar)^-1 (H P^gamma) (both factors symmetric): one Cholesky
+    # solve with the 4 columns of H P^gamma, no m x m inverse
+    spd_solve(s_gamma, m, hp, k_g_t, low)
+    transpose_into(k_g, k_g_t)
     # innovation = r - H gamma_hat_{k+1|k}
     sub_mul_vec_into(innovation, r, h, gamma)
     # gamma_hat_{k+1|k+1} = gamma_hat_{k+1|k} + K^gamma innovation   (eq. 6.13)

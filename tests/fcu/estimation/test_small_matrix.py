@@ -18,6 +18,7 @@ from fcu.estimation.small_matrix import (
     nonzero_columns,
     spd_inverse,
     spd_quadratic,
+    spd_solve,
     sub_mul_vec_into,
     symmetrize,
     transpose_into,
@@ -61,6 +62,16 @@ def test_spd_inverse_and_quadratic_form() -> None:
         v = RNG.normal(size=m)
         quad = spd_quadratic(s, m, v, np.empty((m, m)), np.empty(m))
         assert abs(quad - v @ np.linalg.solve(s, v)) < 1e-12 * abs(quad)
+
+
+def test_spd_solve() -> None:
+    for m, k in ((1, 1), (3, 4), (9, 4), (16, 4)):
+        s = _spd(m)
+        b = RNG.normal(size=(m, k))
+        out = np.full((m, k), np.nan)
+        spd_solve(s, m, b, out, np.empty((m, m)))
+        # Cholesky against LU: agreement to rounding on a well-conditioned matrix
+        np.testing.assert_allclose(out, np.linalg.solve(s, b), rtol=1e-12, atol=1e-14)
 
 
 def test_transpose_and_symmetrize() -> None:
