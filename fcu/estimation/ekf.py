@@ -179,8 +179,8 @@ _S_INV = _COUNTS + MAX_CHANNELS  # the last update's S^-1 (m x m, row-major, str
 _K = _S_INV + MAX_ROWS * MAX_ROWS  # and K (N x m, stride MAX_ROWS)
 WORK_SIZE = _K + N * MAX_ROWS
 # scratch of ekf_tick (no state: only within a tick)
-_SC_TRANSITION = 0  # discrete_transition_into's (9 x N x N)
-_SC_UPDATE = _SC_TRANSITION + 9 * NN  # kalman_update_into's
+_SC_TRANSITION = 0  # discrete_transition_into's (TRANSITION_SCRATCH)
+_SC_UPDATE = _SC_TRANSITION + TRANSITION_SCRATCH[0] * NN  # kalman_update_into's
 _SC_JAC = _SC_UPDATE + UPDATE_SCRATCH  # A at the update's x (N x N)
 _SC_XD = _SC_JAC + NN  # f at the update's x (N)
 _SC_H = _SC_XD + N  # H (MAX_ROWS x N)
@@ -281,7 +281,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         on_ground = screening.on_ground_at(x, ground)
         f_mat = shaped(work[_F:_F + NN], (N, N))
         q_mat = shaped(work[_Q:_Q + NN], (N, N))
-        sc_tr = shaped(scratch[_SC_TRANSITION:_SC_TRANSITION + 9 * NN], (9, N, N))
+        sc_tr = shaped(scratch[_SC_TRANSITION:_SC_UPDATE], TRANSITION_SCRATCH)
         nz_f = shaped(scratch[_SC_NZ_F:_SC_NZ_F + N * (N + 1)], (N, N + 1))
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)

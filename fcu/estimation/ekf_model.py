@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import add_scaled_row
+from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row, transpose_into
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -272,7 +272,7 @@ def rk4_step_into(x_next: FloatArray, x: FloatArray, u: FloatArray, dt: float, p
         x_next[i] = x[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
-TRANSITION_SCRATCH = (9, 16, 16)
+TRANSITION_SCRATCH = (13, 16, 16)
 """Shape of the scratch :func:`discrete_transition_into` works in."""
 
 
@@ -326,11 +326,14 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     entries listed once; the powers commute); ``Phi`` is block upper triangular like ``A``,
     and its zeros (those of every power) are skipped in ``Phi Qc Phi'``, taken a whole row at
     a time (:func:`~fcu.estimation.small_matrix.add_scaled_row`) and its upper triangle
-    mirrored.
+    mirrored. ``F`` and ``Phi'`` are sums of whole rows too, of the powers and of their
+    transposes (taken once for the three points).
     """
     n = 16
     ad, ad2, ad3, ad4 = scratch[0], scratch[1], scratch[2], scratch[3]
     phi_t, q_rows = scratch[4], scratch[5]
+    # the powers' transposes: ((A dt)^n)', rows along the columns of (A dt)^n
+    ad_t, ad2_t, ad3_t, ad4_t = scratch[9], scratch[10], scratch[11], scratch[12]
     # the non-zero entries of A dt (row i: count nz_count[i], columns nz_cols[i, :count]) and
     # of Phi (= of any power of A dt, or the diagonal): phi_count, phi_cols
     nz_count, phi_count = scratch[6, 5], scratch[6, 6]
@@ -339,12 +342,12 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     model_jacobian_into(ad, x, p, on_ground)
     rk4_step_into(x_next, x, u, dt, p, on_ground, scratch[6, :5])
     for i in range(n):
+        # (without a branch: each column written at the next free place, kept if non-zero)
         count = 0
         for j in range(n):
             ad[i, j] *= dt  # A dt
-            if ad[i, j] != 0.0:
-                nz_cols[i, count] = j
-                count += 1
+            nz_cols[i, count] = j
+            count += ad[i, j] != 0.0
         nz_count[i] = count
     # (A dt)^2 = (A dt) (A dt);  (A dt)^3 = (A dt) (A dt)^2;  (A dt)^4 = (A dt) (A dt)^3:
     # row i of each is sum_k (A dt)[i, k] (row k of the previous), over the non-zero (A dt)[i, k]
@@ -355,20 +358,26 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             for t in range(int(nz_count[i])):
                 k = int(nz_cols[i, t])
                 add_scaled_row(power, i, ad[i, k], prev, k)
-    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row: off the
-    # diagonal with the identity's 0, then the diagonal entry with its 1)
+    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row, whole rows: off
+    # the diagonal with the identity's 0, 0.0 + (A dt)[i, :] + (A dt)^2[i, :]/2 + ..., then
+    # the diagonal entry with its 1)
     f2, f3, f4 = 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0
     for i in range(n):
-        for j in range(n):
-            f_mat[i, j] = 0.0 + ad[i, j] + ad2[i, j] * f2 + ad3[i, j] * f3 + ad4[i, j] * f4
+        set_scaled_row(f_mat, i, 1.0, ad, i)
+        add_scaled_row(f_mat, i, f2, ad2, i)
+        add_scaled_row(f_mat, i, f3, ad3, i)
+        add_scaled_row(f_mat, i, f4, ad4, i)
         f_mat[i, i] = 1.0 + ad[i, i] + ad2[i, i] * f2 + ad3[i, i] * f3 + ad4[i, i] * f4
         count = 0
         for k in range(n):
-            if (k == i or ad[i, k] != 0.0 or ad2[i, k] != 0.0 or ad3[i, k] != 0.0
-                    or ad4[i, k] != 0.0):
-                phi_cols[i, count] = k
-                count += 1
+            phi_cols[i, count] = k
+            count += ((k == i) | (ad[i, k] != 0.0) | (ad2[i, k] != 0.0)
+                      | (ad3[i, k] != 0.0) | (ad4[i, k] != 0.0))
         phi_count[i] = count
+    transpose_into(ad_t, ad)
+    transpose_into(ad2_t, ad2)
+    transpose_into(ad3_t, ad3)
+    transpose_into(ad4_t, ad4)
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
     for i in range(n):
@@ -379,9 +388,11 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
         c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
         for j in range(n):
             # Phi' = I + (A dt)' c + ((A dt)^2)' c^2/2 + ((A dt)^3)' c^3/6 + ((A dt)^4)' c^4/24
-            for i in range(n):
-                phi_t[i, j] = (0.0 + ad[j, i] * c + ad2[j, i] * c2 + ad3[j, i] * c3
-                               + ad4[j, i] * c4)
+            # (whole rows, then the diagonal entry with the identity's 1)
+            set_scaled_row(phi_t, j, c, ad_t, j)
+            add_scaled_row(phi_t, j, c2, ad2_t, j)
+            add_scaled_row(phi_t, j, c3, ad3_t, j)
+            add_scaled_row(phi_t, j, c4, ad4_t, j)
             phi_t[j, j] = (1.0 + ad[j, j] * c + ad2[j, j] * c2 + ad3[j, j] * c3
                            + ad4[j, j] * c4)
         # Q += w Phi Qc Phi':  Q[i, :] += sum_k (w Phi[i, k] Qc[k]) Phi'[k, :]  (Qc
