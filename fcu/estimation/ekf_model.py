@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row, transpose_into
+from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -272,7 +272,7 @@ def rk4_step_into(x_next: FloatArray, x: FloatArray, u: FloatArray, dt: float, p
         x_next[i] = x[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
-TRANSITION_SCRATCH = (13, 16, 16)
+TRANSITION_SCRATCH = (9, 16, 16)
 """Shape of the scratch :func:`discrete_transition_into` works in."""
 
 
@@ -326,14 +326,13 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     entries listed once; the powers commute); ``Phi`` is block upper triangular like ``A``,
     and its zeros (those of every power) are skipped in ``Phi Qc Phi'``, taken a whole row at
     a time (:func:`~fcu.estimation.small_matrix.add_scaled_row`) and its upper triangle
-    mirrored. ``F`` and ``Phi'`` are sums of whole rows too, of the powers and of their
-    transposes (taken once for the three points).
+    mirrored. ``F`` is a sum of whole rows too.
     """
     n = 16
     ad, ad2, ad3, ad4 = scratch[0], scratch[1], scratch[2], scratch[3]
     phi_t, q_rows = scratch[4], scratch[5]
-    # the powers' transposes: ((A dt)^n)', rows along the columns of (A dt)^n
-    ad_t, ad2_t, ad3_t, ad4_t = scratch[9], scratch[10], scratch[11], scratch[12]
+    # a row of flags: non-zero where some power of A dt is (the pattern of Phi)
+    flags = scratch[6, 7]
     # the non-zero entries of A dt (row i: count nz_count[i], columns nz_cols[i, :count]) and
     # of Phi (= of any power of A dt, or the diagonal): phi_count, phi_cols
     nz_count, phi_count = scratch[6, 5], scratch[6, 6]
@@ -368,16 +367,16 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
         add_scaled_row(f_mat, i, f3, ad3, i)
         add_scaled_row(f_mat, i, f4, ad4, i)
         f_mat[i, i] = 1.0 + ad[i, i] + ad2[i, i] * f2 + ad3[i, i] * f3 + ad4[i, i] * f4
+        # Phi's non-zero columns: k = i or any power non-zero there (a sum of magnitudes,
+        # over the whole row at once), listed without a branch
+        for k in range(n):
+            flags[k] = abs(ad[i, k]) + abs(ad2[i, k]) + abs(ad3[i, k]) + abs(ad4[i, k])
+        flags[i] = 1.0
         count = 0
         for k in range(n):
             phi_cols[i, count] = k
-            count += ((k == i) | (ad[i, k] != 0.0) | (ad2[i, k] != 0.0)
-                      | (ad3[i, k] != 0.0) | (ad4[i, k] != 0.0))
+            count += flags[k] != 0.0
         phi_count[i] = count
-    transpose_into(ad_t, ad)
-    transpose_into(ad2_t, ad2)
-    transpose_into(ad3_t, ad3)
-    transpose_into(ad4_t, ad4)
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
     for i in range(n):
@@ -388,11 +387,9 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
         c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
         for j in range(n):
             # Phi' = I + (A dt)' c + ((A dt)^2)' c^2/2 + ((A dt)^3)' c^3/6 + ((A dt)^4)' c^4/24
-            # (whole rows, then the diagonal entry with the identity's 1)
-            set_scaled_row(phi_t, j, c, ad_t, j)
-            add_scaled_row(phi_t, j, c2, ad2_t, j)
-            add_scaled_row(phi_t, j, c3, ad3_t, j)
-            add_scaled_row(phi_t, j, c4, ad4_t, j)
+            for i in range(n):
+                phi_t[i, j] = (0.0 + ad[j, i] * c + ad2[j, i] * c2 + ad3[j, i] * c3
+                               + ad4[j, i] * c4)
             phi_t[j, j] = (1.0 + ad[j, j] * c + ad2[j, j] * c2 + ad3[j, j] * c3
                            + ad4[j, j] * c4)
         # Q += w Phi Qc Phi':  Q[i, :] += sum_k (w Phi[i, k] Qc[k]) Phi'[k, :]  (Qc
@@ -408,6 +405,21 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             q_mat[j, i] = q_mat[i, j]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def transition_pattern_into(nz: FloatArray, scratch: FloatArray) -> None:
+    """The non-zero columns of each row of ``Phi`` (``k = i``, or a power of ``A dt`` non-zero
+    there), as :func:`discrete_transition_into` left them in its ``scratch``, written into
+    ``nz`` (16, 17) in the layout of :func:`~fcu.estimation.small_matrix.nonzero_columns`:
+    ``F = Phi(dt)``'s non-zero entries are among them (an entry that cancels to 0.0 is listed
+    too, and then adds exact zeros to a product)."""
+    phi_count, phi_cols = scratch[6, 6], scratch[8]
+    for i in range(phi_count.shape[0]):
+        count = int(phi_count[i])
+        nz[i, 0] = count
+        for t in range(count):
+            nz[i, 1 + t] = phi_cols[i, t]
+
+
 __all__ = [
     "TRANSITION_SCRATCH",
     "discrete_transition",
@@ -419,4 +431,5 @@ __all__ = [
     "pack_params",
     "rk4_step",
     "rk4_step_into",
+    "transition_pattern_into",
 ]
