@@ -28,6 +28,7 @@ __all__ = ["ROW", "add_mul_vec", "add_scaled_row", "mul_at_into", "mul_at_t_into
 ROW = 16
 """Entries of a row that :func:`add_scaled_row` updates (the filters' 16 states)."""
 _LANES = 8  # doubles of one vector register (AVX-512); a row is two of them
+_BIASES = 4  # the TSKF's biases (one per motor): the inner size of its small products
 
 
 def _scaled_row_intrinsic(accumulate: bool) -> Any:
@@ -153,6 +154,16 @@ def mul_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     with ``a`` or ``b``)."""
     n, kk = a.shape
     w = b.shape[1]
+    if kk == _BIASES and w == _BIASES:
+        # a right factor of the TSKF's 4 x 4 (P^gamma and its kin): the same loops with
+        # counts known to the compiler, which unrolls them
+        for i in range(n):
+            for j in range(_BIASES):
+                acc = 0.0
+                for k in range(_BIASES):
+                    acc += a[i, k] * b[k, j]
+                out[i, j] = acc
+        return
     for i in range(n):
         for j in range(w):
             # out[i, j] = sum_k a[i, k] b[k, j]
