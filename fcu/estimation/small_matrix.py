@@ -306,7 +306,7 @@ def symmetrize(a: FloatArray) -> None:
             a[j, i] = v
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _cholesky(a: FloatArray, m: int, low: FloatArray) -> None:
     """Lower Cholesky factor of the top-left (m, m) block of ``a`` into ``low``:
     ``a = L L'`` (``a`` symmetric positive definite)."""
@@ -325,7 +325,7 @@ def _cholesky(a: FloatArray, m: int, low: FloatArray) -> None:
             low[i, j] = 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def spd_inverse(a: FloatArray, m: int, out: FloatArray, low: FloatArray,
                 low_inv: FloatArray) -> None:
     """Inverse of the symmetric positive definite top-left (m, m) block of ``a``, written to
