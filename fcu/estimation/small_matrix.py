@@ -352,7 +352,7 @@ def spd_inverse(a: FloatArray, m: int, out: FloatArray, low: FloatArray,
             out[j, i] = s
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def spd_solve(a: FloatArray, m: int, b: FloatArray, out: FloatArray, low: FloatArray) -> None:
     """``a^-1 b`` for the symmetric positive definite top-left (m, m) block of ``a`` and ``b``
     of shape (m, k), written to ``out`` (m, k) (``low``: scratch of at least (m, m)), without
