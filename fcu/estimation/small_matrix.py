@@ -113,6 +113,18 @@ def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     share memory with ``a`` or ``b``."""
     n, kk = a.shape
     w = b.shape[1]
+    if w == _BIASES:
+        # a right factor of the TSKF's 4 columns (V): the same loops with counts known to
+        # the compiler, which unrolls them
+        for i in range(n):
+            for j in range(_BIASES):
+                out[i, j] = 0.0
+            for k in range(kk):
+                aik = a[i, k]
+                if aik != 0.0:
+                    for j in range(_BIASES):
+                        out[i, j] += aik * b[k, j]
+        return
     for i in range(n):
         for j in range(w):
             out[i, j] = 0.0
@@ -134,6 +146,18 @@ def mul_nonzero_left(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatArr
     ``nz`` (:func:`nonzero_columns`): for a left factor used more than once."""
     n = a.shape[0]
     w = b.shape[1]
+    if w == _BIASES:
+        # a right factor of the TSKF's 4 columns (V): the same loops with counts known to
+        # the compiler, which unrolls them
+        for i in range(n):
+            for j in range(_BIASES):
+                out[i, j] = 0.0
+            for t in range(int(nz[i, 0])):
+                k = int(nz[i, 1 + t])
+                aik = a[i, k]
+                for j in range(_BIASES):
+                    out[i, j] += aik * b[k, j]
+        return
     for i in range(n):
         for j in range(w):
             out[i, j] = 0.0
