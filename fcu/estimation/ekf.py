@@ -36,6 +36,7 @@ from fcu.estimation.ekf_model import (
     model_derivative_into,
     model_jacobian_into,
     pack_params,
+    transition_pattern_into,
 )
 from fcu.estimation.estimator import (
     Channel,
@@ -51,7 +52,6 @@ from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
     add_scaled_row,
     mul_nonzero_left,
-    nonzero_columns,
     transpose_into,
 )
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
@@ -130,7 +130,7 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
     """One filterpy ``predict`` in place: ``x`` (16,), ``p_mat`` (16, 16) become the prior,
     ``F`` and ``Q`` are written to ``f_mat``, ``q_mat`` (``scratch``: shape
     :data:`~fcu.estimation.ekf_model.TRANSITION_SCRATCH`; ``nz_f``: (16, 17), written with
-    the non-zero columns of ``F``).
+    the columns of ``F`` that may be non-zero).
 
     ``F`` is block upper triangular like ``A``: ``F P F'`` is taken as ``F (F P)'`` (``P``
     symmetric), two products by the sparse ``F`` (its non-zero entries listed once), the
@@ -140,7 +140,9 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
     discrete_transition_into(x, f_mat, q_mat, x, u, dt, p, on_ground, qc_diag, scratch)
     x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
     fp, fp_t = scratch[0], scratch[1]
-    nonzero_columns(nz_f, f_mat)
+    # F's non-zero columns: among those of Phi, listed by discrete_transition_into (a
+    # listed entry that is 0.0 adds exact zeros: the same sums)
+    transition_pattern_into(nz_f, scratch)
     # F P
     mul_nonzero_left(fp, f_mat, nz_f, p_mat)
     # (F P)' = P F'
@@ -179,8 +181,8 @@ _S_INV = _COUNTS + MAX_CHANNELS  # the last update's S^-1 (m x m, row-major, str
 _K = _S_INV + MAX_ROWS * MAX_ROWS  # and K (N x m, stride MAX_ROWS)
 WORK_SIZE = _K + N * MAX_ROWS
 # scratch of ekf_tick (no state: only within a tick)
-_SC_TRANSITION = 0  # discrete_transition_into's (9 x N x N)
-_SC_UPDATE = _SC_TRANSITION + 9 * NN  # kalman_update_into's
+_SC_TRANSITION = 0  # discrete_transition_into's (TRANSITION_SCRATCH)
+_SC_UPDATE = _SC_TRANSITION + TRANSITION_SCRATCH[0] * NN  # kalman_update_into's
 _SC_JAC = _SC_UPDATE + UPDATE_SCRATCH  # A at the update's x (N x N)
 _SC_XD = _SC_JAC + NN  # f at the update's x (N)
 _SC_H = _SC_XD + N  # H (MAX_ROWS x N)
@@ -281,7 +283,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         on_ground = screening.on_ground_at(x, ground)
         f_mat = shaped(work[_F:_F + NN], (N, N))
         q_mat = shaped(work[_Q:_Q + NN], (N, N))
-        sc_tr = shaped(scratch[_SC_TRANSITION:_SC_TRANSITION + 9 * NN], (9, N, N))
+        sc_tr = shaped(scratch[_SC_TRANSITION:_SC_UPDATE], TRANSITION_SCRATCH)
         nz_f = shaped(scratch[_SC_NZ_F:_SC_NZ_F + N * (N + 1)], (N, N + 1))
         for _ in range(n_sub):
             # x = RK4(f, x, u, dt); P = F P F' + Q   (filterpy predict)

@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import add_scaled_row
+from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -326,11 +326,13 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     entries listed once; the powers commute); ``Phi`` is block upper triangular like ``A``,
     and its zeros (those of every power) are skipped in ``Phi Qc Phi'``, taken a whole row at
     a time (:func:`~fcu.estimation.small_matrix.add_scaled_row`) and its upper triangle
-    mirrored.
+    mirrored. ``F`` is a sum of whole rows too.
     """
     n = 16
     ad, ad2, ad3, ad4 = scratch[0], scratch[1], scratch[2], scratch[3]
     phi_t, q_rows = scratch[4], scratch[5]
+    # a row of flags: non-zero where some power of A dt is (the pattern of Phi)
+    flags = scratch[6, 7]
     # the non-zero entries of A dt (row i: count nz_count[i], columns nz_cols[i, :count]) and
     # of Phi (= of any power of A dt, or the diagonal): phi_count, phi_cols
     nz_count, phi_count = scratch[6, 5], scratch[6, 6]
@@ -339,12 +341,12 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     model_jacobian_into(ad, x, p, on_ground)
     rk4_step_into(x_next, x, u, dt, p, on_ground, scratch[6, :5])
     for i in range(n):
+        # (without a branch: each column written at the next free place, kept if non-zero)
         count = 0
         for j in range(n):
             ad[i, j] *= dt  # A dt
-            if ad[i, j] != 0.0:
-                nz_cols[i, count] = j
-                count += 1
+            nz_cols[i, count] = j
+            count += ad[i, j] != 0.0
         nz_count[i] = count
     # (A dt)^2 = (A dt) (A dt);  (A dt)^3 = (A dt) (A dt)^2;  (A dt)^4 = (A dt) (A dt)^3:
     # row i of each is sum_k (A dt)[i, k] (row k of the previous), over the non-zero (A dt)[i, k]
@@ -355,19 +357,25 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             for t in range(int(nz_count[i])):
                 k = int(nz_cols[i, t])
                 add_scaled_row(power, i, ad[i, k], prev, k)
-    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row: off the
-    # diagonal with the identity's 0, then the diagonal entry with its 1)
+    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row, whole rows: off
+    # the diagonal with the identity's 0, 0.0 + (A dt)[i, :] + (A dt)^2[i, :]/2 + ..., then
+    # the diagonal entry with its 1)
     f2, f3, f4 = 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0
     for i in range(n):
-        for j in range(n):
-            f_mat[i, j] = 0.0 + ad[i, j] + ad2[i, j] * f2 + ad3[i, j] * f3 + ad4[i, j] * f4
+        set_scaled_row(f_mat, i, 1.0, ad, i)
+        add_scaled_row(f_mat, i, f2, ad2, i)
+        add_scaled_row(f_mat, i, f3, ad3, i)
+        add_scaled_row(f_mat, i, f4, ad4, i)
         f_mat[i, i] = 1.0 + ad[i, i] + ad2[i, i] * f2 + ad3[i, i] * f3 + ad4[i, i] * f4
+        # Phi's non-zero columns: k = i or any power non-zero there (a sum of magnitudes,
+        # over the whole row at once), listed without a branch
+        for k in range(n):
+            flags[k] = abs(ad[i, k]) + abs(ad2[i, k]) + abs(ad3[i, k]) + abs(ad4[i, k])
+        flags[i] = 1.0
         count = 0
         for k in range(n):
-            if (k == i or ad[i, k] != 0.0 or ad2[i, k] != 0.0 or ad3[i, k] != 0.0
-                    or ad4[i, k] != 0.0):
-                phi_cols[i, count] = k
-                count += 1
+            phi_cols[i, count] = k
+            count += flags[k] != 0.0
         phi_count[i] = count
     # Q = int_0^dt Phi(s) Qc Phi(s)' ds  by 3-point Gauss-Legendre on s = c dt,
     #     Phi(s) = sum_{n<=4} (A s)^n / n!
@@ -397,6 +405,21 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             q_mat[j, i] = q_mat[i, j]
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def transition_pattern_into(nz: FloatArray, scratch: FloatArray) -> None:
+    """The non-zero columns of each row of ``Phi`` (``k = i``, or a power of ``A dt`` non-zero
+    there), as :func:`discrete_transition_into` left them in its ``scratch``, written into
+    ``nz`` (16, 17) in the layout of :func:`~fcu.estimation.small_matrix.nonzero_columns`:
+    ``F = Phi(dt)``'s non-zero entries are among them (an entry that cancels to 0.0 is listed
+    too, and then adds exact zeros to a product)."""
+    phi_count, phi_cols = scratch[6, 6], scratch[8]
+    for i in range(phi_count.shape[0]):
+        count = int(phi_count[i])
+        nz[i, 0] = count
+        for t in range(count):
+            nz[i, 1 + t] = phi_cols[i, t]
+
+
 __all__ = [
     "TRANSITION_SCRATCH",
     "discrete_transition",
@@ -408,4 +431,5 @@ __all__ = [
     "pack_params",
     "rk4_step",
     "rk4_step_into",
+    "transition_pattern_into",
 ]

@@ -21,52 +21,65 @@ from fcu.estimation.state import FloatArray
 
 __all__ = ["ROW", "add_mul_vec", "add_scaled_row", "mul_at_into", "mul_at_t_into",
            "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into", "mul_nonzero_left",
-           "mul_sparse_left", "nonzero_columns", "spd_inverse", "spd_quadratic", "spd_solve",
-           "sub_mul_vec_into", "symmetrize", "transpose_into"]
+           "mul_sparse_left", "nonzero_columns", "set_scaled_row", "spd_inverse",
+           "spd_quadratic", "spd_solve", "sub_mul_vec_into", "symmetrize", "transpose_into"]
 
 
 ROW = 16
 """Entries of a row that :func:`add_scaled_row` updates (the filters' 16 states)."""
 _LANES = 8  # doubles of one vector register (AVX-512); a row is two of them
+_BIASES = 4  # the TSKF's biases (one per motor): the inner size of its small products
 
 
-@intrinsic
-def _add_scaled_row(typingctx: Any, out: Any, i: Any, a: Any, b: Any, k: Any) -> Any:
-    """``out[i, :ROW] += a * b[k, :ROW]`` as two vector operations of ``_LANES`` entries,
-    each lane the scalar ``out[i, j] + a * b[k, j]`` (a product, then a sum: the same
-    rounding); rows not checked (:func:`add_scaled_row` does)."""
-    if not all(isinstance(m, types.Array) and m.ndim == 2 and m.layout == "C"
-               and m.dtype == types.float64 for m in (out, b)):
-        return None
-    vec = ir.VectorType(ir.DoubleType(), _LANES)
-    intp = ir.IntType(64)
+def _scaled_row_intrinsic(accumulate: bool) -> Any:
+    """The codegen of ``out[i, :ROW] = s + a * b[k, :ROW]`` as two vector operations of
+    ``_LANES`` entries, ``s`` the row itself (``accumulate``) or 0.0, each lane the scalar
+    ``s + a * b[k, j]`` (a product, then a sum: the same rounding); rows not checked."""
 
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        out_v, i_v, a_v, b_v, k_v = args
-        out_t, i_t, a_t, b_t, k_t = signature.args
+    def typer(typingctx: Any, out: Any, i: Any, a: Any, b: Any, k: Any) -> Any:
+        if not all(isinstance(m, types.Array) and m.ndim == 2 and m.layout == "C"
+                   and m.dtype == types.float64 for m in (out, b)):
+            return None
+        vec = ir.VectorType(ir.DoubleType(), _LANES)
+        intp = ir.IntType(64)
 
-        def row(ary_t: Any, ary_v: Any, r_t: Any, r_v: Any) -> Any:
-            data = make_array(ary_t)(context, builder, ary_v).data
-            r = context.cast(builder, r_v, r_t, types.intp)
-            return builder.gep(data, [builder.mul(r, ir.Constant(intp, ROW))])
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            out_v, i_v, a_v, b_v, k_v = args
+            out_t, i_t, a_t, b_t, k_t = signature.args
 
-        out_row, b_row = row(out_t, out_v, i_t, i_v), row(b_t, b_v, k_t, k_v)
-        scale = context.cast(builder, a_v, a_t, types.float64)
-        splat = builder.insert_element(ir.Constant(vec, ir.Undefined), scale,
-                                       ir.Constant(ir.IntType(32), 0))
-        splat = builder.shuffle_vector(splat, ir.Constant(vec, ir.Undefined),
-                                       ir.Constant(ir.VectorType(ir.IntType(32), _LANES),
-                                                   [0] * _LANES))
-        for at in range(0, ROW, _LANES):
-            dst = builder.bitcast(builder.gep(out_row, [ir.Constant(intp, at)]),
-                                  vec.as_pointer())
-            src = builder.bitcast(builder.gep(b_row, [ir.Constant(intp, at)]),
-                                  vec.as_pointer())
-            acc, term = builder.load(dst, align=8), builder.load(src, align=8)
-            builder.store(builder.fadd(acc, builder.fmul(splat, term)), dst, align=8)
-        return context.get_dummy_value()
+            def row(ary_t: Any, ary_v: Any, r_t: Any, r_v: Any) -> Any:
+                data = make_array(ary_t)(context, builder, ary_v).data
+                r = context.cast(builder, r_v, r_t, types.intp)
+                return builder.gep(data, [builder.mul(r, ir.Constant(intp, ROW))])
 
-    return types.none(out, i, a, b, k), codegen
+            out_row, b_row = row(out_t, out_v, i_t, i_v), row(b_t, b_v, k_t, k_v)
+            scale = context.cast(builder, a_v, a_t, types.float64)
+            splat = builder.insert_element(ir.Constant(vec, ir.Undefined), scale,
+                                           ir.Constant(ir.IntType(32), 0))
+            splat = builder.shuffle_vector(splat, ir.Constant(vec, ir.Undefined),
+                                           ir.Constant(ir.VectorType(ir.IntType(32), _LANES),
+                                                       [0] * _LANES))
+            for at in range(0, ROW, _LANES):
+                dst = builder.bitcast(builder.gep(out_row, [ir.Constant(intp, at)]),
+                                      vec.as_pointer())
+                src = builder.bitcast(builder.gep(b_row, [ir.Constant(intp, at)]),
+                                      vec.as_pointer())
+                term = builder.load(src, align=8)
+                acc = (builder.load(dst, align=8) if accumulate
+                       else ir.Constant(vec, [0.0] * _LANES))
+                builder.store(builder.fadd(acc, builder.fmul(splat, term)), dst, align=8)
+            return context.get_dummy_value()
+
+        return types.none(out, i, a, b, k), codegen
+
+    return typer
+
+
+_add_scaled_row = intrinsic(_scaled_row_intrinsic(True))
+_add_scaled_row.__doc__ = "``out[i, :ROW] += a * b[k, :ROW]`` (:func:`_scaled_row_intrinsic`)."
+_set_scaled_row = intrinsic(_scaled_row_intrinsic(False))
+_set_scaled_row.__doc__ = ("``out[i, :ROW] = 0.0 + a * b[k, :ROW]`` "
+                           "(:func:`_scaled_row_intrinsic`).")
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -81,7 +94,17 @@ def add_scaled_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int) -> 
     follow one another in memory, so ``out`` and ``b`` may be the same array."""
     if out.shape[1] != ROW or b.shape[1] != ROW:
         raise ValueError("add_scaled_row: rows of 16 entries only")
-    _add_scaled_row(out, i, a, b, k)  # type: ignore[call-arg]
+    _add_scaled_row(out, i, a, b, k)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def set_scaled_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int) -> None:
+    """``out[i, :] = 0.0 + a * b[k, :]`` as :func:`add_scaled_row` (the same conditions), to
+    the bit the loop ``for j in range(ROW): out[i, j] = 0.0 + a * b[k, j]``: the first term
+    of a row built as a sum, :func:`add_scaled_row` the others."""
+    if out.shape[1] != ROW or b.shape[1] != ROW:
+        raise ValueError("set_scaled_row: rows of 16 entries only")
+    _set_scaled_row(out, i, a, b, k)
 
 
 @njit(cache=True, error_model="numpy")
@@ -90,6 +113,18 @@ def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     share memory with ``a`` or ``b``."""
     n, kk = a.shape
     w = b.shape[1]
+    if w == _BIASES:
+        # a right factor of the TSKF's 4 columns (V): the same loops with counts known to
+        # the compiler, which unrolls them
+        for i in range(n):
+            for j in range(_BIASES):
+                out[i, j] = 0.0
+            for k in range(kk):
+                aik = a[i, k]
+                if aik != 0.0:
+                    for j in range(_BIASES):
+                        out[i, j] += aik * b[k, j]
+        return
     for i in range(n):
         for j in range(w):
             out[i, j] = 0.0
@@ -111,6 +146,18 @@ def mul_nonzero_left(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatArr
     ``nz`` (:func:`nonzero_columns`): for a left factor used more than once."""
     n = a.shape[0]
     w = b.shape[1]
+    if w == _BIASES:
+        # a right factor of the TSKF's 4 columns (V): the same loops with counts known to
+        # the compiler, which unrolls them
+        for i in range(n):
+            for j in range(_BIASES):
+                out[i, j] = 0.0
+            for t in range(int(nz[i, 0])):
+                k = int(nz[i, 1 + t])
+                aik = a[i, k]
+                for j in range(_BIASES):
+                    out[i, j] += aik * b[k, j]
+        return
     for i in range(n):
         for j in range(w):
             out[i, j] = 0.0
@@ -131,6 +178,16 @@ def mul_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     with ``a`` or ``b``)."""
     n, kk = a.shape
     w = b.shape[1]
+    if kk == _BIASES and w == _BIASES:
+        # a right factor of the TSKF's 4 x 4 (P^gamma and its kin): the same loops with
+        # counts known to the compiler, which unrolls them
+        for i in range(n):
+            for j in range(_BIASES):
+                acc = 0.0
+                for k in range(_BIASES):
+                    acc += a[i, k] * b[k, j]
+                out[i, j] = acc
+        return
     for i in range(n):
         for j in range(w):
             # out[i, j] = sum_k a[i, k] b[k, j]
@@ -183,11 +240,13 @@ def nonzero_columns(nz: FloatArray, s: FloatArray) -> None:
     columns in ascending order (``nz``: (w, k + 1), small integers held exactly as floats)."""
     w, kk = s.shape
     for r in range(w):
+        # without a branch: every column written at the next free place, which only a
+        # non-zero entry keeps (a zero one is overwritten by the next column, or left past
+        # the count)
         count = 0
         for k in range(kk):
-            if s[r, k] != 0.0:
-                count += 1
-                nz[r, count] = k
+            nz[r, 1 + count] = k
+            count += s[r, k] != 0.0
         nz[r, 0] = count
 
 
@@ -271,7 +330,7 @@ def symmetrize(a: FloatArray) -> None:
             a[j, i] = v
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _cholesky(a: FloatArray, m: int, low: FloatArray) -> None:
     """Lower Cholesky factor of the top-left (m, m) block of ``a`` into ``low``:
     ``a = L L'`` (``a`` symmetric positive definite)."""
@@ -290,7 +349,7 @@ def _cholesky(a: FloatArray, m: int, low: FloatArray) -> None:
             low[i, j] = 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def spd_inverse(a: FloatArray, m: int, out: FloatArray, low: FloatArray,
                 low_inv: FloatArray) -> None:
     """Inverse of the symmetric positive definite top-left (m, m) block of ``a``, written to
@@ -317,7 +376,7 @@ def spd_inverse(a: FloatArray, m: int, out: FloatArray, low: FloatArray,
             out[j, i] = s
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def spd_solve(a: FloatArray, m: int, b: FloatArray, out: FloatArray, low: FloatArray) -> None:
     """``a^-1 b`` for the symmetric positive definite top-left (m, m) block of ``a`` and ``b``
     of shape (m, k), written to ``out`` (m, k) (``low``: scratch of at least (m, m)), without

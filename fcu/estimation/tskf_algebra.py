@@ -26,7 +26,8 @@ from fcu.estimation.small_matrix import (
     symmetrize,
     transpose_into,
 )
-from fcu.estimation.state import FloatArray
+from fcu.estimation.state import STATE_DIM, FloatArray
+from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
 from flightdata.kernel_views import shaped
@@ -41,6 +42,16 @@ PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16 + 16 * 17
 """Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
 TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 4 * 16 * 16 + 4 * 16 * 4
 """Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _sizes(n: int, n_g: int) -> tuple[int, int]:
+    """The states and biases, ``n`` and ``n_g``: 16 and 4 (ValueError otherwise), the
+    biases' count returned as a constant, so that the compiler knows the count of the short
+    loops over them and unrolls them (the loops along the state it vectorises instead)."""
+    if n != STATE_DIM or n_g != N_MOTORS:
+        raise ValueError("TSKF kernels: 16 states and 4 biases only")
+    return n, N_MOTORS
 
 
 @njit(cache=True, error_model="numpy")
@@ -70,7 +81,7 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     scratch : ndarray
         At least :data:`PREDICT_SCRATCH` entries.
     """
-    n, n_g = v.shape
+    n, n_g = _sizes(v.shape[0], v.shape[1])
     o = 0
     ap = shaped(scratch[o:o + n * n], (n, n))
     o += n * n
@@ -183,8 +194,8 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     scratch : ndarray
         At least :data:`TSKF_UPDATE_SCRATCH` entries.
     """
-    m, n = c.shape
-    n_g = gamma.shape[0]
+    m = c.shape[0]
+    n, n_g = _sizes(c.shape[1], gamma.shape[0])
     o = UPDATE_SCRATCH
     r_mat = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
@@ -263,7 +274,7 @@ def tskf_output_into(out: FloatArray, x_bar: FloatArray, p_x: FloatArray, gamma:
                      p_gamma: FloatArray, v: FloatArray) -> None:
     """Write ``x_hat = x_bar + V gamma_hat`` (eq. 6.25) to ``out[:n]`` and
     ``diag(V P^gamma V' + P^x)`` (eq. 6.26) to ``out[n:2n]``."""
-    n, n_g = v.shape
+    n, n_g = _sizes(v.shape[0], v.shape[1])
     for i in range(n):
         # x_hat = x_bar + V gamma_hat   (eq. 6.25)
         acc = 0.0
