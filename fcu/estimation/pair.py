@@ -44,18 +44,10 @@ drop_stale_kernels(__file__, kernel_views.__file__)
 
 
 @njit(cache=True, error_model="numpy")
-def gathered(flat: FloatArray, gather: np.ndarray) -> FloatArray:
-    """A filter's measurement table from grouped samples: ``flat[gather]``
-    (:meth:`fcu.estimation.estimator.ChannelSet.gather`), shape (n_ch, MEAS_WIDTH), in a
-    fresh array (:func:`gather_into`)."""
-    meas = np.empty((gather.shape[0], MEAS_WIDTH))
-    gather_into(meas, flat, gather)
-    return meas
-
-
-@njit(cache=True, error_model="numpy")
 def gather_into(meas: FloatArray, flat: FloatArray, gather: np.ndarray) -> None:
-    """:func:`gathered` written into ``meas`` (n_ch, MEAS_WIDTH)."""
+    """A filter's measurement table from grouped samples, ``flat[gather]``
+    (:meth:`fcu.estimation.estimator.ChannelSet.gather`), written into ``meas``
+    (n_ch, MEAS_WIDTH)."""
     for c in range(gather.shape[0]):
         for k in range(MEAS_WIDTH):
             meas[c, k] = flat[gather[c, k]]
