@@ -12,6 +12,10 @@
                                    controller, 100 Hz, 60 s; the optional ``bench`` extra)
                                    when installed, else the plain-numpy RK4 plant, named in
                                    the printout, and the ratio of the two medians
+    ftc-bench tick [--repeat N]    where the full stack's tick goes: its whole cost (the
+                                   ``stack`` flight, medians), then each compiled call timed
+                                   where the stack makes it (kernel and numba's dispatch, per
+                                   tick), and the rest, the Python around them
     ftc-bench vehicle-speedup [--repeat N] [--speedup X] [--realtime]
                                    the vehicle process (``python -m sim``) at ``--speedup``
                                    (default 20), then unthrottled (``--speedup max``), flying
@@ -157,6 +161,85 @@ def _stack_once() -> tuple[float, float]:
     wall0, cpu0 = time.perf_counter(), time.process_time()
     fly(scenario)
     return time.perf_counter() - wall0, time.process_time() - cpu0
+
+
+# the compiled calls of a tick, timed where the stack makes them: (module, the global the
+# module calls, what it does)
+TICK_KERNELS = (
+    ("sim.world.world", "world_steps", "world: plant, wind, sensors, faults"),
+    ("sim.world.battery", "battery_step", "world: battery and power module"),
+    ("fcu.estimation.state", "group_sample_arrays", "sample grouping"),
+    ("fcu.estimation.pair", "pair_tick", "EKF + TSKF"),
+    ("fcu.monitoring.sensor_health", "watch_sensors", "sensor watch"),
+    ("fcu.monitoring.motor_faults", "_detector_tick", "motor fault detector"),
+    ("fcu.control.chain", "control_tick", "control chain (position loop to mixer)"),
+    ("fcu.monitoring.crash_check", "crash_tick", "crash check"),
+)
+
+
+def _timed(kernel: Callable[..., object], label: str, spent: dict[str, float],
+           calls: dict[str, int], clock_s: float) -> Callable[..., object]:
+    """``kernel``, its calls counted in ``calls[label]`` and their time (s, less the
+    ``clock_s`` a clock read costs) added up in ``spent[label]``."""
+    clock = time.perf_counter
+
+    def timed(*args: object) -> object:
+        start = clock()
+        out = kernel(*args)
+        spent[label] += clock() - start - clock_s
+        calls[label] += 1
+        return out
+
+    return timed
+
+
+def _report_tick(repeat: int) -> None:
+    """``ftc-bench tick``: the stack flight's cost per tick, and each compiled call's."""
+    import importlib
+
+    from sim.runner import fly
+
+    # every kernel found before any is wrapped: a missing one leaves the stack untouched
+    originals = []
+    for module_name, name, _ in TICK_KERNELS:
+        module = importlib.import_module(module_name)
+        kernel = getattr(module, name, None)
+        if kernel is None:
+            raise RuntimeError(f"ftc-bench tick: {module_name}.{name} is gone: update "
+                               "sim.bench.TICK_KERNELS")
+        originals.append((module, name, kernel))
+    scenario = replace(load_scenario(STACK_SCENARIO), duration_s=SIM_SECONDS)
+    ticks = round(SIM_SECONDS * scenario.autopilot.loop_rate_hz)
+    fly(scenario)  # warm-up: kernels loaded, designs cached
+    whole = statistics.median(_stack_once()[0] for _ in range(repeat)) / ticks
+    # the same flights with every compiled call timed (a clock read either side: its own
+    # cost, measured here, is taken off)
+    clock = time.perf_counter
+    reads = 100_000
+    t0 = clock()
+    for _ in range(reads):
+        clock()
+    clock_s = (clock() - t0) / reads
+    spent = {label: 0.0 for _, _, label in TICK_KERNELS}
+    calls = dict.fromkeys(spent, 0)
+    try:
+        for (module, name, kernel), (_, _, label) in zip(originals, TICK_KERNELS,
+                                                          strict=True):
+            setattr(module, name, _timed(kernel, label, spent, calls, clock_s))
+        for _ in range(repeat):
+            fly(scenario)
+    finally:
+        for module, name, kernel in originals:
+            setattr(module, name, kernel)
+    n = repeat * ticks
+    print(f"a tick of the full stack ({STACK_SCENARIO}, {SIM_SECONDS:.0f} s, "
+          f"{ticks} ticks, {repeat} runs): {whole * 1e6:.1f} us (median)")
+    print("  compiled calls, timed where the stack makes them (kernel and dispatch), per tick:")
+    for label, seconds in spent.items():
+        print(f"    {label:42s} {seconds / n * 1e6:6.2f} us  ({calls[label] / n:.2f} calls)")
+    compiled = sum(spent.values()) / n
+    print(f"  compiled calls in all: {compiled * 1e6:.1f} us; the rest (Python: the "
+          f"autopilot's glue, navigator, log, ...): {(whole - compiled) * 1e6:.1f} us")
 
 
 def _rotorpy_reference() -> tuple[str, Callable[[], tuple[float, float]]] | None:
@@ -533,8 +616,9 @@ def _report_startup(repeat: int) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
-    parser.add_argument("what", choices=("plant", "stack", "vehicle-speedup", "vehicle-jitter",
-                                         "startup", "campaign", "all"), nargs="?",
+    parser.add_argument("what", choices=("plant", "stack", "tick", "vehicle-speedup",
+                                         "vehicle-jitter", "startup", "campaign", "all"),
+                        nargs="?",
                         default="all")
     parser.add_argument("--repeat", type=int, default=None, help="timed runs (default 5; "
                         "vehicle-speedup and campaign: 3)")
@@ -561,6 +645,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.what == "startup":
         _report_startup(args.repeat or 5)
+        return 0
+    if args.what == "tick":
+        _report_tick(args.repeat or 5)
         return 0
     if args.what == "campaign":
         from flightdata.config import ConfigError
