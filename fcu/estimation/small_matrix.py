@@ -107,24 +107,33 @@ def set_scaled_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int) -> 
     _set_scaled_row(out, i, a, b, k)
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_scaled(out: FloatArray, i: int, a: float, b: FloatArray, k: int, w: int) -> None:
+    """``out[i, :w] += a * b[k, :w]``, the loop ``for j in range(w)``: as two vector
+    operations for the filters' 16-entry rows (:func:`add_scaled_row`), else as written
+    (unrolled where the caller's ``w`` is a constant)."""
+    if w == ROW and out.shape[1] == ROW:
+        add_scaled_row(out, i, a, b, k)
+    else:
+        for j in range(w):
+            out[i, j] += a * b[k, j]
+
+
 @njit(cache=True, error_model="numpy")
 def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     """``out = a b`` for ``a`` (n, k) with many zeros, ``b`` (k, w); ``out`` (n, w) must not
     share memory with ``a`` or ``b``."""
-    n, kk = a.shape
     w = b.shape[1]
-    if w == _BIASES:
-        # a right factor of the TSKF's 4 columns (V): the same loops with counts known to
-        # the compiler, which unrolls them
-        for i in range(n):
-            for j in range(_BIASES):
-                out[i, j] = 0.0
-            for k in range(kk):
-                aik = a[i, k]
-                if aik != 0.0:
-                    for j in range(_BIASES):
-                        out[i, j] += aik * b[k, j]
-        return
+    if w == _BIASES:  # the TSKF's 4 columns (V): a count the compiler knows, it unrolls
+        _mul_sparse_rows(out, a, b, _BIASES)
+    else:
+        _mul_sparse_rows(out, a, b, w)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mul_sparse_rows(out: FloatArray, a: FloatArray, b: FloatArray, w: int) -> None:
+    """:func:`mul_sparse_left` with ``b``'s ``w`` columns given."""
+    n, kk = a.shape
     for i in range(n):
         for j in range(w):
             out[i, j] = 0.0
@@ -132,11 +141,7 @@ def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
         for k in range(kk):
             aik = a[i, k]
             if aik != 0.0:
-                if w == ROW and out.shape[1] == ROW:
-                    add_scaled_row(out, i, aik, b, k)
-                else:
-                    for j in range(w):
-                        out[i, j] += aik * b[k, j]
+                _add_scaled(out, i, aik, b, k, w)
 
 
 @njit(cache=True, error_model="numpy")
@@ -144,32 +149,24 @@ def mul_nonzero_left(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatArr
     """``out = a b`` as :func:`mul_sparse_left` (the same products in the same order, zero
     ``a[i, k]`` skipped) with the non-zero columns of each row of ``a`` listed beforehand in
     ``nz`` (:func:`nonzero_columns`): for a left factor used more than once."""
-    n = a.shape[0]
     w = b.shape[1]
-    if w == _BIASES:
-        # a right factor of the TSKF's 4 columns (V): the same loops with counts known to
-        # the compiler, which unrolls them
-        for i in range(n):
-            for j in range(_BIASES):
-                out[i, j] = 0.0
-            for t in range(int(nz[i, 0])):
-                k = int(nz[i, 1 + t])
-                aik = a[i, k]
-                for j in range(_BIASES):
-                    out[i, j] += aik * b[k, j]
-        return
-    for i in range(n):
+    if w == _BIASES:  # the TSKF's 4 columns (V): a count the compiler knows, it unrolls
+        _mul_nonzero_rows(out, a, nz, b, _BIASES)
+    else:
+        _mul_nonzero_rows(out, a, nz, b, w)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mul_nonzero_rows(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatArray,
+                      w: int) -> None:
+    """:func:`mul_nonzero_left` with ``b``'s ``w`` columns given."""
+    for i in range(a.shape[0]):
         for j in range(w):
             out[i, j] = 0.0
         # out[i, :] = sum_k a[i, k] b[k, :]   (over the non-zero a[i, k])
         for t in range(int(nz[i, 0])):
             k = int(nz[i, 1 + t])
-            if w == ROW and out.shape[1] == ROW:
-                add_scaled_row(out, i, a[i, k], b, k)
-            else:
-                aik = a[i, k]
-                for j in range(w):
-                    out[i, j] += aik * b[k, j]
+            _add_scaled(out, i, a[i, k], b, k, w)
 
 
 @njit(cache=True, error_model="numpy")
@@ -225,12 +222,7 @@ def mul_at_t_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             out[j, i] = 0.0
         # out[j, :] = sum_k b[k, j] a[k, :]
         for k in range(kk):
-            if n == ROW and out.shape[1] == ROW:
-                add_scaled_row(out, j, b[k, j], a, k)
-            else:
-                b_kj = b[k, j]
-                for i in range(n):
-                    out[j, i] += b_kj * a[k, i]
+            _add_scaled(out, j, b[k, j], a, k, n)
 
 
 @njit(cache=True, error_model="numpy")
