@@ -25,6 +25,10 @@ WGS84_A_M = 6378137.0  # m
 WGS84_E2 = 6.69437999014e-3
 GAP_S = 0.5  # s without SIM_STATE that ends a stretch of velocity integration
 BRIDGE_S = GAP_S  # s: a stream missing for up to this long lost packets; longer, it stopped
+# velocity_aided's anchor: samples moving faster than this along the axis (m/s), when at least
+# this many (a 10 ms sample moves 1 mm at 0.1 m/s: ten of them cross a 1e-7 degree step)
+ANCHOR_SPEED_M_S = 0.1
+ANCHOR_MIN_SAMPLES = 200
 
 Home = tuple[int, int, int, float, float, float]
 
@@ -190,7 +194,8 @@ def covered_time_s(t_s: np.ndarray, counted: np.ndarray) -> float:
 
 
 def velocity_aided(t_s: np.ndarray, coarse_m: np.ndarray, vel_m_s: np.ndarray) -> np.ndarray:
-    """Positions from integrated velocity, anchored to the mean coarse position per stretch.
+    """Positions from integrated velocity, anchored to the mean coarse position per stretch
+    (over the samples moving along the axis, when there are enough).
 
     Parameters
     ----------
@@ -211,7 +216,15 @@ def velocity_aided(t_s: np.ndarray, coarse_m: np.ndarray, vel_m_s: np.ndarray) -
         seg_v = vel_m_s[lo:hi]
         # x_k = x_0 + sum of (v_i + v_i+1) / 2 * dt_i
         integral = np.r_[0.0, np.cumsum(0.5 * (seg_v[1:] + seg_v[:-1]) * np.diff(seg_t))]
-        out[lo:hi] = integral + float(np.mean(coarse_m[lo:hi] - integral))
+        offsets = coarse_m[lo:hi] - integral
+        # a vehicle standing still repeats one quantisation error sample after sample (on
+        # the ground before take-off, for as long as the link takes to arm it): the anchor
+        # is the mean over the samples moving along the axis, which cross the grid, when
+        # there are enough of them
+        moving = np.abs(seg_v) > ANCHOR_SPEED_M_S
+        if np.count_nonzero(moving) >= ANCHOR_MIN_SAMPLES:
+            offsets = offsets[moving]
+        out[lo:hi] = integral + float(np.mean(offsets))
     return out
 
 
