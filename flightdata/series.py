@@ -96,10 +96,13 @@ class FlightSeries:
         """The LOE estimates held on :attr:`time_s` (sample-and-hold), (n, 4); NaN before
         a motor's first estimate."""
         out = np.full((len(self.time_s), 4), np.nan)
+        index: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # by time array (often shared)
         for j, (t_est, est) in enumerate(zip(self.loe_estimate_time_s, self.loe_estimate,
                                              strict=True)):
-            idx = hold_index(t_est, self.time_s)
-            have = idx >= 0
+            if id(t_est) not in index:
+                idx = hold_index(t_est, self.time_s)
+                index[id(t_est)] = (idx, idx >= 0)
+            idx, have = index[id(t_est)]
             out[have, j] = est[idx[have]]
         return out
 
@@ -120,4 +123,6 @@ def hold_index(t_src: np.ndarray, t_query: np.ndarray) -> np.ndarray:
     t_src : (k,) s, non-decreasing
     t_query : (n,) s
     """
+    if t_src is t_query and (len(t_src) < 2 or bool(np.all(np.diff(t_src) > 1e-9))):
+        return np.arange(len(t_src))  # (a series held on its own, strictly rising, times)
     return np.searchsorted(t_src, np.asarray(t_query) + 1e-9, side="right") - 1

@@ -12,6 +12,7 @@ The survival function of a chi-square variable with ``k`` degrees of freedom has
 
 from __future__ import annotations
 
+import functools
 import math
 
 __all__ = ["chi_square_isf", "chi_square_sf"]
@@ -39,8 +40,10 @@ def chi_square_sf(x: float, dof: int) -> float:
     return math.erfc(math.sqrt(half)) + math.sqrt(2.0 * x / math.pi) * math.exp(-half) * total
 
 
+@functools.lru_cache(maxsize=256)
 def chi_square_isf(probability: float, dof: int) -> float:
-    """The ``x`` with ``P(X > x) = probability`` (scipy's ``chdtri(dof, probability)``)."""
+    """The ``x`` with ``P(X > x) = probability`` (scipy's ``chdtri(dof, probability)``);
+    remembered by its arguments (every estimator built asks for the same few gates)."""
     if not 0.0 < probability < 1.0:
         raise ValueError(f"probability = {probability!r}: must be in (0, 1)")
     low, high = 0.0, 1.0
