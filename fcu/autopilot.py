@@ -220,7 +220,7 @@ class Autopilot:
         # the parts flown with all rotors, stepped together (fcu.control.chain)
         self._chain = control_chain.ControlChain(self.position, self.attitude_filter,
                                                  self.attitude, self.dob, self.allocator,
-                                                 self._full_thrust_n)
+                                                 self._full_thrust_n, self.crash_check)
 
     # ------------------------------------------------------------------ the tick
     def step(self, time_s: float, samples: Iterable[SensorSampleLike]) -> np.ndarray:
@@ -294,17 +294,23 @@ class Autopilot:
         assert ref is not None
         lost = self._lost_motor(time_s)
         if lost is None:
-            # position, reference filter, attitude law, DOB, allocation, mix: one compiled call
+            # position, reference filter, attitude law, DOB, allocation, mix, crash check:
+            # one compiled call
             out = self._chain.step(estimate.pos_ned, estimate.vel_ned, estimate.euler_rad,
                                    estimate.rate_frd, ref.pos_ned, ref.vel_ned, ref.acc_ned,
                                    ref.yaw_rad, self._torque_applied,
-                                   self._ftc_effectiveness() if self.ftc_active else None)
+                                   self._ftc_effectiveness() if self.ftc_active else None,
+                                   time_s=time_s, contact_leg=self.navigator.leg_kind
+                                   not in ("takeoff", "land"))
             pwm = out[_OUT_PWM]
             thrust_n = out.item(control_chain.OUT_THRUST)
             torque_cmd = out[_OUT_TORQUE_CMD]
             d_hat = out[_OUT_D_HAT]
             att_ref = control_chain.attitude_reference(out)
             self._torque_applied = out[_OUT_TORQUE_APPLIED]
+            found = out.item(control_chain.OUT_CRASH_FOUND)
+            if found:
+                records += self._crash_records(time_s, int(found), out)
         else:
             cmd: PositionCommand = self.position_spinning.step(
                 estimate.pos_ned, estimate.vel_ned, ref.pos_ned, ref.vel_ned, ref.acc_ned,
@@ -330,8 +336,8 @@ class Autopilot:
             control_chain.crash_measures(estimate.euler_rad, att_ref.euler_rad,
                                          estimate.pos_ned, estimate.vel_ned, thrust_n,
                                          self._full_thrust_n, out)
+            records += self._crash_check(time_s, out)
         self._thrust_n = thrust_n
-        records += self._crash_check(time_s, out)
         if not self.navigator.armed:  # the crash check disarmed
             pwm = np.zeros(4)
         self._pwm = pwm
@@ -512,19 +518,23 @@ class Autopilot:
 
     def _crash_check(self, time_s: float, measures: np.ndarray) -> list[DetectionRecord]:
         """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`) on the
-        tick's ``measures`` (:func:`fcu.control.chain.crash_measures`); a crash disarms
-        (``FS_CRASH_CHECK`` = 1)."""
+        tick's ``measures`` (:func:`fcu.control.chain.crash_measures`), in relaxed hover (the
+        control chain runs them otherwise)."""
         nav = self.navigator
-        if nav.armed and not nav.landed:
-            records = self.crash_check.check(
-                time_s, nav.leg_kind not in ("takeoff", "land"),
-                measures[_OUT_CRASH_MEASURES])
-        else:  # not flying: the checks restart
+        if not (nav.armed and not nav.landed):  # not flying: the checks restart
             self.crash_check.reset()
-            records = []
-        if records and any(r.kind == "crash" for r in records) and \
-                self.config.crash.action == 1:
-            nav.crash("crash: disarming")
+            return []
+        found = self.crash_check.tick(time_s, nav.leg_kind not in ("takeoff", "land"),
+                                      measures[_OUT_CRASH_MEASURES])
+        return self._crash_records(time_s, found, measures) if found else []
+
+    def _crash_records(self, time_s: float, found: int, measures: np.ndarray
+                       ) -> list[DetectionRecord]:
+        """The records of what the crash checks ``found`` (bits) at ``time_s`` (s) on the
+        tick's ``measures``; a crash disarms (``FS_CRASH_CHECK`` = 1)."""
+        records = self.crash_check.records(time_s, found, measures[_OUT_CRASH_MEASURES])
+        if any(r.kind == "crash" for r in records) and self.config.crash.action == 1:
+            self.navigator.crash("crash: disarming")
         return records
 
     def _publish(self, records: list[DetectionRecord]) -> None:

@@ -172,8 +172,7 @@ TICK_KERNELS = (
     ("fcu.estimation.pair", "pair_tick", "EKF + TSKF"),
     ("fcu.monitoring.sensor_health", "watch_sensors", "sensor watch"),
     ("fcu.monitoring.motor_faults", "_detector_tick", "motor fault detector"),
-    ("fcu.control.chain", "control_tick", "control chain (position loop to mixer)"),
-    ("fcu.monitoring.crash_check", "crash_tick", "crash check"),
+    ("fcu.control.chain", "control_tick", "control chain (position loop to crash check)"),
 )
 
 

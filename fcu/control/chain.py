@@ -9,10 +9,12 @@ In flight, every tick runs::
     allocator (inverse of eq. 3.2, attitude first) on torque - d_hat    --> PWM u1..u4
     mixer (eq. 3.2, B diag(e) u)           --> torque applied, fed to the DOB next tick
     crash-check measures (lean, attitude error, speed, collective)
+    crash and thrust-loss checks (fcu.monitoring.crash_check), when the chain has them
 
 :func:`control_tick` is that sequence, calling each part's own kernel (``position_tick``,
 ``reference_filter_tick``, ``pd_tick`` / ``lqr_tick``, ``dob_tick``, ``allocate_tick``,
-``mix_tick``) on the parts' parameter and state vectors, which stay the parts' own: their
+``mix_tick``, ``crash_tick``) on the parts' parameter and state vectors, which stay the
+parts' own: their
 objects keep the gains (designed at construction), ``reset()``, the telemetry properties and
 a ``step`` that runs the same kernel alone. A :class:`ControlChain` binds one set of parts;
 its :meth:`~ControlChain.step` returns one fresh vector laid out by the ``OUT_*`` offsets
@@ -46,12 +48,14 @@ from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
 from fcu.control.position import PositionController, position_tick
 from fcu.control.registry import AttitudeLaw, ControlAllocator, DisturbanceObserver
 from fcu.control.scalar import py_max, py_min
+from fcu.monitoring import crash_check as crash_module
+from fcu.monitoring.crash_check import CrashCheck, crash_tick
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
 from flightdata.kernel_views import borrowed, shaped
 
 # control_tick compiles in the kernels of the parts' modules and of kernel_views
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, kernel_views.__file__, crash_module.__file__)
 
 __all__ = ["ControlChain", "attitude_reference", "control_tick", "crash_measures"]
 
@@ -73,7 +77,8 @@ OUT_SPEED = 28  # m/s, estimated speed |v|
 OUT_LEAN = 29  # rad, angle of the body z axis from the vertical
 OUT_ATT_ERROR = 30  # rad, larger of the roll and pitch errors against the reference
 OUT_COLLECTIVE = 31  # U1 as a fraction of full thrust
-OUT_SIZE = 32
+OUT_CRASH_FOUND = 32  # what the crash check found: crash_tick's bits (0 without the check)
+OUT_SIZE = 33
 
 # control_tick's scratch: each part's output
 _S_POS = 0
@@ -109,8 +114,8 @@ def crash_measures(euler_rad: np.ndarray, ref_euler_rad: np.ndarray, pos_ned: np
 (I_POS_PAR, I_POS_INTEGRAL, I_REF_PAR, I_REF_STATE, I_LAW_PAR, I_LAW_PAR_END, I_LAW_STATE,
  I_LAW_STATE_END, I_LEAD_PAR, I_LEAD_STATE, I_ALLOC_PAR, I_EFFECTIVENESS, I_MIXER, I_AM, I_BM,
  I_AT, I_BT, I_CM, I_DM, I_CT, I_XM, I_XT, I_PREV_MEAS, I_N_XM, I_N_XT, I_LAW_KIND,
- I_DOB_KIND) = range(27)
-INDEX_SIZE = 27
+ I_DOB_KIND, I_CRASH_PAR, I_CRASH_STATE) = range(29)
+INDEX_SIZE = 29
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -124,13 +129,16 @@ def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run:
                  pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
                  rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
                  ref_acc: np.ndarray, yaw_ref: float, torque_applied: np.ndarray,
-                 out: np.ndarray) -> None:
-    """One flying tick of the chain of the module docstring into ``out`` (``OUT_*``).
+                 out: np.ndarray, time_s: float, contact_leg: bool) -> None:
+    """One flying tick at ``time_s`` (s) of the chain of the module docstring into ``out``
+    (``OUT_*``).
 
     ``ws`` holds the parts' parameters and states where ``idx`` (``I_*``) says; the states
-    (position integral, reference filter, law integrals and lead, DOB, effectiveness) advance
-    in place. ``out[OUT_D_HAT:OUT_D_HAT + 3]`` must hold the DOB estimate already unless
-    ``dob_run`` (zeros without a DOB; the observer's own first step after a reset).
+    (position integral, reference filter, law integrals and lead, DOB, effectiveness, crash
+    check timers) advance in place. ``out[OUT_D_HAT:OUT_D_HAT + 3]`` must hold the DOB
+    estimate already unless ``dob_run`` (zeros without a DOB; the observer's own first step
+    after a reset). ``contact_leg``: the leg flown is neither a take-off nor a landing (the
+    crash check's ground-contact test applies).
     """
     # the arguments as views that hold no references: no reference counting in the tick
     ws, idx, out, torque_applied = borrowed(ws), borrowed(idx), borrowed(out), borrowed(
@@ -195,6 +203,11 @@ def control_tick(ws: np.ndarray, idx: np.ndarray, full_thrust_n: float, dob_run:
     out[OUT_THRUST] = thrust_n
     out[OUT_REF:OUT_REF + reference_module.OUT_SIZE] = reference
     crash_measures(euler_rad, ref_euler, pos_ned, vel_ned, thrust_n, full_thrust_n, out)
+    if idx[I_CRASH_STATE] >= 0:  # the crash and thrust-loss checks on those measures
+        out[OUT_CRASH_FOUND] = crash_tick(
+            ws[idx[I_CRASH_PAR]:idx[I_CRASH_PAR] + crash_module.PAR_SIZE],
+            ws[idx[I_CRASH_STATE]:idx[I_CRASH_STATE] + crash_module.STATE_SIZE], time_s,
+            contact_leg, out[OUT_ALT:OUT_ALT + crash_module.MEASURES_SIZE])
 
 
 def _law_kind(law: AttitudeLaw) -> int:
@@ -258,6 +271,9 @@ class ControlChain:
         (:mod:`fcu.control.registry`).
     full_thrust_n : float
         N, collective thrust at full PWM (the crash check's collective scale).
+    crash_check : CrashCheck, optional
+        The crash and thrust-loss checks, run on each tick's measures (their timers adopted
+        like the parts' states); the bits they found are ``out[OUT_CRASH_FOUND]``.
 
     The chain packs the parts' parameters and states into one workspace (one argument for
     the compiled call instead of some thirty): parameters are copied, state arrays adopted
@@ -267,19 +283,21 @@ class ControlChain:
 
     def __init__(self, position: PositionController, reference_filter: AttitudeReferenceFilter,
                  law: AttitudeLaw, dob: DisturbanceObserver, allocator: ControlAllocator,
-                 full_thrust_n: float) -> None:
+                 full_thrust_n: float, crash_check: CrashCheck | None = None) -> None:
         self.position = position
         self.reference_filter = reference_filter
         self.law = law
         self.dob = dob
         self.allocator = allocator
         self.full_thrust_n = float(full_thrust_n)
+        self.crash_check = crash_check
         law_kind, dob_kind = _law_kind(law), _dob_kind(dob)
         self._dob_kind = dob_kind
         self.compiled = (law_kind != LAW_OTHER and dob_kind != DOB_OTHER
                          and isinstance(allocator, Allocator))
         self._ws = np.zeros(0)
         self._idx = np.zeros(INDEX_SIZE, dtype=np.int64)
+        self._idx[I_CRASH_STATE] = -1  # no crash check
         if not self.compiled:
             return
         assert isinstance(law, (AttitudeLQR, AttitudePD)) and isinstance(allocator, Allocator)
@@ -311,12 +329,16 @@ class ControlChain:
             idx[I_XM] = w.adopt(dob, "_xm")
             idx[I_XT] = w.adopt(dob, "_xt")
             idx[I_PREV_MEAS] = w.adopt(dob, "_prev_meas")
+        if crash_check is not None:
+            idx[I_CRASH_PAR] = w.put(crash_check._par)
+            idx[I_CRASH_STATE] = w.adopt(crash_check, "_state")
         self._ws = w.build()
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
              rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
              ref_acc: np.ndarray, yaw_ref: float, torque_applied: np.ndarray,
-             effectiveness: np.ndarray | None) -> np.ndarray:
+             effectiveness: np.ndarray | None, *, time_s: float = 0.0,
+             contact_leg: bool = True) -> np.ndarray:
         """One flying tick; returns a fresh vector laid out by ``OUT_*``.
 
         Parameters
@@ -331,12 +353,20 @@ class ControlChain:
             N*m, torque the previous tick's PWM asked for (eq. 3.2), (3,).
         effectiveness : numpy.ndarray or None
             Per-motor effectiveness for the allocation (active FTC), (4,); None: nominal.
+        time_s : float
+            Tick time, s (the crash check's timers).
+        contact_leg : bool
+            The leg flown is neither a take-off nor a landing (the crash check's
+            ground-contact test applies).
         """
         self.allocator.set_effectiveness(effectiveness)
         out = np.zeros(OUT_SIZE)
         if not self.compiled:
             self._step_parts(pos_ned, vel_ned, euler_rad, rate_frd, ref_pos, ref_vel, ref_acc,
                              yaw_ref, torque_applied, out)
+            if self.crash_check is not None:
+                out[OUT_CRASH_FOUND] = self.crash_check.tick(
+                    time_s, contact_leg, out[OUT_ALT:OUT_ALT + crash_module.MEASURES_SIZE])
             return out
         dob = self.dob
         dob_run = self._dob_kind != DOB_NONE
@@ -346,7 +376,7 @@ class ControlChain:
             dob_run = False
         control_tick(self._ws, self._idx, self.full_thrust_n, dob_run, pos_ned, vel_ned,
                      euler_rad, rate_frd, ref_pos, ref_vel, ref_acc, yaw_ref, torque_applied,
-                     out)
+                     out, time_s, contact_leg)
         return out
 
     def _step_parts(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,

@@ -65,6 +65,7 @@ STATE_SIZE = 6
 # its parameter vector
 (_P_ANGLE, _P_ANGLE_TIME, _P_IMPACT_SPEED, _P_IMPACT_WINDOW, _P_CONTACT_TIME, _P_GROUND_ALT,
  _P_THROTTLE, _P_DESCENT, _P_THRUST_TIME, _P_THRUST_ERROR) = range(10)
+PAR_SIZE = 10
 # what crash_tick found: bits of its return value
 THRUST_LOSS, CRASH = 1, 2
 
@@ -189,7 +190,17 @@ class CrashCheck:
         ``alt_m``, ``vel_down_m_s``, ``speed_m_s``, ``lean_rad``, ``attitude_error_rad``,
         ``collective`` in that order); ``contact_leg``: the leg is neither a take-off nor a
         landing (the ground-contact check applies)."""
-        found = crash_tick(self._par, self._state, time_s, contact_leg, measures)
+        return self.records(time_s, self.tick(time_s, contact_leg, measures), measures)
+
+    def tick(self, time_s: float, contact_leg: bool, measures: np.ndarray) -> int:
+        """:func:`crash_tick` on this check's parameters and timers (:meth:`check`'s
+        arguments); returns its bits."""
+        return crash_tick(self._par, self._state, time_s, contact_leg, measures)
+
+    def records(self, time_s: float, found: int, measures: np.ndarray
+                ) -> list[DetectionRecord]:
+        """The records of what :func:`crash_tick` ``found`` (its bits) at ``time_s`` (s) on
+        ``measures`` (:meth:`check`'s)."""
         if not found:
             return []
         out = []

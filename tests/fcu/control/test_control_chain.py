@@ -103,3 +103,31 @@ def test_the_measures_are_laid_out_as_the_crash_check_reads_them() -> None:
              crash_check.ATTITUDE_ERROR, crash_check.COLLECTIVE]
     assert [o - control_chain.OUT_ALT for o in offsets] == named
     assert len(offsets) == crash_check.MEASURES_SIZE
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_chain_runs_the_crash_check_as_the_check_alone_does(compiled: bool) -> None:
+    """A vehicle on its side (lean and attitude error past 30 deg) for more than 2 s: the
+    chain's own crash check fires at the tick the check fed the same measures fires, and a
+    flight without a bound check reports nothing."""
+    config = crash_check.CrashCheckConfig()
+    bound = crash_check.CrashCheck(config)
+    chain = _chain("pd", "none")
+    chain = control_chain.ControlChain(chain.position, chain.reference_filter, chain.law,
+                                       chain.dob, chain.allocator, FULL_THRUST_N, bound)
+    chain.compiled = compiled and chain.compiled
+    alone, unbound = crash_check.CrashCheck(config), _chain("pd", "none")
+    pos, euler = np.array([0.0, 0.0, -1.0]), np.array([1.2, 0.0, 0.0])  # rolled 69 deg
+    found_at = []
+    for k in range(300):
+        t = k * DT
+        args = (pos, np.zeros(3), euler, np.zeros(3), pos, np.zeros(3), np.zeros(3), 0.0,
+                np.zeros(3), None)
+        out = chain.step(*args, time_s=t, contact_leg=True)
+        measures = out[control_chain.OUT_ALT:control_chain.OUT_ALT + crash_check.MEASURES_SIZE]
+        assert out[control_chain.OUT_CRASH_FOUND] == alone.tick(t, True, measures.copy())
+        assert unbound.step(*args, time_s=t)[control_chain.OUT_CRASH_FOUND] == 0.0
+        if out[control_chain.OUT_CRASH_FOUND]:
+            found_at.append(t)
+    assert found_at == [pytest.approx(config.angle_time_s, abs=1e-9)]  # once, after 2 s
+    assert bound.crashed  # the check's own state is the one the chain advanced
