@@ -44,7 +44,6 @@ from fcu.control.position import PositionCommand, PositionController
 from fcu.control.reduced_attitude import SPINNING_POSITION_GAINS, ReducedAttitudeController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
 from fcu.estimation.ekf import ExtendedKalmanEstimator
-from fcu.estimation.pair import step_pair
 from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
 from fcu.estimation.state import StateEstimate, group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
@@ -53,6 +52,7 @@ from fcu.monitoring.battery import BatteryMonitor
 from fcu.monitoring.crash_check import CrashCheck
 from fcu.monitoring.motor_faults import MotorFaultDetector
 from fcu.monitoring.sensor_health import SensorHealth
+from fcu.monitoring.watched_pair import step_pair_watched
 from fcu.navigation.guidance import Reference
 from fcu.navigation.modes import MODE_TABLE, Mode
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
@@ -241,19 +241,22 @@ class Autopilot:
         reject = (self.navigator.landed_state == LandedState.IN_AIR and prior.alt_m > 0.2
                   and self._hover_regime(prior) and not self.detector.lost)
         estimator = self.estimator
-        if estimator is self.tskf:
-            estimate = self.tskf.step_grouped(time_s, self._pwm, batches, excluded=excluded,
-                                              reject=reject)
-        elif isinstance(estimator, ExtendedKalmanEstimator):  # both in one compiled call
-            estimate = step_pair(estimator, self.tskf, time_s, self._pwm, batches,
-                                 excluded=excluded, reject=reject)
-        else:  # the TSKF's own estimate is built only if read
-            self.tskf.advance_grouped(time_s, self._pwm, batches, excluded=excluded,
-                                      reject=reject)
-            estimate = estimator.step_grouped(time_s, self._pwm, batches, excluded=excluded,
-                                              reject=reject)
-        records = health.step(time_s, batches, self.estimator.screening, reject,
-                              self._sensor_noise)
+        if isinstance(estimator, ExtendedKalmanEstimator):
+            # both filters and the sensor watch on the EKF's screening: one compiled call
+            estimate, records = step_pair_watched(
+                estimator, self.tskf, health, time_s, self._pwm, batches, excluded=excluded,
+                reject=reject, noise=self._sensor_noise)
+        else:
+            if estimator is self.tskf:
+                estimate = self.tskf.step_grouped(time_s, self._pwm, batches,
+                                                  excluded=excluded, reject=reject)
+            else:  # the TSKF's own estimate is built only if read
+                self.tskf.advance_grouped(time_s, self._pwm, batches, excluded=excluded,
+                                          reject=reject)
+                estimate = estimator.step_grouped(time_s, self._pwm, batches,
+                                                  excluded=excluded, reject=reject)
+            records = health.step(time_s, batches, estimator.screening, reject,
+                                  self._sensor_noise)
         low_thrust = self._thrust_n < self._low_thrust_n  # throttle at minimum
         # (the navigator judges a non-finite position, velocity or yaw an unhealthy
         # estimator itself)

@@ -169,10 +169,9 @@ TICK_KERNELS = (
     ("sim.world.world", "world_steps", "world: plant, wind, sensors, faults"),
     ("sim.world.battery", "battery_step", "world: battery and power module"),
     ("fcu.estimation.state", "group_sample_arrays", "sample grouping"),
-    ("fcu.estimation.pair", "pair_tick", "EKF + TSKF"),
-    ("fcu.monitoring.sensor_health", "watch_sensors", "sensor watch"),
+    ("fcu.monitoring.watched_pair", "pair_watch_tick", "EKF + TSKF, sensor watch"),
     ("fcu.monitoring.motor_faults", "_detector_tick", "motor fault detector"),
-    ("fcu.control.chain", "control_tick", "control chain (position loop to crash check)"),
+    ("fcu.control.chain", "control_tick", "control chain and crash check"),
 )
 
 

@@ -13,6 +13,7 @@ bit for bit.
 from __future__ import annotations
 
 from collections.abc import Collection
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -154,24 +155,40 @@ def step_pair(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: 
     (:func:`pair_tick`); returns the EKF's estimate. The samples must come grouped by
     :func:`fcu.estimation.state.group_samples`."""
     time_s = float(time_s)
+    arguments = pair_arguments(ekf, tskf, time_s, pwm_applied, grouped, excluded, reject)
+    return pair_kept(ekf, tskf, time_s, arguments[4], pair_tick(*arguments))
+
+
+def pair_arguments(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: float,
+                   pwm_applied: ArrayLike, grouped: GroupedSamples,
+                   excluded: Collection[str], reject: bool) -> tuple[Any, ...]:
+    """:func:`pair_tick`'s arguments for :func:`step_pair`'s (``time_s`` a float); both
+    filters are checked (ValueError) before either moves. The fifth is the tick's output
+    array, fresh."""
     u = pwm_array(pwm_applied)
-    # both checked before either filter moves
     n_steps = tskf._steps_to(time_s)
     dt = ekf._dt_to(time_s)
     e_cs, t_cs = ekf._set, tskf._set
-    e_size, t_size = e_cs.tick_size, t_cs.tick_size
     # the estimates' own array (each a part), the screenings' and the new gamma_hat's
-    out = np.empty(e_size + t_size + N_MOTORS)
+    out = np.empty(e_cs.tick_size + t_cs.tick_size + N_MOTORS)
     t_excluded = t_cs.exclusion_bits(excluded) if excluded else 0
     e_excluded = e_cs.exclusion_bits(excluded) if excluded else 0
-    t_on_ground, accel_power, m, e_on_ground, last = pair_tick(
-        grouped.flat, u, time_s, bool(reject), out,
-        tskf._buf, t_cs.kernel_ints(grouped), t_excluded, tskf.gamma_raw, n_steps,
-        tskf.on_ground, tskf._accel_power,
-        ekf._buf, e_cs.kernel_ints(grouped), e_excluded, dt, ekf._on_ground)
-    tskf._kept(time_s, t_cs, out[e_size:], out[-N_MOTORS:], t_on_ground, accel_power, m)
+    return (grouped.flat, u, time_s, bool(reject), out,
+            tskf._buf, t_cs.kernel_ints(grouped), t_excluded, tskf.gamma_raw, n_steps,
+            tskf.on_ground, tskf._accel_power,
+            ekf._buf, e_cs.kernel_ints(grouped), e_excluded, dt, ekf._on_ground)
+
+
+def pair_kept(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: float,
+              out: FloatArray, result: tuple[bool, float, int, bool, int]) -> StateEstimate:
+    """What :func:`pair_tick` at ``time_s`` (s) returned (``result``) and wrote into ``out``,
+    kept by each filter; returns the EKF's estimate."""
+    t_on_ground, accel_power, m, e_on_ground, last = result
+    e_cs = ekf._set
+    e_size = e_cs.tick_size
+    tskf._kept(time_s, tskf._set, out[e_size:], out[-N_MOTORS:], t_on_ground, accel_power, m)
     ekf._kept(time_s, e_cs, out, e_on_ground, last)
     return ekf.estimate
 
 
-__all__ = ["pair_tick", "step_pair"]
+__all__ = ["pair_arguments", "pair_kept", "pair_tick", "step_pair"]

@@ -48,11 +48,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numba import njit
 
-from fcu.estimation.estimator import ChannelCheck, Screening
+from fcu.estimation.estimator import ChannelCheck, ChannelSet, Screening
 from fcu.estimation.screening import ABSENT, REJECTED, STATUS_NAMES
 from fcu.estimation.state import GroupedSamples, SampleBatch
 from flightdata.config import finite, require
@@ -314,6 +315,8 @@ class SensorHealth:
         self._events = np.zeros((2 * len(SENSORS) + 1, 4))
         # watch_sensors' index, by (channels screened, grouped slots, slots popped)
         self._indexes: dict[tuple[object, ...], _Index] = {}
+        self._last_key: tuple[object, ...] = (None,) * 5  # kernel_arguments' latest
+        self._last_index: _Index = (np.zeros((0, _INDEX_WIDTH)), _NO_CROSS)
         self.reset()
 
     def reset(self) -> None:
@@ -358,12 +361,9 @@ class SensorHealth:
         grouped = (batches if isinstance(batches, GroupedSamples)
                    else _grouped(batches))
         if isinstance(screening, Screening):
-            cs = screening.channel_set
-            key: tuple[object, ...] = (cs, grouped.slot_names, grouped.slot_axes,
-                                       grouped.width, grouped.popped)
             screen = screening.screen
-            index, cross = self._indexes.get(key) or self._index(key, cs.checks,
-                                                                 2 * cs.n_rows, grouped)
+            par, state, events, index, cross, window, window_at = self.kernel_arguments(
+                grouped, screening.channel_set, noise)
         else:
             checks = [(sensor, check.gate) for sensor, check in screening.items()]
             key = (tuple(checks), grouped.slot_names, grouped.slot_axes, grouped.width,
@@ -373,26 +373,59 @@ class SensorHealth:
                               dtype=float)
             index, cross = self._indexes.get(key) or self._index(
                 key, [(sensor, gate, 0, 0) for sensor, gate in checks], 0, grouped)
+            self._take_noise(noise)
+            par, state, events, window, window_at = (self._par, self._state, self._events,
+                                                     self._window, self._window_at)
+        n_events, rejected = watch_sensors(par, state, events, index, cross, window,
+                                           window_at, grouped.flat, screen, time_s,
+                                           bool(airborne))
+        return self.watched(time_s, n_events, rejected)
+
+    def kernel_arguments(self, grouped: GroupedSamples, channel_set: ChannelSet,
+                         noise: Mapping[str, float]) -> tuple[Any, ...]:
+        """:func:`watch_sensors`' first seven arguments for a tick of ``grouped`` samples
+        screened by ``channel_set`` (its :class:`Screening` table), :meth:`step`'s
+        ``noise`` taken; for a compiled call that runs the watch after the estimators'
+        update (:mod:`fcu.monitoring.watched_pair`), then :meth:`watched`."""
+        last = self._last_key
+        if (channel_set is last[0] and grouped.slot_names is last[1]
+                and grouped.slot_axes is last[2] and grouped.width == last[3]
+                and grouped.popped == last[4]):  # (a flight's ticks: the same layout)
+            index, cross = self._last_index
+        else:
+            key: tuple[object, ...] = (channel_set, grouped.slot_names, grouped.slot_axes,
+                                       grouped.width, grouped.popped)
+            index, cross = self._indexes.get(key) or self._index(
+                key, channel_set.checks, 2 * channel_set.n_rows, grouped)
+            self._last_key, self._last_index = key, (index, cross)
+        if noise is not self._noise_given:
+            self._take_noise(noise)
+        return (self._par, self._state, self._events, index, cross, self._window,
+                self._window_at)
+
+    def _take_noise(self, noise: Mapping[str, float]) -> None:
+        """Each sensor's noise for the jump test, when ``noise`` is another mapping."""
         if noise is not self._noise_given:
             self._noise_given = noise
             if noise != self._noise:
                 self._noise = dict(noise)
                 self._state[:, _SIGMA] = [noise.get(sensor, 0.0) for sensor in SENSORS]
-        records: list[DetectionRecord] = []
-        window = self._window
-        n_events, rejected = watch_sensors(self._par, self._state, self._events, index, cross,
-                                           window, self._window_at, grouped.flat, screen,
-                                           time_s, bool(airborne))
-        if self._window_at.item(_W_ROWS) == window.shape[0]:  # full: room for the next row
+
+    def watched(self, time_s: float, n_events: int, rejected: bool) -> list[DetectionRecord]:
+        """After :func:`watch_sensors` at ``time_s`` (s) wrote ``n_events`` events and found
+        a rejection or not: the window grown when full, the records of the events."""
+        if self._window_at.item(_W_ROWS) == self._window.shape[0]:  # full: room for a row
             self._grow_window()
         if rejected:
             self._last_rejected_s = max(self._last_rejected_s, time_s)
-        if n_events:
-            for action, kind, row, magnitude in self._events[:n_events].tolist():
-                records.append(DetectionRecord(
-                    time_s=time_s, action="cleared" if action else "detected",
-                    kind=_KINDS[int(kind)], sensor=SENSORS[int(row)], magnitude=magnitude))
-            self._exclusions_changed()
+        if not n_events:
+            return []
+        records = []
+        for action, kind, row, magnitude in self._events[:n_events].tolist():
+            records.append(DetectionRecord(
+                time_s=time_s, action="cleared" if action else "detected",
+                kind=_KINDS[int(kind)], sensor=SENSORS[int(row)], magnitude=magnitude))
+        self._exclusions_changed()
         return records
 
     def _grow_window(self) -> None:
