@@ -302,10 +302,75 @@ def add_mul_vec(x: FloatArray, k: FloatArray, y: FloatArray) -> None:
         x[i] += acc
 
 
+def _transpose_block(builder: Any, rows: list[Any]) -> list[Any]:
+    """The 8 x 8 block whose rows are the ``_LANES``-vectors ``rows``, transposed: its columns
+    as vectors, by three rounds of two-vector shuffles (pairs of entries, of pairs, of
+    quads: each round swaps the off-diagonal halves of 2 x 2 sub-blocks one size larger)."""
+    i32 = ir.IntType(32)
+
+    def shuffle(a: Any, b: Any, picks: list[int]) -> Any:
+        return builder.shuffle_vector(a, b, ir.Constant(ir.VectorType(i32, _LANES), picks))
+
+    for size in (1, 2, 4):
+        # entries of a: index t; of b: _LANES + t. Rows r, r + size paired in each group of
+        # 2 size rows: the first takes a's lower and b's lower entry of each 2 size stretch,
+        # the second the upper ones
+        lo = [t + (_LANES if (t // size) % 2 else 0) - (size if (t // size) % 2 else 0)
+              for t in range(_LANES)]
+        hi = [t + (0 if (t // size) % 2 else size) + (_LANES if (t // size) % 2 else 0)
+              for t in range(_LANES)]
+        out = list(rows)
+        for r in range(_LANES):
+            if (r // size) % 2 == 0:
+                a, b = rows[r], rows[r + size]
+                out[r] = shuffle(a, b, lo)
+                out[r + size] = shuffle(a, b, hi)
+        rows = out
+    return rows
+
+
+@intrinsic
+def _transpose_rows(typingctx: Any, out: Any, a: Any) -> Any:
+    """``out[:ROW, :ROW] = a[:ROW, :ROW]'`` for C-order arrays of :data:`ROW` columns: the
+    ``ROW`` rows of ``a`` loaded as vectors of ``_LANES``, each 8 x 8 block transposed in
+    registers (:func:`_transpose_block`), stored as the mirror block; every entry is loaded
+    before any is stored (shapes not checked)."""
+    if not all(isinstance(m, types.Array) and m.ndim == 2 and m.layout == "C"
+               and m.dtype == types.float64 for m in (out, a)):
+        return None
+    vec = ir.VectorType(ir.DoubleType(), _LANES)
+    intp = ir.IntType(64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        out_t, a_t = signature.args
+        src = make_array(a_t)(context, builder, args[1]).data
+        dst = make_array(out_t)(context, builder, args[0]).data
+
+        def at(data: Any, r: int, c: int) -> Any:
+            return builder.bitcast(builder.gep(data, [ir.Constant(intp, r * ROW + c)]),
+                                   vec.as_pointer())
+
+        halves = ROW // _LANES
+        blocks = {(bi, bj): [builder.load(at(src, bi * _LANES + r, bj * _LANES), align=8)
+                             for r in range(_LANES)]
+                  for bi in range(halves) for bj in range(halves)}
+        for (bi, bj), rows in blocks.items():
+            # block (bi, bj) of a, transposed, is block (bj, bi) of a'
+            for c, col in enumerate(_transpose_block(builder, rows)):
+                builder.store(col, at(dst, bj * _LANES + c, bi * _LANES), align=8)
+        return context.get_dummy_value()
+
+    return types.none(out, a), codegen
+
+
 @njit(cache=True, error_model="numpy")
 def transpose_into(out: FloatArray, a: FloatArray) -> None:
-    """``out = a'`` (``out`` must not share memory with ``a``)."""
+    """``out = a'`` (``out`` must not share memory with ``a``). A matrix of the filters' 16
+    states is moved as 8 x 8 blocks of vector registers (:func:`_transpose_rows`)."""
     n, w = a.shape
+    if n == ROW and w == ROW and out.shape[0] == ROW and out.shape[1] == ROW:
+        _transpose_rows(out, a)  # type: ignore[call-arg]
+        return
     for i in range(n):
         for j in range(w):
             out[j, i] = a[i, j]
