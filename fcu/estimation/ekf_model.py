@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row
+from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row, transpose_into
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
@@ -272,7 +272,7 @@ def rk4_step_into(x_next: FloatArray, x: FloatArray, u: FloatArray, dt: float, p
         x_next[i] = x[i] + sixth * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
-TRANSITION_SCRATCH = (9, 16, 16)
+TRANSITION_SCRATCH = (10, 16, 16)
 """Shape of the scratch :func:`discrete_transition_into` works in."""
 
 
@@ -326,11 +326,12 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     entries listed once; the powers commute); ``Phi`` is block upper triangular like ``A``,
     and its zeros (those of every power) are skipped in ``Phi Qc Phi'``, taken a whole row at
     a time (:func:`~fcu.estimation.small_matrix.add_scaled_row`) and its upper triangle
-    mirrored. ``F`` is a sum of whole rows too.
+    mirrored. ``F`` and each ``Phi`` are sums of whole rows too (:func:`_series_into`), ``Phi'``
+    a transpose of ``Phi`` by vector blocks.
     """
     n = 16
     ad, ad2, ad3, ad4 = scratch[0], scratch[1], scratch[2], scratch[3]
-    phi_t, q_rows = scratch[4], scratch[5]
+    phi_t, q_rows, phi = scratch[4], scratch[5], scratch[9]
     # a row of flags: non-zero where some power of A dt is (the pattern of Phi)
     flags = scratch[6, 7]
     # the non-zero entries of A dt (row i: count nz_count[i], columns nz_cols[i, :count]) and
@@ -357,16 +358,9 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             for t in range(int(nz_count[i])):
                 k = int(nz_cols[i, t])
                 add_scaled_row(power, i, ad[i, k], prev, k)
-    # F = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24   (row by row, whole rows: off
-    # the diagonal with the identity's 0, 0.0 + (A dt)[i, :] + (A dt)^2[i, :]/2 + ..., then
-    # the diagonal entry with its 1)
-    f2, f3, f4 = 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0
+    # F = Phi(dt) = I + A dt + (A dt)^2/2 + (A dt)^3/6 + (A dt)^4/24
+    _series_into(f_mat, 1.0, ad, ad2, ad3, ad4)
     for i in range(n):
-        set_scaled_row(f_mat, i, 1.0, ad, i)
-        add_scaled_row(f_mat, i, f2, ad2, i)
-        add_scaled_row(f_mat, i, f3, ad3, i)
-        add_scaled_row(f_mat, i, f4, ad4, i)
-        f_mat[i, i] = 1.0 + ad[i, i] + ad2[i, i] * f2 + ad3[i, i] * f3 + ad4[i, i] * f4
         # Phi's non-zero columns: k = i or any power non-zero there (a sum of magnitudes,
         # over the whole row at once), listed without a branch
         for k in range(n):
@@ -384,25 +378,37 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             q_rows[i, j] = 0.0
     r = math.sqrt(0.6) / 2.0
     for c, weight in ((0.5 - r, 5.0 / 18.0), (0.5, 8.0 / 18.0), (0.5 + r, 5.0 / 18.0)):
-        c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
-        for j in range(n):
-            # Phi' = I + (A dt)' c + ((A dt)^2)' c^2/2 + ((A dt)^3)' c^3/6 + ((A dt)^4)' c^4/24
-            for i in range(n):
-                phi_t[i, j] = (0.0 + ad[j, i] * c + ad2[j, i] * c2 + ad3[j, i] * c3
-                               + ad4[j, i] * c4)
-            phi_t[j, j] = (1.0 + ad[j, j] * c + ad2[j, j] * c2 + ad3[j, j] * c3
-                           + ad4[j, j] * c4)
+        # Phi(c dt) = I + (A dt) c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24, and Phi'
+        _series_into(phi, c, ad, ad2, ad3, ad4)
+        transpose_into(phi_t, phi)
         # Q += w Phi Qc Phi':  Q[i, :] += sum_k (w Phi[i, k] Qc[k]) Phi'[k, :]  (Qc
         # diagonal; k over the non-zero Phi[i, k]), whole rows
         for i in range(n):
             for t in range(int(phi_count[i])):
                 k = int(phi_cols[i, t])
-                add_scaled_row(q_rows, i, weight * phi_t[k, i] * qc_diag[k], phi_t, k)
+                add_scaled_row(q_rows, i, weight * phi[i, k] * qc_diag[k], phi_t, k)
     # Q *= dt; its upper triangle, mirrored (Q is symmetric)
     for i in range(n):
         for j in range(i, n):
             q_mat[i, j] = q_rows[i, j] * dt
             q_mat[j, i] = q_mat[i, j]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _series_into(out: FloatArray, c: float, ad: FloatArray, ad2: FloatArray, ad3: FloatArray,
+                 ad4: FloatArray) -> None:
+    """``Phi(c dt) = I + (A dt) c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24`` (the
+    fourth-order series of ``expm(A c dt)``; ``F`` at ``c = 1``) into ``out`` (16, 16), from
+    the powers ``ad`` ... ``ad4`` of ``A dt``, row by row as whole rows: off the diagonal
+    with the identity's 0, ``0.0 + (A dt)[i, :] c + (A dt)^2[i, :] c^2/2 + ...``, then the
+    diagonal entry with its 1."""
+    c2, c3, c4 = c * c / 2.0, c ** 3 / 6.0, c ** 4 / 24.0
+    for i in range(out.shape[0]):
+        set_scaled_row(out, i, c, ad, i)
+        add_scaled_row(out, i, c2, ad2, i)
+        add_scaled_row(out, i, c3, ad3, i)
+        add_scaled_row(out, i, c4, ad4, i)
+        out[i, i] = 1.0 + ad[i, i] * c + ad2[i, i] * c2 + ad3[i, i] * c3 + ad4[i, i] * c4
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -52,6 +52,7 @@ from fcu.estimation.screening import (
     screen_channels,
     select,
 )
+from fcu.estimation.small_matrix import aligned_zeros
 from fcu.estimation.state import (
     STATE_DIM,
     THRUST,
@@ -527,12 +528,14 @@ class TickEstimator:
         self._kinds = frozenset(s for cs in self._sets.values() for s in cs.sensors)
 
     def _packed_buffer(self, at: int) -> FloatArray:
-        """A float buffer of ``at`` entries (zeros) for the filter's own arrays, then the
-        :attr:`ChannelSet.tables` of every height source, which become views of it
+        """A float buffer of ``at`` entries (zeros, from a 64-byte boundary:
+        :func:`~fcu.estimation.small_matrix.aligned_zeros`) for the filter's own arrays, then
+        the :attr:`ChannelSet.tables` of every height source, which become views of it
         (:attr:`ChannelSet.tables_at`): one argument of a compiled call
         (:mod:`fcu.estimation.pair`)."""
         sets = list(self._sets.values())
-        buf = np.zeros(at + sum(cs.tables.size for cs in sets))
+        # on a cache line: the kernels' 16-entry rows then stay on cache lines too
+        buf = aligned_zeros(at + sum(cs.tables.size for cs in sets))
         for cs in sets:
             size = cs.tables.size
             buf[at:at + size] = cs.tables

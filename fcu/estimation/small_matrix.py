@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
@@ -19,10 +20,11 @@ from numba.np.arrayobj import make_array
 
 from fcu.estimation.state import FloatArray
 
-__all__ = ["ROW", "add_mul_vec", "add_scaled_row", "mul_at_into", "mul_at_t_into",
-           "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into", "mul_nonzero_left",
-           "mul_sparse_left", "nonzero_columns", "set_scaled_row", "spd_inverse",
-           "spd_quadratic", "spd_solve", "sub_mul_vec_into", "symmetrize", "transpose_into"]
+__all__ = ["ROW", "add_mul_vec", "add_scaled_difference_row", "add_scaled_row", "aligned_zeros",
+           "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into",
+           "mul_nonzero_left", "mul_sparse_left", "nonzero_columns", "set_scaled_row",
+           "spd_inverse", "spd_quadratic", "spd_solve", "sub_mul_vec_into", "symmetrize",
+           "transpose_into"]
 
 
 ROW = 16
@@ -31,48 +33,98 @@ _LANES = 8  # doubles of one vector register (AVX-512); a row is two of them
 _BIASES = 4  # the TSKF's biases (one per motor): the inner size of its small products
 
 
+def aligned_zeros(n: int) -> FloatArray:
+    """``n`` float zeros whose memory starts on a 64-byte boundary (a cache line, and one
+    vector of ``_LANES`` doubles): the filters' packed buffers, in which every matrix the
+    kernels update by whole rows starts at a multiple of ``_LANES`` entries, so that none of
+    their vector loads and stores straddles two cache lines (numpy's own allocation is
+    16-byte aligned: then most of them would, at a cost of about 0.6 us per estimation tick
+    of :func:`fcu.estimation.pair.pair_tick`)."""
+    raw = np.zeros(n + _LANES)
+    start = (-(raw.ctypes.data // 8)) % _LANES  # entries to the next boundary
+    return raw[start:start + n]
+
+
+def _row_vectors(context: Any, builder: Any, ary_t: Any, ary_v: Any, r_t: Any,
+                 r_v: Any) -> list[Any]:
+    """Pointers to the ``ROW // _LANES`` vectors of row ``r`` of the C-order matrix ``ary``
+    (``ROW`` columns; not checked)."""
+    vec = ir.VectorType(ir.DoubleType(), _LANES)
+    intp = ir.IntType(64)
+    data = make_array(ary_t)(context, builder, ary_v).data
+    r = context.cast(builder, r_v, r_t, types.intp)
+    row = builder.gep(data, [builder.mul(r, ir.Constant(intp, ROW))])
+    return [builder.bitcast(builder.gep(row, [ir.Constant(intp, at)]), vec.as_pointer())
+            for at in range(0, ROW, _LANES)]
+
+
+def _splat(context: Any, builder: Any, a_t: Any, a_v: Any) -> Any:
+    """The scalar ``a`` in every lane of a vector."""
+    vec = ir.VectorType(ir.DoubleType(), _LANES)
+    scale = context.cast(builder, a_v, a_t, types.float64)
+    splat = builder.insert_element(ir.Constant(vec, ir.Undefined), scale,
+                                   ir.Constant(ir.IntType(32), 0))
+    return builder.shuffle_vector(splat, ir.Constant(vec, ir.Undefined),
+                                  ir.Constant(ir.VectorType(ir.IntType(32), _LANES),
+                                              [0] * _LANES))
+
+
+def _rows_typed(*arrays: Any) -> bool:
+    """Whether every one of ``arrays`` is typed as a C-order 2D float64 array."""
+    return all(isinstance(m, types.Array) and m.ndim == 2 and m.layout == "C"
+               and m.dtype == types.float64 for m in arrays)
+
+
 def _scaled_row_intrinsic(accumulate: bool) -> Any:
     """The codegen of ``out[i, :ROW] = s + a * b[k, :ROW]`` as two vector operations of
     ``_LANES`` entries, ``s`` the row itself (``accumulate``) or 0.0, each lane the scalar
     ``s + a * b[k, j]`` (a product, then a sum: the same rounding); rows not checked."""
 
     def typer(typingctx: Any, out: Any, i: Any, a: Any, b: Any, k: Any) -> Any:
-        if not all(isinstance(m, types.Array) and m.ndim == 2 and m.layout == "C"
-                   and m.dtype == types.float64 for m in (out, b)):
+        if not _rows_typed(out, b):
             return None
-        vec = ir.VectorType(ir.DoubleType(), _LANES)
-        intp = ir.IntType(64)
 
         def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
             out_v, i_v, a_v, b_v, k_v = args
             out_t, i_t, a_t, b_t, k_t = signature.args
-
-            def row(ary_t: Any, ary_v: Any, r_t: Any, r_v: Any) -> Any:
-                data = make_array(ary_t)(context, builder, ary_v).data
-                r = context.cast(builder, r_v, r_t, types.intp)
-                return builder.gep(data, [builder.mul(r, ir.Constant(intp, ROW))])
-
-            out_row, b_row = row(out_t, out_v, i_t, i_v), row(b_t, b_v, k_t, k_v)
-            scale = context.cast(builder, a_v, a_t, types.float64)
-            splat = builder.insert_element(ir.Constant(vec, ir.Undefined), scale,
-                                           ir.Constant(ir.IntType(32), 0))
-            splat = builder.shuffle_vector(splat, ir.Constant(vec, ir.Undefined),
-                                           ir.Constant(ir.VectorType(ir.IntType(32), _LANES),
-                                                       [0] * _LANES))
-            for at in range(0, ROW, _LANES):
-                dst = builder.bitcast(builder.gep(out_row, [ir.Constant(intp, at)]),
-                                      vec.as_pointer())
-                src = builder.bitcast(builder.gep(b_row, [ir.Constant(intp, at)]),
-                                      vec.as_pointer())
+            splat = _splat(context, builder, a_t, a_v)
+            for dst, src in zip(_row_vectors(context, builder, out_t, out_v, i_t, i_v),
+                                _row_vectors(context, builder, b_t, b_v, k_t, k_v),
+                                strict=True):
                 term = builder.load(src, align=8)
                 acc = (builder.load(dst, align=8) if accumulate
-                       else ir.Constant(vec, [0.0] * _LANES))
+                       else ir.Constant(dst.type.pointee, [0.0] * _LANES))
                 builder.store(builder.fadd(acc, builder.fmul(splat, term)), dst, align=8)
             return context.get_dummy_value()
 
         return types.none(out, i, a, b, k), codegen
 
     return typer
+
+
+@intrinsic
+def _add_scaled_difference_row(typingctx: Any, out: Any, i: Any, a: Any, b: Any, k: Any,
+                               c: Any, d: Any, q: Any) -> Any:
+    """``out[i, :ROW] += a * b[k, :ROW] - c * d[q, :ROW]`` as two vector operations of
+    ``_LANES`` entries, each lane the scalar ``out + (a * b - c * d)`` (two products, their
+    difference, then the sum: the same rounding); rows not checked."""
+    if not _rows_typed(out, b, d):
+        return None
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        out_v, i_v, a_v, b_v, k_v, c_v, d_v, q_v = args
+        out_t, i_t, a_t, b_t, k_t, c_t, d_t, q_t = signature.args
+        a_splat, c_splat = _splat(context, builder, a_t, a_v), _splat(context, builder, c_t, c_v)
+        for dst, b_src, d_src in zip(_row_vectors(context, builder, out_t, out_v, i_t, i_v),
+                                     _row_vectors(context, builder, b_t, b_v, k_t, k_v),
+                                     _row_vectors(context, builder, d_t, d_v, q_t, q_v),
+                                     strict=True):
+            diff = builder.fsub(builder.fmul(a_splat, builder.load(b_src, align=8)),
+                                builder.fmul(c_splat, builder.load(d_src, align=8)))
+            builder.store(builder.fadd(builder.load(dst, align=8), diff), dst, align=8)
+        return context.get_dummy_value()
+
+    return types.none(out, i, a, b, k, c, d, q), codegen
 
 
 _add_scaled_row = intrinsic(_scaled_row_intrinsic(True))
@@ -105,6 +157,17 @@ def set_scaled_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int) -> 
     if out.shape[1] != ROW or b.shape[1] != ROW:
         raise ValueError("set_scaled_row: rows of 16 entries only")
     _set_scaled_row(out, i, a, b, k)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def add_scaled_difference_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int,
+                              c: float, d: FloatArray, q: int) -> None:
+    """``out[i, :] += a * b[k, :] - c * d[q, :]`` as :func:`add_scaled_row` (the same
+    conditions, ``d`` too), to the bit the loop
+    ``for j in range(ROW): out[i, j] += a * b[k, j] - c * d[q, j]``."""
+    if out.shape[1] != ROW or b.shape[1] != ROW or d.shape[1] != ROW:
+        raise ValueError("add_scaled_difference_row: rows of 16 entries only")
+    _add_scaled_difference_row(out, i, a, b, k, c, d, q)  # type: ignore[call-arg]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -302,10 +365,75 @@ def add_mul_vec(x: FloatArray, k: FloatArray, y: FloatArray) -> None:
         x[i] += acc
 
 
+def _transpose_block(builder: Any, rows: list[Any]) -> list[Any]:
+    """The 8 x 8 block whose rows are the ``_LANES``-vectors ``rows``, transposed: its columns
+    as vectors, by three rounds of two-vector shuffles (pairs of entries, of pairs, of
+    quads: each round swaps the off-diagonal halves of 2 x 2 sub-blocks one size larger)."""
+    i32 = ir.IntType(32)
+
+    def shuffle(a: Any, b: Any, picks: list[int]) -> Any:
+        return builder.shuffle_vector(a, b, ir.Constant(ir.VectorType(i32, _LANES), picks))
+
+    for size in (1, 2, 4):
+        # entries of a: index t; of b: _LANES + t. Rows r, r + size paired in each group of
+        # 2 size rows: the first takes a's lower and b's lower entry of each 2 size stretch,
+        # the second the upper ones
+        lo = [t + (_LANES if (t // size) % 2 else 0) - (size if (t // size) % 2 else 0)
+              for t in range(_LANES)]
+        hi = [t + (0 if (t // size) % 2 else size) + (_LANES if (t // size) % 2 else 0)
+              for t in range(_LANES)]
+        out = list(rows)
+        for r in range(_LANES):
+            if (r // size) % 2 == 0:
+                a, b = rows[r], rows[r + size]
+                out[r] = shuffle(a, b, lo)
+                out[r + size] = shuffle(a, b, hi)
+        rows = out
+    return rows
+
+
+@intrinsic
+def _transpose_rows(typingctx: Any, out: Any, a: Any) -> Any:
+    """``out[:ROW, :ROW] = a[:ROW, :ROW]'`` for C-order arrays of :data:`ROW` columns: the
+    ``ROW`` rows of ``a`` loaded as vectors of ``_LANES``, each 8 x 8 block transposed in
+    registers (:func:`_transpose_block`), stored as the mirror block; every entry is loaded
+    before any is stored (shapes not checked)."""
+    if not all(isinstance(m, types.Array) and m.ndim == 2 and m.layout == "C"
+               and m.dtype == types.float64 for m in (out, a)):
+        return None
+    vec = ir.VectorType(ir.DoubleType(), _LANES)
+    intp = ir.IntType(64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        out_t, a_t = signature.args
+        src = make_array(a_t)(context, builder, args[1]).data
+        dst = make_array(out_t)(context, builder, args[0]).data
+
+        def at(data: Any, r: int, c: int) -> Any:
+            return builder.bitcast(builder.gep(data, [ir.Constant(intp, r * ROW + c)]),
+                                   vec.as_pointer())
+
+        halves = ROW // _LANES
+        blocks = {(bi, bj): [builder.load(at(src, bi * _LANES + r, bj * _LANES), align=8)
+                             for r in range(_LANES)]
+                  for bi in range(halves) for bj in range(halves)}
+        for (bi, bj), rows in blocks.items():
+            # block (bi, bj) of a, transposed, is block (bj, bi) of a'
+            for c, col in enumerate(_transpose_block(builder, rows)):
+                builder.store(col, at(dst, bj * _LANES + c, bi * _LANES), align=8)
+        return context.get_dummy_value()
+
+    return types.none(out, a), codegen
+
+
 @njit(cache=True, error_model="numpy")
 def transpose_into(out: FloatArray, a: FloatArray) -> None:
-    """``out = a'`` (``out`` must not share memory with ``a``)."""
+    """``out = a'`` (``out`` must not share memory with ``a``). A matrix of the filters' 16
+    states is moved as 8 x 8 blocks of vector registers (:func:`_transpose_rows`)."""
     n, w = a.shape
+    if n == ROW and w == ROW and out.shape[0] == ROW and out.shape[1] == ROW:
+        _transpose_rows(out, a)  # type: ignore[call-arg]
+        return
     for i in range(n):
         for j in range(w):
             out[j, i] = a[i, j]

@@ -16,6 +16,8 @@ from numba import njit
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
     add_mul_vec,
+    add_scaled_difference_row,
+    add_scaled_row,
     mul_into,
     mul_nonzero_left,
     mul_sparse_left,
@@ -107,7 +109,7 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     o += n_g * n
     v_pred_t = shaped(scratch[o:o + n_g * n], (n_g, n))
     o += n_g * n
-    row = scratch[o:o + n]
+    row = shaped(scratch[o:o + n], (1, n))
     o += n
     nz_a = shaped(scratch[o:o + n * (n + 1)], (n, n + 1))
     # the non-zero entries of A, listed once for its four products below
@@ -149,18 +151,15 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     mul_nonzero_left(p_x, a, nz_a, ap_t)
     # P^x_{k+1|k} = A P^x A' + Q^x + W P^gamma_{k|k} W' - V P^gamma_{k+1|k} V'   (eq. 6.16),
     # a row at a time: Q^x[i, :] + sum_g (W P^gamma)[i, g] W'[g, :] - (V P^gamma)[i, g] V'[g, :]
+    # (whole rows: two vector operations per term, add_scaled_difference_row)
     transpose_into(w_t, w)
     transpose_into(v_pred_t, v_pred)
     for i in range(n):
         for j in range(n):
-            row[j] = q_x[i, j]
+            row[0, j] = q_x[i, j]
         for g in range(n_g):
-            wp_ig = wp[i, g]
-            vp_ig = vp[i, g]
-            for j in range(n):
-                row[j] += wp_ig * w_t[g, j] - vp_ig * v_pred_t[g, j]
-        for j in range(n):
-            p_x[i, j] += row[j]
+            add_scaled_difference_row(row, 0, wp[i, g], w_t, g, vp[i, g], v_pred_t, g)
+        add_scaled_row(p_x, i, 1.0, row, 0)  # p + 1.0 row = p + row, to the bit
     symmetrize(p_x)
     for g in range(n_g):
         for h in range(n_g):

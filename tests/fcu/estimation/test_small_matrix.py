@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from fcu.estimation.ekf import EkfProcessNoise
 from fcu.estimation.ekf_model import model_jacobian, pack_params
 from fcu.estimation.small_matrix import (
     add_mul_vec,
+    add_scaled_difference_row,
+    add_scaled_row,
     mul_at_into,
     mul_at_t_into,
     mul_bt_nonzero_into,
@@ -77,6 +80,11 @@ def test_spd_solve() -> None:
 def test_transpose_and_symmetrize() -> None:
     a = RNG.normal(size=(16, 4))
     out = np.empty((4, 16))
+    transpose_into(out, a)
+    np.testing.assert_array_equal(out, a.T)
+    # the filters' 16 x 16 (moved as vector blocks)
+    a = RNG.normal(size=(16, 16))
+    out = np.empty((16, 16))
     transpose_into(out, a)
     np.testing.assert_array_equal(out, a.T)
     q = np.diag(EkfProcessNoise().diagonal()) + RNG.normal(size=(16, 16))
@@ -169,3 +177,19 @@ def test_the_update_keeps_the_covariance_symmetric_and_positive() -> None:
     i_kh = np.eye(16) - k @ h
     np.testing.assert_allclose(p, i_kh @ p0 @ i_kh.T + k @ r @ k.T, rtol=1e-7, atol=1e-12)
     np.testing.assert_allclose(s_mat, h @ p0 @ h.T + r, rtol=1e-12)
+
+
+@njit
+def _row_updates(out: np.ndarray, b: np.ndarray, d: np.ndarray) -> None:
+    add_scaled_row(out, 0, 0.3, b, 2)
+    add_scaled_difference_row(out, 1, 0.7, b, 1, -1.3, d, 3)
+
+
+def test_row_updates_are_the_loops_to_the_bit() -> None:
+    out, b, d = RNG.normal(size=(2, 16)), RNG.normal(size=(3, 16)), RNG.normal(size=(4, 16))
+    ref = out.copy()
+    for j in range(16):
+        ref[0, j] += 0.3 * b[2, j]
+        ref[1, j] += 0.7 * b[1, j] - -1.3 * d[3, j]
+    _row_updates(out, b, d)
+    np.testing.assert_array_equal(out, ref)
