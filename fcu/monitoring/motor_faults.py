@@ -573,9 +573,19 @@ class MotorFaultDetector:
     def _track_declared(self, time_s: float) -> list[DetectionRecord]:
         """Upgrade declared motors to lost, clear recovered ones."""
         cfg = self.config
+        loes = self._loe.tolist()
+        if not self._lost_since and not self._recover_since:
+            # the common tick: no timer running, and none to start (nothing can change)
+            for j in self._declared:
+                loe = loes[j]
+                if (j not in self._lost and loe > cfg.lost_threshold) or \
+                        loe < cfg.recovery_threshold:
+                    break
+            else:
+                return []
         out: list[DetectionRecord] = []
         for j in list(self._declared):
-            loe = float(self._loe[j])
+            loe = loes[j]
             if j not in self._lost and loe > cfg.lost_threshold:
                 since = self._lost_since.setdefault(j, time_s)
                 if time_s - since >= cfg.min_persistence_s - 1e-9:
