@@ -198,7 +198,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     o = UPDATE_SCRATCH
     r_mat = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
-    k_x = shaped(scratch[o:o + n * m], (n, m))
+    k_x_t = shaped(scratch[o:o + m * n], (m, n))  # K^x'
     o += 16 * 16
     h = shaped(scratch[o:o + m * n_g], (m, n_g))
     o += 16 * n_g
@@ -220,7 +220,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     # S_bar = C P^x C' + R (eq. 6.20);  K^x = P^x C' S_bar^-1 (eq. 6.17);
     # x_bar += K^x r (eq. 6.18);  P^x = (I - K^x C) P^x (I - K^x C)' + K^x R K^x'
     # (eq. 6.19, Joseph form: symmetric, PSD)
-    kalman_update_into(x_bar, p_x, r, c, r_mat, s_bar, s_inv, k_x, scratch)
+    kalman_update_into(x_bar, p_x, r, c, r_mat, s_bar, s_inv, k_x_t, scratch)
     # H P^gamma
     mul_into(hp, h, p_gamma)
     # H P^gamma H' + S_bar
@@ -253,7 +253,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
         for g in range(n_g):
             acc = 0.0
             for j in range(m):
-                acc += k_x[i, j] * h[j, g]
+                acc += k_x_t[j, i] * h[j, g]
             v[i, g] -= acc
 
 
