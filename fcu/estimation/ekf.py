@@ -58,7 +58,7 @@ from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from flightdata.kernel_views import refcount_free_kernel, shaped
 
 # ekf_tick compiles in the kernels of ekf_model, screening, kalman_update, small_matrix and
 # kernel_views
@@ -122,7 +122,7 @@ def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: floa
     return x_next, f_mat, q_mat, p_next
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
                             p: FloatArray, on_ground: bool, qc_diag: FloatArray,
                             f_mat: FloatArray, q_mat: FloatArray, scratch: FloatArray,
@@ -222,7 +222,7 @@ def buffer_views(buf: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, F
             buf[B_CONSTANTS:B_CONSTANTS + CONSTANTS_SIZE])
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: FloatArray,
              constants: FloatArray, tables: FloatArray, layout: np.ndarray, u: FloatArray,
              meas: FloatArray, excluded: np.ndarray, dt: float, time_s: float, reject: bool,

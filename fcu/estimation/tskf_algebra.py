@@ -32,7 +32,7 @@ from fcu.estimation.state import STATE_DIM, FloatArray
 from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from flightdata.kernel_views import refcount_free_kernel, shaped
 
 # compiles in the kernels of kalman_update and small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
@@ -56,7 +56,7 @@ def _sizes(n: int, n_g: int) -> tuple[int, int]:
     return n, N_MOTORS
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatArray,
                       q_gamma: float, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
                       gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
@@ -169,7 +169,7 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
             v[i, g] = v_pred[i, g]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: FloatArray,
                      p_x: FloatArray, gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
                      s_bar: FloatArray, innovation: FloatArray, s_gamma: FloatArray,
@@ -268,7 +268,7 @@ def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: 
     return out[:n], out[n:]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def tskf_output_into(out: FloatArray, x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray,
                      p_gamma: FloatArray, v: FloatArray) -> None:
     """Write ``x_hat = x_bar + V gamma_hat`` (eq. 6.25) to ``out[:n]`` and
