@@ -58,7 +58,7 @@ from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from flightdata.kernel_views import refcount_free_kernel, shaped
 
 # ekf_tick compiles in the kernels of ekf_model, screening, kalman_update, small_matrix and
 # kernel_views
@@ -97,10 +97,10 @@ def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatA
     p_post = p_mat.copy()
     s_mat = np.empty((m, m))
     s_inv = np.empty((m, m))
-    k_gain = np.empty((n, m))
-    kalman_update_into(x_post, p_post, y, h_mat, r_mat, s_mat, s_inv, k_gain,
+    k_gain_t = np.empty((m, n))
+    kalman_update_into(x_post, p_post, y, h_mat, r_mat, s_mat, s_inv, k_gain_t,
                        np.empty(UPDATE_SCRATCH))
-    return x_post, p_post, s_mat, s_inv, k_gain
+    return x_post, p_post, s_mat, s_inv, k_gain_t.T.copy()
 
 
 @njit(cache=True, error_model="numpy")
@@ -122,7 +122,7 @@ def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: floa
     return x_next, f_mat, q_mat, p_next
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
                             p: FloatArray, on_ground: bool, qc_diag: FloatArray,
                             f_mat: FloatArray, q_mat: FloatArray, scratch: FloatArray,
@@ -191,7 +191,7 @@ _SC_Y = _SC_HX + MAX_ROWS
 _SC_R = _SC_Y + MAX_ROWS  # R (MAX_ROWS x MAX_ROWS)
 _SC_S = _SC_R + MAX_ROWS * MAX_ROWS  # S, S^-1 (MAX_ROWS x MAX_ROWS each)
 _SC_S_INV = _SC_S + MAX_ROWS * MAX_ROWS
-_SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K (N x MAX_ROWS)
+_SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K' (MAX_ROWS x N)
 _SC_NZ_F = _SC_K + N * MAX_ROWS  # F's non-zero columns (N x (N + 1))
 SC_MEAS = _SC_NZ_F + N * (N + 1)  # the tick's measurement table, when gathered here (pair_tick)
 SCRATCH_SIZE = SC_MEAS + MAX_CHANNELS * screening.MEAS_WIDTH
@@ -222,7 +222,7 @@ def buffer_views(buf: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, F
             buf[B_CONSTANTS:B_CONSTANTS + CONSTANTS_SIZE])
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: FloatArray,
              constants: FloatArray, tables: FloatArray, layout: np.ndarray, u: FloatArray,
              meas: FloatArray, excluded: np.ndarray, dt: float, time_s: float, reject: bool,
@@ -329,7 +329,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         r_mat = shaped(scratch[_SC_R:_SC_R + m * m], (m, m))
         s_mat = shaped(scratch[_SC_S:_SC_S + m * m], (m, m))
         s_inv = shaped(scratch[_SC_S_INV:_SC_S_INV + m * m], (m, m))
-        k_gain = shaped(scratch[_SC_K:_SC_K + N * m], (N, m))
+        k_gain_t = shaped(scratch[_SC_K:_SC_K + m * N], (m, N))  # K'
         mapped = abs(delta) >= 1e-9
         if mapped:
             model_jacobian_into(jac, x, p, on_ground)
@@ -359,7 +359,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         if layout[c, screening.WRAP_YAW] != 0:  # attitude: yaw difference wrapped
             y[2] = (y[2] + math.pi) % (2.0 * math.pi) - math.pi
         # K = P H' (H P H' + R)^-1;  x = x + K y;  P = (I-KH) P (I-KH)' + K R K'
-        kalman_update_into(x, p_mat, y, h_mat, r_mat, s_mat, s_inv, k_gain, sc_update)
+        kalman_update_into(x, p_mat, y, h_mat, r_mat, s_mat, s_inv, k_gain_t, sc_update)
         x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
         # NIS = y' S^-1 y
         nis = 0.0
@@ -379,7 +379,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
                     work[_S_INV + MAX_ROWS * r + q] = s_inv[r, q]
             for i in range(N):
                 for r in range(m):
-                    work[_K + MAX_ROWS * i + r] = k_gain[i, r]
+                    work[_K + MAX_ROWS * i + r] = k_gain_t[r, i]
     for i in range(N):
         out[i] = x[i]
         out[N + i] = p_mat[i, i]

@@ -65,6 +65,7 @@ from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row, transpos
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import refcount_free_kernel
 
 drop_stale_kernels(__file__)  # discrete_transition compiles in the kernels of small_matrix
 
@@ -95,7 +96,7 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
     return xd
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: FloatArray,
                           on_ground: bool) -> None:
     """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring), written
@@ -160,7 +161,7 @@ def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
     return a
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: bool) -> None:
     """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, written into ``a``
     (16, 16). (``df/du`` is not needed: the input is known.)
@@ -247,7 +248,7 @@ def rk4_step(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
     return x_next
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def rk4_step_into(x_next: FloatArray, x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
                   on_ground: bool, stages: FloatArray) -> None:
     """One RK4 step of :func:`model_derivative` over ``dt`` s with ``u`` held, written into
@@ -315,7 +316,7 @@ def discrete_transition(x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
     return x_next, f_mat, q_mat
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: FloatArray,
                              x: FloatArray, u: FloatArray, dt: float, p: FloatArray,
                              on_ground: bool, qc_diag: FloatArray, scratch: FloatArray) -> None:

@@ -9,8 +9,6 @@ state entries.
 
 from __future__ import annotations
 
-from numba import njit
-
 from fcu.estimation.small_matrix import (
     ROW,
     add_scaled_row,
@@ -23,24 +21,26 @@ from fcu.estimation.small_matrix import (
 from fcu.estimation.state import FloatArray
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from flightdata.kernel_views import refcount_free_kernel, shaped
 
 # kalman_update_into compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
 
 __all__ = ["UPDATE_SCRATCH", "kalman_update_into"]
 
-UPDATE_SCRATCH = 4 * 16 * 16 + 16 * 17
+UPDATE_SCRATCH = 3 * 16 * 16 + 16 * 17
 """Size of the scratch :func:`kalman_update_into` works in (n, m <= 16)."""
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
                        r_mat: FloatArray, s_mat: FloatArray, s_inv: FloatArray,
-                       k_gain: FloatArray, scratch: FloatArray) -> None:
+                       k_gain_t: FloatArray, scratch: FloatArray) -> None:
     """Kalman measurement update in place: ``x`` (n,) and ``p_mat`` (n, n) become the
-    posterior; ``S``, ``S^-1`` (m, m) and ``K`` (n, m) are written to the top-left blocks of
-    ``s_mat``, ``s_inv``, ``k_gain`` (``scratch``: :data:`UPDATE_SCRATCH` entries, n <= 16).
+    posterior; ``S``, ``S^-1`` (m, m) and the gain transposed, ``K'`` (m, n), are written to
+    the top-left blocks of ``s_mat``, ``s_inv``, ``k_gain_t`` (``scratch``:
+    :data:`UPDATE_SCRATCH` entries, n <= 16). ``K'`` is the form the update computes (its
+    rows along the state); a caller that needs ``K`` itself transposes what it reads.
 
     ``y`` (m,), ``h_mat`` (m, n) and ``r_mat`` (m, m) as for :func:`kalman_update`. The
     products run over the rank-m structure of the update (zero entries of ``H`` skipped).
@@ -52,8 +52,8 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     ut = shaped(scratch[:m * n], (m, n))
     low = shaped(scratch[16 * 16:16 * 16 + m * m], (m, m))
     low_inv = shaped(scratch[16 * 16 + m * m:16 * 16 + 2 * m * m], (m, m))
-    k_t = shaped(scratch[3 * 16 * 16:3 * 16 * 16 + m * n], (m, n))  # K', rows along the state
-    nz = shaped(scratch[4 * 16 * 16:4 * 16 * 16 + m * (n + 1)], (m, n + 1))
+    k_t = k_gain_t  # K', rows along the state
+    nz = shaped(scratch[3 * 16 * 16:3 * 16 * 16 + m * (n + 1)], (m, n + 1))
     # the non-zero entries of each row of H (the products below skip the others)
     nonzero_columns(nz, h_mat)
     # (P H')' = H P   (P symmetric)
@@ -86,7 +86,3 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     for i in range(n):
         for j in range(i):
             p_mat[i, j] = p_mat[j, i]
-    # K
-    for i in range(n):
-        for r in range(m):
-            k_gain[i, r] = k_t[r, i]

@@ -38,13 +38,13 @@ from fcu.estimation.tskf import buffer_views as tskf_buffer_views
 from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import borrowed, shaped
+from flightdata.kernel_views import borrowed, refcount_free_kernel, shaped
 
 # pair_tick compiles in the kernels of ekf, tskf and the modules they call
 drop_stale_kernels(__file__, kernel_views.__file__)
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def gather_into(meas: FloatArray, flat: FloatArray, gather: np.ndarray) -> None:
     """A filter's measurement table from grouped samples, ``flat[gather]``
     (:meth:`fcu.estimation.estimator.ChannelSet.gather`), written into ``meas``
@@ -78,7 +78,7 @@ def channel_views(buf: FloatArray, ints: np.ndarray, excluded_bits: int
     return tables, layout, gather, excluded, tick_size
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out: FloatArray,
               t_buf: FloatArray, t_ints: np.ndarray, t_excluded: int, t_gamma: FloatArray,
               n_steps: int, t_on_ground: bool, accel_power: float, e_buf: FloatArray,
@@ -130,7 +130,8 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     e_work, e_s_stack, e_scratch, e_constants = ekf_buffer_views(e_buf)
     e_tables, e_layout, e_gather, e_excl, e_size = channel_views(e_buf, e_ints, e_excluded)
     gamma = out[e_size + t_size:]
-    gamma[:] = t_gamma
+    for g in range(N_MOTORS):
+        gamma[g] = t_gamma[g]
     # each filter's measurement table, gathered into its scratch (which the tick leaves alone
     # there)
     n_t, n_e = t_gather.shape[0], e_gather.shape[0]

@@ -14,7 +14,7 @@ from fcu.estimation.small_matrix import nonzero_columns, spd_quadratic
 from fcu.estimation.state import STATE_DIM, Z_INDEX, FloatArray
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from flightdata.kernel_views import refcount_free_kernel, shaped
 
 # screen_channel compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
@@ -58,7 +58,7 @@ SCREEN_SCRATCH = 16 * 17 + 2 * 16 * 16 + 16
 """Size of the scratch :func:`screen_channel_into` works in (channels of up to 16 rows)."""
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: FloatArray,
                         x: FloatArray, p_mat: FloatArray, r_var: float, wrap_yaw: bool,
                         scratch: FloatArray) -> float:
@@ -123,7 +123,7 @@ MEAS_WIDTH = 5
 MAX_CHANNELS = 5  # channels of a filter's set at the most
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def noise_var(noise: FloatArray, c: int, count: float) -> float:
     """Channel ``c``'s ``R`` (per axis) for the mean of ``count`` samples (``noise``: a
     :class:`ChannelSet`'s)."""
@@ -131,7 +131,7 @@ def noise_var(noise: FloatArray, c: int, count: float) -> float:
     return noise[c, SAMPLE_VAR] / count + noise[c, MODEL_VAR]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
     """The ground holds a vehicle in state ``x``: within the ground margin of the ground plane
     with its thrust below its weight. ``ground`` = [ground plane present (0/1), plane z minus
@@ -143,7 +143,7 @@ def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
     return x[Z_INDEX] >= ground[1] and thrust < ground[2]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def channel_tables(tables: FloatArray, layout: np.ndarray) -> tuple[FloatArray, FloatArray, int]:
     """A channel set's float tables, packed into one array for the tick kernels
     (:attr:`~fcu.estimation.estimator.ChannelSet.tables`): every channel's ``S`` stacked,
@@ -193,7 +193,7 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
     return screen, status.astype(np.int64)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def screen_channels_into(screen: FloatArray, x: FloatArray, p_mat: FloatArray,
                          meas: FloatArray, sel_stack: FloatArray, layout: np.ndarray,
                          noise: FloatArray, excluded: np.ndarray, on_ground: bool,

@@ -19,6 +19,7 @@ from numba.extending import intrinsic
 from numba.np.arrayobj import make_array
 
 from fcu.estimation.state import FloatArray
+from flightdata.kernel_views import refcount_free_kernel
 
 __all__ = ["ROW", "add_mul_vec", "add_scaled_difference_row", "add_scaled_row", "aligned_zeros",
            "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into",
@@ -182,7 +183,7 @@ def _add_scaled(out: FloatArray, i: int, a: float, b: FloatArray, k: int, w: int
             out[i, j] += a * b[k, j]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def mul_sparse_left(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     """``out = a b`` for ``a`` (n, k) with many zeros, ``b`` (k, w); ``out`` (n, w) must not
     share memory with ``a`` or ``b``."""
@@ -207,7 +208,7 @@ def _mul_sparse_rows(out: FloatArray, a: FloatArray, b: FloatArray, w: int) -> N
                 _add_scaled(out, i, aik, b, k, w)
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def mul_nonzero_left(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatArray) -> None:
     """``out = a b`` as :func:`mul_sparse_left` (the same products in the same order, zero
     ``a[i, k]`` skipped) with the non-zero columns of each row of ``a`` listed beforehand in
@@ -232,7 +233,7 @@ def _mul_nonzero_rows(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatAr
             _add_scaled(out, i, a[i, k], b, k, w)
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def mul_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     """``out = a b`` for ``a`` (n, k), ``b`` (k, w) (``out`` (n, w) must not share memory
     with ``a`` or ``b``)."""
@@ -257,7 +258,7 @@ def mul_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             out[i, j] = acc
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def mul_at_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     """``out = a' b`` for ``a`` (k, n), ``b`` (k, w) (``out`` (n, w) must not share memory
     with ``a`` or ``b``)."""
@@ -272,7 +273,7 @@ def mul_at_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             out[i, j] = acc
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def mul_at_t_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     """``out = (a' b)' = b' a`` for ``a`` (k, n), ``b`` (k, w): :func:`mul_at_into`'s result
     transposed, to the bit (each entry the same products summed over ``k`` in the same order
@@ -288,7 +289,7 @@ def mul_at_t_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
             _add_scaled(out, j, b[k, j], a, k, n)
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def nonzero_columns(nz: FloatArray, s: FloatArray) -> None:
     """Index of the non-zero entries of each row of ``s`` (w, k), for
     :func:`mul_bt_nonzero_into`: ``nz[r, 0]`` their count, ``nz[r, 1:1 + count]`` their
@@ -305,7 +306,7 @@ def nonzero_columns(nz: FloatArray, s: FloatArray) -> None:
         nz[r, 0] = count
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def mul_bt_nonzero_into(out: FloatArray, a: FloatArray, s: FloatArray, nz: FloatArray) -> None:
     """``out = a s'`` as :func:`mul_bt_sparse_into` (the same products in the same order, zero
     ``s[j, k]`` skipped) with the non-zero columns of ``s`` listed beforehand in ``nz``
@@ -322,7 +323,7 @@ def mul_bt_nonzero_into(out: FloatArray, a: FloatArray, s: FloatArray, nz: Float
             out[i, j] = acc
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def mul_bt_sparse_into(out: FloatArray, a: FloatArray, s: FloatArray) -> None:
     """``out = a s'`` for ``a`` (n, k), ``s`` (w, k) with many zeros (a selection or a
     measurement matrix; zero entries skipped), ``out`` (n, w) not sharing memory with them."""
@@ -339,7 +340,7 @@ def mul_bt_sparse_into(out: FloatArray, a: FloatArray, s: FloatArray) -> None:
             out[i, j] = acc
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def sub_mul_vec_into(out: FloatArray, y: FloatArray, a: FloatArray, v: FloatArray) -> None:
     """``out = y - a v`` for ``a`` (m, n) with many zeros (skipped), ``v`` (n,), ``y`` and
     ``out`` (m,) (a residual: measurement minus its prediction)."""
@@ -354,7 +355,7 @@ def sub_mul_vec_into(out: FloatArray, y: FloatArray, a: FloatArray, v: FloatArra
         out[i] = y[i] - acc
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def add_mul_vec(x: FloatArray, k: FloatArray, y: FloatArray) -> None:
     """``x += k y`` for ``k`` (n, m), ``y`` (m,) (a gain times an innovation)."""
     n, m = k.shape
@@ -426,7 +427,7 @@ def _transpose_rows(typingctx: Any, out: Any, a: Any) -> Any:
     return types.none(out, a), codegen
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def transpose_into(out: FloatArray, a: FloatArray) -> None:
     """``out = a'`` (``out`` must not share memory with ``a``). A matrix of the filters' 16
     states is moved as 8 x 8 blocks of vector registers (:func:`_transpose_rows`)."""
@@ -439,7 +440,7 @@ def transpose_into(out: FloatArray, a: FloatArray) -> None:
             out[j, i] = a[i, j]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def symmetrize(a: FloatArray) -> None:
     """``a = (a + a') / 2`` in place (square ``a``)."""
     n = a.shape[0]
@@ -529,7 +530,7 @@ def spd_solve(a: FloatArray, m: int, b: FloatArray, out: FloatArray, low: FloatA
             out[i, j] /= d
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def spd_quadratic(a: FloatArray, m: int, v: FloatArray, low: FloatArray,
                   tmp: FloatArray) -> float:
     """``v' a^-1 v`` for the symmetric positive definite top-left (m, m) block of ``a``:

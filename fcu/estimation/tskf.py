@@ -70,7 +70,7 @@ from fcu.floats import clip
 from fcu.model import VehicleModel
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from flightdata.kernel_views import refcount_free_kernel, shaped
 
 # tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
 drop_stale_kernels(__file__, kernel_views.__file__)
@@ -156,7 +156,7 @@ def buffer_views(buf: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
             buf[B_MODEL:B_MODEL + MODEL_SIZE])
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: FloatArray,
               model: FloatArray, tables: FloatArray, layout: np.ndarray, u: FloatArray,
               meas: FloatArray, excluded: np.ndarray, n_steps: int, time_s: float,

@@ -32,7 +32,7 @@ from fcu.estimation.state import STATE_DIM, FloatArray
 from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from flightdata.kernel_views import refcount_free_kernel, shaped
 
 # compiles in the kernels of kalman_update and small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
@@ -56,7 +56,7 @@ def _sizes(n: int, n_g: int) -> tuple[int, int]:
     return n, N_MOTORS
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatArray,
                       q_gamma: float, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
                       gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
@@ -169,7 +169,7 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
             v[i, g] = v_pred[i, g]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: FloatArray,
                      p_x: FloatArray, gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
                      s_bar: FloatArray, innovation: FloatArray, s_gamma: FloatArray,
@@ -198,7 +198,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     o = UPDATE_SCRATCH
     r_mat = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
-    k_x = shaped(scratch[o:o + n * m], (n, m))
+    k_x_t = shaped(scratch[o:o + m * n], (m, n))  # K^x'
     o += 16 * 16
     h = shaped(scratch[o:o + m * n_g], (m, n_g))
     o += 16 * n_g
@@ -220,7 +220,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     # S_bar = C P^x C' + R (eq. 6.20);  K^x = P^x C' S_bar^-1 (eq. 6.17);
     # x_bar += K^x r (eq. 6.18);  P^x = (I - K^x C) P^x (I - K^x C)' + K^x R K^x'
     # (eq. 6.19, Joseph form: symmetric, PSD)
-    kalman_update_into(x_bar, p_x, r, c, r_mat, s_bar, s_inv, k_x, scratch)
+    kalman_update_into(x_bar, p_x, r, c, r_mat, s_bar, s_inv, k_x_t, scratch)
     # H P^gamma
     mul_into(hp, h, p_gamma)
     # H P^gamma H' + S_bar
@@ -253,7 +253,7 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
         for g in range(n_g):
             acc = 0.0
             for j in range(m):
-                acc += k_x[i, j] * h[j, g]
+                acc += k_x_t[j, i] * h[j, g]
             v[i, g] -= acc
 
 
@@ -268,7 +268,7 @@ def tskf_output(x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray, p_gamma: 
     return out[:n], out[n:]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def tskf_output_into(out: FloatArray, x_bar: FloatArray, p_x: FloatArray, gamma: FloatArray,
                      p_gamma: FloatArray, v: FloatArray) -> None:
     """Write ``x_hat = x_bar + V gamma_hat`` (eq. 6.25) to ``out[:n]`` and
