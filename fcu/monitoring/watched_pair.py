@@ -13,7 +13,6 @@ from __future__ import annotations
 from collections.abc import Collection, Mapping
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 
 from fcu.estimation import pair
@@ -23,16 +22,19 @@ from fcu.estimation.state import STATE_DIM, FloatArray, GroupedSamples, StateEst
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.monitoring import sensor_health as sensor_health_module
 from fcu.monitoring.sensor_health import SensorHealth, watch_sensors
+from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import refcount_free_kernel
 from flightdata.records import DetectionRecord
 
 # pair_watch_tick compiles in pair_tick (and what it calls) and watch_sensors
-drop_stale_kernels(__file__, pair.__file__, sensor_health_module.__file__)
+drop_stale_kernels(__file__, pair.__file__, sensor_health_module.__file__,
+                   kernel_views.__file__)
 
 __all__ = ["pair_watch_tick", "step_pair_watched"]
 
 
-@njit(cache=True, error_model="numpy")
+@refcount_free_kernel
 def pair_watch_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool,
                     out: FloatArray, t_buf: FloatArray, t_ints: np.ndarray, t_excluded: int,
                     t_gamma: FloatArray, n_steps: int, t_on_ground: bool, accel_power: float,
