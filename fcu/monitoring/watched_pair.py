@@ -11,6 +11,7 @@ made one after the other.
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -27,9 +28,10 @@ from flightdata.kernel_cache import drop_stale_kernels
 from flightdata.kernel_views import refcount_free_kernel
 from flightdata.records import DetectionRecord
 
-# pair_watch_tick compiles in pair_tick (and what it calls) and watch_sensors
-drop_stale_kernels(__file__, pair.__file__, sensor_health_module.__file__,
-                   kernel_views.__file__)
+# pair_watch_tick compiles in pair_tick and every estimation kernel it calls, and
+# watch_sensors
+drop_stale_kernels(__file__, *map(str, Path(pair.__file__).parent.glob("*.py")),
+                   sensor_health_module.__file__, kernel_views.__file__)
 
 __all__ = ["pair_watch_tick", "step_pair_watched"]
 
