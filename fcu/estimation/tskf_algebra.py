@@ -18,6 +18,7 @@ from fcu.estimation.small_matrix import (
     add_mul_vec,
     add_scaled_difference_row,
     add_scaled_row,
+    mul_at_t_into,
     mul_into,
     mul_nonzero_left,
     mul_sparse_left,
@@ -42,7 +43,7 @@ __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output
 
 PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16 + 16 * 17
 """Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
-TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 4 * 16 * 16 + 4 * 16 * 4
+TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 4 * 16 * 16 + 5 * 16 * 4
 """Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
 
 
@@ -211,6 +212,8 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     low = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
     k_g_t = shaped(scratch[o:o + m * n_g], (m, n_g))
+    o += 16 * n_g
+    kh_t = shaped(scratch[o:o + n_g * n], (n_g, n))  # (K^x H)', rows along the state
     for i in range(m):
         for j in range(m):
             r_mat[i, j] = 0.0
@@ -248,13 +251,12 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
                 acc += k_g[g, i] * hp[i, q]
             p_gamma[g, q] -= acc
     symmetrize(p_gamma)
-    # V_{k+1|k+1} = V_{k+1|k} - K^x H   (eq. 6.24)
+    # V_{k+1|k+1} = V_{k+1|k} - K^x H   (eq. 6.24), K^x H from (K^x H)' = H' K^x' by whole
+    # rows along the state (each entry's sum over the rows of H as a dot product's)
+    mul_at_t_into(kh_t, k_x_t, h)
     for i in range(n):
         for g in range(n_g):
-            acc = 0.0
-            for j in range(m):
-                acc += k_x_t[j, i] * h[j, g]
-            v[i, g] -= acc
+            v[i, g] -= kh_t[g, i]
 
 
 @njit(cache=True, error_model="numpy")
