@@ -250,30 +250,32 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
     prior = scratch[_SC_X_HAT:_SC_X_HAT + 2 * N]  # x_hat, then the diagonal (overwritten)
     tskf_output_into(prior, x_bar, p_x, gamma, p_gamma, v)
     p_hat = shaped(scratch[_SC_P_HAT:_SC_P_HAT + N * N], (N, N))
-    # the state entries the channels read (a column of S with a non-zero entry): screening
-    # reads P only in their rows and columns, and only those entries are formed
+    # the state entries each channel reads (a column of its S with a non-zero entry):
+    # screening reads P only in the block of a channel's entries (S P S'), so only those
+    # blocks are formed
     used = scratch[_SC_USED:_SC_USED + N]
-    n_used = 0
-    for j in range(N):
-        for r in range(rows):
-            if sel_stack[r, j] != 0.0:
-                used[n_used] = j
-                n_used += 1
-                break
-    for ti in range(n_used):
-        i = int(used[ti])
-        for g in range(G):
-            acc = 0.0
-            for h in range(G):
-                acc += v[i, h] * p_gamma[h, g]
-            prior[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
-        # P[i, j] = P^x[i, j] + sum_g (V P^gamma)[i, g] V'[g, j]
-        for tj in range(n_used):
-            j = int(used[tj])
-            acc = p_x[i, j]
+    for c in range(layout.shape[0]):
+        n_used = 0
+        for j in range(N):
+            for r in range(layout[c, screening.ROW0], layout[c, screening.ROW1]):
+                if sel_stack[r, j] != 0.0:
+                    used[n_used] = j
+                    n_used += 1
+                    break
+        for ti in range(n_used):
+            i = int(used[ti])
             for g in range(G):
-                acc += prior[N + g] * v[j, g]
-            p_hat[i, j] = acc
+                acc = 0.0
+                for h in range(G):
+                    acc += v[i, h] * p_gamma[h, g]
+                prior[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
+            # P[i, j] = P^x[i, j] + sum_g (V P^gamma)[i, g] V'[g, j]
+            for tj in range(n_used):
+                j = int(used[tj])
+                acc = p_x[i, j]
+                for g in range(G):
+                    acc += prior[N + g] * v[j, g]
+                p_hat[i, j] = acc
     screen = out[2 * N:]
     status = screening.screen_channels_into(screen, x_hat, p_hat, meas, sel_stack, layout,
                                             noise, excluded, on_ground, reject, sc_predict)
