@@ -332,8 +332,14 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         k_gain_t = shaped(scratch[_SC_K:_SC_K + m * N], (m, N))  # K'
         mapped = abs(delta) >= 1e-9
         if mapped:
-            model_jacobian_into(jac, x, p, on_ground)
-            model_derivative_into(xd, x, u, p, on_ground)
+            # A and f only in the rows of the state entries the channel reads
+            first, end = N, 0
+            for r in range(m):
+                for k in range(N):
+                    if sel[r, k] != 0.0:
+                        first, end = min(first, k), max(end, k + 1)
+            model_jacobian_into(jac, x, p, on_ground, first, end)
+            model_derivative_into(xd, x, u, p, on_ground, first, end)
         for r in range(m):
             # H = S (I - delta A(x)) (S when delta = 0);  h(x) = S (x - delta f(x, u))
             acc = 0.0

@@ -96,9 +96,15 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
     return xd
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _rows_meet(first: int, end: int, b0: int, b1: int) -> bool:
+    """Whether the rows ``first <= i < end`` include one of ``b0 <= i < b1``."""
+    return first < b1 and end > b0
+
+
 @refcount_free_kernel
 def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: FloatArray,
-                          on_ground: bool) -> None:
+                          on_ground: bool, first: int = 0, end: int = 16) -> None:
     """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring), written
     into ``xd``.
 
@@ -112,44 +118,56 @@ def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: Float
         Packed parameters (:func:`pack_params`).
     on_ground : bool
         The ground holds the vehicle: no translational or angular acceleration.
+    first, end : int
+        Only the entries ``first <= i < end`` are wanted (those of a measurement that reads
+        a few states): each block of rows (position, velocity, attitude, rates, thrusts) is
+        written when it has one of them, the trigonometry worked out only for the velocity
+        and attitude rows. Default: all.
 
     xd : ndarray, shape (16,)
-        Written: the state derivative, SI units per second.
+        Written: the state derivative, SI units per second (the blocks asked for).
     """
     k, w, arm, kpsi, m, g = p[0], p[1], p[2], p[3], p[4], p[5]
     ixx, iyy, izz = p[6], p[7], p[8]
     phi, th, psi = x[6], x[7], x[8]
     pr, qr, rr = x[9], x[10], x[11]
     t1, t2, t3, t4 = x[12], x[13], x[14], x[15]
-    sphi, cphi = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(th), math.cos(th)
-    spsi, cpsi = math.sin(psi), math.cos(psi)
-    # dp/dt = v
-    xd[0] = x[3]
-    xd[1] = x[4]
-    xd[2] = x[5]
-    if not on_ground:
-        # dv/dt = g e3 - (U1/m) R e3
-        a = -(t1 + t2 + t3 + t4) / m
-        xd[3] = a * (cpsi * sth * cphi + spsi * sphi)
-        xd[4] = a * (spsi * sth * cphi - cpsi * sphi)
-        xd[5] = g + a * cth * cphi
-    else:
-        xd[3] = xd[4] = xd[5] = 0.0
-    # deta/dt = W(phi, theta) omega
-    xd[6] = pr + (qr * sphi + rr * cphi) * sth / cth
-    xd[7] = qr * cphi - rr * sphi
-    xd[8] = (qr * sphi + rr * cphi) / cth
-    if not on_ground:
-        # domega/dt = I^-1 (tau - omega x I omega)
-        xd[9] = ((iyy - izz) * qr * rr + arm * (t3 - t4)) / ixx
-        xd[10] = ((izz - ixx) * pr * rr + arm * (t1 - t2)) / iyy
-        xd[11] = ((ixx - iyy) * pr * qr + kpsi * (t1 + t2 - t3 - t4)) / izz
-    else:
-        xd[9] = xd[10] = xd[11] = 0.0
-    # dT/dt = w (K u - T)
-    for i in range(4):
-        xd[12 + i] = w * (k * u[i] - x[12 + i])
+    sphi = cphi = sth = cth = spsi = cpsi = 0.0
+    if _rows_meet(first, end, 3, 9):
+        sphi, cphi = math.sin(phi), math.cos(phi)
+        sth, cth = math.sin(th), math.cos(th)
+        spsi, cpsi = math.sin(psi), math.cos(psi)
+    if _rows_meet(first, end, 0, 3):
+        # dp/dt = v
+        xd[0] = x[3]
+        xd[1] = x[4]
+        xd[2] = x[5]
+    if _rows_meet(first, end, 3, 6):
+        if not on_ground:
+            # dv/dt = g e3 - (U1/m) R e3
+            a = -(t1 + t2 + t3 + t4) / m
+            xd[3] = a * (cpsi * sth * cphi + spsi * sphi)
+            xd[4] = a * (spsi * sth * cphi - cpsi * sphi)
+            xd[5] = g + a * cth * cphi
+        else:
+            xd[3] = xd[4] = xd[5] = 0.0
+    if _rows_meet(first, end, 6, 9):
+        # deta/dt = W(phi, theta) omega
+        xd[6] = pr + (qr * sphi + rr * cphi) * sth / cth
+        xd[7] = qr * cphi - rr * sphi
+        xd[8] = (qr * sphi + rr * cphi) / cth
+    if _rows_meet(first, end, 9, 12):
+        if not on_ground:
+            # domega/dt = I^-1 (tau - omega x I omega)
+            xd[9] = ((iyy - izz) * qr * rr + arm * (t3 - t4)) / ixx
+            xd[10] = ((izz - ixx) * pr * rr + arm * (t1 - t2)) / iyy
+            xd[11] = ((ixx - iyy) * pr * qr + kpsi * (t1 + t2 - t3 - t4)) / izz
+        else:
+            xd[9] = xd[10] = xd[11] = 0.0
+    if _rows_meet(first, end, 12, 16):
+        # dT/dt = w (K u - T)
+        for i in range(4):
+            xd[12 + i] = w * (k * u[i] - x[12 + i])
 
 
 @njit(cache=True, error_model="numpy")
@@ -162,9 +180,12 @@ def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
 
 
 @refcount_free_kernel
-def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: bool) -> None:
+def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: bool,
+                        first: int = 0, end: int = 16) -> None:
     """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, written into ``a``
-    (16, 16). (``df/du`` is not needed: the input is known.)
+    (16, 16). (``df/du`` is not needed: the input is known.) ``first``, ``end``: only the
+    rows ``first <= i < end`` are wanted, as for :func:`model_derivative_into` (the blocks
+    that have one of them are written, zeros included; default: all).
 
     Its pattern: ``A`` is block upper triangular in the state order (positions follow the
     velocities, velocities the attitude and thrusts, attitude the rates, rates the thrusts,
@@ -175,15 +196,21 @@ def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: 
     phi, th, psi = x[6], x[7], x[8]
     pr, qr, rr = x[9], x[10], x[11]
     u1 = x[12] + x[13] + x[14] + x[15]
-    sphi, cphi = math.sin(phi), math.cos(phi)
-    sth, cth = math.sin(th), math.cos(th)
-    spsi, cpsi = math.sin(psi), math.cos(psi)
-    a[:, :] = 0.0
-    # d(dp/dt)/dv = I
-    a[0, 3] = 1.0
-    a[1, 4] = 1.0
-    a[2, 5] = 1.0
-    if not on_ground:
+    sphi = cphi = sth = cth = spsi = cpsi = 0.0
+    if _rows_meet(first, end, 3, 9):
+        sphi, cphi = math.sin(phi), math.cos(phi)
+        sth, cth = math.sin(th), math.cos(th)
+        spsi, cpsi = math.sin(psi), math.cos(psi)
+    # each block of rows: zeros, then its non-zero entries
+    if _rows_meet(first, end, 0, 3):
+        a[0:3, :] = 0.0
+        # d(dp/dt)/dv = I
+        a[0, 3] = 1.0
+        a[1, 4] = 1.0
+        a[2, 5] = 1.0
+    if _rows_meet(first, end, 3, 6):
+        a[3:6, :] = 0.0
+    if _rows_meet(first, end, 3, 6) and not on_ground:
         s = -u1 / m
         # d(dv/dt)/d(phi, theta, psi) = -(U1/m) d(R e3)/d(eta)
         a[3, 6] = s * (-cpsi * sth * sphi + spsi * cphi)
@@ -199,24 +226,28 @@ def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: 
             a[3, 12 + i] = -(cpsi * sth * cphi + spsi * sphi) / m
             a[4, 12 + i] = -(spsi * sth * cphi - cpsi * sphi) / m
             a[5, 12 + i] = -(cth * cphi) / m
-    # d(deta/dt)/d(phi, theta)
-    tth = sth / cth
-    qs_rc = qr * sphi + rr * cphi
-    qc_rs = qr * cphi - rr * sphi
-    a[6, 6] = qc_rs * tth
-    a[6, 7] = qs_rc / (cth * cth)
-    a[7, 6] = -qs_rc
-    a[8, 6] = qc_rs / cth
-    a[8, 7] = qs_rc * sth / (cth * cth)
-    # d(deta/dt)/d(omega) = W
-    a[6, 9] = 1.0
-    a[6, 10] = sphi * tth
-    a[6, 11] = cphi * tth
-    a[7, 10] = cphi
-    a[7, 11] = -sphi
-    a[8, 10] = sphi / cth
-    a[8, 11] = cphi / cth
-    if not on_ground:
+    if _rows_meet(first, end, 6, 9):
+        a[6:9, :] = 0.0
+        # d(deta/dt)/d(phi, theta)
+        tth = sth / cth
+        qs_rc = qr * sphi + rr * cphi
+        qc_rs = qr * cphi - rr * sphi
+        a[6, 6] = qc_rs * tth
+        a[6, 7] = qs_rc / (cth * cth)
+        a[7, 6] = -qs_rc
+        a[8, 6] = qc_rs / cth
+        a[8, 7] = qs_rc * sth / (cth * cth)
+        # d(deta/dt)/d(omega) = W
+        a[6, 9] = 1.0
+        a[6, 10] = sphi * tth
+        a[6, 11] = cphi * tth
+        a[7, 10] = cphi
+        a[7, 11] = -sphi
+        a[8, 10] = sphi / cth
+        a[8, 11] = cphi / cth
+    if _rows_meet(first, end, 9, 12):
+        a[9:12, :] = 0.0
+    if _rows_meet(first, end, 9, 12) and not on_ground:
         # d(domega/dt)/d(omega): gyroscopic coupling
         a[9, 10] = (iyy - izz) * rr / ixx
         a[9, 11] = (iyy - izz) * qr / ixx
@@ -233,9 +264,11 @@ def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: 
         a[11, 13] = kpsi / izz
         a[11, 14] = -kpsi / izz
         a[11, 15] = -kpsi / izz
-    # d(dT/dt)/dT = -w I
-    for i in range(4):
-        a[12 + i, 12 + i] = -w
+    if _rows_meet(first, end, 12, 16):
+        a[12:16, :] = 0.0
+        # d(dT/dt)/dT = -w I
+        for i in range(4):
+            a[12 + i, 12 + i] = -w
 
 
 @njit(cache=True, error_model="numpy")

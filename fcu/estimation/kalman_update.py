@@ -9,6 +9,8 @@ state entries.
 
 from __future__ import annotations
 
+from numba import njit
+
 from fcu.estimation.small_matrix import (
     ROW,
     add_scaled_row,
@@ -21,7 +23,7 @@ from fcu.estimation.small_matrix import (
 from fcu.estimation.state import FloatArray
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import refcount_free_kernel, shaped
+from flightdata.kernel_views import shaped
 
 # kalman_update_into compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
@@ -32,7 +34,9 @@ UPDATE_SCRATCH = 3 * 16 * 16 + 16 * 17
 """Size of the scratch :func:`kalman_update_into` works in (n, m <= 16)."""
 
 
-@refcount_free_kernel
+# inlined into its callers (a few per tick): the call, with its many array arguments, cost
+# about as much as a small channel's arithmetic
+@njit(cache=True, error_model="numpy", inline="always")
 def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
                        r_mat: FloatArray, s_mat: FloatArray, s_inv: FloatArray,
                        k_gain_t: FloatArray, scratch: FloatArray) -> None:

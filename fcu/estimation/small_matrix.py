@@ -530,7 +530,9 @@ def spd_solve(a: FloatArray, m: int, b: FloatArray, out: FloatArray, low: FloatA
             out[i, j] /= d
 
 
-@refcount_free_kernel
+# inlined into its callers (a few per tick): the call, with its many array arguments, cost
+# about as much as a small channel's arithmetic
+@njit(cache=True, error_model="numpy", inline="always")
 def spd_quadratic(a: FloatArray, m: int, v: FloatArray, low: FloatArray,
                   tmp: FloatArray) -> float:
     """``v' a^-1 v`` for the symmetric positive definite top-left (m, m) block of ``a``:

@@ -50,7 +50,7 @@ from fcu.estimation.estimator import (
     StateEstimate,
     TickEstimator,
 )
-from fcu.estimation.small_matrix import sub_mul_vec_into
+from fcu.estimation.small_matrix import nonzero_columns, sub_mul_vec_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.estimation.tskf_algebra import (
     PREDICT_SCRATCH,
@@ -138,7 +138,8 @@ _M_Q = _M_G + 2 * N  # Q_d (2 x N x N)
 _M_Q_GAMMA = _M_Q + 2 * N * N  # Q^gamma per step in flight
 _M_DT = _M_Q_GAMMA + 1  # filter period, s
 _M_GROUND = _M_DT + 1  # the ground plane (3, on_ground_at)
-MODEL_SIZE = _M_GROUND + 3
+_M_NZ_A = _M_GROUND + 3  # A_d's non-zero columns, both models (2 x N x (N + 1))
+MODEL_SIZE = _M_NZ_A + 2 * N * (N + 1)
 # the filter's float arrays, kept in one (TwoStageKalmanFilter._buf) at these offsets, so that
 # a compiled call takes them as one argument (fcu.estimation.pair); then every height
 # source's channel tables (ChannelSet.tables_at)
@@ -188,8 +189,10 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
     model : ndarray, shape (MODEL_SIZE,)
         The discrete flight (index 0) and ground (index 1) models ``A_d``, ``B_d``, ``g_d``,
         ``Q_d`` (shapes (2, 16, 16), (2, 16, 4), (2, 16), (2, 16, 16)), ``Q^gamma`` per step
-        in flight (zero on the ground), the filter period (s) and the ground plane
-        (:func:`~fcu.estimation.estimator.on_ground_at`), packed (offsets ``_M_*``).
+        in flight (zero on the ground), the filter period (s), the ground plane
+        (:func:`~fcu.estimation.estimator.on_ground_at`) and ``A_d``'s non-zero columns
+        (:func:`~fcu.estimation.small_matrix.nonzero_columns`, (2, 16, 17)), packed (offsets
+        ``_M_*``).
     tables, layout : ndarrays
         The channels (:class:`_ChannelSet`).
     u : ndarray, shape (4,)
@@ -218,6 +221,7 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
     q_gamma = model[_M_Q_GAMMA]
     dt_s = model[_M_DT]
     ground = model[_M_GROUND:_M_GROUND + 3]
+    nz_a = shaped(model[_M_NZ_A:_M_NZ_A + 2 * N * (N + 1)], (2, N, N + 1))
     sel_stack, noise, at = screening.channel_tables(tables, layout)
     rows = sel_stack.shape[0]
     sel_a = shaped(tables[at:at + 2 * rows * N], (2, rows, N))  # S A_c
@@ -241,8 +245,9 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
         on_ground = screening.on_ground_at(x_hat, ground)
         g = 1 if on_ground else 0
         # eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22; Q^gamma = 0 on the ground
-        tskf_predict_into(a_d[g], b_d[g], g_d[g], q_d[g], 0.0 if on_ground else q_gamma, u,
-                          x_bar, p_x, gamma, p_gamma, v, sc_predict)
+        tskf_predict_into(a_d[g], nz_a[g], b_d[g], g_d[g], q_d[g],
+                          0.0 if on_ground else q_gamma, u, x_bar, p_x, gamma, p_gamma, v,
+                          sc_predict)
     for i in range(_PRIOR):  # the priors: x_bar, P^x, P^gamma, V
         work[_PRIOR + i] = work[i]
     # screened against the prior x_hat = x_bar + V gamma (eq. 6.25) and its covariance
@@ -250,30 +255,32 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
     prior = scratch[_SC_X_HAT:_SC_X_HAT + 2 * N]  # x_hat, then the diagonal (overwritten)
     tskf_output_into(prior, x_bar, p_x, gamma, p_gamma, v)
     p_hat = shaped(scratch[_SC_P_HAT:_SC_P_HAT + N * N], (N, N))
-    # the state entries the channels read (a column of S with a non-zero entry): screening
-    # reads P only in their rows and columns, and only those entries are formed
+    # the state entries each channel reads (a column of its S with a non-zero entry):
+    # screening reads P only in the block of a channel's entries (S P S'), so only those
+    # blocks are formed
     used = scratch[_SC_USED:_SC_USED + N]
-    n_used = 0
-    for j in range(N):
-        for r in range(rows):
-            if sel_stack[r, j] != 0.0:
-                used[n_used] = j
-                n_used += 1
-                break
-    for ti in range(n_used):
-        i = int(used[ti])
-        for g in range(G):
-            acc = 0.0
-            for h in range(G):
-                acc += v[i, h] * p_gamma[h, g]
-            prior[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
-        # P[i, j] = P^x[i, j] + sum_g (V P^gamma)[i, g] V'[g, j]
-        for tj in range(n_used):
-            j = int(used[tj])
-            acc = p_x[i, j]
+    for c in range(layout.shape[0]):
+        n_used = 0
+        for j in range(N):
+            for r in range(layout[c, screening.ROW0], layout[c, screening.ROW1]):
+                if sel_stack[r, j] != 0.0:
+                    used[n_used] = j
+                    n_used += 1
+                    break
+        for ti in range(n_used):
+            i = int(used[ti])
             for g in range(G):
-                acc += prior[N + g] * v[j, g]
-            p_hat[i, j] = acc
+                acc = 0.0
+                for h in range(G):
+                    acc += v[i, h] * p_gamma[h, g]
+                prior[N + g] = acc  # (V P^gamma)[i, :], kept in the diagonal's room
+            # P[i, j] = P^x[i, j] + sum_g (V P^gamma)[i, g] V'[g, j]
+            for tj in range(n_used):
+                j = int(used[tj])
+                acc = p_x[i, j]
+                for g in range(G):
+                    acc += prior[N + g] * v[j, g]
+                p_hat[i, j] = acc
     screen = out[2 * N:]
     status = screening.screen_channels_into(screen, x_hat, p_hat, meas, sel_stack, layout,
                                             noise, excluded, on_ground, reject, sc_predict)
@@ -460,9 +467,13 @@ class TwoStageKalmanFilter(TickEstimator):
         self._scratch = self._buf[B_SCRATCH:B_SCRATCH + SCRATCH_SIZE]
         # packed for tskf_tick (offsets _M_*)
         self._model = self._buf[B_MODEL:B_MODEL + MODEL_SIZE]
+        nz_a = np.empty((2, N, N + 1))  # A_d's non-zero columns, listed once
+        for g, a_d in enumerate(self._a_d):
+            nonzero_columns(nz_a[g], a_d)
         self._model[:] = np.concatenate((self._a_d.ravel(), self._b_d.ravel(),
                                          self._g_d.ravel(), self._q_d.ravel(),
-                                         [self.q_gamma, self.dt_s], self._ground))
+                                         [self.q_gamma, self.dt_s], self._ground,
+                                         nz_a.ravel()))
         self.reset()
 
     def _make_channels(self, height_source: str) -> _ChannelSet:

@@ -18,10 +18,10 @@ from fcu.estimation.small_matrix import (
     add_mul_vec,
     add_scaled_difference_row,
     add_scaled_row,
+    mul_at_t_into,
     mul_into,
     mul_nonzero_left,
     mul_sparse_left,
-    nonzero_columns,
     spd_inverse,
     spd_solve,
     sub_mul_vec_into,
@@ -40,9 +40,9 @@ drop_stale_kernels(__file__, kernel_views.__file__)
 __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output_into",
            "tskf_predict_into", "tskf_update_into"]
 
-PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16 + 16 * 17
+PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16
 """Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
-TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 4 * 16 * 16 + 4 * 16 * 4
+TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 4 * 16 * 16 + 5 * 16 * 4
 """Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
 
 
@@ -57,9 +57,9 @@ def _sizes(n: int, n_g: int) -> tuple[int, int]:
 
 
 @refcount_free_kernel
-def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatArray,
-                      q_gamma: float, u: FloatArray, x_bar: FloatArray, p_x: FloatArray,
-                      gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
+def tskf_predict_into(a: FloatArray, nz_a: FloatArray, b: FloatArray, g_d: FloatArray,
+                      q_x: FloatArray, q_gamma: float, u: FloatArray, x_bar: FloatArray,
+                      p_x: FloatArray, gamma: FloatArray, p_gamma: FloatArray, v: FloatArray,
                       scratch: FloatArray) -> None:
     """Time update of both stages (eq. 6.10, 6.11, 6.15, 6.16, 6.21, 6.22), in place.
 
@@ -67,6 +67,10 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     ----------
     a, b, g_d, q_x : ndarrays, shapes (n, n), (n, 4), (n,), (n, n)
         Discrete model ``A_k``, ``B_k``, gravity input, ``Q^x``.
+    nz_a : ndarray, shape (n, n + 1)
+        The non-zero entries of each row of ``A_k``
+        (:func:`~fcu.estimation.small_matrix.nonzero_columns`'s layout), for its four
+        products: listed once with the model, which does not change.
     q_gamma : float
         ``Q^gamma = q_gamma I`` for this step.
     u : ndarray, shape (4,)
@@ -110,10 +114,6 @@ def tskf_predict_into(a: FloatArray, b: FloatArray, g_d: FloatArray, q_x: FloatA
     v_pred_t = shaped(scratch[o:o + n_g * n], (n_g, n))
     o += n_g * n
     row = shaped(scratch[o:o + n], (1, n))
-    o += n
-    nz_a = shaped(scratch[o:o + n * (n + 1)], (n, n + 1))
-    # the non-zero entries of A, listed once for its four products below
-    nonzero_columns(nz_a, a)
     # W_k = A_k V_{k|k} + E_k,  E_k = -B_k diag(u_k)   (eq. 6.21, 6.6 discrete)
     mul_nonzero_left(w, a, nz_a, v)
     for i in range(n):
@@ -211,6 +211,8 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     low = shaped(scratch[o:o + m * m], (m, m))
     o += 16 * 16
     k_g_t = shaped(scratch[o:o + m * n_g], (m, n_g))
+    o += 16 * n_g
+    kh_t = shaped(scratch[o:o + n_g * n], (n_g, n))  # (K^x H)', rows along the state
     for i in range(m):
         for j in range(m):
             r_mat[i, j] = 0.0
@@ -248,13 +250,12 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
                 acc += k_g[g, i] * hp[i, q]
             p_gamma[g, q] -= acc
     symmetrize(p_gamma)
-    # V_{k+1|k+1} = V_{k+1|k} - K^x H   (eq. 6.24)
+    # V_{k+1|k+1} = V_{k+1|k} - K^x H   (eq. 6.24), K^x H from (K^x H)' = H' K^x' by whole
+    # rows along the state (each entry's sum over the rows of H as a dot product's)
+    mul_at_t_into(kh_t, k_x_t, h)
     for i in range(n):
         for g in range(n_g):
-            acc = 0.0
-            for j in range(m):
-                acc += k_x_t[j, i] * h[j, g]
-            v[i, g] -= acc
+            v[i, g] -= kh_t[g, i]
 
 
 @njit(cache=True, error_model="numpy")
