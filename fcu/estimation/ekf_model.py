@@ -102,6 +102,17 @@ def _rows_meet(first: int, end: int, b0: int, b1: int) -> bool:
     return first < b1 and end > b0
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _attitude_trig(phi: float, th: float, psi: float, first: int, end: int
+                   ) -> tuple[float, float, float, float, float, float]:
+    """sin and cos of roll, pitch and yaw, in that order, when the rows ``first <= i < end``
+    include a velocity or attitude row (the only ones that read them); zeros otherwise."""
+    if not _rows_meet(first, end, 3, 9):
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return (math.sin(phi), math.cos(phi), math.sin(th), math.cos(th), math.sin(psi),
+            math.cos(psi))
+
+
 @refcount_free_kernel
 def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: FloatArray,
                           on_ground: bool, first: int = 0, end: int = 16) -> None:
@@ -132,11 +143,7 @@ def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: Float
     phi, th, psi = x[6], x[7], x[8]
     pr, qr, rr = x[9], x[10], x[11]
     t1, t2, t3, t4 = x[12], x[13], x[14], x[15]
-    sphi = cphi = sth = cth = spsi = cpsi = 0.0
-    if _rows_meet(first, end, 3, 9):
-        sphi, cphi = math.sin(phi), math.cos(phi)
-        sth, cth = math.sin(th), math.cos(th)
-        spsi, cpsi = math.sin(psi), math.cos(psi)
+    sphi, cphi, sth, cth, spsi, cpsi = _attitude_trig(phi, th, psi, first, end)
     if _rows_meet(first, end, 0, 3):
         # dp/dt = v
         xd[0] = x[3]
@@ -196,11 +203,7 @@ def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: 
     phi, th, psi = x[6], x[7], x[8]
     pr, qr, rr = x[9], x[10], x[11]
     u1 = x[12] + x[13] + x[14] + x[15]
-    sphi = cphi = sth = cth = spsi = cpsi = 0.0
-    if _rows_meet(first, end, 3, 9):
-        sphi, cphi = math.sin(phi), math.cos(phi)
-        sth, cth = math.sin(th), math.cos(th)
-        spsi, cpsi = math.sin(psi), math.cos(psi)
+    sphi, cphi, sth, cth, spsi, cpsi = _attitude_trig(phi, th, psi, first, end)
     # each block of rows: zeros, then its non-zero entries
     if _rows_meet(first, end, 0, 3):
         a[0:3, :] = 0.0

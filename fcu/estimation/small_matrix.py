@@ -237,19 +237,19 @@ def _mul_nonzero_rows(out: FloatArray, a: FloatArray, nz: FloatArray, b: FloatAr
 def mul_into(out: FloatArray, a: FloatArray, b: FloatArray) -> None:
     """``out = a b`` for ``a`` (n, k), ``b`` (k, w) (``out`` (n, w) must not share memory
     with ``a`` or ``b``)."""
-    n, kk = a.shape
-    w = b.shape[1]
+    kk, w = b.shape
     if kk == _BIASES and w == _BIASES:
-        # a right factor of the TSKF's 4 x 4 (P^gamma and its kin): the same loops with
-        # counts known to the compiler, which unrolls them
-        for i in range(n):
-            for j in range(_BIASES):
-                acc = 0.0
-                for k in range(_BIASES):
-                    acc += a[i, k] * b[k, j]
-                out[i, j] = acc
-        return
-    for i in range(n):
+        # a right factor of the TSKF's 4 x 4 (P^gamma and its kin): counts the compiler
+        # knows, it unrolls
+        _mul_rows(out, a, b, _BIASES, _BIASES)
+    else:
+        _mul_rows(out, a, b, kk, w)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mul_rows(out: FloatArray, a: FloatArray, b: FloatArray, kk: int, w: int) -> None:
+    """:func:`mul_into` with ``b``'s shape (``kk``, ``w``) given."""
+    for i in range(a.shape[0]):
         for j in range(w):
             # out[i, j] = sum_k a[i, k] b[k, j]
             acc = 0.0

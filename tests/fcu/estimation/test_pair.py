@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -10,35 +11,15 @@ from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.pair import step_pair
 from fcu.estimation.state import group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
-from fcu.navigation.modes import Mode
 from flightdata.vocabulary import BATTERY_SENSOR
 from sim.scenario import load_scenario
-from sim.stack import SimulatedStack
-from sim.world.samples import SensorSample
 
 
-def _flight(n_ticks: int) -> tuple[list[tuple[float, np.ndarray, Sequence[SensorSample]]],
-                                   float]:
-    """(tick time s, PWM held, samples) of each tick of a seeded take-off, and the tick
-    period (s)."""
-    scenario = load_scenario("lqg_abdob_loe")
-    stack = SimulatedStack(scenario.world, scenario.autopilot, 7, faults=())
-    stack.first_tick()
-    nav = stack.autopilot.navigator
-    nav.set_mode(int(Mode.GUIDED))
-    nav.arm()
-    nav.takeoff(1.0)
-    ticks = []
-    for _ in range(n_ticks):
-        pwm = stack.pwm.copy()
-        stack.tick()
-        ticks.append((stack.world.time_s, pwm, stack.samples))
-    return ticks, stack.autopilot.dt_s
-
-
-def test_the_pair_steps_both_filters_bit_for_bit_as_each_alone() -> None:
-    ticks, dt_s = _flight(250)
-    model = load_scenario("lqg_abdob_loe").autopilot.model
+def test_the_pair_steps_both_filters_bit_for_bit_as_each_alone(
+        takeoff_ticks: Callable[..., list[tuple[float, np.ndarray, Any]]]) -> None:
+    ticks = takeoff_ticks(250, seed=7)
+    config = load_scenario("lqg_abdob_loe").autopilot
+    model, dt_s = config.model, 1.0 / config.loop_rate_hz
     alone = (ExtendedKalmanEstimator(model, dt_s), TwoStageKalmanFilter(model, dt_s))
     paired = (ExtendedKalmanEstimator(model, dt_s), TwoStageKalmanFilter(model, dt_s))
     kinds = alone[0].sensor_kinds | alone[1].sensor_kinds | {BATTERY_SENSOR}

@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -14,12 +15,8 @@ from fcu.estimation.state import group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.monitoring.watched_pair import step_pair_watched
-from fcu.navigation.modes import Mode
 from flightdata.vocabulary import BATTERY_SENSOR, SENSORS
-from sim.scenario import load_scenario
-from sim.stack import SimulatedStack
 from sim.world.fault_types import SensorFault
-from sim.world.samples import SensorSample
 
 # a barometer frozen in the climb (it disagrees with motion capture), motion-capture position
 # biased by 2 m (rejected), the attitude frozen: each excluded, then re-admitted
@@ -29,25 +26,9 @@ _FAULTS = (SensorFault(sensor="baro", kind="freeze", start_s=2.0, end_s=3.5),
            SensorFault(sensor="mocap_att", kind="freeze", start_s=5.0, end_s=5.5))
 
 
-def _flight(n_ticks: int) -> list[tuple[float, np.ndarray, Sequence[SensorSample]]]:
-    """(tick time s, PWM held, samples) of each tick of a seeded take-off and hover."""
-    scenario = load_scenario("lqg_abdob_loe")
-    stack = SimulatedStack(scenario.world, scenario.autopilot, 11, faults=_FAULTS)
-    stack.first_tick()
-    nav = stack.autopilot.navigator
-    nav.set_mode(int(Mode.GUIDED))
-    nav.arm()
-    nav.takeoff(1.0)
-    ticks = []
-    for _ in range(n_ticks):
-        pwm = stack.pwm.copy()
-        stack.tick()
-        ticks.append((stack.world.time_s, pwm, stack.samples))
-    return ticks
-
-
-def test_the_watched_pair_is_the_pair_then_the_watch_to_the_bit() -> None:
-    ticks = _flight(700)
+def test_the_watched_pair_is_the_pair_then_the_watch_to_the_bit(
+        takeoff_ticks: Callable[..., list[tuple[float, np.ndarray, Any]]]) -> None:
+    ticks = takeoff_ticks(700, seed=11, faults=_FAULTS)
     config = AutopilotConfig()
     model, dt_s = config.model, 1.0 / config.loop_rate_hz
 
