@@ -52,6 +52,7 @@ from fcu.monitoring import crash_check as crash_module
 from fcu.monitoring.crash_check import CrashCheck, crash_tick
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_calls import KernelCall
 from flightdata.kernel_views import borrowed, shaped
 
 # control_tick compiles in the kernels of the parts' modules and of kernel_views
@@ -257,6 +258,11 @@ class _Workspace:
         return ws
 
 
+# (its arguments: the chain's workspace and output, the estimate's and the reference's float64
+# 3-vectors, floats and bools)
+_control_tick = KernelCall(control_tick)
+
+
 class ControlChain:
     """The parts of one autopilot's flying control chain, stepped by :func:`control_tick`.
 
@@ -374,9 +380,9 @@ class ControlChain:
             # the observer's first step after a reset starts it at rest (numpy, once)
             out[OUT_D_HAT:OUT_D_HAT + 3] = dob.start(euler_rad, rate_frd)  # type: ignore
             dob_run = False
-        control_tick(self._ws, self._idx, self.full_thrust_n, dob_run, pos_ned, vel_ned,
-                     euler_rad, rate_frd, ref_pos, ref_vel, ref_acc, yaw_ref, torque_applied,
-                     out, time_s, contact_leg)
+        _control_tick.call(self._ws, self._idx, self.full_thrust_n, dob_run, pos_ned, vel_ned,
+                           euler_rad, rate_frd, ref_pos, ref_vel, ref_acc, yaw_ref,
+                           torque_applied, out, time_s, contact_leg)
         return out
 
     def _step_parts(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,

@@ -80,10 +80,11 @@ GATE_PROBABILITY = 1e-9
 
 
 def pwm_array(pwm_applied: ArrayLike) -> FloatArray:
-    """``pwm_applied`` as a float64 array of shape (4,) (itself when it is one)."""
+    """``pwm_applied`` as a contiguous float64 array of shape (4,) (itself when it is one)."""
     u = pwm_applied
-    if type(u) is not _NDARRAY or u.dtype is not _FLOAT64 or u.shape != (4,):
-        u = np.asarray(pwm_applied, dtype=float).reshape(4)
+    if (type(u) is not _NDARRAY or u.dtype is not _FLOAT64 or u.shape != (4,)
+            or not u.flags.c_contiguous):
+        u = np.ascontiguousarray(pwm_applied, dtype=float).reshape(4)
     return u
 
 

@@ -91,6 +91,7 @@ from numba import njit
 
 from fcu.model import VehicleModel
 from flightdata.config import finite, require
+from flightdata.kernel_calls import KernelCall
 from flightdata.records import DetectionRecord
 
 # fault signatures in (roll, pitch, yaw) deficit, normalised (module docstring)
@@ -436,6 +437,10 @@ def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, work: np.n
     return best, best_t, best_loe, settled, mass_threshold
 
 
+# (its arguments: the TSKF's gamma and the PWM, float64 (4,); the detector's buffers)
+_detector_tick_call = KernelCall(_detector_tick)
+
+
 class MotorFaultDetector:
     """Motor fault detection, isolation and the mass change (module docstring).
 
@@ -531,7 +536,7 @@ class MotorFaultDetector:
         """
         settling = time_s - self._last_declared_s < self._settle_s
         self._loe = loe_out = np.empty(4)  # a new one every tick: the previous one may be kept
-        best, t, loe, settled, mass_threshold = _detector_tick(
+        best, t, loe, settled, mass_threshold = _detector_tick_call.call(
             time_s, gamma, pwm, self._work, self._iwork, self._history, self._isolate,
             evidence, learn, settling, self._mass_reported, loe_out)
         if not evidence:

@@ -25,6 +25,7 @@ from fcu.monitoring import sensor_health as sensor_health_module
 from fcu.monitoring.sensor_health import SensorHealth, watch_sensors
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_calls import KernelCall
 from flightdata.kernel_views import refcount_free_kernel
 from flightdata.records import DetectionRecord
 
@@ -59,6 +60,11 @@ def pair_watch_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool
     return result, n_events, rejected
 
 
+# (its arguments: the filters' and the watch's buffers, the tick's fresh arrays, scalars
+# converted by pair_arguments)
+_pair_watch_tick = KernelCall(pair_watch_tick)
+
+
 def step_pair_watched(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter,
                       health: SensorHealth, time_s: float, pwm_applied: ArrayLike,
                       grouped: GroupedSamples, *, excluded: Collection[str] = (),
@@ -69,7 +75,7 @@ def step_pair_watched(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter,
     records."""
     time_s = float(time_s)
     arguments = pair_arguments(ekf, tskf, time_s, pwm_applied, grouped, excluded, reject)
-    result, n_events, rejected = pair_watch_tick(
+    result, n_events, rejected = _pair_watch_tick.call(
         *(*arguments, ekf._set.tick_size, *health.kernel_arguments(grouped, ekf._set, noise)))
     estimate = pair_kept(ekf, tskf, time_s, arguments[4], result)
     return estimate, health.watched(time_s, n_events, rejected)

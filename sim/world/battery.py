@@ -46,6 +46,7 @@ import numpy as np
 from numba import njit
 
 from flightdata.config import finite, require
+from flightdata.kernel_calls import KernelCall
 from flightdata.vocabulary import BATTERY_SENSOR
 from sim.world.fault_types import SENSOR_NAMES
 from sim.world.samples import SAMPLE_RECORD, SensorSample
@@ -241,6 +242,9 @@ def battery_step(b: np.ndarray, time_s: float, dt_s: float, thrust_n: np.ndarray
     return m
 
 
+_battery_step = KernelCall(battery_step)  # (Battery.step_into's: float64 thrusts, its buffers)
+
+
 class Battery:
     """The pack and its power module (module docstring).
 
@@ -326,8 +330,8 @@ class Battery:
         :data:`~sim.world.samples.SAMPLE_RECORD` array ``samples`` from index ``n_samples``
         (room for them is the caller's: :meth:`readings_due`); returns the new count."""
         self._state_now = None
-        m = battery_step(self.kernel_state, time_s, dt_s, thrust_n, self._noise, samples,
-                         n_samples)
+        m = _battery_step.call(self.kernel_state, time_s, dt_s, thrust_n, self._noise, samples,
+                               n_samples)
         if m < 0:  # more noise needed (or no room): draw, then again
             self._draw(self.readings_due(time_s))
             m = battery_step(self.kernel_state, time_s, dt_s, thrust_n, self._noise, samples,
@@ -360,7 +364,7 @@ class Battery:
             grown[:keep.shape[0]] = keep
             self._pending, self._n_pending = grown, keep.shape[0]
         self._n_pending = self.step_into(time_s, dt_s,
-                                         np.asarray(thrust_n, dtype=np.float64),
+                                         np.ascontiguousarray(thrust_n, dtype=np.float64),
                                          self._pending, self._n_pending)
 
     def drain_samples(self) -> list[SensorSample]:

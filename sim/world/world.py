@@ -46,6 +46,7 @@ import numpy as np
 
 from flightdata.config import finite, require
 from flightdata.kernel_cache import preload_blas_bindings
+from flightdata.kernel_calls import KernelCall
 from sim.world.airframe import Airframe
 from sim.world.battery import Battery, BatteryConfig
 from sim.world.dynamics import (
@@ -122,6 +123,7 @@ def _event_time_s(event: WorldEvent) -> float:
 _FLOAT64 = np.dtype(np.float64)
 _N_SENSORS = len(SENSOR_NAMES)  # at most one reading per sensor and step
 _SENSOR_INDEX = {name: i for i, name in enumerate(SENSOR_NAMES)}
+_world_steps = KernelCall(world_steps)  # (its arguments: the parts' records, pwm checked)
 _SAMPLE_BUFFER = 4096  # readings per sample buffer (about 800 calls of 5 steps)
 
 
@@ -240,8 +242,9 @@ class World:
             (:mod:`sim.world.samples`).
         """
         pwm = pwm_cmd
-        if not (pwm.__class__ is np.ndarray and pwm.dtype == _FLOAT64 and pwm.shape == (4,)):
-            pwm = np.asarray(pwm_cmd, dtype=np.float64)  # (the same array when it is one)
+        if not (pwm.__class__ is np.ndarray and pwm.dtype == _FLOAT64 and pwm.shape == (4,)
+                and pwm.flags.c_contiguous):  # (the compiled steps' argument type)
+            pwm = np.ascontiguousarray(pwm_cmd, dtype=np.float64)  # (itself when it is one)
             if pwm.shape != (4,):
                 raise ValueError(f"pwm_cmd shape {pwm.shape}: want (4,), motors 1..4")
         first = m = self._samples_used
@@ -267,7 +270,7 @@ class World:
         drew = False  # numbers were just drawn for the step the kernel stopped before
         while done < n_steps:
             faults = self.faults.arrays
-            steps, m, why = world_steps(
+            steps, m, why = _world_steps.call(
                 n_steps - done, pwm, self.kernel_state, self.plant.kernel_state,
                 self.wind.kernel_state, self.sensors.kernel_state, faults.state, faults.table,
                 faults.pool, self._samples, m)

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from flightdata.kernel_calls import KernelCall
 from sim.world import Truth, World, WorldConfig
 from sim.world import world as world_module
 from sim.world.fault_kernels import (
@@ -227,7 +228,7 @@ def count_stops(monkeypatch: pytest.MonkeyPatch) -> Counter[int]:
         stops[-1] += steps  # compiled steps
         return steps, m, why
 
-    monkeypatch.setattr(world_module, "world_steps", counting)
+    monkeypatch.setattr(world_module, "_world_steps", KernelCall(counting))
     return stops
 
 
