@@ -7,7 +7,9 @@ cached caller would go on running the old callee: silently wrong numbers. A modu
 kernels call other modules' kernels calls :func:`drop_stale_kernels` at import, before any of
 its kernels runs: when a module of its folder (or a module elsewhere it names) is newer than
 its oldest cached kernel, its cached kernels are deleted, and numba compiles them again
-(once) on first call.
+(once) on first call. The cache looked in is the one numba uses for the module: the folder
+``NUMBA_CACHE_DIR`` names when it is set, else ``__pycache__`` beside the module when that can
+be written, else numba's per-user cache (:func:`kernel_cache_folder`).
 
 :func:`preload_blas_bindings`, called by a composition root before its first kernel runs
 (the world's constructor), readies the BLAS and LAPACK bindings numba links compiled code
@@ -21,18 +23,43 @@ import importlib.util
 import sys
 from pathlib import Path
 
-__all__ = ["drop_stale_kernels", "preload_blas_bindings"]
+__all__ = ["drop_stale_kernels", "kernel_cache_folder", "preload_blas_bindings"]
 
 _BLAS_MODULES = ("scipy.linalg.cython_blas", "scipy.linalg.cython_lapack")
 
 
+def _locator_probe() -> None:
+    """A function for numba's cache locators to place (they read its first line only)."""
+
+
+def kernel_cache_folder(module_file: str) -> Path:
+    """The folder where numba keeps the cached kernels of the module at ``module_file``: the
+    first of its cache locators that takes the file (``NUMBA_CACHE_DIR``'s folder for it,
+    ``__pycache__`` beside it, numba's per-user cache), as numba itself chooses at
+    ``@njit(cache=True)``; ``__pycache__`` beside it if numba's locators (its internals)
+    cannot be asked."""
+    try:
+        from numba.core import caching
+
+        # (older numba releases name it _CacheImpl)
+        impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")  # noqa: B009
+        for locator_class in impl._locator_classes:
+            locator = locator_class.from_function(_locator_probe, module_file)
+            if locator is not None:
+                return Path(locator.get_cache_path())
+    except (AttributeError, ImportError, OSError, TypeError):
+        pass
+    return Path(module_file).parent / "__pycache__"
+
+
 def drop_stale_kernels(module_file: str, *also: str) -> list[Path]:
-    """Delete the cached kernels of the module at ``module_file`` when any ``.py`` file in
-    its folder, or any of the files ``also`` (modules elsewhere whose kernels it compiles
-    in), is newer than the oldest of them; returns the files deleted (none when the cache is
-    fresh, absent or cannot be read)."""
+    """Delete the cached kernels of the module at ``module_file`` (in
+    :func:`kernel_cache_folder`) when any ``.py`` file in its folder, or any of the files
+    ``also`` (modules elsewhere whose kernels it compiles in), is newer than the oldest of
+    them; returns the files deleted (none when the cache is fresh, absent or cannot be
+    read)."""
     source = Path(module_file)
-    cache = source.parent / "__pycache__"
+    cache = kernel_cache_folder(module_file)
     try:
         cached = list(cache.glob(f"{source.stem}.*.nbi")) + list(
             cache.glob(f"{source.stem}.*.nbc"))

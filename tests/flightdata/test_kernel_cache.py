@@ -1,11 +1,24 @@
-"""Cached kernels of a module are dropped when a module of its folder is newer."""
+"""Cached kernels of a module are dropped when a module of its folder is newer, in the
+folder numba keeps them in."""
 
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
-from flightdata.kernel_cache import drop_stale_kernels
+import pytest
+from numba.core import config as numba_config
+
+from flightdata.kernel_cache import drop_stale_kernels, kernel_cache_folder
+
+
+@pytest.fixture(autouse=True)
+def _in_tree_cache(monkeypatch: pytest.MonkeyPatch) -> None:
+    """numba's cache beside the modules (``__pycache__``), whatever NUMBA_CACHE_DIR the
+    test run was given."""
+    monkeypatch.setattr(numba_config, "CACHE_DIR", "")
 
 
 def _package(tmp_path: Path) -> tuple[Path, list[Path]]:
@@ -61,3 +74,45 @@ def test_a_fresh_cache_is_kept(tmp_path: Path) -> None:
 def test_no_cache_folder_is_nothing_to_do(tmp_path: Path) -> None:
     (tmp_path / "caller.py").write_text("")
     assert drop_stale_kernels(str(tmp_path / "caller.py")) == []
+
+
+def _kernel_module(folder: Path) -> Path:
+    folder.mkdir(parents=True)
+    module = folder / "kernels.py"
+    module.write_text("from numba import njit\n\n\n@njit(cache=True)\n"
+                      "def twice(x):\n    return 2.0 * x\n")
+    return module
+
+
+def _compile(module: Path, env: dict[str, str]) -> None:
+    """``twice`` compiled (and cached by numba) in a process of its own."""
+    subprocess.run([sys.executable, "-c", "import kernels; kernels.twice(1.5)"],
+                   cwd=module.parent, env=env, check=True, timeout=300)
+
+
+def test_the_folder_looked_in_is_where_numba_caches_with_numba_cache_dir(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    module = _kernel_module(tmp_path / "pkg")
+    numba_cache = tmp_path / "numba-cache"
+    _compile(module, {**os.environ, "NUMBA_CACHE_DIR": str(numba_cache)})
+    monkeypatch.setattr(numba_config, "CACHE_DIR", str(numba_cache))
+    folder = kernel_cache_folder(str(module))
+    assert folder.is_relative_to(numba_cache)
+    cached = sorted(folder.glob("kernels.twice-*.nb[ic]"))
+    assert len(cached) == 2  # the index and the code numba wrote
+    assert not list(module.parent.glob("__pycache__/*.nb[ic]"))  # none beside the module
+    # a sibling edited after the compile: the kernels numba would load are dropped
+    for f in cached:
+        os.utime(f, (1000.0, 1000.0))
+    (module.parent / "helper.py").write_text("")
+    assert sorted(drop_stale_kernels(str(module))) == cached
+    assert not any(f.exists() for f in cached)
+
+
+def test_the_folder_looked_in_is_where_numba_caches_beside_the_module(tmp_path: Path) -> None:
+    module = _kernel_module(tmp_path / "pkg")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    _compile(module, env)
+    folder = kernel_cache_folder(str(module))
+    assert folder == module.parent / "__pycache__"
+    assert len(list(folder.glob("kernels.twice-*.nb[ic]"))) == 2
