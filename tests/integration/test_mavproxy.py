@@ -1,4 +1,5 @@
-"""MAVProxy (PyPI ``MAVProxy``), run without a terminal, drives the vehicle process.
+"""MAVProxy (PyPI ``MAVProxy``), run without a terminal, drives the vehicle process: modes,
+arming and parameters, then a mission loaded from a waypoint file and flown in AUTO.
 
 MAVProxy connects out to the vehicle (``--master=udpout:``; the vehicle answers whoever
 writes to it), with its default modules. Its interactive shell reads commands from a pipe:
@@ -9,6 +10,7 @@ MAVProxy.
 
 from __future__ import annotations
 
+import math
 import re
 import shutil
 import subprocess
@@ -128,6 +130,57 @@ def test_mavproxy_shows_modes_arms_and_reads_parameters(start_vehicle, tmp_path:
         mp.answers("param set WPNAV_SPEED 75",  # disarmed on the ground: accepted
                    r"AP: WPNAV_SPEED = 75: autopilot rebuilt")
         mp.answers("param show WPNAV_SPEED", r"WPNAV_SPEED\s+75(\.0)?\b")
+    finally:
+        ended = mp.close()
+    assert ended, mp.output[-3000:]
+
+
+def _square_wpl(path: Path, side_m: float, alt_m: float) -> None:
+    """A QGC WPL 110 file (MAVProxy's ``wp load`` format): home, take-off to ``alt_m``, three
+    corners of a square of ``side_m`` (north, then east; relative-altitude global frame
+    around the vehicle's default home, ArduPilot's CMAC), land."""
+    lat0, lon0, alt0 = -35.363261, 149.165230, 584.0
+    m_per_deg_lat = 111320.0
+    m_per_deg_lon = m_per_deg_lat * math.cos(math.radians(lat0))
+    rows = ["QGC WPL 110", f"0\t1\t0\t16\t0\t0\t0\t0\t{lat0}\t{lon0}\t{alt0}\t1",
+            f"1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t{alt_m}\t1"]
+    for seq, (north, east) in enumerate(((side_m, 0.0), (side_m, side_m), (0.0, side_m)), 2):
+        rows.append(f"{seq}\t0\t3\t16\t0\t0\t0\t0\t{lat0 + north / m_per_deg_lat:.8f}\t"
+                    f"{lon0 + east / m_per_deg_lon:.8f}\t{alt_m}\t1")
+    rows.append("5\t0\t3\t21\t0\t0\t0\t0\t0\t0\t0\t1")
+    path.write_text("\n".join(rows) + "\n")
+
+
+@pytest.mark.slow
+def test_mavproxy_flies_a_mission_file_and_the_vehicle_lands(start_vehicle,
+                                                             tmp_path: Path) -> None:
+    """What a MAVProxy user does: load a waypoint file, take off in GUIDED, fly it in AUTO;
+    the vehicle reaches each item in turn, lands and disarms."""
+    vehicle = start_vehicle("--speedup", "5")
+    host, port = vehicle.address
+    _square_wpl(tmp_path / "square.txt", side_m=2.0, alt_m=2.0)
+    mp = MavProxy(f"udpout:{host}:{port}", tmp_path)
+    try:
+        mp.expect(r"Detected vehicle 1:1", timeout_s=STARTUP_S)
+        mp.expect(r"Received (\d+) parameters", timeout_s=STARTUP_S)
+        mp.answers("wp load square.txt", r"Sent all 6 waypoints",
+                   r"MISSION_ACK: TYPE_MISSION: ACCEPTED", r"AP: mission of 5 items loaded")
+        mp.answers("mode GUIDED", r"GUIDED>")
+        mp.answers("arm throttle", r"COMPONENT_ARM_DISARM: ACCEPTED", r"ARMED")
+        mp.answers("takeoff 2", r"NAV_TAKEOFF: ACCEPTED", r"AP: take-off complete at 2.00 m")
+        since = mp.send("mode AUTO")
+        mp.expect(r"AUTO>", since)
+        # each corner in its order (latitude and longitude in the file, NED metres in the
+        # report), then the landing
+        corners = [mp.expect(rf"AP: reached item {seq}: NAV_WAYPOINT \({n}, {e}, -2.00\)",
+                             since, timeout_s=120.0).start()
+                   for seq, n, e in ((2, "2.00", "0.00"), (3, "2.00", "2.00"),
+                                     (4, "0.00", "2.00"))]
+        assert corners == sorted(corners)
+        landed = mp.expect(r"AP: reached item 5: NAV_LAND", since, timeout_s=120.0).start()
+        assert landed > corners[-1]
+        mp.expect(r"AP: SIM: outcome: landed", since, timeout_s=60.0)
+        mp.expect(r"DISARMED", since, timeout_s=60.0)
     finally:
         ended = mp.close()
     assert ended, mp.output[-3000:]
