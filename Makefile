@@ -1,14 +1,17 @@
 # Everything the project needs installs from its own files into .venv.
+# The versions come from constraints.txt, the set the tests last passed with: a new release
+# upstream changes nothing until `make constraints` takes it in.
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
+CONSTRAINTS := constraints.txt
 
-.PHONY: setup demo test test-fast lint bench clean
+.PHONY: setup demo test test-fast lint bench constraints clean
 
-$(BIN)/.installed: pyproject.toml
+$(BIN)/.installed: pyproject.toml $(CONSTRAINTS)
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
-	$(BIN)/python -m pip install -e '.[dev]'
+	$(BIN)/python -m pip install -c $(CONSTRAINTS) -e '.[dev]'
 	# bytecode now: a shell with PYTHONDONTWRITEBYTECODE set would compile every module
 	# from source at every start (about 0.2 s per command)
 	$(BIN)/python -m compileall -q sim fcu gcs flightdata
@@ -32,7 +35,20 @@ lint: setup
 	$(BIN)/mypy sim fcu gcs flightdata
 
 bench: setup
+	$(BIN)/python -m pip install -c $(CONSTRAINTS) -e '.[bench]'
 	$(BIN)/ftc-bench
+
+# constraints.txt afresh: the newest releases pyproject.toml admits (with the bench extra), in a
+# scratch environment; then run make clean test, and commit the file if the tests pass
+constraints:
+	rm -rf .venv-constraints
+	$(PY) -m venv .venv-constraints
+	.venv-constraints/bin/python -m pip install --upgrade pip
+	.venv-constraints/bin/python -m pip install -e '.[dev,bench]'
+	( sed -n '1,2p' $(CONSTRAINTS); .venv-constraints/bin/python -m pip freeze --exclude-editable \
+	  | sort -f ) > $(CONSTRAINTS).new
+	mv $(CONSTRAINTS).new $(CONSTRAINTS)
+	rm -rf .venv-constraints
 
 clean:
 	rm -rf $(VENV) build *.egg-info
