@@ -10,7 +10,6 @@ MAVProxy.
 
 from __future__ import annotations
 
-import math
 import re
 import shutil
 import subprocess
@@ -19,7 +18,11 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from fcu.mavlink.geo import ned_to_geo
+from sim.vehicle import DEFAULT_HOME
 
 STARTUP_S = 90.0  # s wall: MAVProxy imports, then (FTP tried first) the parameter download
 ANSWER_S = 20.0  # s wall
@@ -138,15 +141,14 @@ def test_mavproxy_shows_modes_arms_and_reads_parameters(start_vehicle, tmp_path:
 def _square_wpl(path: Path, side_m: float, alt_m: float) -> None:
     """A QGC WPL 110 file (MAVProxy's ``wp load`` format): home, take-off to ``alt_m``, three
     corners of a square of ``side_m`` (north, then east; relative-altitude global frame
-    around the vehicle's default home, ArduPilot's CMAC), land."""
-    lat0, lon0, alt0 = -35.363261, 149.165230, 584.0
-    m_per_deg_lat = 111320.0
-    m_per_deg_lon = m_per_deg_lat * math.cos(math.radians(lat0))
-    rows = ["QGC WPL 110", f"0\t1\t0\t16\t0\t0\t0\t0\t{lat0}\t{lon0}\t{alt0}\t1",
+    around the vehicle's default home), land."""
+    home = DEFAULT_HOME
+    rows = ["QGC WPL 110",
+            f"0\t1\t0\t16\t0\t0\t0\t0\t{home.lat_deg}\t{home.lon_deg}\t{home.alt_m}\t1",
             f"1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t{alt_m}\t1"]
     for seq, (north, east) in enumerate(((side_m, 0.0), (side_m, side_m), (0.0, side_m)), 2):
-        rows.append(f"{seq}\t0\t3\t16\t0\t0\t0\t0\t{lat0 + north / m_per_deg_lat:.8f}\t"
-                    f"{lon0 + east / m_per_deg_lon:.8f}\t{alt_m}\t1")
+        lat, lon, _ = ned_to_geo(np.array([north, east, 0.0]), home)
+        rows.append(f"{seq}\t0\t3\t16\t0\t0\t0\t0\t{lat:.8f}\t{lon:.8f}\t{alt_m}\t1")
     rows.append("5\t0\t3\t21\t0\t0\t0\t0\t0\t0\t0\t1")
     path.write_text("\n".join(rows) + "\n")
 
@@ -170,12 +172,16 @@ def test_mavproxy_flies_a_mission_file_and_the_vehicle_lands(start_vehicle,
         mp.answers("takeoff 2", r"NAV_TAKEOFF: ACCEPTED", r"AP: take-off complete at 2.00 m")
         since = mp.send("mode AUTO")
         mp.expect(r"AUTO>", since)
-        # each corner in its order (latitude and longitude in the file, NED metres in the
-        # report), then the landing
-        corners = [mp.expect(rf"AP: reached item {seq}: NAV_WAYPOINT \({n}, {e}, -2.00\)",
-                             since, timeout_s=120.0).start()
-                   for seq, n, e in ((2, "2.00", "0.00"), (3, "2.00", "2.00"),
-                                     (4, "0.00", "2.00"))]
+        # each corner in its order, where the file put it (NED metres in the report; MAVProxy
+        # sends latitude and longitude in degE7, truncated: 1.1 cm steps), then the landing
+        corners = []
+        for seq, north, east in ((2, 2.0, 0.0), (3, 2.0, 2.0), (4, 0.0, 2.0)):
+            reached = mp.expect(rf"AP: reached item {seq}: NAV_WAYPOINT "
+                                r"\((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\)", since,
+                                timeout_s=120.0)
+            target = [float(v) for v in reached.groups()]
+            assert target == pytest.approx([north, east, -2.0], abs=0.015), reached.group(0)
+            corners.append(reached.start())
         assert corners == sorted(corners)
         landed = mp.expect(r"AP: reached item 5: NAV_LAND", since, timeout_s=120.0).start()
         assert landed > corners[-1]
