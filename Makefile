@@ -45,8 +45,9 @@ constraints:
 	$(PY) -m venv .venv-constraints
 	.venv-constraints/bin/python -m pip install --upgrade pip
 	.venv-constraints/bin/python -m pip install -e '.[dev,bench]'
-	( sed -n '1,2p' $(CONSTRAINTS); .venv-constraints/bin/python -m pip freeze --exclude-editable \
-	  | sort -f ) > $(CONSTRAINTS).new
+	( echo "# The versions make setup installs: the newest releases pyproject.toml admitted when the"; \
+	  echo "# file was written, with which make test passed (make constraints writes it afresh)."; \
+	  .venv-constraints/bin/python -m pip freeze --exclude-editable | sort -f ) > $(CONSTRAINTS).new
 	mv $(CONSTRAINTS).new $(CONSTRAINTS)
 	rm -rf .venv-constraints
 

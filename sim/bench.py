@@ -669,7 +669,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.what in ("stack", "all"):
         reference = _rotorpy_reference() or (
             "plain-numpy RK4 of the plant alone, 500 Hz hover (RotorPy is not installed: "
-            "pip install -c constraints.txt -e '.[bench]')", _numpy_rk4_once)
+            "make bench installs it)", _numpy_rk4_once)
         _report("full stack (plant 500 Hz, EKF + TSKF + LQG + AbDOB at 100 Hz, wind, sensors,"
                 " Table 7.3 faults)", _stack_once, args.repeat, reference)
     return 0
