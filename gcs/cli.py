@@ -389,7 +389,7 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
             vehicle.stop()
         if live is not None:
             live.close()
-    if gs.analyzer.vehicle is None:  # nothing flown: no table, no records of nothing
+    if not gs.vehicle_ready:  # nothing flown: no table, no records of nothing
         empty_vehicle_log = vehicle is None or not vehicle.output().strip()
         _remove_empty_records([tlog, event_log, vehicle_log if empty_vehicle_log else None],
                               new_folders)

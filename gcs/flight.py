@@ -246,7 +246,7 @@ def fly(gs: GroundStation, plan: FlightPlan,
 def _fly(gs: GroundStation, plan: FlightPlan,
          progress: Callable[[GroundStation], None] | None, wall0: float,
          vehicle_gone: Callable[[], str | None] | None) -> None:
-    if gs.analyzer.vehicle is None:
+    if not gs.vehicle_ready:
         gs.wait_vehicle(plan.connect_timeout_s, vehicle_gone)
     gs.wait_clock()
     gs.request_streams(plan.telemetry_hz)

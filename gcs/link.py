@@ -67,6 +67,7 @@ _M = mavlink2
 _HEARTBEAT_PERIOD_S = 0.5  # s wall, GCS heartbeat (ArduPilot FS_GCS_TIMEOUT default is 5 s)
 ACK_TIMEOUTS_S = (1.0, 1.5, 2.0, 2.5, 3.0, 3.0, 3.0, 3.0)
 """Wall seconds each attempt of a command waits for its answer (8 attempts, ~19 s)."""
+BOOT_PROGRESS_GAP_S = 30.0  # s wall a booting vehicle may go without a progress report
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its ACK
 _RETRY_FLOOR_S = 0.2  # s wall, the shortest wait before a request is sent again
 _UNVERIFIED_HEARTBEATS = 3  # autopilot HEARTBEATs failing the signature check: a mismatch
@@ -104,6 +105,7 @@ class Link:
         self.tlog = tlog
         self.events = events if events is not None else EventLog(None)
         self.analyzer = FlightAnalyzer(on_event=self._on_analyzer_event)
+        self.vehicle_ready = False  # wait_vehicle found it booted (STANDBY or later)
         self._last_heartbeat_wall = -math.inf
         self._last_rx_wall = -math.inf
         self._last_vehicle_wall = -math.inf
@@ -426,41 +428,63 @@ class Link:
 
     # ------------------------------------------------------------------ connecting
     def wait_vehicle(self, timeout_s: float = 10.0,
-                     gone: Callable[[], str | None] | None = None) -> tuple[int, int]:
+                     gone: Callable[[], str | None] | None = None,
+                     progress_gap_s: float = BOOT_PROGRESS_GAP_S) -> tuple[int, int]:
         """Wait for an autopilot's HEARTBEAT, and while it says MAV_STATE_BOOT for one that
         does not; returns its (sysid, compid).
+
+        A booting vehicle that reports progress (STATUSTEXT ``preparing: N of M kernels
+        compiled, T s``, every few seconds while it compiles) is waited for as long as the
+        reports keep coming, each shown on the log: at most ``progress_gap_s`` between two of
+        them, however long the boot takes in all (minutes, on a machine that has never
+        compiled the kernels).
 
         Parameters
         ----------
         timeout_s : float
-            Wall seconds.
+            Wall seconds: for the first HEARTBEAT, and for a booting vehicle that reports no
+            progress.
         gone : callable or None
             Polled while waiting: a text when the vehicle cannot come any more (a child
             process that exited), which ends the wait at once.
+        progress_gap_s : float
+            Wall seconds a booting vehicle may go without a progress report.
 
         Raises
         ------
         VehicleNotFound
-            When none arrives within ``timeout_s`` wall seconds, or ``gone`` says why.
+            When none arrives in time, a booting vehicle stops reporting progress, or ``gone``
+            says why.
         SigningMismatch
             When the vehicle's MAVLink 2 signing does not match ours.
         """
         self.log("LINK", f"listening on {self.url}" + (" (signing)" if self.signing else ""))
-        deadline = time.monotonic() + timeout_s
+        start_s = time.monotonic()
+        deadline = start_s + timeout_s
         booting_logged = False
-        while (self.analyzer.vehicle is None or self.analyzer.vehicle_booting
-               or self._signing_mismatch()):
-            if self.analyzer.vehicle_booting and not booting_logged:
+        seen_lines = 0
+        analyzer = self.analyzer
+        while analyzer.vehicle is None or analyzer.vehicle_booting or self._signing_mismatch():
+            if analyzer.vehicle_booting and not booting_logged:
                 self.log("LINK", "vehicle booting (HEARTBEAT says MAV_STATE_BOOT): waiting")
                 booting_logged = True
+            if analyzer.boot_progress_lines != seen_lines:
+                seen_lines = analyzer.boot_progress_lines
+                self.log("LINK", f"vehicle {analyzer.boot_progress}")
+                deadline = max(deadline, time.monotonic() + progress_gap_s)
             mismatch = self._signing_mismatch()
             if mismatch:
                 raise SigningMismatch(mismatch)
             left = deadline - time.monotonic()
             if left <= 0:
-                if self.analyzer.vehicle_booting:
+                waited_s = time.monotonic() - start_s
+                if seen_lines:
+                    raise VehicleNotFound(
+                        f"the vehicle on {self.url} stopped reporting its boot progress after "
+                        f"{waited_s:.0f} s; its last report: '{analyzer.boot_progress}'")
+                if analyzer.vehicle_booting:
                     raise VehicleNotFound(f"the vehicle on {self.url} was still booting after "
-                                          f"{timeout_s:g} s")
+                                          f"{timeout_s:g} s (and reported no progress)")
                 raise VehicleNotFound(f"no HEARTBEAT from an autopilot on {self.url} within "
                                       f"{timeout_s:g} s" + (
                                           f" ({self.unverified} packets failed the signature "
@@ -469,7 +493,9 @@ class Link:
             if why:
                 raise VehicleNotFound(why)
             self.pump(min(left, 0.1))
-        sysid, compid = self.analyzer.vehicle
+        assert analyzer.vehicle is not None  # (the loop above waited for it)
+        sysid, compid = analyzer.vehicle
+        self.vehicle_ready = True
         self.conn.target_system, self.conn.target_component = sysid, compid
         self.send_heartbeat()  # let a vehicle we reach through udpout learn our address now
         self.log("LINK", f"vehicle sysid {sysid} compid {compid} found")

@@ -49,9 +49,12 @@ from flightdata.series import FlightEvent
 from gcs.mavlink import MAVLinkMessage, mavlink2
 from gcs.table import Injection
 
-__all__ = ["PWM_MAX", "TelemetryReader", "mavlink_text"]
+__all__ = ["BOOT_PROGRESS_PREFIXES", "PWM_MAX", "TelemetryReader", "mavlink_text"]
 
 _M = mavlink2
+BOOT_PROGRESS_PREFIXES = ("preparing:", "ready:")
+"""A booting vehicle's progress lines (STATUSTEXT) start so: ``preparing: 37 of 131 kernels
+compiled, 41 s``."""
 PWM_MAX = 0.05  # motor command at full power (Qball-X4, thesis Table 7.1)
 _UINT32_US = 1 << 32
 
@@ -138,6 +141,8 @@ class TelemetryReader:
         self.malformed_records = 0
         self.last_vehicle_unix_us: int | None = None
         self.vehicle_booting = False  # the vehicle's last HEARTBEAT said MAV_STATE_BOOT
+        self.boot_progress = ""  # the newest progress line of a booting vehicle
+        self.boot_progress_lines = 0  # progress lines seen
         self.events: list[FlightEvent] = []  # every event emitted, in order
 
     # ------------------------------------------------------------------ feeding
@@ -296,6 +301,9 @@ class TelemetryReader:
     def _on_statustext(self, msg: MAVLinkMessage) -> None:
         text = mavlink_text(msg.text)
         chunk_id = int(getattr(msg, "id", 0))
+        if self.vehicle_booting and text.startswith(BOOT_PROGRESS_PREFIXES):
+            self.boot_progress = text  # (fcu.mavlink.boot_beacon's lines)
+            self.boot_progress_lines += 1
         if chunk_id == 0:
             self._later("status", (int(msg.severity), text))
             return

@@ -141,10 +141,16 @@ class VehicleProcess:
         The boot HEARTBEATs sent while this process loaded (``ftc-vehicle``): stopped here,
         its bound link and packer carry on (their addresses and ids must be ``options``').
         None: a new link, bound by :meth:`open`.
+    prepared : bool
+        The kernels this vehicle flies are loaded in this process already
+        (:func:`sim.preparation.prepare_vehicle`, run by ``ftc-vehicle`` while its beacon
+        says BOOT): :meth:`run` does not warm up again.
     """
 
-    def __init__(self, options: VehicleOptions, beacon: BootBeacon | None = None) -> None:
+    def __init__(self, options: VehicleOptions, beacon: BootBeacon | None = None, *,
+                 prepared: bool = False) -> None:
         self.options = options
+        self.prepared = prepared
         self.vehicle = SimVehicle(build_setup(options))
         codec = None
         if beacon is None:
@@ -187,16 +193,17 @@ class VehicleProcess:
             self.vehicle.port.post(Severity.WARNING, f"Boot mission refused: {reason}")
 
     def _warm_up(self) -> None:
-        """Load the numba code by flying a throwaway copy of the vehicle, the endpoint
-        answering between its ticks."""
+        """Load the numba code (unless :attr:`prepared`) by flying a throwaway copy of the
+        vehicle, the endpoint answering between its ticks."""
         vehicle, endpoint = self.vehicle, self.endpoint
-        setup = vehicle.setup
-        warm_up(setup.world, setup.autopilot, setup.seed,
-                between_ticks=lambda: endpoint.tick(time_s=vehicle.time_s,
-                                                    wall_time_s=time.monotonic()))
-        # the vibration filter of RAW_IMU/VIBRATION is numba code the flight does not run:
-        # loaded here rather than at the first of those messages, in flight
-        VibrationMonitor().update(np.zeros(1), np.zeros((1, 3)))
+        if not self.prepared:
+            setup = vehicle.setup
+            warm_up(setup.world, setup.autopilot, setup.seed,
+                    between_ticks=lambda: endpoint.tick(time_s=vehicle.time_s,
+                                                        wall_time_s=time.monotonic()))
+            # the vibration filter of RAW_IMU/VIBRATION is numba code the flight does not
+            # run: loaded here rather than at the first of those messages, in flight
+            VibrationMonitor().update(np.zeros(1), np.zeros((1, 3)))
         gc.collect()
         gc.freeze()  # start-up objects are never collected: shorter collections in flight
 

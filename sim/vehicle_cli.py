@@ -6,7 +6,8 @@ Usage::
                 [--bind HOST:PORT] [--out HOST:PORT ...] [--instance N] [--sysid N]
                 [--compid N] [--signing-key KEY] [--home LAT,LON,ALT] [--duration S]
                 [--with-faults] [--load-mission] [--start-paused] [--timing-log PATH]
-                [--realtime [PRIORITY]]
+                [--realtime [PRIORITY]] [--boot-delay S]
+    ftc-vehicle --precompile
 
 The vehicle boots disarmed in STABILIZE on the ground at home, with the scenario's world and
 autopilot configuration (default ``baseline``) but no mission and no faults unless asked, and
@@ -28,8 +29,17 @@ key installed later over MAVLink (SETUP_SIGNING) lasts until the process ends; o
 the command line is there again after a restart.
 
 The socket is bound first and a HEARTBEAT saying ``MAV_STATE_BOOT`` goes out at once (and at
-1 Hz) while the autopilot loads (:mod:`fcu.mavlink.boot_beacon`); then one line on stdout says
-where it listens, and the HEARTBEATs say STANDBY. Ctrl-C or SIGTERM stops it cleanly (exit
+1 Hz) while the autopilot loads (:mod:`fcu.mavlink.boot_beacon`): its compiled kernels load
+from numba's cache in about a second, or compile (minutes on a fresh machine where nothing
+ran ``ftc-vehicle --precompile``), and a STATUSTEXT ``preparing: N of M kernels compiled, T s``
+follows a boot HEARTBEAT every few seconds meanwhile (also printed on stdout); then one line
+on stdout says where it listens, and the HEARTBEATs say STANDBY. ``--boot-delay S`` stays in
+BOOT, reporting progress, S wall seconds more: a slow boot on demand, to test a ground
+station's patience.
+
+``ftc-vehicle --precompile`` flies nothing over MAVLink: it compiles (or loads) every kernel
+the project can run (:func:`sim.preparation.precompile`), printing its progress, and exits 0;
+``make setup`` runs it. Ctrl-C or SIGTERM stops it cleanly (exit
 0). A bad option (or a ``--timing-log`` that cannot be written) prints one line and exits with
 status 2 before anything is sent; a bad scenario does the same once loading reaches it (a
 boot HEARTBEAT may have gone out); an address that cannot be bound exits with status 1.
@@ -42,12 +52,18 @@ import math
 import signal
 import socket
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 from flightdata.arguments import positive_float
+
+if TYPE_CHECKING:
+    from fcu.mavlink.boot_beacon import BootBeacon
+    from sim.preparation import Progress
+    from sim.vehicle_port import VehicleSetup
 
 PROG = "ftc-vehicle"
 
@@ -173,13 +189,66 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--realtime", type=_int_in(1, 99), nargs="?", const=10, default=0,
                    metavar="PRIORITY", help="run the loop at SCHED_FIFO priority (default 10; "
                    "needs CAP_SYS_NICE) for a steady tick period on a busy machine")
+    p.add_argument("--boot-delay", type=_non_negative, default=0.0, metavar="S",
+                   help="stay in MAV_STATE_BOOT S wall seconds more, reporting progress (to "
+                   "test how a ground station waits; default 0)")
+    p.add_argument("--precompile", action="store_true",
+                   help="compile (or load) every kernel the project can run, then exit")
     return p
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0")
+    return value
+
+
+def _precompile() -> int:
+    """``--precompile``: every kernel compiled or loaded, progress on stdout."""
+    from sim.preparation import precompile
+
+    def show(progress: Progress) -> None:
+        now = f" (compiling {progress.compiling})" if progress.compiling else ""
+        print(f"{PROG}: {progress.line()}{now}", flush=True)
+
+    try:
+        precompile(show)
+    except RuntimeError as err:
+        print(f"{PROG}: {err}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _prepare(beacon: BootBeacon, setup: VehicleSetup, boot_delay_s: float) -> None:
+    """Load or compile the vehicle's kernels while the beacon says BOOT, its progress going
+    out as STATUSTEXT and on stdout; then hold ``boot_delay_s`` wall seconds more."""
+    from sim.preparation import prepare_vehicle, reporting
+
+    def show(progress: Progress) -> None:
+        line = progress.line()
+        beacon.progress_line = line
+        if progress.compiled or progress.done and progress.elapsed_s >= 1.0:
+            now = f" (compiling {progress.compiling})" if progress.compiling else ""
+            print(f"{PROG}: {line}{now}", flush=True)
+
+    with reporting(show) as progress:
+        prepare_vehicle(setup.world, setup.autopilot, setup.seed)
+        end_s = time.monotonic() + boot_delay_s
+        while (left_s := end_s - time.monotonic()) > 0:
+            time.sleep(min(left_s, 1.0))
+            beacon.progress_line = progress.snapshot().line()
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the vehicle until signalled or ``--duration``; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.precompile:
+        return _precompile()
     from flightdata.outputs import OutputError, check_file_output
 
     try:
@@ -216,7 +285,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from fcu.mavlink.port import GeoPoint
     from flightdata.config import ConfigError
     from sim.scenario import load_scenario
-    from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess
+    from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess, build_setup
 
     try:
         scenario = load_scenario(args.scenario)
@@ -229,11 +298,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             with_faults=args.with_faults, load_mission=args.load_mission,
             start_paused=args.start_paused, timing_log=args.timing_log,
             realtime_priority=args.realtime, signing_key=args.signing_key)
-        process = VehicleProcess(options, beacon)
+        setup = build_setup(options)
     except (ConfigError, ValueError) as err:
         beacon.handover()
         beacon.link.close()
         parser.error(str(err))
+    _prepare(beacon, setup, args.boot_delay)
+    process = VehicleProcess(options, beacon, prepared=True)
     host, port = process.open()
     realtime = process.enter_realtime()
     outs_text = ", ".join(f"{h}:{p}" for h, p in outs) or "none"

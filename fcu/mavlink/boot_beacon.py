@@ -9,6 +9,12 @@ modules imported. :meth:`BootBeacon.handover` stops the thread and leaves the bo
 the packer to the endpoint (:class:`fcu.mavlink.endpoint.MavlinkEndpoint`), whose HEARTBEATs
 carry on with the next sequence number and signature timestamps after the beacon's.
 
+While the vehicle prepares its compiled code (minutes on a fresh machine, a second once it is
+cached), the composition root sets :attr:`BootBeacon.progress_line` now and then; the next
+boot HEARTBEAT is followed by that line as a STATUSTEXT (``preparing: 37 of 131 kernels
+compiled, 41 s``), so that a ground station can tell a vehicle that is getting on with it from
+one that hangs, and show how far it has got.
+
 Nothing is read from the socket while booting: datagrams a ground station sends meanwhile
 wait in the socket's buffer for the endpoint. A careful ground station waits for a
 HEARTBEAT that is no longer ``MAV_STATE_BOOT`` before it talks (``gcs.link`` does).
@@ -19,7 +25,7 @@ from __future__ import annotations
 import threading
 
 from fcu.mavlink.codec import Codec, heartbeat_message, mavlink2
-from fcu.mavlink.enums import MavState
+from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.signing import start_signing
 from fcu.mavlink.udp import UdpLink
 
@@ -53,6 +59,9 @@ class BootBeacon:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.sent = 0  # boot HEARTBEATs sent
+        self.progress_line = ""  # the newest progress line, sent after the next HEARTBEAT
+        self._progress_sent = ""
+        self._lock = threading.Lock()  # the packer's sequence numbers: one sender at a time
         if signing_key is not None:
             start_signing(codec.signing, signing_key)
 
@@ -83,5 +92,12 @@ class BootBeacon:
     def _send(self) -> None:
         # STABILIZE (custom mode 0), disarmed, booting
         msg = heartbeat_message(_M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 0, int(MavState.BOOT))
-        self.link.send(self.codec.pack(msg))
-        self.sent += 1
+        with self._lock:
+            self.link.send(self.codec.pack(msg))
+            self.sent += 1
+            line = self.progress_line
+            if line and line != self._progress_sent:
+                self._progress_sent = line
+                text = line.encode("ascii", "replace")[:50]
+                self.link.send(self.codec.pack(
+                    _M.MAVLink_statustext_message(int(Severity.INFO), text, 0, 0)))
