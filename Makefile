@@ -17,7 +17,10 @@ $(BIN)/.installed: pyproject.toml $(CONSTRAINTS)
 	$(BIN)/python -m compileall -q sim fcu gcs flightdata
 	touch $@
 
+# every kernel compiled (or, when the cache is current, loaded: about 2 s), so that no command
+# compiles on its first run; after a git pull that changed kernel code it compiles that again
 setup: $(BIN)/.installed
+	$(BIN)/ftc-vehicle --precompile
 
 demo: setup
 	$(BIN)/ftc-gcs demo

@@ -5,9 +5,11 @@ that module's source file only. A kernel that calls kernels of *other* modules h
 compiled into its own, so after one of those modules changes (an edit, a ``git pull``) the
 cached caller would go on running the old callee: silently wrong numbers. A module whose
 kernels call other modules' kernels calls :func:`drop_stale_kernels` at import, before any of
-its kernels runs: when a module of its folder (or a module elsewhere it names) is newer than
-its oldest cached kernel, its cached kernels are deleted, and numba compiles them again
-(once) on first call. The cache looked in is the one numba uses for the module: the folder
+its kernels runs: when the contents of a module of its folder (or of a module elsewhere it
+names) differ from those its cached kernels were compiled from, its cached kernels are
+deleted, and numba compiles them again (once) on first call. Contents, not modification
+times: a ``git pull`` that does not touch kernel code keeps the compiled cache.
+The cache looked in is the one numba uses for the module: the folder
 ``NUMBA_CACHE_DIR`` names when it is set, else ``__pycache__`` beside the module when that can
 be written, else numba's per-user cache (:func:`kernel_cache_folder`).
 
@@ -18,12 +20,15 @@ against, so that the first kernel loaded does not import all of ``scipy.linalg``
 
 from __future__ import annotations
 
+import hashlib
 import importlib.machinery
 import importlib.util
+import os
 import sys
 from pathlib import Path
 
-__all__ = ["drop_stale_kernels", "kernel_cache_folder", "preload_blas_bindings"]
+__all__ = ["drop_stale_kernels", "kernel_cache_folder", "preload_blas_bindings",
+           "sources_fingerprint"]
 
 _BLAS_MODULES = ("scipy.linalg.cython_blas", "scipy.linalg.cython_lapack")
 
@@ -52,33 +57,60 @@ def kernel_cache_folder(module_file: str) -> Path:
     return Path(module_file).parent / "__pycache__"
 
 
+def sources_fingerprint(module_file: str, *also: str) -> str:
+    """SHA-256 of the contents of every ``.py`` file in the folder of ``module_file`` and of
+    the files ``also``, with their names: what the module's kernels are compiled from."""
+    source = Path(module_file)
+    digest = hashlib.sha256()
+    for path in sorted({*source.parent.glob("*.py"), *map(Path, also)}):
+        digest.update(path.name.encode() + b"\0")
+        try:
+            digest.update(path.read_bytes())
+        except OSError:
+            digest.update(b"(unreadable)")
+        digest.update(b"\0")
+    return digest.hexdigest()
+
+
 def drop_stale_kernels(module_file: str, *also: str) -> list[Path]:
     """Delete the cached kernels of the module at ``module_file`` (in
-    :func:`kernel_cache_folder`) when any ``.py`` file in its folder, or any of the files
-    ``also`` (modules elsewhere whose kernels it compiles in), is newer than the oldest of
-    them; returns the files deleted (none when the cache is fresh, absent or cannot be
-    read)."""
+    :func:`kernel_cache_folder`) when the sources they were compiled from have changed; returns
+    the files deleted (none when the cache is current, absent or cannot be read).
+
+    The sources are every ``.py`` file in the module's folder and the files ``also`` (modules
+    elsewhere whose kernels it compiles in); their :func:`sources_fingerprint` is kept beside
+    the kernels (``<module>.sources``). Contents are compared, not modification times: a
+    ``git pull`` or a checkout that leaves those files as they were keeps the kernels, one that
+    changes any of them drops them (numba compiles them again, once, on first call). Kernels
+    with no fingerprint beside them (written by an older release) are dropped.
+    """
     source = Path(module_file)
     cache = kernel_cache_folder(module_file)
+    stamp = cache / f"{source.stem}.sources"
+    fingerprint = sources_fingerprint(module_file, *also)
     try:
-        cached = list(cache.glob(f"{source.stem}.*.nbi")) + list(
-            cache.glob(f"{source.stem}.*.nbc"))
-        if not cached:
+        if stamp.read_text() == fingerprint:
             return []
-        oldest_s = min(p.stat().st_mtime for p in cached)
-        sources = [*source.parent.glob("*.py"), *map(Path, also)]
-        newest_source_s = max(p.stat().st_mtime for p in sources)
     except OSError:
-        return []
-    if newest_source_s <= oldest_s:
-        return []
+        pass  # no fingerprint yet
     deleted = []
+    try:
+        cached = [*cache.glob(f"{source.stem}.*.nbi"), *cache.glob(f"{source.stem}.*.nbc")]
+    except OSError:
+        cached = []
     for path in cached:
         try:
             path.unlink()
             deleted.append(path)
         except OSError:
             pass  # another process got there first, or a read-only cache: numba copes
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+        partial = stamp.with_name(f"{stamp.name}.{os.getpid()}")
+        partial.write_text(fingerprint)
+        partial.replace(stamp)  # (atomic: a process starting meanwhile reads a whole one)
+    except OSError:
+        pass  # a read-only cache: numba cannot write kernels there either
     return deleted
 
 

@@ -212,6 +212,8 @@ def _precompile() -> int:
     from sim.preparation import precompile
 
     def show(progress: Progress) -> None:
+        if progress.elapsed_s < 1.0 and not progress.done:
+            return  # (the first report, at the start)
         now = f" (compiling {progress.compiling})" if progress.compiling else ""
         print(f"{PROG}: {progress.line()}{now}", flush=True)
 

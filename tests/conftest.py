@@ -8,9 +8,9 @@ lives (:data:`WHOLE_FLIGHT_FOLDERS`) or by a fixture it uses (:data:`WHOLE_FLIGH
 so test files need not say so; ``make test-fast`` runs ``-m "not slow"``, ``make test`` all.
 
 On pytest-xdist workers (``make test``) the whole flights go first, so that the longest modules
-do not end the run alone; before the workers start, one headless flight compiles numba's
-kernels (seconds once they are cached), so that no vehicle started by a test compiles them
-(minutes on a loaded machine) and the workers do not compile the same kernels twice.
+do not end the run alone; before the workers start, ``ftc-vehicle --precompile`` compiles
+numba's kernels (seconds once they are cached), so that no vehicle started by a test compiles
+them (minutes on a loaded machine) and the workers do not compile the same kernels twice.
 
 Start-up designs are cached (:mod:`flightdata.design_cache`) in a temporary directory of the test
 session, never in the user's cache: the vehicles the tests start inherit it.
@@ -41,8 +41,9 @@ pytest_plugins = ["gcs.pytest_plugin"]
 TESTS = Path(__file__).resolve().parent
 WHOLE_FLIGHT_FOLDERS = (TESTS / "integration",)  # vehicle processes flying missions
 WHOLE_FLIGHT_FIXTURES = frozenset({"vehicle_link", "start_vehicle"})  # a vehicle flies
-# a flight through every compiled part: LQG, EKF and TSKF, AbDOB, active FTC, rotor loss
-KERNEL_WARM_UP = [sys.executable, "-m", "sim.scenario_cli", "run", "rotor_lost_hover_m1"]
+# every kernel the project can run (sim.preparation.precompile; make setup has run it already,
+# so this only loads them, unless a test run follows an edit of kernel code)
+KERNEL_WARM_UP = [sys.executable, "-m", "sim", "--precompile"]
 WARM_UP_S = 1200.0  # s wall: every kernel compiled from scratch on a loaded machine
 
 

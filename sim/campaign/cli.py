@@ -41,6 +41,7 @@ from sim.campaign.spec import load_campaign, shipped_campaigns
 if TYPE_CHECKING:
     from sim.campaign.engine import Summary
     from sim.campaign.store import ResultStore
+    from sim.preparation import Progress
 
 EXIT_ERRORS = 1
 EXIT_UNFLOWN = 3
@@ -109,7 +110,8 @@ def _fly(args: argparse.Namespace, name: str, todo: list[RunSpec], store: Result
     )
 
     try:
-        with open_client(workers=args.workers, scheduler=args.scheduler) as client:
+        with open_client(workers=args.workers, scheduler=args.scheduler,
+                         report=_show_preparation) as client:
             workers = len(client.scheduler_info()["workers"])
             where = (f"the scheduler at {args.scheduler} ({workers} workers now)"
                      if args.scheduler else f"a local cluster of {workers} workers")
@@ -236,3 +238,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def _show_preparation(progress: Progress) -> None:
+    """Kernel preparation before the runs fan out: shown only when it takes a while (a first
+    compile), on stderr."""
+    if progress.compiled and (progress.elapsed_s >= 1.0 or progress.done):
+        print(f"ftc-campaign: {progress.line()}", file=sys.stderr, flush=True)

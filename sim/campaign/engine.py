@@ -25,7 +25,7 @@ import logging
 import os
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import IO, Any
@@ -34,7 +34,8 @@ from distributed import Client, LocalCluster, as_completed
 
 from sim.campaign.expand import RunSpec
 from sim.campaign.store import ResultStore
-from sim.campaign.worker import WarmUp, fly_run
+from sim.campaign.worker import WarmUp, fly_run, prepare_kernels
+from sim.preparation import Progress, reporting
 
 CONNECT_TIMEOUT_S = 30.0  # s to reach an existing scheduler before giving up
 _BAR_WIDTH = 40
@@ -84,8 +85,16 @@ def default_workers() -> int:
 
 @contextmanager
 def open_client(*, workers: int | None = None, scheduler: str | None = None,
-                warm_up: bool = True) -> Iterator[Client]:
+                warm_up: bool = True,
+                report: Callable[[Progress], object] | None = None) -> Iterator[Client]:
     """A Dask client on a new local cluster (``workers`` processes) or on ``scheduler``.
+
+    With ``warm_up``, the kernels are compiled once before the runs fan out: for a local
+    cluster in this process before its workers start (``report`` gets the progress every
+    few seconds: minutes where nothing was compiled yet, a second otherwise), on a running
+    cluster by one worker first; then every worker loads them as it joins
+    (:class:`sim.campaign.worker.WarmUp`), from the cache the first compile filled (the
+    workers of one machine share it; another machine's compile their own).
 
     Raises
     ------
@@ -95,6 +104,9 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
     """
     cluster: LocalCluster | None = None
     if scheduler is None:
+        if warm_up:
+            with reporting(report):
+                prepare_kernels()
         cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
                                processes=True, host="127.0.0.1",
                                dashboard_address="127.0.0.1:0",
@@ -109,6 +121,8 @@ def open_client(*, workers: int | None = None, scheduler: str | None = None,
     try:
         if warm_up:
             try:
+                if scheduler is not None:  # one worker compiles, then all load
+                    client.submit(prepare_kernels, pure=False).result()
                 client.register_plugin(WarmUp())
             except Exception as exc:  # raised on a worker: its Python lacks the project
                 raise SchedulerUnreachable(

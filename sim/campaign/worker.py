@@ -74,14 +74,25 @@ class WarmUp(WorkerPlugin):
     name = "quadftc-warm-up"
 
     def setup(self, worker: Any) -> None:
-        """Fly a few ticks of each estimator and attitude law so every kernel is loaded."""
+        """Load every kernel a run may need (:func:`prepare_kernels`)."""
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, signal.SIG_IGN)
-        from sim.scenario import scenario_from_mapping
-        from sim.stack import warm_up
+        prepare_kernels()
 
-        for autopilot in ({"attitude": "lqg", "estimator": "ekf", "dob": "abdob",
-                           "ftc": "active"},
-                          {"attitude": "pd", "estimator": "tskf", "dob": "vbdob"}):
-            scenario = scenario_from_mapping({"autopilot": autopilot})
-            warm_up(scenario.world, scenario.autopilot, seed=0)
+
+WARM_UP_CONFIGURATIONS = (
+    {"attitude": "lqg", "estimator": "ekf", "dob": "abdob", "ftc": "active"},
+    {"attitude": "pd", "estimator": "tskf", "dob": "vbdob"},
+)
+"""Autopilot configurations whose few ticks between them run every kernel of a flight."""
+
+
+def prepare_kernels() -> None:
+    """Fly a few ticks of each estimator and attitude law so that every kernel a run may
+    need is loaded (or, where the cache lacks it, compiled)."""
+    from sim.scenario import scenario_from_mapping
+    from sim.stack import warm_up
+
+    for autopilot in WARM_UP_CONFIGURATIONS:
+        scenario = scenario_from_mapping({"autopilot": autopilot})
+        warm_up(scenario.world, scenario.autopilot, seed=0)

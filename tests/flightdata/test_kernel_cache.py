@@ -1,5 +1,5 @@
-"""Cached kernels of a module are dropped when a module of its folder is newer, in the
-folder numba keeps them in."""
+"""Cached kernels of a module are dropped when the contents of a module of its folder (or of a
+module it names) changed, in the folder numba keeps them in; modification times alone do not."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from numba.core import config as numba_config
 
-from flightdata.kernel_cache import drop_stale_kernels, kernel_cache_folder
+from flightdata.kernel_cache import drop_stale_kernels, kernel_cache_folder, sources_fingerprint
 
 
 @pytest.fixture(autouse=True)
@@ -22,10 +22,12 @@ def _in_tree_cache(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def _package(tmp_path: Path) -> tuple[Path, list[Path]]:
-    (tmp_path / "caller.py").write_text("")
-    (tmp_path / "callee.py").write_text("")
+    """A folder of two modules whose caller's kernels were cached from the sources as they
+    are (fingerprint written), and a callee's kernel."""
+    (tmp_path / "caller.py").write_text("def tick(): ...\n")
+    (tmp_path / "callee.py").write_text("def step(): ...\n")
     cache = tmp_path / "__pycache__"
-    cache.mkdir()
+    assert drop_stale_kernels(str(tmp_path / "caller.py")) == []  # fingerprint written
     files = [cache / "caller.tick-10.py311.nbi", cache / "caller.tick-10.py311.1.nbc",
              cache / "callee.step-5.py311.nbi"]
     for f in files:
@@ -33,42 +35,46 @@ def _package(tmp_path: Path) -> tuple[Path, list[Path]]:
     return tmp_path, files
 
 
-def _age(path: Path, mtime_s: float) -> None:
-    os.utime(path, (mtime_s, mtime_s))
-
-
-def test_a_newer_sibling_drops_only_the_callers_kernels(tmp_path: Path) -> None:
+def test_a_changed_sibling_drops_only_the_callers_kernels(tmp_path: Path) -> None:
     pkg, (index, data, other) = _package(tmp_path)
-    for f in (pkg / "caller.py", index, data, other):
-        _age(f, 1000.0)
-    _age(pkg / "callee.py", 2000.0)  # edited after the caller was compiled
+    (pkg / "callee.py").write_text("def step(): return 1\n")  # edited after the compile
     deleted = drop_stale_kernels(str(pkg / "caller.py"))
     assert sorted(deleted) == sorted([index, data])
     assert not index.exists() and not data.exists() and other.exists()
+    assert drop_stale_kernels(str(pkg / "caller.py")) == []  # the new sources' fingerprint
 
 
-def test_a_newer_module_named_from_elsewhere_drops_the_callers_kernels(
-        tmp_path: Path) -> None:
-    pkg, (index, data, other) = _package(tmp_path)
-    shared = tmp_path / "other" / "shared.py"  # another folder's module it compiles in
-    shared.parent.mkdir()
-    shared.write_text("")
-    for f in (pkg / "caller.py", pkg / "callee.py", index, data, other):
-        _age(f, 1000.0)
-    _age(shared, 2000.0)
-    assert drop_stale_kernels(str(pkg / "caller.py")) == []  # not named: not looked at
-    deleted = drop_stale_kernels(str(pkg / "caller.py"), str(shared))
-    assert sorted(deleted) == sorted([index, data])
-
-
-def test_a_fresh_cache_is_kept(tmp_path: Path) -> None:
+def test_a_pull_that_leaves_the_sources_as_they_were_keeps_the_kernels(tmp_path: Path) -> None:
     pkg, files = _package(tmp_path)
-    for f in (pkg / "caller.py", pkg / "callee.py"):
-        _age(f, 1000.0)
-    for f in files:
-        _age(f, 2000.0)  # compiled after the last edit
+    for f in (pkg / "caller.py", pkg / "callee.py"):  # rewritten with the same contents
+        f.write_text(f.read_text())
+        os.utime(f, (4e9, 4e9))  # newer than every cached kernel
     assert drop_stale_kernels(str(pkg / "caller.py")) == []
     assert all(f.exists() for f in files)
+
+
+def test_a_changed_module_named_from_elsewhere_drops_the_callers_kernels(
+        tmp_path: Path) -> None:
+    shared = tmp_path / "other" / "shared.py"  # another folder's module it compiles in
+    shared.parent.mkdir()
+    shared.write_text("A = 1\n")
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    pkg_files = _package(pkg)[1]
+    index, data = pkg_files[:2]
+    assert drop_stale_kernels(str(pkg / "caller.py"), str(shared))  # not in the fingerprint yet
+    for f in (index, data):
+        f.write_bytes(b"x")  # compiled again
+    assert drop_stale_kernels(str(pkg / "caller.py"), str(shared)) == []
+    shared.write_text("A = 2\n")
+    assert sorted(drop_stale_kernels(str(pkg / "caller.py"), str(shared))) == sorted(
+        [index, data])
+
+
+def test_kernels_without_a_fingerprint_are_dropped(tmp_path: Path) -> None:
+    pkg, (index, data, other) = _package(tmp_path)
+    (pkg / "__pycache__" / "caller.sources").unlink()
+    assert sorted(drop_stale_kernels(str(pkg / "caller.py"))) == sorted([index, data])
 
 
 def test_no_cache_folder_is_nothing_to_do(tmp_path: Path) -> None:
@@ -101,10 +107,11 @@ def test_the_folder_looked_in_is_where_numba_caches_with_numba_cache_dir(
     cached = sorted(folder.glob("kernels.twice-*.nb[ic]"))
     assert len(cached) == 2  # the index and the code numba wrote
     assert not list(module.parent.glob("__pycache__/*.nb[ic]"))  # none beside the module
-    # a sibling edited after the compile: the kernels numba would load are dropped
-    for f in cached:
-        os.utime(f, (1000.0, 1000.0))
-    (module.parent / "helper.py").write_text("")
+    # the fingerprint of the sources compiled from, then a sibling edited: the kernels numba
+    # would load are dropped
+    (folder / "kernels.sources").write_text(sources_fingerprint(str(module)))
+    assert drop_stale_kernels(str(module)) == []
+    (module.parent / "helper.py").write_text("X = 1\n")
     assert sorted(drop_stale_kernels(str(module))) == cached
     assert not any(f.exists() for f in cached)
 
