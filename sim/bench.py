@@ -44,6 +44,11 @@
                                    engine on local Dask clusters of 1 and 2 workers:
                                    runs per minute, the scaling, and the per-run overhead over
                                    the bare flight time (:mod:`sim.campaign.bench`)
+    ftc-bench compile [--repeat N] the cold build of every kernel (``ftc-vehicle --precompile``
+                                   on empty caches), beside the warm load of the same, then
+                                   the first ``ftc-scenario run baseline`` and the first
+                                   ``ftc-vehicle`` to STANDBY after it (default 1 round:
+                                   :mod:`sim.compile_bench`)
     ftc-bench [all]                plant, then stack
 
 Each figure is the median of ``--repeat`` runs (machines are shared and noisy), with the
@@ -620,11 +625,12 @@ def _report_startup(repeat: int) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
     parser.add_argument("what", choices=("plant", "stack", "tick", "vehicle-speedup",
-                                         "vehicle-jitter", "startup", "campaign", "all"),
+                                         "vehicle-jitter", "startup", "campaign", "compile",
+                                         "all"),
                         nargs="?",
                         default="all")
     parser.add_argument("--repeat", type=int, default=None, help="timed runs (default 5; "
-                        "vehicle-speedup and campaign: 3)")
+                        "vehicle-speedup and campaign: 3; compile: 1)")
     parser.add_argument("--speedup", type=float, default=20.0,
                         help="vehicle-speedup: the vehicle's --speedup (default 20)")
     parser.add_argument("--seconds", type=float, default=30.0,
@@ -651,6 +657,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if args.what == "tick":
         _report_tick(args.repeat or 5)
+        return 0
+    if args.what == "compile":
+        from sim.compile_bench import report_compile
+
+        report_compile(args.repeat or 1)
         return 0
     if args.what == "campaign":
         from flightdata.config import ConfigError

@@ -211,7 +211,7 @@ class PrecompileFlight:
     why: str
 
 
-PRECOMPILE_FLIGHTS: tuple[PrecompileFlight, ...] = (
+PRECOMPILE_FLIGHTS: tuple[PrecompileFlight, ...] = (  # (then a vehicle's boot preparation)
     PrecompileFlight("rotor_lost_hover_m1", "EKF and TSKF with the sensor watch, LQG, AbDOB, "
                      "active FTC, a rotor lost, the motor detector, relaxed hover"),
     PrecompileFlight("tskf_pd_abdob_loe", "the TSKF flying: its own tick and the sensor watch "
@@ -246,9 +246,7 @@ def precompile(report: Callable[[Progress], object] | None = None) -> KernelProg
             except Exception as err:  # pragma: no cover - a broken install
                 raise RuntimeError(f"precompile flight {flight.scenario} failed: "
                                    f"{type(err).__name__}: {err}") from err
-        from flightdata.kernel_cache import preload_blas_bindings
-
-        preload_blas_bindings()
-        _load_telemetry_kernels()
+        vehicle = load_scenario("baseline")  # what ftc-vehicle loads at its boot
+        prepare_vehicle(vehicle.world, vehicle.autopilot, vehicle.seed)
     return progress
 

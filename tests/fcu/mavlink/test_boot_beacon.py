@@ -87,3 +87,33 @@ def test_an_address_in_use_is_reported_at_start(ground):
     beacon = BootBeacon(UdpLink(*ground.getsockname()), Codec(1, 1))
     with pytest.raises(OSError):
         beacon.start()
+
+
+def _messages(sock: socket.socket, count: int) -> list[mav.MAVLink_message]:
+    """The next ``count`` messages (each datagram holds one)."""
+    out: list[mav.MAVLink_message] = []
+    while len(out) < count:
+        out += _receive(sock)
+    return out
+
+
+def test_a_progress_line_follows_the_next_heartbeat_once(ground):
+    link = UdpLink(LOOPBACK, 0, default_peers=[ground.getsockname()])
+    beacon = BootBeacon(link, Codec(1, 1), period_s=0.05)
+    beacon.progress_line = "preparing: 3 of 130 kernels compiled, 12 s"
+    beacon.start()
+    try:
+        first = _messages(ground, 4)  # HEARTBEAT, STATUSTEXT, HEARTBEAT, HEARTBEAT
+        beacon.progress_line = "preparing: 9 of 130 kernels compiled, 17 s"
+        later = _messages(ground, 6)
+    finally:
+        beacon.handover()
+        link.close()
+    assert [m.get_type() for m in first] == ["HEARTBEAT", "STATUSTEXT", "HEARTBEAT",
+                                             "HEARTBEAT"]
+    assert first[1].text == "preparing: 3 of 130 kernels compiled, 12 s"
+    assert first[1].severity == mav.MAV_SEVERITY_INFO
+    texts = [m.text for m in later if m.get_type() == "STATUSTEXT"]
+    assert texts == ["preparing: 9 of 130 kernels compiled, 17 s"]  # sent once, not repeated
+    seqs = [m.get_seq() for m in first + later]
+    assert seqs == [(seqs[0] + k) % 256 for k in range(len(seqs))]  # one packer, in order
