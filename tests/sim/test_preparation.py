@@ -21,8 +21,9 @@ def test_a_progress_line_fits_one_statustext() -> None:
 
 
 def test_the_project_kernels_are_the_dispatchers_of_its_modules_each_once() -> None:
-    import fcu.control.scalar as scalar
     from numba.core.dispatcher import Dispatcher
+
+    import fcu.control.scalar as scalar
 
     kernels = project_kernels()
     assert scalar.clip in kernels and scalar.wrap_pi in kernels
