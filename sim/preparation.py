@@ -5,11 +5,11 @@ inference and LLVM: minutes of CPU for the whole project on a 2-core machine, mo
 the estimators), later processes load the machine code from the cache in about a second.
 This module does that first call on purpose, at a time of the user's choosing:
 
-- :func:`precompile` flies a short throwaway stack through every configuration that runs a
-  kernel of its own (:data:`PRECOMPILE_FLIGHTS`), then loads the telemetry filters: after
-  it every kernel the project can run is in the cache. ``make setup`` runs it (through
-  ``ftc-vehicle --precompile``), so a fresh clone's first ``ftc-vehicle``, ``ftc-scenario``
-  or campaign worker only loads.
+- :func:`precompile` first prepares what a vehicle's boot needs (the default configuration,
+  which ``make demo`` flies), then flies every configuration that runs a kernel of its own
+  (:data:`PRECOMPILE_FLIGHTS`): after it every kernel the project can run is in the cache.
+  ``make setup`` runs it (through ``ftc-vehicle --precompile``), so a fresh clone's first
+  ``ftc-vehicle``, ``ftc-scenario`` or campaign worker only loads.
 - :func:`prepare_vehicle` does the same for one vehicle's own configuration at its boot,
   while its boot HEARTBEATs say ``MAV_STATE_BOOT`` (:mod:`fcu.mavlink.boot_beacon` sends the
   progress lines meanwhile).
@@ -211,7 +211,7 @@ class PrecompileFlight:
     why: str
 
 
-PRECOMPILE_FLIGHTS: tuple[PrecompileFlight, ...] = (  # (then a vehicle's boot preparation)
+PRECOMPILE_FLIGHTS: tuple[PrecompileFlight, ...] = (  # (after a vehicle's boot preparation)
     PrecompileFlight("rotor_lost_hover_m1", "EKF and TSKF with the sensor watch, LQG, AbDOB, "
                      "active FTC, a rotor lost, the motor detector, relaxed hover"),
     PrecompileFlight("tskf_pd_abdob_loe", "the TSKF flying: its own tick and the sensor watch "
@@ -221,8 +221,9 @@ PRECOMPILE_FLIGHTS: tuple[PrecompileFlight, ...] = (  # (then a vehicle's boot p
                      "re-admitted"),
 )
 """What :func:`precompile` flies: between them every kernel of the world, the estimators,
-the control chain and the monitors runs at least once (``tests/sim/test_preparation.py``
-checks it against :func:`project_kernels`)."""
+the control chain and the monitors runs at least once (``tests/integration/test_first_run.py``
+flies every attitude law, estimator, observer and FTC mode after it, and checks that nothing
+more compiles)."""
 
 
 def precompile(report: Callable[[Progress], object] | None = None) -> KernelProgress:
@@ -239,6 +240,8 @@ def precompile(report: Callable[[Progress], object] | None = None) -> KernelProg
     from sim.scenario import load_scenario
 
     with reporting(report) as progress:
+        vehicle = load_scenario("baseline")  # first what ftc-vehicle loads at its boot
+        prepare_vehicle(vehicle.world, vehicle.autopilot, vehicle.seed)
         for flight in PRECOMPILE_FLIGHTS:
             scenario = load_scenario(flight.scenario)
             try:
@@ -246,7 +249,5 @@ def precompile(report: Callable[[Progress], object] | None = None) -> KernelProg
             except Exception as err:  # pragma: no cover - a broken install
                 raise RuntimeError(f"precompile flight {flight.scenario} failed: "
                                    f"{type(err).__name__}: {err}") from err
-        vehicle = load_scenario("baseline")  # what ftc-vehicle loads at its boot
-        prepare_vehicle(vehicle.world, vehicle.autopilot, vehicle.seed)
     return progress
 

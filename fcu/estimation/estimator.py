@@ -339,7 +339,9 @@ class ChannelSet:
         # what _measurements reads of each sensor's batch value, and the padding after it
         self._reads = [(c.sensor, c.value_slice, [0.0] * (MEAS_WIDTH - VALUE - c.rows))
                        for c in channels]
-        self.no_exclusion = np.zeros(len(channels), dtype=np.bool_)
+        # (int64 as in the estimators' packed tables, fcu.estimation.pair: one specialisation
+        # of the tick kernels serves both paths)
+        self.no_exclusion = np.zeros(len(channels), dtype=np.int64)
         self._absent = [0.0] * MEAS_WIDTH
         self._gathers: dict[tuple[tuple[str, ...], int], np.ndarray] = {}
         self.tables_at = -1
@@ -428,10 +430,10 @@ class ChannelSet:
         return index
 
     def exclusion(self, excluded: Collection[str]) -> np.ndarray:
-        """Which channels are ``excluded``, bool, shape (n_ch,)."""
+        """Which channels are ``excluded``: 1 (excluded) or 0, int64, shape (n_ch,)."""
         if not excluded:
             return self.no_exclusion
-        return np.array([s in excluded for s in self.sensors], dtype=np.bool_)
+        return np.array([s in excluded for s in self.sensors], dtype=np.int64)
 
 
 class TickEstimator:
