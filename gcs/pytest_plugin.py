@@ -28,7 +28,9 @@ with :meth:`VehicleLink.fly`.
 Marker ``@pytest.mark.vehicle(...)``: ``speedup`` (default 10), ``seed`` (default: the
 scenario's), ``scenario`` (world and autopilot configuration; default the vehicle's
 ``baseline``), ``start_paused`` (default True), ``extra_args`` (more ``ftc-vehicle``
-options), ``connect_timeout_s`` (wall, default 60: the first start compiles the plant),
+options), ``connect_timeout_s`` (wall, default 60, for a vehicle that reports no boot
+progress; one that compiles its kernels, reporting progress, is waited for as long as it
+reports: ``gcs.link.Link.wait_vehicle``),
 ``signing_key`` (MAVLink 2 signing: a KEY as ``ftc-vehicle --signing-key`` takes it, a
 passphrase or ``hex:`` and 64 hex digits, or the 32 bytes; the vehicle starts with it and the
 link signs with it; default None, unsigned).
@@ -143,8 +145,9 @@ def vehicle_link(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Veh
     try:
         try:
             link.wait_vehicle(connect_timeout_s, vehicle.why_gone)
-        except Exception:
-            raise RuntimeError(f"vehicle did not come up: {vehicle.output()[-2000:]}") from None
+        except Exception as err:  # (a boot that stopped reporting names its last progress)
+            raise RuntimeError(f"vehicle did not come up: {err}; its output: "
+                               f"{vehicle.output()[-2000:]}") from None
         yield link
     finally:
         link.close()
