@@ -231,11 +231,12 @@ def _prepare(beacon: BootBeacon, setup: VehicleSetup, boot_delay_s: float) -> No
     from sim.preparation import prepare_vehicle, reporting
 
     def show(progress: Progress) -> None:
+        if not (progress.compiled or progress.elapsed_s >= 3.0):
+            return  # a boot from a current cache: a second, nothing to report
         line = progress.line()
         beacon.progress_line = line
-        if progress.compiled or progress.done and progress.elapsed_s >= 1.0:
-            now = f" (compiling {progress.compiling})" if progress.compiling else ""
-            print(f"{PROG}: {line}{now}", flush=True)
+        now = f" (compiling {progress.compiling})" if progress.compiling else ""
+        print(f"{PROG}: {line}{now}", flush=True)
 
     with reporting(show) as progress:
         prepare_vehicle(setup.world, setup.autopilot, setup.seed)
