@@ -100,3 +100,20 @@ def test_a_booting_vehicle_that_reports_nothing_gets_the_timeout(station):
                             ready=lambda t: False):
         with pytest.raises(VehicleNotFound, match="still booting after 1 s"):
             station.wait_vehicle(timeout_s=1.0)
+
+
+def test_fly_against_a_vehicle_that_never_finishes_booting_leaves_no_records(
+        tmp_path, capsys):
+    from gcs.cli import main
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:  # a port free right now
+        probe.bind((LOOPBACK, 0))
+        port = int(probe.getsockname()[1])
+    tlog = tmp_path / "out" / "f.tlog"
+    with FakeBootingVehicle(port, reporting=lambda t: False, ready=lambda t: False):
+        status = main(["fly", "--connect", f"udpin:{LOOPBACK}:{port}", "--connect-timeout",
+                       "1", "--quiet", "--tlog", str(tlog)])
+    assert status != 0
+    assert "still booting after 1 s" in capsys.readouterr().err
+    assert not tlog.exists() and not tlog.with_suffix(".events.log").exists()
+    assert not tlog.parent.exists()  # the folder made for them went too
