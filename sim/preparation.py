@@ -46,7 +46,8 @@ REPORT_PERIOD_S = 5.0  # s wall between progress reports
 class Progress:
     """How far a preparation has got."""
 
-    compiled: int  # project kernels compiled so far (cache loads are not counted)
+    compiled: int  # project kernels compiled so far, each once however many specialisations
+    # (cache loads are not counted)
     total: int  # kernels the project defines
     elapsed_s: float  # s wall since the preparation started
     compiling: str = ""  # the outermost kernel being compiled now ("" when none)
@@ -61,7 +62,8 @@ class Progress:
 
 def project_kernels() -> list[Any]:
     """Every numba kernel (dispatcher) defined in the project's modules imported so far,
-    each once, in a stable order (module, then name)."""
+    each once, in a stable order (module, then name); not those declared
+    ``inline="always"``, whose code is compiled into their callers' and never on its own."""
     from numba.core.dispatcher import Dispatcher
 
     seen: dict[int, tuple[str, str, Any]] = {}
@@ -69,7 +71,8 @@ def project_kernels() -> list[Any]:
         if module is None or name.partition(".")[0] not in PROJECT_PACKAGES:
             continue
         for value in list(vars(module).values()):
-            if isinstance(value, Dispatcher) and id(value) not in seen:
+            if (isinstance(value, Dispatcher) and id(value) not in seen
+                    and value.targetoptions.get("inline") != "always"):
                 func = value.py_func
                 if func.__module__.partition(".")[0] in PROJECT_PACKAGES:
                     seen[id(value)] = (func.__module__, func.__qualname__, value)
@@ -90,6 +93,7 @@ class KernelProgress:
         self._start_s = clock()
         self._lock = threading.Lock()
         self._compiled: set[str] = set()  # kernel and signature
+        self._kernels: set[str] = set()  # kernel
         self._stack: list[str] = []
         self._total = 0
         self._done = False
@@ -136,6 +140,7 @@ class KernelProgress:
                 self._stack.pop()
             if name.partition(".")[0] in PROJECT_PACKAGES:
                 self._compiled.add(f"{name}{ev.data.get('args')}")
+                self._kernels.add(name)
 
     @property
     def kernel_names(self) -> list[str]:
@@ -146,7 +151,7 @@ class KernelProgress:
     def snapshot(self) -> Progress:
         """The progress now."""
         with self._lock:
-            compiled = len(self._compiled)
+            compiled = len(self._kernels)
             compiling = self._stack[0] if self._stack else ""
         return Progress(compiled=compiled, total=max(self._total, compiled),
                         elapsed_s=self._clock() - self._start_s, compiling=compiling,
