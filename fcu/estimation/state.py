@@ -42,7 +42,13 @@ from numpy.typing import NDArray
 
 from fcu.floats import wrap_pi
 from fcu.hal import SensorSampleArrays, SensorSampleLike
+from flightdata import kernel_views
+from flightdata.kernel_cache import drop_stale_kernels
+from flightdata.kernel_views import shaped
 from flightdata.vocabulary import HEIGHT_SOURCES, SENSORS
+
+# group_sample_arrays compiles in kernel_views' shaped
+drop_stale_kernels(__file__, kernel_views.__file__)
 
 FloatArray = NDArray[np.float64]
 ArrayLikeFloat = FloatArray | list[float] | tuple[float, ...]
@@ -404,7 +410,9 @@ def group_sample_arrays(flat: FloatArray, sensor_index: np.ndarray, time_s: Floa
     axes = slots[2:2 + n_slots]
     slot_of = slots[2 + n_slots:]
     w = values.shape[1]
-    out = flat[:n_slots * (w + 3)].reshape((n_slots, w + 3))
+    # (shaped, not numba's reshape, whose size check formats its error message with the
+    # shapes: 3 s more of compile for a check shaped makes with a constant message)
+    out = shaped(flat[:n_slots * (w + 3)], (n_slots, w + 3))
     mean = out[:, :w]
     time_sum = out[:, w]
     count = np.zeros(n_slots, dtype=np.int64)
