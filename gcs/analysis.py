@@ -211,6 +211,8 @@ class FlightAnalyzer(TelemetryReader):
             est = self._loe_est[motor]
             if t_end is not None:
                 est = [e for e in est if e[0] <= t_end + 1e-9] or est
+                # what was in force in flight: not the clearing after the landing
+                inj = [i for i in inj if i.time_s <= t_end + 1e-9]
             dets = [d for d in self.detections
                     if d.motor == motor and d.record.action == "detected"]
             rows.append({

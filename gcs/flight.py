@@ -3,6 +3,10 @@
 :func:`fly` reads top to bottom like the flight::
 
     wait for the vehicle's HEARTBEAT           -> VehicleNotFound
+    refuse a vehicle found armed                -> VehicleBusy
+    a mode that allows arming (STABILIZE unless it is in one), seen in its HEARTBEAT
+    wait until armable; a vehicle that arms only after a restart (a failure detected in
+    an earlier flight) is restarted when the plan allows it  -> RestartNeeded
     ask for the table's telemetry at 100 Hz
     read the parameters; set the autopilot configuration (ATT_CTRL, EST_TYPE, DOB_TYPE...)
     wait for HOME_POSITION and the armable (PREARM_CHECK) flag
@@ -11,6 +15,12 @@
     if the vehicle was started paused (SIM_PAUSE = 1), start simulated time
     until landed and disarmed: inject each fault on time (vehicle clock), watch for a crash,
     a lost link, or a mission that does not end  -> Crashed, FlightTimeout
+    clear the faults this flight injected (also after a failed flight, while the vehicle
+    answers), so the next flight starts healthy
+
+A vehicle found armed is refused, never taken over: it is flying someone else's flight (or
+about to), and a ground station that uploads a mission over it or changes its mode would
+take it from them.
 
 Fault timing: each fault is sent when the vehicle clock (100 Hz ATTITUDE) reaches its target
 minus the measured command lag (:meth:`gcs.station.GroundStation.lead_s`), with a TIMESYNC in
@@ -24,6 +34,7 @@ timeline: everything up to MISSION_START happens at simulated time 0, as in
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -32,7 +43,14 @@ from pathlib import Path
 from flightdata import vocabulary
 from flightdata.steps import Steps
 from gcs.analysis import FlightAnalyzer, replay_tlog
-from gcs.errors import CommandRefused, Crashed, FlightError, FlightTimeout
+from gcs.errors import (
+    CommandRefused,
+    Crashed,
+    FlightError,
+    FlightTimeout,
+    RestartNeeded,
+    VehicleBusy,
+)
 from gcs.faults import FaultSpec, sorted_schedule
 from gcs.mission import WireItem
 from gcs.station import (
@@ -40,6 +58,7 @@ from gcs.station import (
     TELEMETRY_HZ,
     GroundStation,
     InjectionTiming,
+    mode_name,
     same_float32,
 )
 from gcs.table import FlightReport
@@ -87,6 +106,10 @@ class FlightPlan:
     connect_timeout_s, link_timeout_s, ready_timeout_s, wall_timeout_s : float
         Wall-clock limits: finding the vehicle, silence in flight, becoming armable, the
         whole flight.
+    reboot : bool
+        Restart the autopilot (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN) when it arms only after a
+        restart (a failure it detected in an earlier flight); without it such a vehicle ends
+        the flight with :class:`gcs.errors.RestartNeeded`.
     """
 
     mission: Sequence[WireItem]
@@ -99,6 +122,7 @@ class FlightPlan:
     link_timeout_s: float = 5.0  # s wall
     ready_timeout_s: float = 30.0  # s wall
     wall_timeout_s: float = 900.0  # s wall
+    reboot: bool = False
 
     def __post_init__(self) -> None:
         if self.inject_via not in ("command", "param"):
@@ -229,6 +253,7 @@ def fly(gs: GroundStation, plan: FlightPlan,
         raise
     else:
         gs.log("RESULT", "mission flown, vehicle landed and disarmed")
+    _clear_faults(gs, plan)
     live = gs.report()
     gs.close()
     report = live
@@ -243,12 +268,64 @@ def fly(gs: GroundStation, plan: FlightPlan,
                          tlog=tlog, event_log=gs.events.path, replayed=replayed)
 
 
+def _clear_faults(gs: GroundStation, plan: FlightPlan) -> None:
+    """Clear what the flight injected (:meth:`GroundStation.clear_injected_faults`) while the
+    vehicle is still heard; a failure to do so is logged, never the flight's result."""
+    if not gs.injected_anything or gs.closed:
+        return
+    if gs.wall_since_vehicle_s() > plan.link_timeout_s:
+        gs.log("INJECT", "faults not cleared: the vehicle is not heard any more")
+        return
+    try:
+        gs.clear_injected_faults()
+    except FlightError as err:
+        gs.log("INJECT", f"faults not cleared: {err.one_line()}")
+
+
+def _restart_summary(reason: str) -> str:
+    """The pre-arm reason in a few words: the motors declared failed, else the reason."""
+    motors = re.findall(r"motor (\d+) detected failed", reason)
+    if motors:
+        return (f"motor{'s' if len(motors) > 1 else ''} {', '.join(motors)} detected failed "
+                "in an earlier flight")
+    return reason
+
+
+def _ready_to_arm(gs: GroundStation, plan: FlightPlan) -> bool:
+    """A mode that allows arming, then armable; a vehicle that arms only after a restart is
+    restarted when ``plan.reboot`` (else :class:`RestartNeeded`). Returns whether the
+    vehicle reported ready to arm within ``plan.ready_timeout_s``."""
+    gs.ensure_arming_mode()
+    if gs.wait_armable(plan.ready_timeout_s):
+        return True
+    if not gs.restart_needed():
+        return False
+    summary = _restart_summary(gs.prearm_reason or "")
+    if not plan.reboot:
+        raise RestartNeeded(f"the vehicle arms only after its autopilot restarts ({summary}); "
+                            "add --reboot to restart it first")
+    gs.log("FLIGHT", f"{summary}: restarting the autopilot (--reboot)")
+    gs.reboot(plan.connect_timeout_s)
+    gs.ensure_arming_mode()
+    if gs.wait_armable(plan.ready_timeout_s):
+        return True
+    if gs.restart_needed():
+        raise RestartNeeded(f"the vehicle still refuses to arm after a restart: "
+                            f"{gs.prearm_reason}")
+    return False
+
+
 def _fly(gs: GroundStation, plan: FlightPlan,
          progress: Callable[[GroundStation], None] | None, wall0: float,
          vehicle_gone: Callable[[], str | None] | None) -> None:
     if gs.analyzer.vehicle is None:
         gs.wait_vehicle(plan.connect_timeout_s, vehicle_gone)
     gs.wait_clock()
+    if gs.analyzer.armed:
+        mode = gs.analyzer.custom_mode
+        raise VehicleBusy(f"the vehicle is armed (mode {mode_name(mode)}): another flight is "
+                          "under way; land and disarm it first")
+    armable = _ready_to_arm(gs, plan)
     gs.request_streams(plan.telemetry_hz)
     params = gs.fetch_params()
     for name, value in plan.params.items():
@@ -263,7 +340,8 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     if "SIM_PAUSE" not in gs.param_names:
         gs.read_param("SIM_PAUSE")  # a simulator held at t = 0 must be told to go
     gs.wait_home()
-    gs.wait_armable(plan.ready_timeout_s)
+    if armable:  # (a parameter change may rebuild the autopilot: wait for it again)
+        gs.wait_armable(plan.ready_timeout_s)
     gs.upload_mission(plan.mission)
     injector = _Injector(gs, plan.faults, plan.inject_via)
     # the takeoff is counted from here: on a slow link the vehicle may be in the air before
