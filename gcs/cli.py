@@ -83,7 +83,7 @@ from gcs.faults import (
 )
 from gcs.flight import FlightOutcome, FlightPlan, config_params, fly
 from gcs.mavlink import check_url
-from gcs.mission import MissionFileError, WireItem, load_mission, thesis_mission
+from gcs.mission import MissionFileError, PlanSections, load_mission, load_plan, thesis_mission
 from gcs.spawn import SpawnedVehicle, VehicleSpec
 from gcs.station import GroundStation
 from gcs.table import format_report
@@ -154,7 +154,8 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                       "too")
     what = p.add_argument_group("flight")
     what.add_argument("--mission", default="thesis", metavar="thesis|FILE",
-                      help="the thesis mission (default) or a QGC WPL 110 / TOML file")
+                      help="the thesis mission (default), a QGC WPL 110 or TOML file, or a "
+                      "QGroundControl .plan (mission, geofence, rally points)")
     what.add_argument("--faults", default=None if not demo else "table7.3",
                       metavar="table7.3|FILE",
                       help="fault schedule: Table 7.3 or a TOML file" +
@@ -240,10 +241,12 @@ def _schedule(args: argparse.Namespace) -> list[FaultSpec]:
     return sorted_schedule(faults)
 
 
-def _mission(args: argparse.Namespace) -> list[WireItem]:
+def _mission(args: argparse.Namespace) -> PlanSections:
     if args.mission == "thesis":
-        return thesis_mission()
-    return load_mission(args.mission)
+        return PlanSections(thesis_mission(), [], [])
+    if Path(args.mission).suffix.lower() == ".plan":
+        return load_plan(args.mission)
+    return PlanSections(load_mission(args.mission), [], [])
 
 
 def _write_json(path: Path, data: Any) -> None:
@@ -337,7 +340,8 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
         mission = _mission(args)
         params = config_params(attitude=args.attitude, estimator=args.estimator, dob=args.dob)
         params.update(dict(args.param))
-        plan = FlightPlan(mission=mission, faults=faults, params=params,
+        plan = FlightPlan(mission=mission.mission, fence=mission.fence, rally=mission.rally,
+                          faults=faults, params=params,
                           inject_via=args.inject_via, max_flight_s=args.max_flight_s,
                           connect_timeout_s=args.connect_timeout or DEFAULT_CONNECT_TIMEOUT_S,
                           ready_timeout_s=args.ready_timeout,

@@ -101,10 +101,15 @@ class RestartNeeded(CommandRefused):
 
 
 class MissionRejected(FlightError):
-    """The mission upload was rejected."""
+    """The mission upload was rejected; ``result`` is the MAV_MISSION_RESULT (None when not
+    from a MISSION_ACK)."""
 
     exit_code = 5
     label = "mission rejected"
+
+    def __init__(self, reason: str, *, result: int | None = None) -> None:
+        super().__init__(reason)
+        self.result = result
 
 
 class FlightTimeout(FlightError):

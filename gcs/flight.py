@@ -48,10 +48,12 @@ from gcs.errors import (
     Crashed,
     FlightError,
     FlightTimeout,
+    MissionRejected,
     RestartNeeded,
     VehicleBusy,
 )
 from gcs.faults import FaultSpec, sorted_schedule
+from gcs.mavlink import mavlink2
 from gcs.mission import WireItem
 from gcs.station import (
     COPTER_MODE_AUTO,
@@ -64,6 +66,10 @@ from gcs.station import (
 from gcs.table import FlightReport
 
 __all__ = ["FlightOutcome", "FlightPlan", "config_params", "fly"]
+
+MAV_MISSION_TYPE_FENCE = mavlink2.MAV_MISSION_TYPE_FENCE
+MAV_MISSION_TYPE_RALLY = mavlink2.MAV_MISSION_TYPE_RALLY
+MAV_MISSION_UNSUPPORTED = mavlink2.MAV_MISSION_UNSUPPORTED
 
 
 
@@ -92,6 +98,10 @@ class FlightPlan:
     ----------
     mission : list of WireItem
         Items seq 1..n (home is added).
+    fence, rally : list of WireItem
+        A geofence and rally points (a QGC plan's, :func:`gcs.mission.load_plan`), uploaded
+        after the mission when given; a vehicle that keeps none (MAV_MISSION_UNSUPPORTED)
+        flies without them, and the event log says so.
     faults : list of FaultSpec
         Injections, at simulated seconds after the mission start.
     params : dict of str to float
@@ -113,6 +123,8 @@ class FlightPlan:
     """
 
     mission: Sequence[WireItem]
+    fence: Sequence[WireItem] = ()
+    rally: Sequence[WireItem] = ()
     faults: Sequence[FaultSpec] = ()
     params: dict[str, float] = field(default_factory=dict)
     inject_via: str = "command"
@@ -343,6 +355,16 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     if armable:  # (a parameter change may rebuild the autopilot: wait for it again)
         gs.wait_armable(plan.ready_timeout_s)
     gs.upload_mission(plan.mission)
+    for items, mission_type, what in ((plan.fence, MAV_MISSION_TYPE_FENCE, "geofence"),
+                                      (plan.rally, MAV_MISSION_TYPE_RALLY, "rally points")):
+        if items:
+            try:
+                gs.upload_mission(items, mission_type=mission_type)
+            except MissionRejected as err:
+                if err.result != MAV_MISSION_UNSUPPORTED:
+                    raise
+                gs.log("MISSION", f"the vehicle keeps no {what} (MAV_MISSION_UNSUPPORTED): "
+                       f"flying without the plan's {what} ({len(items)} items)")
     injector = _Injector(gs, plan.faults, plan.inject_via)
     # the takeoff is counted from here: on a slow link the vehicle may be in the air before
     # the last start-up step (SIM_PAUSE = 0 below) is confirmed

@@ -83,6 +83,9 @@ TELEMETRY_HZ: dict[str, float] = {
 _MISSION_NUDGE_S = 1.0  # s wall without a MISSION_REQUEST before we nudge the upload, at most
 _MISSION_STALL_S = 15.0  # s wall without progress before an upload starts over
 _MISSION_UPLOADS = 3  # uploads started before giving up
+_MISSION_TYPE_WORDS = {_M.MAV_MISSION_TYPE_MISSION: "mission",
+                       _M.MAV_MISSION_TYPE_FENCE: "geofence",
+                       _M.MAV_MISSION_TYPE_RALLY: "rally points"}
 _STREAM_ROUNDS_S = (0.5, 0.5, 1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0)
 """Wall seconds of each round of stream requests, at most (~18 s in all)."""
 _DATE_REQUEST_S = 0.5  # s wall between TIMESYNC requests that date the mission start
@@ -435,8 +438,10 @@ class GroundStation(ParameterClient):
             self._lag_samples_s.append(max(0.0, effect_s - sent))
 
     # ------------------------------------------------------------------ missions
-    def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0) -> None:
-        """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0).
+    def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0,
+                       mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> None:
+        """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0); with
+        ``mission_type`` FENCE or RALLY, a geofence or rally points (seq 0..n-1, no home).
 
         Over a lossy link: when no request comes for a while (:meth:`_retry_wait_s`, 1 s at
         most), the upload is nudged (MISSION_COUNT
@@ -450,34 +455,42 @@ class GroundStation(ParameterClient):
         Raises
         ------
         MissionRejected
-            A MISSION_ACK other than ACCEPTED (with the vehicle's reason).
+            A MISSION_ACK other than ACCEPTED (with the vehicle's reason; ``result`` holds
+            the MAV_MISSION_RESULT).
         FlightTimeout
             The vehicle stopped asking for items.
         """
         sysid, compid = self.target
-        home = home_item()
-        if self.analyzer.home is not None:
-            lat_e7, lon_e7, alt_mm = self.analyzer.home[:3]
-            home = home_item(lat_e7 * 1e-7, lon_e7 * 1e-7, alt_mm * 1e-3)
-        wire = [home, *items]
+        what = _MISSION_TYPE_WORDS.get(mission_type, f"mission type {mission_type}")
+        if mission_type == _M.MAV_MISSION_TYPE_MISSION:
+            home = home_item()
+            if self.analyzer.home is not None:
+                lat_e7, lon_e7, alt_mm = self.analyzer.home[:3]
+                home = home_item(lat_e7 * 1e-7, lon_e7 * 1e-7, alt_mm * 1e-3)
+            wire = [home, *items]
+            self.log("MISSION", f"uploading {len(items)} items (+ home)")
+        else:
+            wire = list(items)
+            self.log("MISSION", f"uploading {what}: {len(items)} items")
         count = len(wire)
-        self.log("MISSION", f"uploading {len(items)} items (+ home)")
         deadline = time.monotonic() + timeout_s
         last_seq = -1
         for upload in range(_MISSION_UPLOADS):
             if upload:
                 self.log("MISSION", f"upload stalled after item {last_seq}: starting over")
-            last_seq = self._upload_once(wire, deadline)
+            last_seq = self._upload_once(wire, deadline, mission_type)
             if last_seq == count:
-                self.log("MISSION", f"upload of {count - 1} items accepted")
+                self.log("MISSION", f"upload of {len(items)} {what} items accepted")
                 return
-        raise FlightTimeout(f"mission upload stalled after item {last_seq} of {count - 1} "
+        raise FlightTimeout(f"{what} upload stalled after item {last_seq} of {count - 1} "
                             f"({_MISSION_UPLOADS} uploads)")
 
-    def _upload_once(self, wire: Sequence[WireItem], deadline: float) -> int:
+    def _upload_once(self, wire: Sequence[WireItem], deadline: float,
+                     mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> int:
         """One upload; returns ``len(wire)`` when accepted, else the last seq asked for."""
         sysid, compid = self.target
         count = len(wire)
+        home_first = mission_type == _M.MAV_MISSION_TYPE_MISSION
         for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST", "STATUSTEXT"):
             self._take_all(kind, lambda m: True)
 
@@ -489,13 +502,13 @@ class GroundStation(ParameterClient):
 
         def send_count() -> None:
             nonlocal sent_at
-            self.send(_M.MAVLink_mission_count_message(sysid, compid, count,
-                                                       _M.MAV_MISSION_TYPE_MISSION))
+            self.send(_M.MAVLink_mission_count_message(sysid, compid, count, mission_type))
             sent_at = time.monotonic()
 
         def send_item(seq: int) -> None:
             nonlocal sent_at
-            self.send(wire[seq].to_message(seq, sysid, compid, current=seq == 0))
+            self.send(wire[seq].to_message(seq, sysid, compid, current=home_first and seq == 0,
+                                           mission_type=mission_type))
             sent_at = time.monotonic()
 
         send_count()
@@ -503,7 +516,7 @@ class GroundStation(ParameterClient):
         last_seq = -1
         while (now := time.monotonic()) < deadline and now - progress_at < _MISSION_STALL_S:
             reply = self._wait_reply(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
-                                     lambda m: int(getattr(m, "mission_type", 0)) == 0,
+                                     lambda m: int(getattr(m, "mission_type", 0)) == mission_type,
                                      self._retry_wait_s(_MISSION_NUDGE_S))
             if reply is None:
                 nudged = True
@@ -518,7 +531,7 @@ class GroundStation(ParameterClient):
                     return count
                 if result == _M.MAV_MISSION_OPERATION_CANCELLED:
                     return last_seq  # the vehicle timed out: start over
-                self._mission_rejected(wire, result, last_seq)
+                self._mission_rejected(wire, result, last_seq, mission_type)
             seq = int(reply.seq)
             if not 0 <= seq < count:
                 continue
@@ -531,8 +544,8 @@ class GroundStation(ParameterClient):
             nudged = False
         return last_seq
 
-    def _mission_rejected(self, wire: Sequence[WireItem], result: int,
-                          last_seq: int) -> NoReturn:
+    def _mission_rejected(self, wire: Sequence[WireItem], result: int, last_seq: int,
+                          mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> NoReturn:
         name = _M.enums["MAV_MISSION_RESULT"][result].name.removeprefix(
             "MAV_MISSION_") if result in _M.enums["MAV_MISSION_RESULT"] else str(result)
         reason = self._refusal_reason()
@@ -542,7 +555,10 @@ class GroundStation(ParameterClient):
             where = f" at item {last_seq} ({wire[last_seq].describe()})"
         else:
             where = ""
-        raise MissionRejected(f"{name}{where}" + (f": {reason}" if reason else ""))
+        what = "" if mission_type == _M.MAV_MISSION_TYPE_MISSION else \
+            f"{_MISSION_TYPE_WORDS.get(mission_type, str(mission_type))}: "
+        raise MissionRejected(f"{what}{name}{where}" + (f": {reason}" if reason else ""),
+                              result=result)
 
     # ------------------------------------------------------------------ faults
     def lead_s(self) -> float:
