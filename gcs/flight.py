@@ -18,6 +18,12 @@
     clear the faults this flight injected (also after a failed flight, while the vehicle
     answers), so the next flight starts healthy
 
+A simulator found running (SIM_PAUSE offered and 0) is held (SIM_PAUSE = 1) from the arm
+command to the mission start, as a vehicle started paused is: the vehicle disarms on the
+ground 10 s (simulated) after arming when it does not take off, which at a speed-up of 20 is
+half a wall second, less than arm, AUTO and MISSION_START can take over a lossy link. A
+flight that fails in between lets it run again.
+
 A vehicle found armed is refused, never taken over: it is flying someone else's flight (or
 about to), and a ground station that uploads a mission over it or changes its mode would
 take it from them.
@@ -265,6 +271,7 @@ def fly(gs: GroundStation, plan: FlightPlan,
         raise
     else:
         gs.log("RESULT", "mission flown, vehicle landed and disarmed")
+    _release_time(gs, plan)
     _clear_faults(gs, plan)
     live = gs.report()
     gs.close()
@@ -278,6 +285,19 @@ def fly(gs: GroundStation, plan: FlightPlan,
         report = replayed.report()
     return FlightOutcome(report=report, timing=list(gs.injection_timing), error=error,
                          tlog=tlog, event_log=gs.events.path, replayed=replayed)
+
+
+def _release_time(gs: GroundStation, plan: FlightPlan) -> None:
+    """A flight that failed between holding simulated time and the mission start lets it
+    run again (SIM_PAUSE = 0), while the vehicle is still heard."""
+    if not gs.held_time or gs.closed or gs.wall_since_vehicle_s() > plan.link_timeout_s:
+        return
+    try:
+        gs.set_param("SIM_PAUSE", 0.0)
+        gs.held_time = False
+        gs.log("FLIGHT", "simulated time let go again (SIM_PAUSE = 0)")
+    except FlightError as err:
+        gs.log("FLIGHT", f"simulated time still held: {err.one_line()}")
 
 
 def _clear_faults(gs: GroundStation, plan: FlightPlan) -> None:
@@ -369,6 +389,10 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     # the takeoff is counted from here: on a slow link the vehicle may be in the air before
     # the last start-up step (SIM_PAUSE = 0 below) is confirmed
     takeoffs_before = gs.analyzer.takeoffs
+    if gs.param_names.get("SIM_PAUSE") == 0.0:  # a simulator running: hold it (docstring)
+        gs.set_param("SIM_PAUSE", 1.0)
+        gs.held_time = True
+        gs.log("FLIGHT", "simulated time held (SIM_PAUSE = 1) from arming to the mission start")
     gs.arm()
     gs.set_mode(COPTER_MODE_AUTO)
     start_s = gs.start_mission()
@@ -377,6 +401,7 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     injector.start(start_s)
     if gs.param_names.get("SIM_PAUSE", 0.0) != 0.0:
         gs.set_param("SIM_PAUSE", 0.0)
+        gs.held_time = False
         gs.log("FLIGHT", "simulated time started (SIM_PAUSE = 0)")
     _watch(gs, plan, injector, start_s, progress, wall0, takeoffs_before)
 

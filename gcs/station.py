@@ -170,6 +170,7 @@ class GroundStation(ParameterClient):
         # what the injections changed, to undo after the flight: parameter -> value before
         self._restore_params: dict[str, float] = {}
         self._motor_faults_commanded = False  # INJECT_FAILURE motor faults were sent
+        self.held_time = False  # this flight set SIM_PAUSE = 1 and has not let go yet
 
     def _note_event(self, event: FlightEvent) -> None:
         if event.kind == "INJECT":
