@@ -47,9 +47,9 @@ def test_a_project_of_its_own_gets_vehicle_link_without_a_conftest(tmp_path: Pat
     project = tmp_path / "my-flights"
     (project / "tests").mkdir(parents=True)
     (project / "tests" / "test_hover.py").write_text(USER_TEST)
+    # (the same interpreter and import path as this process, whose metadata the skip reads)
     env = {k: v for k, v in os.environ.items()
-           if k not in ("PYTHONPATH", "PYTEST_ADDOPTS", "PYTEST_PLUGINS",
-                        "PYTEST_DISABLE_PLUGIN_AUTOLOAD")}
+           if k not in ("PYTEST_ADDOPTS", "PYTEST_PLUGINS", "PYTEST_DISABLE_PLUGIN_AUTOLOAD")}
     proc = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider",
                            "-rA", "tests"], cwd=project, env=env, capture_output=True,
                           text=True, timeout=RUN_WALL_S, stdin=subprocess.DEVNULL)
