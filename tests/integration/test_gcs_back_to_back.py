@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 from lossy_proxy import LossyProxy
+from pymavlink import mavutil
 from vehicle_harness import ROOT, Gcs, M, VehicleProcess, free_port, write_hover_mission
 
 from fcu.mavlink.geo import ned_to_geo
@@ -225,3 +226,41 @@ def test_flights_and_uploads_through_a_link_losing_30_percent_each_way(
     for direction in (proxy.to_gcs, proxy.to_vehicle):  # the link really lost about 30 %
         n = direction.forwarded + direction.dropped
         assert direction.loss == pytest.approx(LOSS, abs=5 * math.sqrt(LOSS * (1 - LOSS) / n))
+
+
+def test_a_vehicle_found_flying_is_refused_in_one_line(tmp_path: Path) -> None:
+    port = free_port()
+    # speed-up 1: the other ground station's take-off is not over before ours connects
+    vehicle = VehicleProcess(["--speedup", "1", "--out", f"127.0.0.1:{port}"])
+    other = Gcs()
+    try:
+        other.vehicle = vehicle.address
+        other.auto_heartbeat(0.5)
+        other.heartbeat()
+        other.wait_heartbeat(60.0)
+        assert other.set_mode(M.COPTER_MODE_GUIDED).result == M.MAV_RESULT_ACCEPTED
+        deadline = time.monotonic() + 60.0  # s: armable once its estimate has settled
+        while other.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result != \
+                M.MAV_RESULT_ACCEPTED:
+            assert time.monotonic() < deadline, "the vehicle never became armable"
+            other.collect(1.0)
+        assert other.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.0).result == \
+            M.MAV_RESULT_ACCEPTED
+        proc, _, _ = gcs_fly(f"udpin:127.0.0.1:{port}", tmp_path, "busy")
+        still = other.wait_heartbeat(10.0)
+    finally:
+        other.close()
+        vehicle.stop()
+    assert proc.returncode == 4, proc.stderr[-3000:]
+    assert [ln for ln in proc.stderr.splitlines() if ln.startswith("ftc-")] == [
+        "ftc-gcs: vehicle busy: the vehicle is armed (mode GUIDED): another flight is under "
+        "way; land and disarm it first"]
+    log = mavutil.mavlink_connection(str(tmp_path / "busy.tlog"))
+    sent = set()
+    while (msg := log.recv_match()) is not None:
+        if msg.get_srcSystem() == 255:
+            sent.add(msg.get_type())
+    log.close()
+    assert sent <= {"HEARTBEAT", "TIMESYNC"}, sent  # no command, parameter or mission
+    assert still.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED  # still flying the other's flight
+    assert still.custom_mode == M.COPTER_MODE_GUIDED
