@@ -3,7 +3,8 @@
 Installing quadftc enables it: its ``pytest11`` entry point (``quadftc =
 "gcs.pytest_plugin"``) makes pytest load it in any project, with no ``conftest.py`` line. (An
 install older than the entry point needs ``pytest_plugins = ["gcs.pytest_plugin"]`` in a
-``conftest.py``; this repository's ``tests/conftest.py`` adds it only then.) Then write telemetry-based integration tests in a few lines::
+``conftest.py``; this repository's ``tests/conftest.py`` adds it only then.) Then write
+telemetry-based integration tests in a few lines::
 
     import pytest
     from gcs.faults import FaultSpec
