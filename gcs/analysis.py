@@ -186,7 +186,9 @@ class FlightAnalyzer(TelemetryReader):
                             mission_start_s=self.mission_start_s, loe=self._loe_table(t_end),
                             injections=list(self.injections), detections=list(self.detections),
                             crashed=self.crashed, vehicle_time_s=self.clock_s,
-                            params=dict(self.params), outcome=self.outcome,
+                            params=dict(self.params if self.params_at_end is None
+                                        else self.params_at_end),
+                            outcome=self.outcome,
                             faults=list(self.faults), spin=self._spin())
 
     def _spin(self) -> dict[str, float] | None:

@@ -481,7 +481,8 @@ class GroundStation(ParameterClient):
                 self.log("MISSION", f"upload stalled after item {last_seq}: starting over")
             last_seq = self._upload_once(wire, deadline, mission_type)
             if last_seq == count:
-                self.log("MISSION", f"upload of {len(items)} {what} items accepted")
+                self.log("MISSION", f"upload of {len(items)} items accepted" if what == "mission"
+                         else f"upload of {what}: {len(items)} items accepted")
                 return
         raise FlightTimeout(f"{what} upload stalled after item {last_seq} of {count - 1} "
                             f"({_MISSION_UPLOADS} uploads)")

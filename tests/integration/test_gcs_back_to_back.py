@@ -148,7 +148,7 @@ def test_a_qgroundcontrol_plan_is_flown(tmp_path: Path) -> None:
     finally:
         vehicle.stop()
     assert_landed(proc, data)
-    assert "upload of 6 mission items accepted" in events
+    assert "upload of 6 items accepted" in events
     for seq in range(1, 7):
         assert f"item {seq} reached" in events
     # this vehicle keeps no geofence or rally points: said, and flown without them
