@@ -414,9 +414,26 @@ class GroundStation(ParameterClient):
                      applied=lambda: self.analyzer.custom_mode == custom_mode)
 
     def start_mission(self) -> float:
-        """MISSION_START; returns the vehicle time at which the mission started (s)."""
+        """MISSION_START; returns the vehicle time at which the mission started (s).
+
+        A lost answer is made up for by MISSION_CURRENT (asked for with REQUEST_MESSAGE)
+        showing the mission active; the start is then dated by the next clock value, exact
+        when simulated time is held (SIM_PAUSE), and an event says so.
+        """
+        sysid, compid = self.target
+
+        def running() -> bool:
+            return self.analyzer.mission_state == _M.MISSION_STATE_ACTIVE
+
+        def ask_progress() -> None:
+            self.send(_M.MAVLink_command_long_message(
+                sysid, compid, _M.MAV_CMD_REQUEST_MESSAGE, 0,
+                float(_M.MAVLINK_MSG_ID_MISSION_CURRENT), 0, 0, 0, 0, 0, 0))
+
         self.command(_M.MAV_CMD_MISSION_START, (0.0, 0.0), what="mission start",
-                     with_timesync=True)
+                     with_timesync=True, applied=running, read_back=ask_progress)
+        if not self.last_command_acked:
+            self._date_unanswered_start()
         # The ACK is dated by the next clock value: the TIMESYNC answer sent with it, or the
         # telemetry that follows. A paused vehicle streams nothing, so if that answer was
         # lost, ask the time again until one comes back.
@@ -432,6 +449,25 @@ class GroundStation(ParameterClient):
             self.pump(0.02)
         self._note_lag(self.analyzer.mission_start_s)
         return self.analyzer.mission_start_s
+
+    def _date_unanswered_start(self, timeout_s: float = 10.0) -> None:
+        """The mission runs but its ACK never came: the next clock value dates its start."""
+        updates = self.analyzer.clock_updates
+        deadline = time.monotonic() + timeout_s
+        last_request = -math.inf
+        while self.analyzer.mission_start_s is None:
+            now = time.monotonic()
+            if self.analyzer.clock_updates > updates and self.analyzer.clock_s is not None:
+                self.analyzer.mission_start_s = self.analyzer.clock_s
+                self.log("FLIGHT", f"mission start dated t = {self.analyzer.clock_s:.3f} s by "
+                         "the clock after it (its answer was lost)")
+                return
+            if now >= deadline:
+                raise FlightTimeout("no telemetry after the mission start")
+            if now - last_request >= _DATE_REQUEST_S:
+                last_request = now
+                self.send(_M.MAVLink_timesync_message(0, time.time_ns()))
+            self.pump(0.02)
 
     def _note_lag(self, effect_s: float) -> None:
         sent = self._sent_clock

@@ -99,6 +99,7 @@ class TelemetryReader:
         self.packets = 0  # packets fed (both directions)
         self.undated_truth = 0  # SIM_STATE samples dropped: no clock value of their own
         self.clock_s: float | None = None
+        self.clock_updates = 0  # time-stamped messages seen (a held clock does not move)
         self._pending: list[_Pending] = []
         self._chunks: dict[int, list[str]] = {}
         # samples
@@ -173,6 +174,7 @@ class TelemetryReader:
             self._on_event(event)
 
     def _advance(self, time_s: float) -> None:
+        self.clock_updates += 1
         if self.clock_s is None or time_s >= self.clock_s:
             self.clock_s = time_s
         pending, self._pending = self._pending, []
