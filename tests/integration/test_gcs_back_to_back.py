@@ -23,6 +23,7 @@ from pymavlink import mavutil
 from vehicle_harness import Gcs, M, VehicleProcess, free_port, write_hover_mission
 
 from fcu.mavlink.geo import ned_to_geo
+from gcs.mission import load_mission
 from sim.vehicle import DEFAULT_HOME
 
 SPEEDUP = "20"
@@ -161,3 +162,27 @@ def test_a_vehicle_found_flying_is_refused_in_one_line(tmp_path: Path) -> None:
     assert sent <= {"HEARTBEAT", "TIMESYNC"}, sent  # no command, parameter or mission
     assert still.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED  # still flying the other's flight
     assert still.custom_mode == M.COPTER_MODE_GUIDED
+
+
+@pytest.mark.vehicle(speedup=20, seed=1)
+def test_a_lost_mission_start_answer_is_made_up_for(vehicle_link, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """Every COMMAND_ACK of MISSION_START is lost on the way back: the mission running in
+    MISSION_CURRENT counts as the answer, and the held clock dates the start exactly."""
+    handle = vehicle_link._handle
+    lost = []
+
+    def losing_start_acks(msg: Any, stamp: float | None = None) -> None:
+        if msg.get_type() == "COMMAND_ACK" and msg.command == M.MAV_CMD_MISSION_START:
+            lost.append(msg)
+            return
+        handle(msg, stamp)
+
+    vehicle_link._handle = losing_start_acks
+    outcome = vehicle_link.fly(mission=load_mission(write_hover_mission(tmp_path / "h.toml")))
+    assert outcome.error is None, outcome.error
+    assert lost  # the vehicle did answer: each answer was dropped here
+    events = (tmp_path / "flight.events.log").read_text()
+    assert "mission start: answer lost, the vehicle shows it done" in events
+    # a vehicle started paused starts its mission at simulated time 0 exactly
+    assert "mission start dated t = 0.000 s by the clock after it" in events
+    assert vehicle_link.analyzer.mission_start_s == 0.0
