@@ -186,7 +186,9 @@ class FlightAnalyzer(TelemetryReader):
                             mission_start_s=self.mission_start_s, loe=self._loe_table(t_end),
                             injections=list(self.injections), detections=list(self.detections),
                             crashed=self.crashed, vehicle_time_s=self.clock_s,
-                            params=dict(self.params), outcome=self.outcome,
+                            params=dict(self.params if self.params_at_end is None
+                                        else self.params_at_end),
+                            outcome=self.outcome,
                             faults=list(self.faults), spin=self._spin())
 
     def _spin(self) -> dict[str, float] | None:
@@ -211,6 +213,8 @@ class FlightAnalyzer(TelemetryReader):
             est = self._loe_est[motor]
             if t_end is not None:
                 est = [e for e in est if e[0] <= t_end + 1e-9] or est
+                # what was in force in flight: not the clearing after the landing
+                inj = [i for i in inj if i.time_s <= t_end + 1e-9]
             dets = [d for d in self.detections
                     if d.motor == motor and d.record.action == "detected"]
             rows.append({

@@ -3,7 +3,7 @@
 Usage::
 
     ftc-gcs fly    [--connect URL | --spawn-vehicle [--speedup X] [--seed N] [--scenario S]]
-                   [--signing-key KEY]
+                   [--signing-key KEY] [--reboot]
                    [--mission thesis|FILE] [--faults table7.3|FILE] [--fault SPEC ...]
                    [--inject-via command|param]
                    [--attitude pd|lqg] [--estimator ekf|tskf] [--dob none|vbdob|abdob]
@@ -20,6 +20,16 @@ sends its telemetry), or with ``--spawn-vehicle`` starts ``python -m sim`` itsel
 ``demo`` is ``fly --spawn-vehicle --faults table7.3`` with the Table 7.4 configuration (LQG
 attitude, EKF feedback, no DOB) at speed-up 10: the one-command demonstration.
 ``report`` recomputes the table from any recorded flight.
+
+Flights back to back: before arming, ``fly`` puts a vehicle found in a mode that does not
+allow arming (AUTO after a mission, LAND, RTL) in STABILIZE and waits for a HEARTBEAT in it;
+a vehicle found armed is refused (``ftc-gcs: vehicle busy: ...``, exit status 4), never taken
+over. A vehicle that arms only after a restart (it declared a motor failed in an earlier
+flight; ``MAV_CMD_RUN_PREARM_CHECKS`` gives the reason) is refused in one line
+(``ftc-gcs: restart needed: ...``, exit status 4) unless ``--reboot`` is given, which restarts
+its autopilot (``MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN``), waits for it and flies; ``demo``
+always may. The faults a flight injected are cleared when it ends (motor faults with
+``INJECT_FAILURE`` type OK, ``SIM_*`` parameters back to their value before the flight).
 
 Views of a flight: ``--rerun`` streams it live to a rerun viewer it starts (``--rerun URL``:
 to a viewer or server already running, e.g. ``rerun+http://127.0.0.1:9876/proxy``);
@@ -73,7 +83,7 @@ from gcs.faults import (
 )
 from gcs.flight import FlightOutcome, FlightPlan, config_params, fly
 from gcs.mavlink import check_url
-from gcs.mission import MissionFileError, WireItem, load_mission, thesis_mission
+from gcs.mission import MissionFileError, PlanSections, load_mission, load_plan, thesis_mission
 from gcs.spawn import SpawnedVehicle, VehicleSpec
 from gcs.station import GroundStation
 from gcs.table import format_report
@@ -131,13 +141,21 @@ def _add_fly_options(p: argparse.ArgumentParser, *, demo: bool) -> None:
                       "flight is prepared")
     link.add_argument("--vehicle-arg", action="append", default=[], metavar="ARG",
                       help="spawned vehicle: extra ftc-vehicle option (repeatable)")
+    if demo:
+        link.set_defaults(reboot=True)  # a fresh vehicle: nothing to restart, never a prompt
+    else:
+        link.add_argument("--reboot", action="store_true",
+                          help="when the vehicle arms only after a restart (a failure it "
+                          "detected in an earlier flight), restart its autopilot "
+                          "(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN) and fly")
     link.add_argument("--signing-key", type=_signing_key, default=None, metavar="KEY",
                       help="MAVLink 2 signing key: a passphrase (SHA-256, as MAVProxy's "
                       "'signing setup') or hex: and 64 hex digits; a spawned vehicle gets it "
                       "too")
     what = p.add_argument_group("flight")
     what.add_argument("--mission", default="thesis", metavar="thesis|FILE",
-                      help="the thesis mission (default) or a QGC WPL 110 / TOML file")
+                      help="the thesis mission (default), a QGC WPL 110 or TOML file, or a "
+                      "QGroundControl .plan (mission, geofence, rally points)")
     what.add_argument("--faults", default=None if not demo else "table7.3",
                       metavar="table7.3|FILE",
                       help="fault schedule: Table 7.3 or a TOML file" +
@@ -223,10 +241,12 @@ def _schedule(args: argparse.Namespace) -> list[FaultSpec]:
     return sorted_schedule(faults)
 
 
-def _mission(args: argparse.Namespace) -> list[WireItem]:
+def _mission(args: argparse.Namespace) -> PlanSections:
     if args.mission == "thesis":
-        return thesis_mission()
-    return load_mission(args.mission)
+        return PlanSections(thesis_mission(), [], [])
+    if Path(args.mission).suffix.lower() == ".plan":
+        return load_plan(args.mission)
+    return PlanSections(load_mission(args.mission), [], [])
 
 
 def _write_json(path: Path, data: Any) -> None:
@@ -320,11 +340,13 @@ def cmd_fly(args: argparse.Namespace, *, demo: bool) -> int:
         mission = _mission(args)
         params = config_params(attitude=args.attitude, estimator=args.estimator, dob=args.dob)
         params.update(dict(args.param))
-        plan = FlightPlan(mission=mission, faults=faults, params=params,
+        plan = FlightPlan(mission=mission.mission, fence=mission.fence, rally=mission.rally,
+                          faults=faults, params=params,
                           inject_via=args.inject_via, max_flight_s=args.max_flight_s,
                           connect_timeout_s=args.connect_timeout or DEFAULT_CONNECT_TIMEOUT_S,
                           ready_timeout_s=args.ready_timeout,
-                          link_timeout_s=args.link_timeout, wall_timeout_s=args.timeout)
+                          link_timeout_s=args.link_timeout, wall_timeout_s=args.timeout,
+                          reboot=args.reboot)
     except (FaultScheduleError, MissionFileError, ValueError) as err:
         print(f"{PROG}: error: {err}", file=sys.stderr)
         return EXIT_USAGE

@@ -10,6 +10,9 @@ code   error                when
 3      VehicleNotFound      no HEARTBEAT from an autopilot within the timeout
 3      SigningMismatch      the vehicle's MAVLink 2 signing does not match ours
 4      CommandRefused       the vehicle refused a command or a parameter
+4      VehicleBusy          the vehicle was found armed (flying, or about to)
+4      RestartNeeded        the vehicle arms only after a restart (a failure detected in
+                            an earlier flight), and the flight was not allowed one
 5      MissionRejected      the vehicle rejected the mission upload
 6      FlightTimeout        no answer, link lost, or the mission did not finish
 130    (interrupted)        Ctrl-C
@@ -29,7 +32,9 @@ __all__ = [
     "FlightError",
     "FlightTimeout",
     "MissionRejected",
+    "RestartNeeded",
     "SigningMismatch",
+    "VehicleBusy",
     "VehicleNotFound",
 ]
 
@@ -81,11 +86,30 @@ class CommandRefused(FlightError):
     label = "command refused"
 
 
+class VehicleBusy(CommandRefused):
+    """The vehicle is armed: someone else is flying it (or it is about to take off)."""
+
+    exit_code = 4
+    label = "vehicle busy"
+
+
+class RestartNeeded(CommandRefused):
+    """The vehicle refuses to arm until its autopilot restarts (``--reboot`` allows it)."""
+
+    exit_code = 4
+    label = "restart needed"
+
+
 class MissionRejected(FlightError):
-    """The mission upload was rejected."""
+    """The mission upload was rejected; ``result`` is the MAV_MISSION_RESULT (None when not
+    from a MISSION_ACK)."""
 
     exit_code = 5
     label = "mission rejected"
+
+    def __init__(self, reason: str, *, result: int | None = None) -> None:
+        super().__init__(reason)
+        self.result = result
 
 
 class FlightTimeout(FlightError):

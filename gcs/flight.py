@@ -3,6 +3,10 @@
 :func:`fly` reads top to bottom like the flight::
 
     wait for the vehicle's HEARTBEAT           -> VehicleNotFound
+    refuse a vehicle found armed                -> VehicleBusy
+    a mode that allows arming (STABILIZE unless it is in one), seen in its HEARTBEAT
+    wait until armable; a vehicle that arms only after a restart (a failure detected in
+    an earlier flight) is restarted when the plan allows it  -> RestartNeeded
     ask for the table's telemetry at 100 Hz
     read the parameters; set the autopilot configuration (ATT_CTRL, EST_TYPE, DOB_TYPE...)
     wait for HOME_POSITION and the armable (PREARM_CHECK) flag
@@ -11,6 +15,18 @@
     if the vehicle was started paused (SIM_PAUSE = 1), start simulated time
     until landed and disarmed: inject each fault on time (vehicle clock), watch for a crash,
     a lost link, or a mission that does not end  -> Crashed, FlightTimeout
+    clear the faults this flight injected (also after a failed flight, while the vehicle
+    answers), so the next flight starts healthy
+
+A simulator found running (SIM_PAUSE offered and 0) is held (SIM_PAUSE = 1) from the arm
+command to the mission start, as a vehicle started paused is: the vehicle disarms on the
+ground 10 s (simulated) after arming when it does not take off, which at a speed-up of 20 is
+half a wall second, less than arm, AUTO and MISSION_START can take over a lossy link. A
+flight that fails in between lets it run again.
+
+A vehicle found armed is refused, never taken over: it is flying someone else's flight (or
+about to), and a ground station that uploads a mission over it or changes its mode would
+take it from them.
 
 Fault timing: each fault is sent when the vehicle clock (100 Hz ATTITUDE) reaches its target
 minus the measured command lag (:meth:`gcs.station.GroundStation.lead_s`), with a TIMESYNC in
@@ -24,6 +40,7 @@ timeline: everything up to MISSION_START happens at simulated time 0, as in
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -32,19 +49,33 @@ from pathlib import Path
 from flightdata import vocabulary
 from flightdata.steps import Steps
 from gcs.analysis import FlightAnalyzer, replay_tlog
-from gcs.errors import CommandRefused, Crashed, FlightError, FlightTimeout
+from gcs.errors import (
+    CommandRefused,
+    Crashed,
+    FlightError,
+    FlightTimeout,
+    MissionRejected,
+    RestartNeeded,
+    VehicleBusy,
+)
 from gcs.faults import FaultSpec, sorted_schedule
+from gcs.mavlink import mavlink2
 from gcs.mission import WireItem
 from gcs.station import (
     COPTER_MODE_AUTO,
     TELEMETRY_HZ,
     GroundStation,
     InjectionTiming,
+    mode_name,
     same_float32,
 )
 from gcs.table import FlightReport
 
 __all__ = ["FlightOutcome", "FlightPlan", "config_params", "fly"]
+
+MAV_MISSION_TYPE_FENCE = mavlink2.MAV_MISSION_TYPE_FENCE
+MAV_MISSION_TYPE_RALLY = mavlink2.MAV_MISSION_TYPE_RALLY
+MAV_MISSION_UNSUPPORTED = mavlink2.MAV_MISSION_UNSUPPORTED
 
 
 
@@ -73,6 +104,10 @@ class FlightPlan:
     ----------
     mission : list of WireItem
         Items seq 1..n (home is added).
+    fence, rally : list of WireItem
+        A geofence and rally points (a QGC plan's, :func:`gcs.mission.load_plan`), uploaded
+        after the mission when given; a vehicle that keeps none (MAV_MISSION_UNSUPPORTED)
+        flies without them, and the event log says so.
     faults : list of FaultSpec
         Injections, at simulated seconds after the mission start.
     params : dict of str to float
@@ -87,9 +122,15 @@ class FlightPlan:
     connect_timeout_s, link_timeout_s, ready_timeout_s, wall_timeout_s : float
         Wall-clock limits: finding the vehicle, silence in flight, becoming armable, the
         whole flight.
+    reboot : bool
+        Restart the autopilot (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN) when it arms only after a
+        restart (a failure it detected in an earlier flight); without it such a vehicle ends
+        the flight with :class:`gcs.errors.RestartNeeded`.
     """
 
     mission: Sequence[WireItem]
+    fence: Sequence[WireItem] = ()
+    rally: Sequence[WireItem] = ()
     faults: Sequence[FaultSpec] = ()
     params: dict[str, float] = field(default_factory=dict)
     inject_via: str = "command"
@@ -99,6 +140,7 @@ class FlightPlan:
     link_timeout_s: float = 5.0  # s wall
     ready_timeout_s: float = 30.0  # s wall
     wall_timeout_s: float = 900.0  # s wall
+    reboot: bool = False
 
     def __post_init__(self) -> None:
         if self.inject_via not in ("command", "param"):
@@ -229,6 +271,8 @@ def fly(gs: GroundStation, plan: FlightPlan,
         raise
     else:
         gs.log("RESULT", "mission flown, vehicle landed and disarmed")
+    _release_time(gs, plan)
+    _clear_faults(gs, plan)
     live = gs.report()
     gs.close()
     report = live
@@ -243,12 +287,77 @@ def fly(gs: GroundStation, plan: FlightPlan,
                          tlog=tlog, event_log=gs.events.path, replayed=replayed)
 
 
+def _release_time(gs: GroundStation, plan: FlightPlan) -> None:
+    """A flight that failed between holding simulated time and the mission start lets it
+    run again (SIM_PAUSE = 0), while the vehicle is still heard."""
+    if not gs.held_time or gs.closed or gs.wall_since_vehicle_s() > plan.link_timeout_s:
+        return
+    try:
+        gs.set_param("SIM_PAUSE", 0.0)
+        gs.held_time = False
+        gs.log("FLIGHT", "simulated time let go again (SIM_PAUSE = 0)")
+    except FlightError as err:
+        gs.log("FLIGHT", f"simulated time still held: {err.one_line()}")
+
+
+def _clear_faults(gs: GroundStation, plan: FlightPlan) -> None:
+    """Clear what the flight injected (:meth:`GroundStation.clear_injected_faults`) while the
+    vehicle is still heard; a failure to do so is logged, never the flight's result."""
+    if not gs.injected_anything or gs.closed:
+        return
+    if gs.wall_since_vehicle_s() > plan.link_timeout_s:
+        gs.log("INJECT", "faults not cleared: the vehicle is not heard any more")
+        return
+    try:
+        gs.clear_injected_faults()
+    except FlightError as err:
+        gs.log("INJECT", f"faults not cleared: {err.one_line()}")
+
+
+def _restart_summary(reason: str) -> str:
+    """The pre-arm reason in a few words: the motors declared failed, else the reason."""
+    motors = re.findall(r"motor (\d+) detected failed", reason)
+    if motors:
+        return (f"motor{'s' if len(motors) > 1 else ''} {', '.join(motors)} detected failed "
+                "in an earlier flight")
+    return reason
+
+
+def _ready_to_arm(gs: GroundStation, plan: FlightPlan) -> bool:
+    """A mode that allows arming, then armable; a vehicle that arms only after a restart is
+    restarted when ``plan.reboot`` (else :class:`RestartNeeded`). Returns whether the
+    vehicle reported ready to arm within ``plan.ready_timeout_s``."""
+    gs.ensure_arming_mode()
+    if gs.wait_armable(plan.ready_timeout_s):
+        return True
+    if not gs.restart_needed():
+        return False
+    summary = _restart_summary(gs.prearm_reason or "")
+    if not plan.reboot:
+        raise RestartNeeded(f"the vehicle arms only after its autopilot restarts ({summary}); "
+                            "add --reboot to restart it first")
+    gs.log("FLIGHT", f"{summary}: restarting the autopilot (--reboot)")
+    gs.reboot(plan.connect_timeout_s)
+    gs.ensure_arming_mode()
+    if gs.wait_armable(plan.ready_timeout_s):
+        return True
+    if gs.restart_needed():
+        raise RestartNeeded(f"the vehicle still refuses to arm after a restart: "
+                            f"{gs.prearm_reason}")
+    return False
+
+
 def _fly(gs: GroundStation, plan: FlightPlan,
          progress: Callable[[GroundStation], None] | None, wall0: float,
          vehicle_gone: Callable[[], str | None] | None) -> None:
     if not gs.vehicle_ready:
         gs.wait_vehicle(plan.connect_timeout_s, vehicle_gone)
     gs.wait_clock()
+    if gs.analyzer.armed:
+        mode = gs.analyzer.custom_mode
+        raise VehicleBusy(f"the vehicle is armed (mode {mode_name(mode)}): another flight is "
+                          "under way; land and disarm it first")
+    armable = _ready_to_arm(gs, plan)
     gs.request_streams(plan.telemetry_hz)
     params = gs.fetch_params()
     for name, value in plan.params.items():
@@ -263,12 +372,27 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     if "SIM_PAUSE" not in gs.param_names:
         gs.read_param("SIM_PAUSE")  # a simulator held at t = 0 must be told to go
     gs.wait_home()
-    gs.wait_armable(plan.ready_timeout_s)
+    if armable:  # (a parameter change may rebuild the autopilot: wait for it again)
+        gs.wait_armable(plan.ready_timeout_s)
     gs.upload_mission(plan.mission)
+    for items, mission_type, what in ((plan.fence, MAV_MISSION_TYPE_FENCE, "geofence"),
+                                      (plan.rally, MAV_MISSION_TYPE_RALLY, "rally points")):
+        if items:
+            try:
+                gs.upload_mission(items, mission_type=mission_type)
+            except MissionRejected as err:
+                if err.result != MAV_MISSION_UNSUPPORTED:
+                    raise
+                gs.log("MISSION", f"the vehicle keeps no {what} (MAV_MISSION_UNSUPPORTED): "
+                       f"flying without the plan's {what} ({len(items)} items)")
     injector = _Injector(gs, plan.faults, plan.inject_via)
     # the takeoff is counted from here: on a slow link the vehicle may be in the air before
     # the last start-up step (SIM_PAUSE = 0 below) is confirmed
     takeoffs_before = gs.analyzer.takeoffs
+    if gs.param_names.get("SIM_PAUSE") == 0.0:  # a simulator running: hold it (docstring)
+        gs.set_param("SIM_PAUSE", 1.0)
+        gs.held_time = True
+        gs.log("FLIGHT", "simulated time held (SIM_PAUSE = 1) from arming to the mission start")
     gs.arm()
     gs.set_mode(COPTER_MODE_AUTO)
     start_s = gs.start_mission()
@@ -277,6 +401,7 @@ def _fly(gs: GroundStation, plan: FlightPlan,
     injector.start(start_s)
     if gs.param_names.get("SIM_PAUSE", 0.0) != 0.0:
         gs.set_param("SIM_PAUSE", 0.0)
+        gs.held_time = False
         gs.log("FLIGHT", "simulated time started (SIM_PAUSE = 0)")
     _watch(gs, plan, injector, start_s, progress, wall0, takeoffs_before)
 

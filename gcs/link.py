@@ -117,6 +117,9 @@ class Link:
         self._round_trips_s: deque[float] = deque(maxlen=8)
         self._event_hooks: list[Callable[[FlightEvent], None]] = []
         self._sent_clock: float | None = None  # vehicle clock when the last command left
+        # the last command ended with its COMMAND_ACK (False: its effect showed, the answer
+        # never came)
+        self.last_command_acked = True
         self.closed = False
         # the threads (started by start(), e.g. on the first pump)
         self._io = threading.RLock()  # the codec, socket writes and the records
@@ -583,6 +586,7 @@ class Link:
                     break
                 if attempt and applied is not None and applied():
                     self.log("ACK", f"{name}: answer lost, the vehicle shows it done")
+                    self.last_command_acked = False
                     return _M.MAV_RESULT_ACCEPTED
                 left = deadline - time.monotonic()
                 if left <= 0:
@@ -591,6 +595,7 @@ class Link:
             if ack is None:
                 continue
             result = int(ack.result)
+            self.last_command_acked = True
             if result == _M.MAV_RESULT_ACCEPTED:
                 return result
             if result == _M.MAV_RESULT_TEMPORARILY_REJECTED and accept_temporarily_rejected:

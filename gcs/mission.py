@@ -25,6 +25,15 @@ those terms; :func:`load_mission` reads a mission file:
 
   or a raw item ``{ mav_cmd = 16, frame = 1, params = [0, 0, 0, 0], x = 0, y = 0, z = 0 }``
   (frame numbers of MAV_FRAME; x/y in degrees or metres as above).
+- QGroundControl plans (``.plan``, JSON; :func:`load_plan`), as QGC saves them: the
+  ``mission`` section's ``SimpleItem`` entries (``command``, ``frame``, ``params`` of seven
+  values: param1..4, latitude, longitude, altitude; ``null`` for NaN; ``autoContinue``), its
+  ``geoFence`` (``polygons`` of ``[lat, lon]`` vertices, ``circles`` with a ``center`` and a
+  ``radius``, each ``inclusion`` or not) and its ``rallyPoints`` (``[lat, lon, alt]``), the
+  last two turned into the fence and rally items QGC uploads (NAV_FENCE_POLYGON_VERTEX_*,
+  NAV_FENCE_CIRCLE_*, NAV_RALLY_POINT). ``plannedHomePosition`` is not used (home is the
+  vehicle's). Complex items (survey, corridor and structure scans), whose waypoints QGC
+  computes, are refused by name.
 
 Home (seq 0) is replaced by the vehicle's HOME_POSITION when the upload happens, as MAVProxy
 and QGroundControl do.
@@ -32,6 +41,7 @@ and QGroundControl do.
 
 from __future__ import annotations
 
+import json
 import math
 import tomllib
 from collections.abc import Mapping, Sequence
@@ -45,9 +55,11 @@ from gcs.mavlink import MAVLinkMessage, mavlink2
 
 __all__ = [
     "MissionFileError",
+    "PlanSections",
     "WireItem",
     "home_item",
     "load_mission",
+    "load_plan",
     "thesis_mission",
     "wire_item",
 ]
@@ -84,7 +96,8 @@ class WireItem(MavlinkForm):
         return 1.0
 
     def to_message(self, seq: int, target_system: int, target_component: int, *,
-                   current: bool = False) -> MAVLinkMessage:
+                   current: bool = False,
+                   mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> MAVLinkMessage:
         """MISSION_ITEM_INT for this item at ``seq``."""
         scale = self._int_scale()
 
@@ -97,7 +110,7 @@ class WireItem(MavlinkForm):
         return _M.MAVLink_mission_item_int_message(
             target_system, target_component, seq, self.frame, self.command, int(current),
             int(self.autocontinue), p1, p2, p3, p4, scaled(self.x), scaled(self.y),
-            float(self.z), _M.MAV_MISSION_TYPE_MISSION)
+            float(self.z), mission_type)
 
     def describe(self) -> str:
         """A short readable form, e.g. ``NAV_WAYPOINT LOCAL_NED (1, 0, -0.6) p1=1``."""
@@ -250,8 +263,168 @@ def _load_wpl(path: Path) -> list[WireItem]:
     return items[1:]  # seq 0 is home, replaced by the vehicle's at upload
 
 
+@dataclass(frozen=True)
+class PlanSections:
+    """The three sections of a QGroundControl ``.plan`` file as the items uploaded for them.
+
+    Attributes
+    ----------
+    mission : list of WireItem
+        Items seq 1..n (home is added at upload).
+    fence : list of WireItem
+        MAV_MISSION_TYPE_FENCE items (polygon vertices and circles), seq 0..
+    rally : list of WireItem
+        MAV_MISSION_TYPE_RALLY items, seq 0..
+    """
+
+    mission: list[WireItem]
+    fence: list[WireItem]
+    rally: list[WireItem]
+
+
+def _plan_number(path: Path, where: str, value: Any, *, nullable: bool = False) -> float:
+    if value is None and nullable:
+        return math.nan
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(
+            float(value)):
+        raise _fail(path, where, f"{json.dumps(value)} is not a number"
+                    + (" (or null)" if nullable else ""))
+    return float(value)
+
+
+def _plan_section(path: Path, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+    section = data.get(key, {})
+    if not isinstance(section, dict):
+        raise _fail(path, key, "must be a JSON object")
+    return section
+
+
+def _plan_list(path: Path, section: Mapping[str, Any], where: str, key: str) -> list[Any]:
+    value = section.get(key, [])
+    if not isinstance(value, list):
+        raise _fail(path, f"{where}.{key}", "must be a JSON array")
+    return value
+
+
+def _latlon(path: Path, where: str, value: Any, n: int = 2) -> list[float]:
+    if not isinstance(value, list) or len(value) != n:
+        shape = "[latitude, longitude]" if n == 2 else "[latitude, longitude, altitude]"
+        raise _fail(path, where, f"{json.dumps(value)} must be {shape}")
+    out = [_plan_number(path, where, v) for v in value]
+    if not (-90.0 <= out[0] <= 90.0 and -180.0 <= out[1] <= 180.0):
+        raise _fail(path, where, f"latitude {out[0]:g}, longitude {out[1]:g} out of range")
+    return out
+
+
+def _plan_item(path: Path, where: str, item: Any) -> WireItem:
+    if not isinstance(item, dict):
+        raise _fail(path, where, "must be a JSON object")
+    kind = item.get("type")
+    if kind == "ComplexItem":
+        raise _fail(path, where, f"complex item {item.get('complexItemType', '?')!r}: not "
+                    "supported (only SimpleItem; QGC computes a survey's or a scan's "
+                    "waypoints itself)")
+    if kind != "SimpleItem":
+        raise _fail(path, f"{where}.type", f"{json.dumps(kind)} must be \"SimpleItem\"")
+    for key in ("command", "frame", "params"):
+        if key not in item:
+            raise _fail(path, where, f"no {key!r}")
+    command = _plan_number(path, f"{where}.command", item["command"])
+    frame = _plan_number(path, f"{where}.frame", item["frame"])
+    if not (command.is_integer() and 0 <= command <= 65535):
+        raise _fail(path, f"{where}.command", f"{command:g} is not a MAV_CMD number")
+    if not (frame.is_integer() and 0 <= frame <= 255):
+        raise _fail(path, f"{where}.frame", f"{frame:g} is not a MAV_FRAME number")
+    params = item["params"]
+    if not isinstance(params, list) or len(params) != 7:
+        got = f"{len(params)} values" if isinstance(params, list) else json.dumps(params)
+        raise _fail(path, f"{where}.params", f"{got}: expected 7 (param1..4, latitude, "
+                    "longitude, altitude; null for none)")
+    p = [_plan_number(path, f"{where}.params[{i}]", v, nullable=True)
+         for i, v in enumerate(params)]
+    auto = item.get("autoContinue", True)
+    if not isinstance(auto, bool):
+        raise _fail(path, f"{where}.autoContinue", f"{json.dumps(auto)} must be true or false")
+    return WireItem(command=int(command), frame=int(frame), params=(p[0], p[1], p[2], p[3]),
+                    x=p[4], y=p[5], z=p[6], autocontinue=auto)
+
+
+def _fence_items(path: Path, fence: Mapping[str, Any]) -> list[WireItem]:
+    items: list[WireItem] = []
+    frame = _M.MAV_FRAME_GLOBAL
+    for i, poly in enumerate(_plan_list(path, fence, "geoFence", "polygons")):
+        where = f"geoFence.polygons[{i}]"
+        if not isinstance(poly, dict):
+            raise _fail(path, where, "must be a JSON object")
+        vertices = poly.get("polygon")
+        if not isinstance(vertices, list) or len(vertices) < 3:
+            raise _fail(path, f"{where}.polygon", "must be at least 3 [latitude, longitude]")
+        command = (_M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION if poly.get("inclusion", True)
+                   else _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION)
+        for j, vertex in enumerate(vertices):
+            lat, lon = _latlon(path, f"{where}.polygon[{j}]", vertex)
+            items.append(WireItem(command=command, frame=frame,
+                                  params=(float(len(vertices)), 0.0, 0.0, 0.0), x=lat, y=lon))
+    for i, circle in enumerate(_plan_list(path, fence, "geoFence", "circles")):
+        where = f"geoFence.circles[{i}]"
+        spec = circle.get("circle") if isinstance(circle, dict) else None
+        if not isinstance(spec, dict):
+            raise _fail(path, where, "must hold a \"circle\" with a center and a radius")
+        lat, lon = _latlon(path, f"{where}.circle.center", spec.get("center"))
+        radius = _plan_number(path, f"{where}.circle.radius", spec.get("radius"))
+        if radius <= 0:
+            raise _fail(path, f"{where}.circle.radius", f"{radius:g} m must be > 0")
+        command = (_M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION if circle.get("inclusion", True)
+                   else _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION)
+        items.append(WireItem(command=command, frame=frame, params=(radius, 0.0, 0.0, 0.0),
+                              x=lat, y=lon))
+    return items
+
+
+def _rally_items(path: Path, rally: Mapping[str, Any]) -> list[WireItem]:
+    items = []
+    for i, point in enumerate(_plan_list(path, rally, "rallyPoints", "points")):
+        lat, lon, alt = _latlon(path, f"rallyPoints.points[{i}]", point, n=3)
+        items.append(WireItem(command=_M.MAV_CMD_NAV_RALLY_POINT,
+                              frame=_M.MAV_FRAME_GLOBAL_RELATIVE_ALT, x=lat, y=lon, z=alt))
+    return items
+
+
+def load_plan(path: str | Path) -> PlanSections:
+    """The mission, geofence and rally points of a QGroundControl ``.plan`` file (module
+    docstring).
+
+    Raises
+    ------
+    MissionFileError
+        Missing or unreadable file, not JSON, not a plan, or a bad item (named by its place
+        in the file, e.g. ``mission.items[2].params``).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise MissionFileError(f"{p}: no such mission file")
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise MissionFileError(f"{p}: not valid JSON: {err}") from None
+    if not isinstance(data, dict) or data.get("fileType") != "Plan":
+        raise _fail(p, "fileType", "not a QGroundControl plan (no \"fileType\": \"Plan\")")
+    mission = _plan_section(p, data, "mission")
+    version = mission.get("version", 2)
+    if version != 2:
+        raise _fail(p, "mission.version", f"{json.dumps(version)}: only version 2 (QGC 3.2 "
+                    "and later) is read")
+    raw = _plan_list(p, mission, "mission", "items")
+    items = [_plan_item(p, f"mission.items[{i}]", item) for i, item in enumerate(raw)]
+    if not items:
+        raise _fail(p, "mission.items", "no mission items")
+    return PlanSections(mission=items, fence=_fence_items(p, _plan_section(p, data, "geoFence")),
+                        rally=_rally_items(p, _plan_section(p, data, "rallyPoints")))
+
+
 def load_mission(path: str | Path) -> list[WireItem]:
-    """Mission items (without home) from a QGC WPL 110 or TOML file (see the module docstring).
+    """Mission items (without home) from a QGC WPL 110, TOML or QGC ``.plan`` file (see the
+    module docstring; a plan's geofence and rally points: :func:`load_plan`).
 
     Raises
     ------
@@ -263,6 +436,8 @@ def load_mission(path: str | Path) -> list[WireItem]:
         raise MissionFileError(f"{p}: no such mission file")
     if p.suffix.lower() == ".toml":
         return _load_toml(p)
+    if p.suffix.lower() == ".plan":
+        return load_plan(p).mission
     return _load_wpl(p)
 
 

@@ -1,10 +1,10 @@
 """pytest plugin: a simulated vehicle and a connected ground-station link, for your own tests.
 
-Enable it in a ``conftest.py`` (this repository's ``tests/conftest.py`` does)::
-
-    pytest_plugins = ["gcs.pytest_plugin"]
-
-and write telemetry-based integration tests in a few lines::
+Installing quadftc enables it: its ``pytest11`` entry point (``quadftc =
+"gcs.pytest_plugin"``) makes pytest load it in any project, with no ``conftest.py`` line. (An
+install older than the entry point needs ``pytest_plugins = ["gcs.pytest_plugin"]`` in a
+``conftest.py``; this repository's ``tests/conftest.py`` adds it only then.) Then write
+telemetry-based integration tests in a few lines::
 
     import pytest
     from gcs.faults import FaultSpec

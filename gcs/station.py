@@ -25,6 +25,7 @@ Usage::
 from __future__ import annotations
 
 import math
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -33,15 +34,17 @@ from typing import Any, NoReturn
 import numpy as np
 
 from flightdata.series import FlightEvent
-from gcs.errors import CommandRefused, FlightTimeout, MissionRejected
+from gcs.errors import CommandRefused, FlightTimeout, MissionRejected, VehicleNotFound
 from gcs.faults import FaultSpec
 from gcs.mavlink import mavlink2
 from gcs.mission import WireItem, home_item
 from gcs.parameters import ParameterClient, same_float32
 from gcs.records import EventLog, TlogWriter
 from gcs.table import FlightReport
+from gcs.telemetry import mavlink_text
 
 __all__ = [
+    "ARMING_MODES",
     "COPTER_MODE_AUTO",
     "COPTER_MODE_GUIDED",
     "COPTER_MODE_LAND",
@@ -49,6 +52,7 @@ __all__ = [
     "TELEMETRY_HZ",
     "GroundStation",
     "InjectionTiming",
+    "mode_name",
     "same_float32",
 ]
 
@@ -58,6 +62,9 @@ COPTER_MODE_STABILIZE = _M.COPTER_MODE_STABILIZE
 COPTER_MODE_AUTO = _M.COPTER_MODE_AUTO
 COPTER_MODE_GUIDED = _M.COPTER_MODE_GUIDED
 COPTER_MODE_LAND = _M.COPTER_MODE_LAND
+ARMING_MODES = frozenset({_M.COPTER_MODE_STABILIZE, _M.COPTER_MODE_ALT_HOLD,
+                          _M.COPTER_MODE_GUIDED, _M.COPTER_MODE_LOITER})
+"""ArduCopter modes that allow arming (AUTO, LAND, RTL do not, without AUTO_OPTIONS)."""
 TELEMETRY_HZ: dict[str, float] = {
     # the table's inputs at the autopilot's 100 Hz: one sample per tick, as the runner logs
     "ATTITUDE": 100.0,  # carries the clock ahead of SIM_STATE at every tick
@@ -76,10 +83,19 @@ TELEMETRY_HZ: dict[str, float] = {
 _MISSION_NUDGE_S = 1.0  # s wall without a MISSION_REQUEST before we nudge the upload, at most
 _MISSION_STALL_S = 15.0  # s wall without progress before an upload starts over
 _MISSION_UPLOADS = 3  # uploads started before giving up
+_MISSION_TYPE_WORDS = {_M.MAV_MISSION_TYPE_MISSION: "mission",
+                       _M.MAV_MISSION_TYPE_FENCE: "geofence",
+                       _M.MAV_MISSION_TYPE_RALLY: "rally points"}
 _STREAM_ROUNDS_S = (0.5, 0.5, 1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0)
 """Wall seconds of each round of stream requests, at most (~18 s in all)."""
 _DATE_REQUEST_S = 0.5  # s wall between TIMESYNC requests that date the mission start
 _STATUS_REQUEST_S = 1.0  # s wall between SYS_STATUS requests while waiting to be armable
+_PREARM_REQUEST_S = 2.0  # s wall between RUN_PREARM_CHECKS while waiting to be armable
+_MODE_CONFIRM_S = 3.0  # s wall for a HEARTBEAT in the mode asked for (HEARTBEAT is 1 Hz)
+_MODE_TRIES = 4  # mode changes sent before giving up on seeing the mode
+_REBOOT_QUIET_S = 1.0  # s wall after a reboot's ACK before the vehicle counts as back
+_RESTART_WORDS = re.compile(r"\b(restart|reboot)", re.IGNORECASE)
+"""A pre-arm reason that only a restart clears (this vehicle: a motor declared failed)."""
 
 
 @dataclass(frozen=True)
@@ -149,6 +165,12 @@ class GroundStation(ParameterClient):
         self.injection_timing: list[InjectionTiming] = []
         self._inflight: list[_InFlight] = []
         self._lag_samples_s: list[float] = []
+        self.prearm_reason: str | None = None  # the latest "PreArm: ..." STATUSTEXT's reason
+        self._status_chunks: dict[int, list[str]] = {}
+        # what the injections changed, to undo after the flight: parameter -> value before
+        self._restore_params: dict[str, float] = {}
+        self._motor_faults_commanded = False  # INJECT_FAILURE motor faults were sent
+        self.held_time = False  # this flight set SIM_PAUSE = 1 and has not let go yet
 
     def _note_event(self, event: FlightEvent) -> None:
         if event.kind == "INJECT":
@@ -251,30 +273,127 @@ class GroundStation(ParameterClient):
             self.pump(0.2)
 
     def wait_armable(self, timeout_s: float = 30.0) -> bool:
-        """Wait until SYS_STATUS shows the PREARM_CHECK health bit; False on time-out.
+        """Wait until SYS_STATUS shows the PREARM_CHECK health bit; False on time-out, or at
+        once when the vehicle says only a restart lets it arm (:meth:`restart_needed`).
 
         SYS_STATUS is asked for once per wall second meanwhile (REQUEST_MESSAGE, no answer
         awaited): a paused simulation streams nothing, and a lossy link may lose the one
-        that came.
+        that came. While it is not armable, MAV_CMD_RUN_PREARM_CHECKS goes out every 2 s
+        (ArduPilot's: the vehicle answers with a ``PreArm: <reason>`` STATUSTEXT), and the
+        latest reason is kept in :attr:`prearm_reason`.
         """
         bit = _M.MAV_SYS_STATUS_PREARM_CHECK
         sysid, compid = self.target
         deadline = time.monotonic() + timeout_s
-        last_request = -math.inf
+        last_request = last_probe = -math.inf
+        self.prearm_reason = None
         while time.monotonic() < deadline:
             status = self._take("SYS_STATUS", lambda m: True)
             if status is not None:
                 self._take_all("SYS_STATUS", lambda m: True)
                 if int(status.onboard_control_sensors_health) & bit:
+                    self.prearm_reason = None
                     return True
-            if time.monotonic() - last_request >= _STATUS_REQUEST_S:
-                last_request = time.monotonic()
+            self._take_all("COMMAND_ACK",
+                           lambda m: int(m.command) == _M.MAV_CMD_RUN_PREARM_CHECKS)
+            for text in self._take_status_texts():
+                if text.startswith("PreArm:"):
+                    self.prearm_reason = text.removeprefix("PreArm:").strip()
+            if self.restart_needed():
+                self.log("FLIGHT", f"vehicle not armable until restarted: {self.prearm_reason}")
+                return False
+            now = time.monotonic()
+            if now - last_request >= _STATUS_REQUEST_S:
+                last_request = now
                 self.send(_M.MAVLink_command_long_message(
                     sysid, compid, _M.MAV_CMD_REQUEST_MESSAGE, 0,
                     float(_M.MAVLINK_MSG_ID_SYS_STATUS), 0, 0, 0, 0, 0, 0))
+            if status is not None and now - last_probe >= _PREARM_REQUEST_S:
+                last_probe = now  # (only once a SYS_STATUS said not armable)
+                self.send(_M.MAVLink_command_long_message(
+                    sysid, compid, _M.MAV_CMD_RUN_PREARM_CHECKS, 0, 0, 0, 0, 0, 0, 0, 0))
             self.pump(0.1)
-        self.log("FLIGHT", f"vehicle not reporting ready to arm after {timeout_s:g} s")
+        self.log("FLIGHT", f"vehicle not reporting ready to arm after {timeout_s:g} s"
+                 + (f" ({self.prearm_reason})" if self.prearm_reason else ""))
         return False
+
+    def restart_needed(self) -> bool:
+        """The latest pre-arm reason says only a restart of the autopilot clears it (a
+        failure detected in an earlier flight: ArduCopter, too, arms only after a reboot)."""
+        return self.prearm_reason is not None and bool(_RESTART_WORDS.search(self.prearm_reason))
+
+    def _take_status_texts(self) -> list[str]:
+        """The STATUSTEXTs waiting in the inbox, chunks put back together."""
+        texts = []
+        while (msg := self._take("STATUSTEXT", lambda m: True)) is not None:
+            text = mavlink_text(msg.text)
+            chunk_id = int(getattr(msg, "id", 0))
+            if chunk_id == 0:
+                texts.append(text)
+                continue
+            parts = self._status_chunks.setdefault(chunk_id, [])
+            parts.append(text)
+            if len(text) < 50:
+                texts.append("".join(self._status_chunks.pop(chunk_id)))
+        return texts
+
+    def ensure_arming_mode(self, mode: int = COPTER_MODE_STABILIZE) -> None:
+        """Unless the vehicle's HEARTBEAT shows a mode that allows arming
+        (:data:`ARMING_MODES`), switch it to ``mode`` (STABILIZE, the mode it boots in, so
+        that a flight after another starts as the first one did) and wait for a HEARTBEAT
+        in that mode; the change is sent again when none comes (a lossy link).
+
+        Raises
+        ------
+        CommandRefused
+            The vehicle refused the mode change.
+        FlightTimeout
+            No HEARTBEAT in ``mode`` after :data:`_MODE_TRIES` changes.
+        """
+        if self.analyzer.custom_mode in ARMING_MODES:
+            return
+        before = self.analyzer.custom_mode
+        for _ in range(_MODE_TRIES):
+            self.set_mode(mode)
+            deadline = time.monotonic() + _MODE_CONFIRM_S
+            while time.monotonic() < deadline:
+                if self.analyzer.custom_mode == mode:
+                    self.log("FLIGHT", f"mode {mode_name(before)} does not allow arming: "
+                             f"switched to {mode_name(mode)}")
+                    return
+                self.pump(0.05)
+        raise FlightTimeout(f"no HEARTBEAT in mode {mode_name(mode)} after {_MODE_TRIES} "
+                            "mode changes")
+
+    def reboot(self, timeout_s: float = 60.0) -> None:
+        """Restart the autopilot (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, param1 = 1) and wait
+        until it is back: heard again after :data:`_REBOOT_QUIET_S`, its HEARTBEAT past
+        MAV_STATE_BOOT. The vehicle's stream rates are back to its defaults afterwards
+        (ask for them again).
+
+        Raises
+        ------
+        CommandRefused
+            The vehicle refused (e.g. armed).
+        VehicleNotFound
+            Not back within ``timeout_s`` wall seconds.
+        """
+        self.log("FLIGHT", "restarting the autopilot (PREFLIGHT_REBOOT_SHUTDOWN)")
+        self.command(_M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (1.0,), what="reboot")
+        acked = time.monotonic()
+        deadline = acked + timeout_s
+        while True:
+            now = time.monotonic()
+            back = (now - acked >= _REBOOT_QUIET_S and self.wall_since_vehicle_s() < 0.5
+                    and not self.analyzer.vehicle_booting)
+            if back:
+                break
+            if now >= deadline:
+                raise VehicleNotFound(f"the autopilot was not back {timeout_s:g} s after its "
+                                      "restart")
+            self.pump(0.05)
+        self.prearm_reason = None
+        self.log("FLIGHT", "autopilot restarted")
 
     def arm(self) -> None:
         """Arm (COMPONENT_ARM_DISARM p1 = 1); a HEARTBEAT showing it armed also confirms."""
@@ -295,9 +414,26 @@ class GroundStation(ParameterClient):
                      applied=lambda: self.analyzer.custom_mode == custom_mode)
 
     def start_mission(self) -> float:
-        """MISSION_START; returns the vehicle time at which the mission started (s)."""
+        """MISSION_START; returns the vehicle time at which the mission started (s).
+
+        A lost answer is made up for by MISSION_CURRENT (asked for with REQUEST_MESSAGE)
+        showing the mission active; the start is then dated by the next clock value, exact
+        when simulated time is held (SIM_PAUSE), and an event says so.
+        """
+        sysid, compid = self.target
+
+        def running() -> bool:
+            return self.analyzer.mission_state == _M.MISSION_STATE_ACTIVE
+
+        def ask_progress() -> None:
+            self.send(_M.MAVLink_command_long_message(
+                sysid, compid, _M.MAV_CMD_REQUEST_MESSAGE, 0,
+                float(_M.MAVLINK_MSG_ID_MISSION_CURRENT), 0, 0, 0, 0, 0, 0))
+
         self.command(_M.MAV_CMD_MISSION_START, (0.0, 0.0), what="mission start",
-                     with_timesync=True)
+                     with_timesync=True, applied=running, read_back=ask_progress)
+        if not self.last_command_acked:
+            self._date_unanswered_start()
         # The ACK is dated by the next clock value: the TIMESYNC answer sent with it, or the
         # telemetry that follows. A paused vehicle streams nothing, so if that answer was
         # lost, ask the time again until one comes back.
@@ -314,14 +450,35 @@ class GroundStation(ParameterClient):
         self._note_lag(self.analyzer.mission_start_s)
         return self.analyzer.mission_start_s
 
+    def _date_unanswered_start(self, timeout_s: float = 10.0) -> None:
+        """The mission runs but its ACK never came: the next clock value dates its start."""
+        updates = self.analyzer.clock_updates
+        deadline = time.monotonic() + timeout_s
+        last_request = -math.inf
+        while self.analyzer.mission_start_s is None:
+            now = time.monotonic()
+            if self.analyzer.clock_updates > updates and self.analyzer.clock_s is not None:
+                self.analyzer.mission_start_s = self.analyzer.clock_s
+                self.log("FLIGHT", f"mission start dated t = {self.analyzer.clock_s:.3f} s by "
+                         "the clock after it (its answer was lost)")
+                return
+            if now >= deadline:
+                raise FlightTimeout("no telemetry after the mission start")
+            if now - last_request >= _DATE_REQUEST_S:
+                last_request = now
+                self.send(_M.MAVLink_timesync_message(0, time.time_ns()))
+            self.pump(0.02)
+
     def _note_lag(self, effect_s: float) -> None:
         sent = self._sent_clock
         if sent is not None:
             self._lag_samples_s.append(max(0.0, effect_s - sent))
 
     # ------------------------------------------------------------------ missions
-    def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0) -> None:
-        """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0).
+    def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0,
+                       mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> None:
+        """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0); with
+        ``mission_type`` FENCE or RALLY, a geofence or rally points (seq 0..n-1, no home).
 
         Over a lossy link: when no request comes for a while (:meth:`_retry_wait_s`, 1 s at
         most), the upload is nudged (MISSION_COUNT
@@ -335,34 +492,43 @@ class GroundStation(ParameterClient):
         Raises
         ------
         MissionRejected
-            A MISSION_ACK other than ACCEPTED (with the vehicle's reason).
+            A MISSION_ACK other than ACCEPTED (with the vehicle's reason; ``result`` holds
+            the MAV_MISSION_RESULT).
         FlightTimeout
             The vehicle stopped asking for items.
         """
         sysid, compid = self.target
-        home = home_item()
-        if self.analyzer.home is not None:
-            lat_e7, lon_e7, alt_mm = self.analyzer.home[:3]
-            home = home_item(lat_e7 * 1e-7, lon_e7 * 1e-7, alt_mm * 1e-3)
-        wire = [home, *items]
+        what = _MISSION_TYPE_WORDS.get(mission_type, f"mission type {mission_type}")
+        if mission_type == _M.MAV_MISSION_TYPE_MISSION:
+            home = home_item()
+            if self.analyzer.home is not None:
+                lat_e7, lon_e7, alt_mm = self.analyzer.home[:3]
+                home = home_item(lat_e7 * 1e-7, lon_e7 * 1e-7, alt_mm * 1e-3)
+            wire = [home, *items]
+            self.log("MISSION", f"uploading {len(items)} items (+ home)")
+        else:
+            wire = list(items)
+            self.log("MISSION", f"uploading {what}: {len(items)} items")
         count = len(wire)
-        self.log("MISSION", f"uploading {len(items)} items (+ home)")
         deadline = time.monotonic() + timeout_s
         last_seq = -1
         for upload in range(_MISSION_UPLOADS):
             if upload:
                 self.log("MISSION", f"upload stalled after item {last_seq}: starting over")
-            last_seq = self._upload_once(wire, deadline)
+            last_seq = self._upload_once(wire, deadline, mission_type)
             if last_seq == count:
-                self.log("MISSION", f"upload of {count - 1} items accepted")
+                self.log("MISSION", f"upload of {len(items)} items accepted" if what == "mission"
+                         else f"upload of {what}: {len(items)} items accepted")
                 return
-        raise FlightTimeout(f"mission upload stalled after item {last_seq} of {count - 1} "
+        raise FlightTimeout(f"{what} upload stalled after item {last_seq} of {count - 1} "
                             f"({_MISSION_UPLOADS} uploads)")
 
-    def _upload_once(self, wire: Sequence[WireItem], deadline: float) -> int:
+    def _upload_once(self, wire: Sequence[WireItem], deadline: float,
+                     mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> int:
         """One upload; returns ``len(wire)`` when accepted, else the last seq asked for."""
         sysid, compid = self.target
         count = len(wire)
+        home_first = mission_type == _M.MAV_MISSION_TYPE_MISSION
         for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST", "STATUSTEXT"):
             self._take_all(kind, lambda m: True)
 
@@ -374,13 +540,13 @@ class GroundStation(ParameterClient):
 
         def send_count() -> None:
             nonlocal sent_at
-            self.send(_M.MAVLink_mission_count_message(sysid, compid, count,
-                                                       _M.MAV_MISSION_TYPE_MISSION))
+            self.send(_M.MAVLink_mission_count_message(sysid, compid, count, mission_type))
             sent_at = time.monotonic()
 
         def send_item(seq: int) -> None:
             nonlocal sent_at
-            self.send(wire[seq].to_message(seq, sysid, compid, current=seq == 0))
+            self.send(wire[seq].to_message(seq, sysid, compid, current=home_first and seq == 0,
+                                           mission_type=mission_type))
             sent_at = time.monotonic()
 
         send_count()
@@ -388,7 +554,7 @@ class GroundStation(ParameterClient):
         last_seq = -1
         while (now := time.monotonic()) < deadline and now - progress_at < _MISSION_STALL_S:
             reply = self._wait_reply(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
-                                     lambda m: int(getattr(m, "mission_type", 0)) == 0,
+                                     lambda m: int(getattr(m, "mission_type", 0)) == mission_type,
                                      self._retry_wait_s(_MISSION_NUDGE_S))
             if reply is None:
                 nudged = True
@@ -403,7 +569,7 @@ class GroundStation(ParameterClient):
                     return count
                 if result == _M.MAV_MISSION_OPERATION_CANCELLED:
                     return last_seq  # the vehicle timed out: start over
-                self._mission_rejected(wire, result, last_seq)
+                self._mission_rejected(wire, result, last_seq, mission_type)
             seq = int(reply.seq)
             if not 0 <= seq < count:
                 continue
@@ -416,8 +582,8 @@ class GroundStation(ParameterClient):
             nudged = False
         return last_seq
 
-    def _mission_rejected(self, wire: Sequence[WireItem], result: int,
-                          last_seq: int) -> NoReturn:
+    def _mission_rejected(self, wire: Sequence[WireItem], result: int, last_seq: int,
+                          mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> NoReturn:
         name = _M.enums["MAV_MISSION_RESULT"][result].name.removeprefix(
             "MAV_MISSION_") if result in _M.enums["MAV_MISSION_RESULT"] else str(result)
         reason = self._refusal_reason()
@@ -427,7 +593,10 @@ class GroundStation(ParameterClient):
             where = f" at item {last_seq} ({wire[last_seq].describe()})"
         else:
             where = ""
-        raise MissionRejected(f"{name}{where}" + (f": {reason}" if reason else ""))
+        what = "" if mission_type == _M.MAV_MISSION_TYPE_MISSION else \
+            f"{_MISSION_TYPE_WORDS.get(mission_type, str(mission_type))}: "
+        raise MissionRejected(f"{what}{name}{where}" + (f": {reason}" if reason else ""),
+                              result=result)
 
     # ------------------------------------------------------------------ faults
     def lead_s(self) -> float:
@@ -474,6 +643,8 @@ class GroundStation(ParameterClient):
                  + ("" if scheduled else f", lead {self.lead_s():.3f} s"))
 
         if scheduled:
+            self._note_change("SIM_FI_LOE")
+            self._motor_faults_commanded = True
             self.set_param("SIM_FI_LOE", fault.loe)
             self.command(_M.MAV_CMD_INJECT_FAILURE,
                          (101.0, 4.0, float(fault.motor or 0), float(target_s)),
@@ -483,7 +654,42 @@ class GroundStation(ParameterClient):
                 sysid, compid, _M.MAV_CMD_INJECT_FAILURE, 0, 101.0, 0.0,
                 float(fault.motor or 0), 0.0, 0.0, 0.0, 0.0), with_timesync=True)
         else:
+            name = flight.param_name()
+            assert name is not None
+            self._note_change(name)
             self._send_param_injection(flight)
+
+    def _note_change(self, name: str) -> None:
+        """Remember the value ``name`` had before an injection first changed it (0 when it
+        was never read: the fault parameters' value when no fault is in force)."""
+        if name not in self._restore_params:
+            before = self.param_names.get(name, self.analyzer.params.get(name, 0.0))
+            self._restore_params[name] = float(before)
+
+    def clear_injected_faults(self) -> None:
+        """Undo this flight's injections: motor faults sent as INJECT_FAILURE are cleared
+        (type OK, all motors: also those scheduled and not yet due), and every parameter an
+        injection changed (SIM_MOTn_LOE, SIM_BARO_GLITCH, SIM_FI_LOE...) goes back to its
+        value before the flight, so the next flight starts healthy.
+
+        Raises
+        ------
+        FlightError
+            A command or parameter the vehicle refused or never answered.
+        """
+        if self._motor_faults_commanded:
+            self.command(_M.MAV_CMD_INJECT_FAILURE, (101.0, 0.0, 0.0),
+                         what="INJECT_FAILURE motor all OK (clear)")
+            self._motor_faults_commanded = False
+        for name, before in list(self._restore_params.items()):
+            self.set_param(name, before)
+            del self._restore_params[name]
+        self.log("INJECT", "the flight's injected faults cleared")
+
+    @property
+    def injected_anything(self) -> bool:
+        """Faults were sent in this flight and not yet cleared."""
+        return self._motor_faults_commanded or bool(self._restore_params)
 
     def _send_param_injection(self, flight: _InFlight) -> None:
         """PARAM_SET of an injection, with a TIMESYNC request in the same datagram dating it."""
@@ -564,3 +770,11 @@ class GroundStation(ParameterClient):
     def report(self) -> FlightReport:
         """The table over what was received so far."""
         return self.analyzer.report()
+
+
+def mode_name(mode: int | None) -> str:
+    """ArduCopter's name of a mode number (``AUTO``), or the number."""
+    if mode is None:
+        return "unknown"
+    entry = _M.enums["COPTER_MODE"].get(mode)
+    return entry.name.removeprefix("COPTER_MODE_") if entry is not None else str(mode)

@@ -102,6 +102,7 @@ class TelemetryReader:
         self.packets = 0  # packets fed (both directions)
         self.undated_truth = 0  # SIM_STATE samples dropped: no clock value of their own
         self.clock_s: float | None = None
+        self.clock_updates = 0  # time-stamped messages seen (a held clock does not move)
         self._pending: list[_Pending] = []
         self._chunks: dict[int, list[str]] = {}
         # samples
@@ -114,7 +115,10 @@ class TelemetryReader:
         self._loe_est: dict[int, list[tuple[float, float]]] = {m: [] for m in (1, 2, 3, 4)}
         # state
         self.home: tuple[int, int, int, float, float, float] | None = None  # e7, e7, mm, xyz
-        self.params: dict[str, float] = {}
+        self.params: dict[str, float] = {}  # the latest PARAM_VALUE of each
+        # the parameters when the flight ended (landed and disarmed): what it flew with, not
+        # what a ground station set afterwards (its injected faults cleared)
+        self.params_at_end: dict[str, float] | None = None
         self.armed: bool | None = None
         self.custom_mode: int | None = None
         self.landed_state: int | None = None
@@ -175,6 +179,7 @@ class TelemetryReader:
             self._on_event(event)
 
     def _advance(self, time_s: float) -> None:
+        self.clock_updates += 1
         if self.clock_s is None or time_s >= self.clock_s:
             self.clock_s = time_s
         pending, self._pending = self._pending, []
@@ -267,6 +272,8 @@ class TelemetryReader:
             if self.armed is not None or armed:
                 self._emit(self.clock_s, "ARM", "armed" if armed else "disarmed")
             self.armed = armed
+            if not armed and self.takeoffs > 0 and self.params_at_end is None:
+                self.params_at_end = dict(self.params)
         if mode != self.custom_mode:
             name = _M.enums["COPTER_MODE"][mode].name.removeprefix("COPTER_MODE_") \
                 if mode in _M.enums["COPTER_MODE"] else f"MODE_{mode}"
@@ -421,6 +428,8 @@ class TelemetryReader:
         else:
             return
         after = _loe_in_force(active)
+        if self.armed is False and self.takeoffs > 0:
+            return  # the flight is over: a change now (faults cleared) is not part of it
         if not (after == before or (math.isnan(after) and math.isnan(before))):
             self._injected(record.time_s, motor, after, record.text())
 

@@ -2,6 +2,9 @@
 
 ``gcs.pytest_plugin`` provides the ``vehicle_link`` fixture (a started ``ftc-vehicle`` and a
 connected ground-station link) and the ``vehicle`` marker; see its docstring and the README.
+An installed quadftc registers it through its ``pytest11`` entry point; this file names it
+in ``pytest_plugins`` only when that entry point is not installed (an install that predates
+it, or plugin autoloading turned off), since pytest refuses a plugin registered twice.
 
 Test tiers: every test that flies a whole mission gets the ``slow`` marker here, by where it
 lives (:data:`WHOLE_FLIGHT_FOLDERS`) or by a fixture it uses (:data:`WHOLE_FLIGHT_FIXTURES`),
@@ -22,6 +25,7 @@ that a call site whose types drift fails the flight that shows it.
 
 from __future__ import annotations
 
+import importlib.metadata
 import os
 import subprocess
 import sys
@@ -36,7 +40,19 @@ from flightdata.kernel_calls import CHECK_ENV
 
 os.environ[CHECK_ENV] = "1"  # (module docstring; set before any kernel is first called)
 
-pytest_plugins = ["gcs.pytest_plugin"]
+PLUGIN = "gcs.pytest_plugin"
+
+
+def _plugin_from_entry_point() -> bool:
+    """pytest loads :data:`PLUGIN` by itself: an installed ``pytest11`` entry point names it
+    and plugin autoloading is on."""
+    if os.environ.get("PYTEST_DISABLE_PLUGIN_AUTOLOAD"):
+        return False
+    return any(ep.value == PLUGIN for ep in importlib.metadata.entry_points(group="pytest11"))
+
+
+if not _plugin_from_entry_point():
+    pytest_plugins = [PLUGIN]
 
 TESTS = Path(__file__).resolve().parent
 WHOLE_FLIGHT_FOLDERS = (TESTS / "integration",)  # vehicle processes flying missions

@@ -261,6 +261,11 @@ class AutopilotPort:
         self.post(Severity.NOTICE, "Autopilot rebooted")
         return CommandResult.ok()
 
+    def prearm_check(self) -> CommandResult:
+        """RUN_PREARM_CHECKS: the verdict arming would give now (armed: nothing to check)."""
+        check = self.host.autopilot.navigator.prearm_check()
+        return CommandResult.ok() if check.ok else CommandResult.denied(check.reason)
+
     def trigger_failsafe(self, source: str, action: str) -> CommandResult:
         """GCS-loss failsafe from the endpoint: LAND/RTL in flight, disarm on the ground."""
         return self._nav("Failsafe", self.host.autopilot.navigator.trigger_failsafe(source, action))

@@ -24,6 +24,8 @@ DO_REPOSITION 192 (p4 yaw deg, position),
 DO_SET_MISSION_CURRENT 224 (p1 seq), PREFLIGHT_REBOOT_SHUTDOWN 246 (p1 = 1 reboot; 0 no-op),
 MISSION_START 300 (p1/p2 ignored: runs from the current item),
 COMPONENT_ARM_DISARM 400 (p1 1/0, p2 = 21196 forces),
+RUN_PREARM_CHECKS 401 (ArduPilot's: ACCEPTED, and when the vehicle would refuse to arm, a
+STATUSTEXT ``PreArm: <reason>``, the reason arming would give),
 GET_HOME_POSITION 410, INJECT_FAILURE 420 (p1 unit, p2 type, p3 instance, p4 simulated time
 of the injection, s since boot, 0 = now),
 GET_MESSAGE_INTERVAL 510 (p1 message id, at most 65535: MESSAGE_INTERVAL's field),
@@ -198,6 +200,7 @@ class CommandDispatcher:
             _M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: self._reboot,
             _M.MAV_CMD_MISSION_START: self._mission_start,
             _M.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
+            _M.MAV_CMD_RUN_PREARM_CHECKS: self._run_prearm_checks,
             _M.MAV_CMD_GET_HOME_POSITION: lambda r: self._send_message(
                 _M.MAVLINK_MSG_ID_HOME_POSITION),
             _M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
@@ -350,6 +353,12 @@ class CommandDispatcher:
         force = r.params[1] == FORCE_MAGIC
         result = self._port.arm(force=force) if arm else self._port.disarm(force=force)
         return _from_result(result, heartbeat_soon=True)
+
+    def _run_prearm_checks(self, r: CommandRequest) -> CommandOutcome:
+        result = self._port.prearm_check()
+        if result.accepted:
+            return _accepted()
+        return CommandOutcome(_M.MAV_RESULT_ACCEPTED, f"PreArm: {result.reason}")
 
     def _inject_failure(self, r: CommandRequest) -> CommandOutcome:
         unit = _whole(r.params[0], 0, 255)

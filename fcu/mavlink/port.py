@@ -541,6 +541,11 @@ class VehiclePort(ParamProvider, Protocol):
         """Restart the autopilot (refuse when armed)."""
         ...
 
+    def prearm_check(self) -> CommandResult:
+        """Whether arming (not forced) would be accepted now: ok, or denied with the reason
+        arming would give (RUN_PREARM_CHECKS)."""
+        ...
+
     def trigger_failsafe(self, source: str, action: str) -> CommandResult:
         """Enter failsafe ``source`` (here ``"gcs"``) with ``action`` ``"land"`` or ``"rtl"``.
 

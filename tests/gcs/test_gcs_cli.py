@@ -182,3 +182,12 @@ def test_a_record_name_is_claimed_once(tmp_path: Path) -> None:
                      "flight-20261124-120000-3"]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == sorted(f"{s}.tlog"
                                                                           for s in stems)
+
+
+def test_demo_may_restart_the_autopilot_and_fly_only_when_told() -> None:
+    from gcs.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["demo"]).reboot is True  # its own vehicle: never a prompt
+    assert parser.parse_args(["fly"]).reboot is False
+    assert parser.parse_args(["fly", "--reboot"]).reboot is True

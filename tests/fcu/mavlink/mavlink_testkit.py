@@ -171,6 +171,14 @@ class FakeVehicle:
         self.armed = True
         return CommandResult.ok()
 
+    def prearm_check(self) -> CommandResult:
+        self._call("prearm_check")
+        if not self.armed and self.mode not in ARMABLE_MODES:
+            return CommandResult.denied(f"Arm: mode {self.mode} not armable")
+        if not self.armed and (not self.prearm_ok or self.failsafes):
+            return CommandResult.denied("Arm: pre-arm checks failed")
+        return CommandResult.ok()
+
     def disarm(self, *, force: bool) -> CommandResult:
         self._call("disarm", force)
         if self.in_air and not force:

@@ -162,6 +162,19 @@ def test_arm_refused_in_land_then_forced(fly: tuple[Gcs, VehicleThread]) -> None
     assert calls(vehicle, "arm") == [("arm", False), ("arm", True)]
 
 
+def test_run_prearm_checks_says_why_arming_would_be_refused(
+        fly: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = fly
+    assert gcs.ack(M.MAV_CMD_RUN_PREARM_CHECKS).result == ACCEPTED  # armable: no text
+    assert gcs.ack(M.MAV_CMD_DO_SET_MODE, 1, Mode.LAND).result == ACCEPTED
+    gcs.command_long(M.MAV_CMD_RUN_PREARM_CHECKS)
+    got = gcs.gather({"COMMAND_ACK": lambda m: m.command == M.MAV_CMD_RUN_PREARM_CHECKS,
+                      "STATUSTEXT": lambda m: m.text.startswith("PreArm: ")})
+    assert got["COMMAND_ACK"].result == ACCEPTED  # as ArduPilot: the checks ran
+    assert "not armable" in got["STATUSTEXT"].text  # the reason arming would give
+    assert calls(vehicle, "arm") == []  # nothing armed
+
+
 def test_legacy_set_mode_is_acknowledged_and_confirmed_by_heartbeat(
         fly: tuple[Gcs, VehicleThread]) -> None:
     gcs, _ = fly
