@@ -19,9 +19,11 @@ ArduPilot conventions kept here:
   STATUSTEXT). A repeated last item after completion is answered with the ACK again.
 - Validation, per item, answered with a MISSION_ACK error that ends the upload (and a
   STATUSTEXT saying why): frames other than GLOBAL(_INT), GLOBAL_RELATIVE_ALT(_INT),
-  LOCAL_NED and MISSION -> UNSUPPORTED_FRAME; inf anywhere, or NaN in param1..4 ->
-  INVALID_PARAMn, except param4 (yaw) of NAV_WAYPOINT/LOITER/LAND/TAKEOFF where the MAVLink
-  spec defines NaN as "keep the heading mode" (MAVSDK sends it); non-finite or absurd
+  LOCAL_NED and MISSION -> UNSUPPORTED_FRAME; inf anywhere, or NaN in a param1..4 the
+  command uses (:data:`USED_PARAMS`) -> INVALID_PARAMn, except param4 (yaw) of
+  NAV_WAYPOINT/LOITER/LAND/TAKEOFF where the MAVLink spec defines NaN as "keep the heading
+  mode" (MAVSDK sends it); NaN in a parameter the command does not use is accepted
+  (ArduPilot ignores it; MAVSDK's Mission plugin sends NaN in RTL's param1); non-finite or absurd
   coordinates (|lat| > 90, |lon| > 180, |alt| > ``max_alt_m``, local |x|, |y|, |z| >
   ``max_local_m``) -> INVALID_PARAM5_X / 6_Y / 7. Fields the frame does not use (x, y, z of
   MAV_FRAME_MISSION) are not judged.
@@ -70,6 +72,15 @@ SUPPORTED_FRAMES = GLOBAL_FRAMES | LOCAL_FRAMES | {_M.MAV_FRAME_MISSION}
 NAV_YAW_COMMANDS = frozenset({_M.MAV_CMD_NAV_WAYPOINT, _M.MAV_CMD_NAV_LOITER_UNLIM,
                               _M.MAV_CMD_NAV_LOITER_TIME, _M.MAV_CMD_NAV_LAND,
                               _M.MAV_CMD_NAV_TAKEOFF})
+# param1..4 (indices 0..3) each NAV command flies with, as ArduCopter reads them; NaN in
+# the others is accepted (ArduPilot ignores them, and MAVSDK's Mission plugin fills them
+# with NaN). Commands not listed here have NaN refused in all four.
+USED_PARAMS: dict[int, frozenset[int]] = {
+    _M.MAV_CMD_NAV_WAYPOINT: frozenset({0, 3}),  # hold time, yaw
+    _M.MAV_CMD_NAV_RETURN_TO_LAUNCH: frozenset(),
+    _M.MAV_CMD_NAV_LAND: frozenset({3}),  # yaw
+    _M.MAV_CMD_NAV_TAKEOFF: frozenset({3}),  # yaw (param1, pitch, is for planes)
+}
 _INVALID_PARAM = (_M.MAV_MISSION_INVALID_PARAM1, _M.MAV_MISSION_INVALID_PARAM2,
                   _M.MAV_MISSION_INVALID_PARAM3, _M.MAV_MISSION_INVALID_PARAM4)
 INT32_MAX = 0x7FFFFFFF
@@ -166,8 +177,9 @@ def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
     where = f"Mission item {item.seq}"
     if item.frame not in SUPPORTED_FRAMES:
         return _M.MAV_MISSION_UNSUPPORTED_FRAME, f"{where}: frame {item.frame} not supported"
+    used = USED_PARAMS.get(item.command, frozenset(range(4)))
     for i, value in enumerate(item.params):
-        nan_ok = i == 3 and item.command in NAV_YAW_COMMANDS
+        nan_ok = i not in used or (i == 3 and item.command in NAV_YAW_COMMANDS)
         if math.isinf(value) or (math.isnan(value) and not nan_ok):
             return _INVALID_PARAM[i], f"{where}: param{i + 1} = {value} is not a number"
         if abs(value) > FLOAT32_MAX:  # (only a boot mission can hold one: the wire is float32)

@@ -347,7 +347,11 @@ class FlightLegs:
     def _start_rtl(self, t: float, item_index: int | None) -> None:
         start, yaw = self._plan_start(t)
         cfg = self.config
-        leg = rtl_leg(t, start, yaw, self._home_pos_ned, cfg.rtl_alt_m, cfg.rtl_hold_s,
+        rtl_alt_m = cfg.rtl_alt_m
+        if cfg.fence.altitude_on:  # as ArduCopter: the return stays below the fence
+            rtl_alt_m = max(min(rtl_alt_m, cfg.fence.alt_max_m - cfg.fence.margin_m),
+                            cfg.land_detect_alt_m)
+        leg = rtl_leg(t, start, yaw, self._home_pos_ned, rtl_alt_m, cfg.rtl_hold_s,
                       self._limits, item_index)
         self._leg = leg
         assert leg.target_pos_ned is not None

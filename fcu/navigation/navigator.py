@@ -34,6 +34,7 @@ import numpy as np
 
 from fcu.navigation.arming import PrearmCheck, auto_disarm_reason, prearm_check
 from fcu.navigation.events import CommandResult, NavEvent, Severity
+from fcu.navigation.fence import FENCE_ACTIONS, breach, target_problem
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
 from fcu.navigation.legs import Leg
@@ -153,6 +154,7 @@ class Navigator(MissionExecution):
         self._fix_lost_s: float | None = None
         self._output: NavOutput | None = None  # the latest step's, while it had no events
         self._cruise: _Cruise | None = None
+        self._fence_breach: str | None = None  # the breach the fence acted on, until back
         self._mission.reset_progress()
 
     @property
@@ -204,6 +206,8 @@ class Navigator(MissionExecution):
                                 estimator_healthy, on_ground_hint)
         if position_fix is not self._position_fix or not position_fix:
             self._watch_position_fix(t, position_fix)
+        if self.config.fence.enable and self._armed and self._flying:
+            self._watch_fence(t)
         cruise = self._cruise
         if cruise is not None and t < cruise.until_s and cruise.leg is self._leg and \
                 not self._events and self._position_fix and self._armed and self._flying:
@@ -239,6 +243,31 @@ class Navigator(MissionExecution):
         self._cruise = self._cruise_from(t, out) if reference is not None and not events \
             else None
         return out
+
+    def _watch_fence(self, t: float) -> None:
+        """A breach of the enabled fence triggers FENCE_ACTION once (announced); back
+        inside by FENCE_MARGIN the fence re-arms and its failsafe clears."""
+        fence = self.config.fence
+        pos = self._est_pos_ned
+        if self._fence_breach is not None:
+            if breach(pos, self._home_pos_ned, fence, margin_m=fence.margin_m) is None:
+                self._fence_breach = None
+                self._event("fence", "back inside the fence", "notice")
+                if "fence" in self._failsafes:
+                    self.clear_failsafe("fence")
+            return
+        why = breach(pos, self._home_pos_ned, fence)
+        if why is None:
+            return
+        self._fence_breach = why
+        action = FENCE_ACTIONS[fence.action]
+        self._event("fence", f"fence breach: {why}" + (
+            f", FENCE_ACTION {fence.action}: {action.upper()}" if action else
+            " (FENCE_ACTION 0: report only)"), "critical")
+        if action in ("rtl", "land"):
+            self.trigger_failsafe("fence", action)
+        elif action == "brake" and self._mode != Mode.BRAKE:
+            self._enter_mode(Mode.BRAKE, " (fence breach)")
 
     def _cruise_from(self, t: float, out: NavOutput) -> _Cruise | None:
         """What the ticks after ``t`` (s) may skip while nothing happens (:class:`_Cruise`),
@@ -463,9 +492,13 @@ class Navigator(MissionExecution):
     def takeoff(self, alt_m: float) -> CommandResult:
         """NAV_TAKEOFF in GUIDED: climb vertically to ``alt_m`` (m above home), then hold."""
         cfg = self.config
-        if not finite(alt_m) or not cfg.land_detect_alt_m < alt_m <= cfg.max_alt_m:
-            return self._refuse("take-off", f"altitude {alt_m!r} m outside "
-                                f"({cfg.land_detect_alt_m}, {cfg.max_alt_m}] m")
+        if not finite(alt_m) or not cfg.land_detect_alt_m < alt_m:
+            return self._refuse("take-off", f"altitude {alt_m!r} m not above "
+                                f"{cfg.land_detect_alt_m} m")
+        home = self._home_pos_ned
+        problem = target_problem((home[0], home[1], home[2] - alt_m), home, cfg.fence)
+        if problem is not None:
+            return self._refuse("take-off", problem)
         if self._mode != Mode.GUIDED:
             return self._refuse("take-off", f"needs GUIDED (mode is {self._mode.name})")
         if not self._armed:
@@ -480,9 +513,12 @@ class Navigator(MissionExecution):
         target = np.asarray(pos_ned, dtype=float).reshape(-1)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
             return self._refuse(what, f"target {pos_ned!r} is not three finite numbers")
-        if not 0.0 <= -target[2] <= self.config.max_alt_m:
-            return self._refuse(what, f"target altitude {-target[2]:.2f} m outside "
-                                f"[0, {self.config.max_alt_m}] m")
+        if -target[2] < 0.0:
+            return self._refuse(what, f"target altitude {-target[2]:.2f} m outside the air "
+                                "(below home)")
+        problem = target_problem(target, self._home_pos_ned, self.config.fence)
+        if problem is not None:
+            return self._refuse(what, f"target {problem}")
         return target
 
     def go_to(self, pos_ned: Sequence[float] | np.ndarray, yaw_rad: float | None = None
@@ -554,11 +590,12 @@ class Navigator(MissionExecution):
     def load_mission(self, items: Sequence[MissionItem]) -> CommandResult:
         """Replace the mission with ``items`` (seq 1..n; home is seq 0 and not included).
 
-        Refused while flying it in AUTO, and for targets outside [0, max_alt_m] altitude.
+        Refused while flying it in AUTO, for targets below ground, and with the fence
+        enabled for targets outside it.
         """
         if self._mode == Mode.AUTO and self._flying:
             return self._refuse("mission upload", "flying the current mission in AUTO")
-        problem = upload_problem(items, self.config)
+        problem = upload_problem(items, self.config, self._home_pos_ned)
         if problem is not None:
             return self._refuse("mission upload", problem)
         self._mission.load(items)
