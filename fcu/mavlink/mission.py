@@ -7,8 +7,9 @@ Download: GCS MISSION_REQUEST_LIST -> vehicle MISSION_COUNT(n) -> GCS MISSION_RE
           (or MISSION_REQUEST) -> vehicle MISSION_ITEM_INT(i) (or MISSION_ITEM) ... -> GCS ACK.
 
 ArduPilot conventions kept here:
-- seq 0 is home. It is uploaded like any item (and validated) but never handed to the
-  vehicle; a download always returns the current home as seq 0 (MAV_FRAME_GLOBAL, AMSL).
+- seq 0 is home. It is uploaded like any item but, as in ArduPilot, neither judged nor
+  handed to the vehicle (MAVSDK's import of a QGC ``.plan`` sends it with altitude NaN); a
+  download always returns the current home as seq 0 (MAV_FRAME_GLOBAL, AMSL).
   With no mission the vehicle reports a count of 1 (home only).
 - The whole mission is handed to the vehicle (:meth:`VehiclePort.mission_set`) only when the
   last item has arrived and been validated: an aborted upload leaves the old mission intact.
@@ -421,7 +422,10 @@ class MissionProtocol:
         up.last_activity_s = now_s
         up.retries = 0
         item = WireItem.from_message(msg)
-        code, reason = validate_item(item, self._config)
+        # seq 0 is home, never flown nor stored: as ArduPilot, not judged (MAVSDK's import
+        # of a QGC .plan sends it with altitude NaN)
+        code, reason = (validate_item(item, self._config) if seq > 0
+                        else (_M.MAV_MISSION_ACCEPTED, ""))
         if code != _M.MAV_MISSION_ACCEPTED:
             self._fail(up, code, reason)
             return

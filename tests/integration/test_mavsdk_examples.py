@@ -1,0 +1,336 @@
+"""What MAVSDK-Python's examples do, done against the vehicle, with both MAVSDK packages.
+
+Each test below is written here and does what one example of the MAVSDK-Python repository
+(``examples/*.py``) does, with the same API calls in the same order, against a vehicle
+started as the examples expect one (``--home`` at PX4's default home, 47.397742 N,
+8.545594 E, 488 m): first with ``mavsdk-grpc`` (import ``mavsdk_grpc``, the API those
+examples are written for; its ``mavsdk_server`` is started from the wheel on a free
+loopback port), then with ``mavsdk`` 4 (the native binding, same plugins). The examples'
+``asyncio.sleep`` pauses, which wait for the vehicle to get somewhere, become waits on its
+telemetry; everything else is as the example has it, but for the port (a free loopback
+port, not 14540). The README's MAVSDK table lists each example with the test behind it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import socket
+from collections.abc import AsyncIterator, Awaitable, Callable
+from typing import Any
+
+import pytest
+from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+from mavsdk.asyncio.plugins.action import ActionAsync
+from mavsdk.asyncio.plugins.failure import FailureAsync, FailureType, FailureUnit
+from mavsdk.asyncio.plugins.mission import (
+    MissionAsync,
+    MissionError,
+    MissionItem,
+    MissionPlan,
+)
+from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem
+from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
+from mavsdk.asyncio.plugins.param import ParamAsync
+from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
+from mavsdk_grpc import System
+from mavsdk_grpc import mission as grpc_mission
+from mavsdk_grpc import mission_raw as grpc_mission_raw
+from mavsdk_grpc.failure import FailureType as GrpcFailureType
+from mavsdk_grpc.failure import FailureUnit as GrpcFailureUnit
+from test_mavsdk import STEP_S, bounded, first
+from vehicle_harness import Gcs, free_port
+
+PX4_HOME = "47.397742,8.545594,488"  # PX4 SITL's default home, what the examples assume
+HOME_LAT, HOME_LON = 47.397742, 8.545594
+SPEEDUP = 10
+FLIGHT_S = 400.0  # s wall, a whole example on a loaded machine (pytest-timeout: 600 s)
+SERVER_STOP_S = 30.0  # s wall, mavsdk_server exits once killed
+
+
+# ------------------------------------------------------------------ harness
+def start_example_vehicle(start_vehicle: Callable[..., Any], gcs: Gcs,
+                          speedup: int = SPEEDUP) -> int:
+    """A vehicle at PX4's home sending to a fresh API port (returned) and to ``gcs``."""
+    api_port = free_port()
+    start_vehicle("--home", PX4_HOME, "--speedup", str(speedup), outs=[api_port, gcs.port])
+    gcs.start_reader()
+    return api_port
+
+
+@contextlib.asynccontextmanager
+async def grpc_drone(api_port: int) -> AsyncIterator[Any]:
+    """``System().connect(...)`` as the examples do, on free ports; the server is stopped
+    at the end (mavsdk_grpc only stops it when the object is collected)."""
+    drone = System(port=free_port(socket.SOCK_STREAM))
+    try:
+        await bounded(drone.connect(system_address=f"udpin://127.0.0.1:{api_port}"))
+        yield drone
+    finally:
+        server = drone._server_process
+        drone._stop_mavsdk_server()
+        if server is not None:
+            server.wait(timeout=SERVER_STOP_S)
+
+
+async def grpc_connected(drone: Any) -> None:
+    """The examples' first loop: wait for ``connection_state().is_connected``."""
+    await first(drone.core.connection_state(), lambda state: state.is_connected)
+
+
+def run_grpc(start_vehicle: Callable[..., Any], gcs: Gcs,
+             steps: Callable[[Any], Awaitable[None]], speedup: int = SPEEDUP) -> None:
+    api_port = start_example_vehicle(start_vehicle, gcs, speedup)
+
+    async def scenario() -> None:
+        async with grpc_drone(api_port) as drone:
+            await grpc_connected(drone)
+            await steps(drone)
+
+    asyncio.run(asyncio.wait_for(scenario(), FLIGHT_S))
+
+
+class NativeDrone:
+    """MAVSDK 4's plugins on the first autopilot, named as ``System`` names them."""
+
+    PLUGINS = {"action": ActionAsync, "telemetry": TelemetryAsync, "param": ParamAsync,
+               "mission": MissionAsync, "mission_raw": MissionRawAsync,
+               "failure": FailureAsync}
+
+    def __init__(self, system: Any) -> None:
+        self._plugins = {name: cls(system) for name, cls in self.PLUGINS.items()}
+
+    def __getattr__(self, name: str) -> Any:
+        return self._plugins[name]
+
+    def destroy(self) -> None:
+        for plugin in self._plugins.values():
+            plugin.destroy()
+
+
+@contextlib.asynccontextmanager
+async def native_drone(api_port: int) -> AsyncIterator[NativeDrone]:
+    """MAVSDK 4 as a ground station on ``api_port``, once the autopilot is found."""
+    mavsdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    drone: NativeDrone | None = None
+    try:
+        await bounded(mavsdk.add_any_connection(f"udpin://127.0.0.1:{api_port}"))
+        system = await bounded(mavsdk.first_autopilot(timeout_s=STEP_S), STEP_S + 10.0)
+        assert system is not None, "no autopilot heartbeat"
+        drone = NativeDrone(system)
+        yield drone
+    finally:
+        if drone is not None:
+            drone.destroy()
+        mavsdk.destroy()
+
+
+def run_native(start_vehicle: Callable[..., Any], gcs: Gcs,
+               steps: Callable[[Any], Awaitable[None]], speedup: int = SPEEDUP) -> None:
+    api_port = start_example_vehicle(start_vehicle, gcs, speedup)
+
+    async def scenario() -> None:
+        async with native_drone(api_port) as drone:
+            await steps(drone)
+
+    asyncio.run(asyncio.wait_for(scenario(), FLIGHT_S))
+
+
+def horizontal_m(lat_deg: float, lon_deg: float, to_lat: float, to_lon: float) -> float:
+    """Distance on the local tangent plane (close enough over a few hundred metres)."""
+    north = math.radians(to_lat - lat_deg) * 6_378_137.0
+    east = math.radians(to_lon - lon_deg) * 6_378_137.0 * math.cos(math.radians(lat_deg))
+    return math.hypot(north, east)
+
+
+# ------------------------------------------------------------------ goto.py
+GOTO_LAT, GOTO_LON = 47.397606, 8.543060  # the example's target, ~190 m west of home
+GOTO_START_M = 191.5  # m from home to the target
+ABOVE_TAKEOFF_M = 3.5  # m, above MAVSDK's default take-off altitude (2 m)
+
+
+def on_the_way(pos: Any) -> bool:
+    """Climbing towards the 20 m the example asks for (the vehicle used to refuse anything
+    above 10 m) and 2 m closer to the target: the go-to was accepted and is being flown
+    (the whole 190 m leg takes minutes of simulated time)."""
+    return (pos.relative_altitude_m > ABOVE_TAKEOFF_M and horizontal_m(
+        pos.latitude_deg, pos.longitude_deg, GOTO_LAT, GOTO_LON) < GOTO_START_M - 2.0)
+
+
+def test_goto_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        home = await first(drone.telemetry.home(), lambda h: True)
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.in_air(), bool)  # (the example sleeps 1 s)
+        flying_alt = home.absolute_altitude_m + 20.0
+        await bounded(drone.action.goto_location(GOTO_LAT, GOTO_LON, flying_alt, 0))
+        # (the example then waits forever): on its way up and west
+        await first(drone.telemetry.position(), on_the_way, FLIGHT_S)
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_goto_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.subscribe_health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        home = await bounded(drone.telemetry.home())
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.subscribe_in_air(), bool)
+        flying_alt = home.absolute_altitude_m + 20.0
+        await bounded(drone.action.goto_location(GOTO_LAT, GOTO_LON, flying_alt, 0))
+        await first(drone.telemetry.subscribe_position(), on_the_way, FLIGHT_S)
+
+    run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ mission_raw.py
+RAW_POINTS = ((47.40271757, 8.54285027), (47.40271757, 8.54361892))  # the example's, 30 m
+
+
+def raw_fields(seq: int, lat: float, lon: float) -> tuple[Any, ...]:
+    """The example's item ``seq``: frame 3 (global, relative altitude), NAV_WAYPOINT,
+    param2 (acceptance radius) 10, param4 NaN, 30 m."""
+    return (seq, 3, 16, 1 if seq == 0 else 0, 1, 0, 10, 0, float("nan"),
+            int(lat * 10**7), int(lon * 10**7), 30.0, 0)
+
+
+def check_raw_download(items: list[Any]) -> None:
+    """ArduPilot's convention: seq 0 is home, so the example's first point is taken as home
+    (not stored) and its second is item 1, at 30 m above home."""
+    assert len(items) == 2
+    assert (items[1].command, items[1].x, items[1].y) == (16, *raw_fields(1, *RAW_POINTS[1])[9:11])
+    assert items[1].z == pytest.approx(30.0)
+
+
+def test_mission_raw_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        items = [grpc_mission_raw.MissionItem(*raw_fields(seq, *point))
+                 for seq, point in enumerate(RAW_POINTS)]
+        await bounded(drone.mission_raw.upload_mission(items))
+        check_raw_download(list(await bounded(drone.mission_raw.download_mission())))
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_mission_raw_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        items = [RawItem(*raw_fields(seq, *point)) for seq, point in enumerate(RAW_POINTS)]
+        await bounded(drone.mission_raw.upload_mission(items))
+        check_raw_download(list(await bounded(drone.mission_raw.download_mission())))
+
+    run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ mission.py
+MISSION_POINTS = ((47.398039859999997, 8.5455725400000002),
+                  (47.398036222362471, 8.5450146439425509),
+                  (47.397825620791885, 8.5450092830163271))
+NAN = float("nan")
+
+
+def mission_args(lat: float, lon: float, none_camera: Any, none_vehicle: Any) -> tuple[Any, ...]:
+    """The example's item: 25 m, 10 m/s, fly-through, everything else NaN / NONE."""
+    return (lat, lon, 25, 10, True, NAN, NAN, none_camera, NAN, NAN, NAN, NAN, NAN,
+            none_vehicle)
+
+
+TAKEOFF_REFUSAL = "must be NAV_TAKEOFF"  # ArduCopter: "Auto: Missing Takeoff Cmd"
+
+
+def test_mission_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    """Upload (with the RTL item MAVSDK adds, param1 NaN) and arming pass; starting is
+    refused as ArduCopter refuses it: MAVSDK's Mission plugin puts no NAV_TAKEOFF first,
+    and ArduCopter does not take off into a waypoint from the ground."""
+    item = grpc_mission.MissionItem
+
+    async def steps(drone: Any) -> None:
+        items = [item(*mission_args(lat, lon, item.CameraAction.NONE, item.VehicleAction.NONE))
+                 for lat, lon in MISSION_POINTS]
+        await bounded(drone.mission.set_return_to_launch_after_mission(True))
+        since = gcs.mark()
+        await bounded(drone.mission.upload_mission(grpc_mission.MissionPlan(items)))
+        gcs.wait_text("mission of", since)
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await bounded(drone.action.arm())
+        since = gcs.mark()
+        with pytest.raises(grpc_mission.MissionError) as refused:
+            await bounded(drone.mission.start_mission())
+        assert refused.value._result.result == grpc_mission.MissionResult.Result.DENIED
+        gcs.wait_text(TAKEOFF_REFUSAL, since)
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_mission_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        items = [MissionItem(*mission_args(lat, lon, MissionItem.CameraAction.NONE,
+                                           MissionItem.VehicleAction.NONE))
+                 for lat, lon in MISSION_POINTS]
+        await bounded(drone.mission.set_return_to_launch_after_mission(True))
+        since = gcs.mark()
+        await bounded(drone.mission.upload_mission(MissionPlan(items)))
+        gcs.wait_text("mission of", since)
+        await first(drone.telemetry.subscribe_health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await bounded(drone.action.arm())
+        since = gcs.mark()
+        with pytest.raises(MissionError):
+            await bounded(drone.mission.start_mission())
+        gcs.wait_text(TAKEOFF_REFUSAL, since)
+
+    run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ failure_injection.py
+def test_failure_injection_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 1))
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.in_air(), bool)  # (the example sleeps 5 s)
+        position = await first(drone.telemetry.position(),
+                               lambda p: p.latitude_deg and p.longitude_deg)
+        flying_alt = position.absolute_altitude_m + 20.0
+        await bounded(drone.action.goto_location(position.latitude_deg,
+                                                 position.longitude_deg, flying_alt, 0))
+        await first(drone.telemetry.position(),  # (the example sleeps 5 s)
+                    lambda p: p.relative_altitude_m > position.relative_altitude_m + 1.0)
+        since = gcs.mark()
+        await bounded(drone.failure.inject(GrpcFailureUnit.SENSOR_GPS, GrpcFailureType.OFF,
+                                           instance=0))
+        gcs.wait_text("injected", since)  # the vehicle says what it injected
+        await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 0))
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_failure_injection_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.subscribe_health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 1))
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.subscribe_in_air(), bool)
+        position = await first(drone.telemetry.subscribe_position(),
+                               lambda p: p.latitude_deg and p.longitude_deg)
+        flying_alt = position.absolute_altitude_m + 20.0
+        await bounded(drone.action.goto_location(position.latitude_deg,
+                                                 position.longitude_deg, flying_alt, 0))
+        await first(drone.telemetry.subscribe_position(),
+                    lambda p: p.relative_altitude_m > position.relative_altitude_m + 1.0)
+        since = gcs.mark()
+        await bounded(drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0))
+        gcs.wait_text("injected", since)
+        await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 0))
+
+    run_native(start_vehicle, gcs, steps)
