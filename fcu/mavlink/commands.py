@@ -30,7 +30,9 @@ GET_MESSAGE_INTERVAL 510 (p1 message id, at most 65535: MESSAGE_INTERVAL's field
 SET_MESSAGE_INTERVAL 511 (p1 message id, p2 interval us: -1 stop, 0 default; an interval
 shorter than one autopilot tick is accepted and clamped to one message per tick, as ArduPilot
 caps streams at its loop rate: GET_MESSAGE_INTERVAL reports the rate in force),
-REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES 520.
+REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES 520. Any message the
+vehicle can produce can be streamed and requested; a message it cannot produce gets
+UNSUPPORTED (not DENIED, which is for bad parameters).
 """
 
 from __future__ import annotations
@@ -396,8 +398,8 @@ class CommandDispatcher:
         interval_us = r.params[1]
         if msg_id is None:
             return _denied(f"Set interval: param1 = {r.params[0]} is not a message id")
-        if not self._streams.has(msg_id):
-            return _denied(f"Set interval: message {msg_id} cannot be streamed")
+        if not self._streams.has(msg_id):  # a message id, but one we cannot produce
+            return _unsupported(f"Set interval: message {msg_id} cannot be streamed")
         if not math.isfinite(interval_us) or (interval_us < 0 and interval_us != -1.0):
             return _denied(f"Set interval: interval {interval_us} us invalid")
         if interval_us == -1.0:

@@ -205,6 +205,12 @@ class SimTruth:
     wind_ned : ndarray, shape (3,), or None
         True wind velocity at the vehicle (mean plus turbulence), NED, m/s (the velocity of
         the air, not the direction it comes from); None when not simulated.
+    esc_rpm, esc_current_a : ndarray, shape (4,), or None
+        What the ESCs of motors 1..4 measure: rotor speed, rev/min, and current, A (from the
+        motor model: a lost rotor reads 0 rpm, a stuck one its stuck speed); None when not
+        simulated.
+    esc_voltage_v : float or None
+        The ESCs' bus voltage, V.
     """
 
     pos_ned: np.ndarray
@@ -213,6 +219,9 @@ class SimTruth:
     rate_frd: np.ndarray
     accel_frd: np.ndarray
     wind_ned: np.ndarray | None = None
+    esc_rpm: np.ndarray | None = None
+    esc_current_a: np.ndarray | None = None
+    esc_voltage_v: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -334,3 +334,29 @@ def test_failure_injection_example_native(start_vehicle, gcs: Gcs) -> None:
         await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 0))
 
     run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ highres_imu.py
+def check_imu(imu: Any) -> None:
+    """At rest on the ground: the accelerometer reads -g along down, the gyro about 0."""
+    assert imu.acceleration_frd.down_m_s2 == pytest.approx(-9.81, abs=0.5)  # noise, bias
+    assert abs(imu.angular_velocity_frd.down_rad_s) < 0.1  # rad/s: gyro noise and bias
+    assert imu.timestamp_us > 0 and math.isfinite(imu.temperature_degc)
+
+
+def test_highres_imu_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        telemetry = drone.telemetry
+        await bounded(telemetry.set_rate_imu(200.0))  # (one per autopilot tick at most)
+        check_imu(await first(telemetry.imu(), lambda imu: True))
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_highres_imu_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        telemetry = drone.telemetry
+        await bounded(telemetry.set_rate_imu(200.0))
+        check_imu(await first(telemetry.subscribe_imu(), lambda imu: True))
+
+    run_native(start_vehicle, gcs, steps)
