@@ -30,7 +30,11 @@ GET_MESSAGE_INTERVAL 510 (p1 message id, at most 65535: MESSAGE_INTERVAL's field
 SET_MESSAGE_INTERVAL 511 (p1 message id, p2 interval us: -1 stop, 0 default; an interval
 shorter than one autopilot tick is accepted and clamped to one message per tick, as ArduPilot
 caps streams at its loop rate: GET_MESSAGE_INTERVAL reports the rate in force),
-REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES 520. Any message the
+PREFLIGHT_CALIBRATION 241 (the sensors are simulated: gyro, compass, barometer, accelerometer
+and level are accepted and reported started, in progress and done at once, in the ``[cal]``
+STATUSTEXTs of PX4's calibration protocol that MAVSDK and QGroundControl parse; all
+parameters 0 cancels), REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES
+520. Any message the
 vehicle can produce can be streamed and requested; a message it cannot produce gets
 UNSUPPORTED (not DENIED, which is for bad parameters).
 """
@@ -44,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
-from fcu.mavlink.enums import FailureType, FailureUnit
+from fcu.mavlink.enums import FailureType, FailureUnit, Severity
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m
 from fcu.mavlink.mission import (
     GLOBAL_FRAMES,
@@ -153,6 +157,12 @@ def _from_result(result: CommandResult, *, heartbeat_soon: bool = False) -> Comm
     return CommandOutcome(_M.MAV_RESULT_DENIED, result.reason)
 
 
+def _cal_texts(*texts: str) -> list[MAVLinkMessage]:
+    """Calibration progress as STATUSTEXTs (each under 50 characters: one packet)."""
+    return [_M.MAVLink_statustext_message(Severity.INFO, text.encode("ascii"), 0, 0)
+            for text in texts]
+
+
 def _whole(value: float, lo: int, hi: int) -> int | None:
     """``value`` as an int when it is a whole number in [lo, hi], else None."""
     if not math.isfinite(value) or value != round(value) or not lo <= value <= hi:
@@ -207,6 +217,7 @@ class CommandDispatcher:
             _M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
             _M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             _M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
+            _M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibrate,
         }
 
     @property
@@ -368,6 +379,32 @@ class CommandDispatcher:
         at = r.params[3]  # our extension: simulated time of the injection, 0/NaN = now
         at_s = float(at) if math.isfinite(at) and at > 0.0 else None
         return _from_result(self._injector.inject_failure(unit, kind, instance, at_s))
+
+    # ----------------------------------------------------------------------- calibration
+    def _calibrate(self, r: CommandRequest) -> CommandOutcome:
+        """PREFLIGHT_CALIBRATION on simulated sensors: accepted, then the progress texts
+        ground stations parse (PX4's ``[cal]`` protocol, version 2: started, progress,
+        done), at once; all parameters 0 cancels (nothing runs long enough to cancel)."""
+        values = (r.params[0], r.params[1], r.params[2], r.params[3], r.x, r.y, r.z)
+        codes = [_whole(v, 0, 255) if math.isfinite(v) else 0 for v in values]
+        if any(c is None for c in codes):
+            return _denied(f"Calibration: parameters {values} must be whole numbers")
+        if not any(codes):
+            return _accepted(follow_up=_cal_texts("[cal] calibration cancelled"))
+        which = [name for name, on in (
+            ("gyro", codes[0] == 1), ("mag", codes[1] == 1), ("baro", codes[2] == 1),
+            ("accel", codes[4] in (1, 4)), ("level", codes[4] == 2)) if on]
+        others = [i + 1 for i, c in enumerate(codes) if c and i not in (0, 1, 2, 4)]
+        if others or not which or codes[4] not in (0, 1, 2, 4):
+            return _unsupported(f"Calibration {values}: only gyro (p1), compass (p2), "
+                                "barometer (p3), accelerometer and level (p5 1, 2, 4)")
+        if self._port.snapshot().armed:
+            return _denied("Calibration refused: disarm first")
+        texts: list[str] = []
+        for name in which:
+            texts += [f"[cal] calibration started: 2 {name}", "[cal] progress <50>",
+                      "[cal] progress <100>", f"[cal] calibration done: {name}"]
+        return _accepted(follow_up=_cal_texts(*texts))
 
     # ----------------------------------------------------------------------- messages
     def _send_message(self, msg_id: int) -> CommandOutcome:
