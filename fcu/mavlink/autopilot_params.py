@@ -248,6 +248,10 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
     _fence_param("FENCE_MARGIN", "margin_m", "m",
                  "Fence margin: RTL stays this far below FENCE_ALT_MAX; back inside by it "
                  "re-arms the breach", 0.0, 100.0),
+    _nav_param("CIRCLE_RADIUS", "circle_radius_m", 100.0, "cm", "CIRCLE mode radius", 0.0,
+               1e6),
+    _nav_param("CIRCLE_RATE", "circle_rate_deg_s", 1.0, "deg/s",
+               "CIRCLE mode turn rate, > 0 clockwise seen from above", -90.0, 90.0),
     ApParam("AUTO_OPTIONS", "AUTO mode options, bitmask: bit 0 (1) arming in AUTO allowed, "
             "bit 1 (2) AUTO armed on the ground takes off without MISSION_START",
             get=lambda c: float(c.navigator.auto_options),

@@ -210,6 +210,19 @@ class AutopilotPort:
             self._on_target(np.asarray(pos_ned, dtype=float))
         return result
 
+    def orbit(self, centre_ned: np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        """DO_ORBIT: the navigator's circle, in CIRCLE mode (the outcome judge learns the
+        circle's extent, as it learns go-to targets)."""
+        result = self._nav("Orbit", self.host.autopilot.navigator.orbit(centre_ned, radius_m,
+                                                                        speed_m_s))
+        if result.accepted and centre_ned is not None:
+            r = self.host.autopilot.navigator.config.circle_radius_m if radius_m is None \
+                else float(radius_m)
+            for dn, de in ((r, 0.0), (-r, 0.0), (0.0, r), (0.0, -r)):
+                self._on_target(np.asarray(centre_ned, dtype=float) + np.array([dn, de, 0.0]))
+        return result
+
     def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
         """Velocity set-points are not flown by this autopilot (position legs only)."""
         return CommandResult.not_supported(

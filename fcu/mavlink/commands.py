@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -218,6 +218,7 @@ class CommandDispatcher:
             _M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             _M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
             _M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibrate,
+            _M.MAV_CMD_DO_ORBIT: self._orbit,
         }
 
     @property
@@ -311,6 +312,28 @@ class CommandDispatcher:
                 return _from_result(changed)
         yaw_rad = math.radians(yaw_deg) if math.isfinite(yaw_deg) else None
         return _from_result(self._port.goto(target, yaw_rad))
+
+    def _orbit(self, r: CommandRequest) -> CommandOutcome:
+        """DO_ORBIT (PX4's; MAVSDK's do_orbit): p1 radius m (NaN: CIRCLE_RADIUS), p2
+        velocity m/s (NaN: CIRCLE_RATE; a negative radius circles counter-clockwise), p3 yaw
+        behaviour (the vehicle faces the centre), p4 orbits (not counted: until told
+        otherwise), centre latitude/longitude/altitude (NaN: the current one; the altitude
+        is AMSL in every global frame, as PX4 reads it: MAVSDK's do_orbit sends its
+        absolute altitude in MAV_FRAME_GLOBAL_RELATIVE_ALT)."""
+        radius, speed = r.params[0], r.params[1]
+        if math.isinf(radius) or math.isinf(speed):
+            return _denied(f"Orbit: radius {radius} m, velocity {speed} m/s not numbers")
+        if r.frame in RELATIVE_ALT_FRAMES:  # PX4 reads DO_ORBIT's altitude as AMSL whatever
+            r = replace(r, frame=_M.MAV_FRAME_GLOBAL)  # the frame (MAVSDK sends AMSL in 3)
+        centre = self._target_geo(r, self._port.snapshot())
+        if isinstance(centre, str):
+            return _denied(f"Orbit: {centre}")
+        # PX4: a negative radius circles counter-clockwise; NaN velocity: the default
+        signed_speed = math.copysign(abs(speed), -1.0 if radius < 0 else 1.0) \
+            if math.isfinite(speed) else None
+        return _from_result(self._port.orbit(
+            centre, abs(radius) if math.isfinite(radius) else None, signed_speed),
+            heartbeat_soon=True)
 
     def _set_home(self, r: CommandRequest) -> CommandOutcome:
         use_current = r.params[0]

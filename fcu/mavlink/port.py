@@ -526,6 +526,12 @@ class VehiclePort(ParamProvider, Protocol):
         """Track ``vel_ned`` (m/s) in GUIDED; may answer ``CommandResult.not_supported``."""
         ...
 
+    def orbit(self, centre_ned: np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        """DO_ORBIT: circle ``centre_ned`` (m, NED; None = here) at ``radius_m`` (None: the
+        default) and ``speed_m_s`` along the circle (> 0 clockwise; None: the default)."""
+        ...
+
     def change_speed(self, speed_m_s: float, speed_type: str) -> CommandResult:
         """Set the ``"ground"`` (horizontal), ``"climb"`` or ``"descent"`` speed, m/s."""
         ...

@@ -418,6 +418,8 @@ class Navigator(MissionExecution):
             self._resume_mission(t)
         elif behaviour == "rtl":
             self._start_rtl(t, None)
+        elif behaviour == "circle":
+            self._enter_circle(t)
         else:  # land
             self._start_land(t, None)
 
@@ -566,6 +568,45 @@ class Navigator(MissionExecution):
             if not result.accepted:
                 return result
         return self.go_to(target, yaw_rad)
+
+    def orbit(self, centre_ned: Sequence[float] | np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        """DO_ORBIT: circle ``centre_ned`` (m, NED; None = the current position, at the
+        current altitude) at ``radius_m`` (None: CIRCLE_RADIUS) and ``speed_m_s`` along the
+        circle (> 0 clockwise seen from above; None: CIRCLE_RATE), in CIRCLE mode."""
+        cfg = self.config
+        if not (self._armed and self._flying):
+            return self._refuse("orbit", "not flying")
+        radius = cfg.circle_radius_m if radius_m is None else float(radius_m)
+        if not finite(radius) or radius < 0.0:
+            return self._refuse("orbit", f"radius {radius_m!r} m is not >= 0")
+        if speed_m_s is None:
+            rate = math.radians(cfg.circle_rate_deg_s)
+        elif not finite(speed_m_s) or abs(speed_m_s) > cfg.max_speed_m_s:
+            return self._refuse("orbit", f"speed {speed_m_s!r} m/s outside "
+                                f"[-{cfg.max_speed_m_s}, {cfg.max_speed_m_s}] m/s")
+        else:
+            rate = float(speed_m_s) / radius if radius > 0.0 else 0.0
+        start, _ = self._plan_start(self._now())
+        checked = self._check_target(
+            "orbit", start.copy() if centre_ned is None else np.asarray(centre_ned, dtype=float))
+        if isinstance(checked, CommandResult):
+            return checked
+        centre = checked
+        for point in ((centre[0] + radius, centre[1], centre[2]),
+                      (centre[0], centre[1] + radius, centre[2]),
+                      (centre[0] - radius, centre[1], centre[2]),
+                      (centre[0], centre[1] - radius, centre[2])):
+            problem = target_problem(point, self._home_pos_ned, cfg.fence)
+            if problem is not None:
+                return self._refuse("orbit", f"circle {problem}")
+        if self._mode != Mode.CIRCLE:
+            self._mode, old = Mode.CIRCLE, self._mode
+            self._event("mode", f"mode {old.name} -> CIRCLE (orbit)")
+            if old == Mode.AUTO:
+                self._mission.active = False
+        self._orbit(self._now(), centre, radius, rate)
+        return self._ok()
 
     def change_speed(self, speed_m_s: float, speed_type: str = "ground") -> CommandResult:
         """DO_CHANGE_SPEED: set the ground, climb or descent speed of later legs (m/s)."""

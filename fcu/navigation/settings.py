@@ -42,6 +42,9 @@ class NavigatorConfig:
     auto_options: int = 0  # bitmask [AUTO_OPTIONS]: bit 0 arming in AUTO allowed, bit 1 AUTO
     # armed on the ground takes off without MISSION_START (ArduCopter's "without raising the
     # throttle": there is no throttle stick here, MISSION_START is the only other trigger)
+    circle_radius_m: float = 10.0  # m, CIRCLE mode's radius [CIRCLE_RADIUS, cm]
+    circle_rate_deg_s: float = 20.0  # deg/s, CIRCLE's turn rate, > 0 clockwise seen from
+    # above, < 0 counter-clockwise [CIRCLE_RATE]
     fence: FenceConfig = field(default_factory=FenceConfig)  # the geofence [FENCE_*]; off by
     # default as in ArduCopter, so no altitude or distance limit applies unless enabled
 
@@ -68,6 +71,10 @@ class NavigatorConfig:
         require(isinstance(self.auto_options, int) and not isinstance(self.auto_options, bool)
                 and 0 <= self.auto_options <= AUTO_OPTIONS_MAX, "auto_options",
                 self.auto_options, f"must be a bitmask in 0..{AUTO_OPTIONS_MAX}")
+        require(finite(self.circle_radius_m) and self.circle_radius_m >= 0,
+                "circle_radius_m", self.circle_radius_m, "must be a finite number >= 0")
+        require(finite(self.circle_rate_deg_s) and abs(self.circle_rate_deg_s) <= 90.0,
+                "circle_rate_deg_s", self.circle_rate_deg_s, "must be within [-90, 90] deg/s")
         require(isinstance(self.fence, FenceConfig), "fence", self.fence,
                 "must be a FenceConfig")
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import pytest
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
-from mavsdk.asyncio.plugins.action import ActionAsync
+from mavsdk.asyncio.plugins.action import ActionAsync, OrbitYawBehavior
 from mavsdk.asyncio.plugins.calibration import (
     CalibrationAsync,
     CalibrationError,
@@ -42,6 +42,7 @@ from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 from mavsdk_grpc import System
 from mavsdk_grpc import mission as grpc_mission
 from mavsdk_grpc import mission_raw as grpc_mission_raw
+from mavsdk_grpc.action import OrbitYawBehavior as GrpcOrbitYawBehavior
 from mavsdk_grpc.calibration import CalibrationError as GrpcCalibrationError
 from mavsdk_grpc.calibration import CalibrationResult as GrpcCalibrationResult
 from mavsdk_grpc.failure import FailureType as GrpcFailureType
@@ -393,5 +394,53 @@ def test_calibration_example_native_is_refused_by_mavsdk(start_vehicle, gcs: Gcs
             async for _ in drone.calibration.calibrate_gyro():
                 pass
         assert refused.value.result == CalibrationResult.UNSUPPORTED
+
+    run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ do_orbit.py
+ORBIT_LAT, ORBIT_LON = 47.398036222362471, 8.5450146439425509  # the example's centre
+CIRCLE = 7  # ArduCopter's CIRCLE mode, which flies DO_ORBIT
+
+
+async def orbit_then_rtl(drone: Any, gcs: Gcs, in_air: AsyncIterator[bool],
+                         orbit_height: float, behaviour: Any) -> None:
+    """The example from the take-off on: orbit 10 m about its centre at 2 m/s, 10 m up
+    (its 60 s pause becomes: until the vehicle circles), then RTL."""
+    await first(in_air, bool)  # (the example sleeps 10 s)
+    since = gcs.mark()
+    await bounded(drone.action.do_orbit(radius_m=10, velocity_ms=2, yaw_behavior=behaviour,
+                                        latitude_deg=ORBIT_LAT, longitude_deg=ORBIT_LON,
+                                        absolute_altitude_m=orbit_height))
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == CIRCLE, since=since)
+    gcs.wait_text("circling", since, timeout_s=FLIGHT_S / 2)
+    await bounded(drone.action.return_to_launch())
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == 6, since=since)  # RTL
+
+
+def test_do_orbit_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        position = await first(drone.telemetry.position(), lambda p: True)
+        orbit_height = position.absolute_altitude_m + 10
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await orbit_then_rtl(drone, gcs, drone.telemetry.in_air(), orbit_height,
+                             GrpcOrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER)
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_do_orbit_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.subscribe_health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        position = await first(drone.telemetry.subscribe_position(), lambda p: True)
+        orbit_height = position.absolute_altitude_m + 10
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await orbit_then_rtl(drone, gcs, drone.telemetry.subscribe_in_air(), orbit_height,
+                             OrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER)
 
     run_native(start_vehicle, gcs, steps)
