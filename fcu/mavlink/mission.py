@@ -31,7 +31,11 @@ ArduPilot conventions kept here:
 - A mission the vehicle boots with (``ftc-vehicle --load-mission``) is loaded through
   :meth:`MissionProtocol.load`, in the form a ground station would upload it
   (:func:`flightdata.mission.mavlink_form`), so a download and MISSION_CURRENT report it.
-- Mission types other than MISSION (fence, rally) are answered MAV_MISSION_UNSUPPORTED.
+- The fence (MAV_MISSION_TYPE_FENCE: polygon vertices and circles, inclusion and exclusion,
+  a return point) and the rally points (MAV_MISSION_TYPE_RALLY) are uploaded, downloaded
+  and cleared by the same protocol, without a home item (seq 0 is their first item), each
+  item checked (:func:`validate_plan_item`), and stored as uploaded (:meth:`plan_items`);
+  other mission types are answered MAV_MISSION_UNSUPPORTED.
 - Time-outs are judged on the clock passed in (the vehicle process passes the wall-clock
   monotonic time, so a simulation speed-up does not shorten them).
 - MISSION_ITEM_INT carries latitude/longitude in degE7 and local x/y in metres * 1e4.
@@ -60,6 +64,7 @@ __all__ = [
     "WireItem",
     "to_mission_item",
     "validate_item",
+    "validate_plan_item",
 ]
 
 _M = mavlink2
@@ -81,7 +86,22 @@ USED_PARAMS: dict[int, frozenset[int]] = {
     _M.MAV_CMD_NAV_RETURN_TO_LAUNCH: frozenset(),
     _M.MAV_CMD_NAV_LAND: frozenset({3}),  # yaw
     _M.MAV_CMD_NAV_TAKEOFF: frozenset({3}),  # yaw (param1, pitch, is for planes)
+    _M.MAV_CMD_NAV_FENCE_RETURN_POINT: frozenset(),
+    _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: frozenset({0}),  # vertex count
+    _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: frozenset({0}),
+    _M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: frozenset({0}),  # radius, m
+    _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: frozenset({0}),
+    _M.MAV_CMD_NAV_RALLY_POINT: frozenset(),
 }
+#: The commands a fence or rally upload may hold (the plan types beside the mission).
+PLAN_COMMANDS: dict[int, frozenset[int]] = {
+    _M.MAV_MISSION_TYPE_FENCE: frozenset({
+        _M.MAV_CMD_NAV_FENCE_RETURN_POINT, _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION, _M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+        _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION}),
+    _M.MAV_MISSION_TYPE_RALLY: frozenset({_M.MAV_CMD_NAV_RALLY_POINT}),
+}
+_PLAN_NAMES = {_M.MAV_MISSION_TYPE_FENCE: "Fence", _M.MAV_MISSION_TYPE_RALLY: "Rally"}
 _INVALID_PARAM = (_M.MAV_MISSION_INVALID_PARAM1, _M.MAV_MISSION_INVALID_PARAM2,
                   _M.MAV_MISSION_INVALID_PARAM3, _M.MAV_MISSION_INVALID_PARAM4)
 INT32_MAX = 0x7FFFFFFF
@@ -124,6 +144,7 @@ class WireItem:
     x: float
     y: float
     z: float
+    mission_type: int = _M.MAV_MISSION_TYPE_MISSION
 
     @staticmethod
     def _int_scale(frame: int) -> float:
@@ -149,7 +170,8 @@ class WireItem:
                    current=int(msg.current), autocontinue=int(msg.autocontinue),
                    params=(float(msg.param1), float(msg.param2), float(msg.param3),
                            float(msg.param4)),
-                   x=float(msg.x) / scale, y=float(msg.y) / scale, z=float(msg.z))
+                   x=float(msg.x) / scale, y=float(msg.y) / scale, z=float(msg.z),
+                   mission_type=int(msg.mission_type))
 
     def to_message(self, use_int: bool, target_system: int,
                    target_component: int) -> MAVLinkMessage:
@@ -166,11 +188,10 @@ class WireItem:
             return _M.MAVLink_mission_item_int_message(
                 target_system, target_component, self.seq, self.frame, self.command,
                 self.current, self.autocontinue, p1, p2, p3, p4, scaled(self.x),
-                scaled(self.y), self.z, _M.MAV_MISSION_TYPE_MISSION)
+                scaled(self.y), self.z, self.mission_type)
         return _M.MAVLink_mission_item_message(
             target_system, target_component, self.seq, self.frame, self.command, self.current,
-            self.autocontinue, p1, p2, p3, p4, self.x, self.y, self.z,
-            _M.MAV_MISSION_TYPE_MISSION)
+            self.autocontinue, p1, p2, p3, p4, self.x, self.y, self.z, self.mission_type)
 
 
 def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
@@ -204,6 +225,31 @@ def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
                                      strict=True):
             if abs(value) > config.max_local_m:
                 return code, f"{where}: {name} {value:g} m beyond +-{config.max_local_m:g} m"
+    return _M.MAV_MISSION_ACCEPTED, ""
+
+
+def validate_plan_item(item: WireItem, mission_type: int, config: MissionConfig
+                       ) -> tuple[int, str]:
+    """(MAV_MISSION_RESULT, reason) for one fence or rally item: a command of its type, in a
+    global frame, valid coordinates; a polygon vertex with a vertex count of at least 3, a
+    circle with a radius > 0."""
+    name = _PLAN_NAMES[mission_type]
+    where = f"{name} item {item.seq}"
+    if item.command not in PLAN_COMMANDS[mission_type]:
+        return _M.MAV_MISSION_UNSUPPORTED, f"{where}: command {item.command} not a {name} item"
+    if item.frame not in GLOBAL_FRAMES:
+        return _M.MAV_MISSION_UNSUPPORTED_FRAME, f"{where}: frame {item.frame} not global"
+    code, reason = validate_item(item, config)
+    if code != _M.MAV_MISSION_ACCEPTED:
+        return code, reason.replace("Mission item", where, 1)
+    p1 = item.params[0]
+    if item.command in (_M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION) and \
+            not (p1 >= 3 and p1 == round(p1)):
+        return _M.MAV_MISSION_INVALID_PARAM1, f"{where}: vertex count {p1} is not 3 or more"
+    if item.command in (_M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+                        _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION) and not p1 > 0:
+        return _M.MAV_MISSION_INVALID_PARAM1, f"{where}: radius {p1} m is not > 0"
     return _M.MAV_MISSION_ACCEPTED, ""
 
 
@@ -256,6 +302,7 @@ class _Upload:
     use_int: bool
     last_activity_s: float
     retries: int = 0
+    mission_type: int = _M.MAV_MISSION_TYPE_MISSION
 
 
 class MissionProtocol:
@@ -281,6 +328,8 @@ class MissionProtocol:
         self._commit = commit
         self._config = config
         self._items: list[WireItem] = []  # seq 1..n-1 (home is not stored)
+        # the fence and the rally points, seq 0.. (no home item), as uploaded
+        self._plans: dict[int, list[WireItem]] = {t: [] for t in PLAN_COMMANDS}
         self._upload: _Upload | None = None
         self._completed: tuple[tuple[int, int], int] | None = None  # (peer, last seq)
 
@@ -305,6 +354,10 @@ class MissionProtocol:
         """The stored mission (seq 1..), as received."""
         return list(self._items)
 
+    def plan_items(self, mission_type: int) -> list[WireItem]:
+        """The stored fence (MAV_MISSION_TYPE_FENCE) or rally points (RALLY), as received."""
+        return list(self._plans[mission_type])
+
     def reset(self) -> None:
         """Forget any transfer in progress (reboot); the stored mission is kept."""
         self._upload = None
@@ -319,15 +372,15 @@ class MissionProtocol:
         seq = len(up.items)
         if up.use_int:
             msg = _M.MAVLink_mission_request_int_message(up.peer[0], up.peer[1], seq,
-                                                         _M.MAV_MISSION_TYPE_MISSION)
+                                                         up.mission_type)
         else:
             msg = _M.MAVLink_mission_request_message(up.peer[0], up.peer[1], seq,
-                                                     _M.MAV_MISSION_TYPE_MISSION)
+                                                     up.mission_type)
         self._outbox.send(msg, up.addr)
 
     def _fail(self, up: _Upload, code: int, reason: str) -> None:
         self._upload = None
-        self._ack(code, up.peer, up.addr)
+        self._ack(code, up.peer, up.addr, up.mission_type)
         self._outbox.status(Severity.WARNING, reason)
 
     def _home_item(self) -> WireItem:
@@ -368,22 +421,27 @@ class MissionProtocol:
                      now_s: float) -> None:
         """MISSION_COUNT: start an upload (or clear the mission when the count is 0)."""
         mission_type = int(msg.mission_type)
-        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+        plan = mission_type in PLAN_COMMANDS
+        if mission_type != _M.MAV_MISSION_TYPE_MISSION and not plan:
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
         count = int(msg.count)
         self._upload = None
         self._completed = None
-        if count == 0:
-            self._finish_commit([], peer, to)  # MAVLink: an empty upload clears the mission
+        if count == 0:  # MAVLink: an empty upload clears
+            if plan:
+                self._plans[mission_type] = []
+                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
+            else:
+                self._finish_commit([], peer, to)
             return
         if count > self._config.max_items:
-            self._ack(_M.MAV_MISSION_NO_SPACE, peer, to)
+            self._ack(_M.MAV_MISSION_NO_SPACE, peer, to, mission_type)
             self._outbox.status(Severity.WARNING, f"Mission of {count} items exceeds "
                                 f"{self._config.max_items}")
             return
         self._upload = _Upload(peer=peer, addr=to, count=count, items=[], use_int=True,
-                               last_activity_s=now_s)
+                               last_activity_s=now_s, mission_type=mission_type)
         self._request(self._upload)
 
     def _finish_commit(self, items: list[WireItem], peer: tuple[int, int], to: Address) -> bool:
@@ -404,14 +462,15 @@ class MissionProtocol:
         seq = int(msg.seq)
         if up is None:
             if self._completed == (peer, seq):  # our ACK was lost: say it again
-                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to)
-            elif mission_type != _M.MAV_MISSION_TYPE_MISSION:
+                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
+            elif mission_type != _M.MAV_MISSION_TYPE_MISSION and \
+                    mission_type not in PLAN_COMMANDS:
                 self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
         if peer != up.peer:
             self._ack(_M.MAV_MISSION_DENIED, peer, to, mission_type)
             return
-        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+        if mission_type != up.mission_type:
             return
         expected = len(up.items)
         if seq != expected:
@@ -422,10 +481,14 @@ class MissionProtocol:
         up.last_activity_s = now_s
         up.retries = 0
         item = WireItem.from_message(msg)
-        # seq 0 is home, never flown nor stored: as ArduPilot, not judged (MAVSDK's import
-        # of a QGC .plan sends it with altitude NaN)
-        code, reason = (validate_item(item, self._config) if seq > 0
-                        else (_M.MAV_MISSION_ACCEPTED, ""))
+        # seq 0 of a mission is home, never flown nor stored: as ArduPilot, not judged
+        # (MAVSDK's import of a QGC .plan sends it with altitude NaN)
+        if up.mission_type in PLAN_COMMANDS:
+            code, reason = validate_plan_item(item, up.mission_type, self._config)
+        elif seq > 0:
+            code, reason = validate_item(item, self._config)
+        else:
+            code, reason = _M.MAV_MISSION_ACCEPTED, ""
         if code != _M.MAV_MISSION_ACCEPTED:
             self._fail(up, code, reason)
             return
@@ -434,7 +497,13 @@ class MissionProtocol:
             self._request(up)
             return
         self._upload = None
-        if self._finish_commit(up.items[1:], peer, to):
+        if up.mission_type in PLAN_COMMANDS:
+            self._plans[up.mission_type] = list(up.items)
+            self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, up.mission_type)
+            self._outbox.status(Severity.INFO, f"{_PLAN_NAMES[up.mission_type]}: "
+                                f"{len(up.items)} items stored")
+            self._completed = (peer, up.count - 1)
+        elif self._finish_commit(up.items[1:], peer, to):
             self._completed = (peer, up.count - 1)
 
     def tick(self, now_s: float) -> None:
@@ -455,6 +524,10 @@ class MissionProtocol:
                             to: Address) -> None:
         """MISSION_REQUEST_LIST: announce the count (home included)."""
         mission_type = int(msg.mission_type)
+        if mission_type in PLAN_COMMANDS:
+            self._outbox.send(_M.MAVLink_mission_count_message(
+                peer[0], peer[1], len(self._plans[mission_type]), mission_type), to)
+            return
         if mission_type != _M.MAV_MISSION_TYPE_MISSION:
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
@@ -464,20 +537,34 @@ class MissionProtocol:
     def handle_request(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address) -> None:
         """MISSION_REQUEST_INT / MISSION_REQUEST: send one item (idempotent, any order)."""
         mission_type = int(msg.mission_type)
+        seq = int(msg.seq)
+        use_int = msg.get_type() == "MISSION_REQUEST_INT"
+        if mission_type in PLAN_COMMANDS:
+            stored = self._plans[mission_type]
+            if not 0 <= seq < len(stored):
+                self._ack(_M.MAV_MISSION_INVALID_SEQUENCE, peer, to, mission_type)
+                return
+            self._outbox.send(stored[seq].to_message(use_int, peer[0], peer[1]), to)
+            return
         if mission_type != _M.MAV_MISSION_TYPE_MISSION:
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
-        seq = int(msg.seq)
         if not 0 <= seq < self.count:
             self._ack(_M.MAV_MISSION_INVALID_SEQUENCE, peer, to)
             return
         item = self._home_item() if seq == 0 else self._items[seq - 1]
-        use_int = msg.get_type() == "MISSION_REQUEST_INT"
         self._outbox.send(item.to_message(use_int, peer[0], peer[1]), to)
 
     def handle_clear_all(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address) -> None:
-        """MISSION_CLEAR_ALL: clear the mission (types MISSION and ALL)."""
+        """MISSION_CLEAR_ALL: clear the mission, the fence or the rally points (ALL: all)."""
         mission_type = int(msg.mission_type)
+        if mission_type in PLAN_COMMANDS or mission_type == _M.MAV_MISSION_TYPE_ALL:
+            for plan in PLAN_COMMANDS:
+                if mission_type in (plan, _M.MAV_MISSION_TYPE_ALL):
+                    self._plans[plan] = []
+            if mission_type != _M.MAV_MISSION_TYPE_ALL:
+                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
+                return
         if mission_type not in (_M.MAV_MISSION_TYPE_MISSION, _M.MAV_MISSION_TYPE_ALL):
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return

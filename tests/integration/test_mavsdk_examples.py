@@ -15,9 +15,11 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import math
 import socket
 from collections.abc import AsyncIterator, Awaitable, Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -29,6 +31,16 @@ from mavsdk.asyncio.plugins.calibration import (
     CalibrationResult,
 )
 from mavsdk.asyncio.plugins.failure import FailureAsync, FailureType, FailureUnit
+from mavsdk.asyncio.plugins.geofence import (
+    Circle,
+    FenceType,
+    GeofenceAsync,
+    GeofenceData,
+    GeofenceError,
+    GeofenceResult,
+    Point,
+    Polygon,
+)
 from mavsdk.asyncio.plugins.mission import (
     MissionAsync,
     MissionError,
@@ -47,6 +59,13 @@ from mavsdk_grpc.calibration import CalibrationError as GrpcCalibrationError
 from mavsdk_grpc.calibration import CalibrationResult as GrpcCalibrationResult
 from mavsdk_grpc.failure import FailureType as GrpcFailureType
 from mavsdk_grpc.failure import FailureUnit as GrpcFailureUnit
+from mavsdk_grpc.geofence import Circle as GrpcCircle
+from mavsdk_grpc.geofence import FenceType as GrpcFenceType
+from mavsdk_grpc.geofence import GeofenceData as GrpcGeofenceData
+from mavsdk_grpc.geofence import GeofenceError as GrpcGeofenceError
+from mavsdk_grpc.geofence import GeofenceResult as GrpcGeofenceResult
+from mavsdk_grpc.geofence import Point as GrpcPoint
+from mavsdk_grpc.geofence import Polygon as GrpcPolygon
 from test_mavsdk import STEP_S, bounded, first
 from vehicle_harness import Gcs, M, free_port
 
@@ -104,7 +123,8 @@ class NativeDrone:
 
     PLUGINS = {"action": ActionAsync, "telemetry": TelemetryAsync, "param": ParamAsync,
                "mission": MissionAsync, "mission_raw": MissionRawAsync,
-               "failure": FailureAsync, "calibration": CalibrationAsync}
+               "failure": FailureAsync, "calibration": CalibrationAsync,
+               "geofence": GeofenceAsync}
 
     def __init__(self, system: Any) -> None:
         self._plugins = {name: cls(system) for name, cls in self.PLUGINS.items()}
@@ -442,5 +462,124 @@ def test_do_orbit_example_native(start_vehicle, gcs: Gcs) -> None:
         await bounded(drone.action.takeoff())
         await orbit_then_rtl(drone, gcs, drone.telemetry.subscribe_in_air(), orbit_height,
                              OrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER)
+
+    run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ geofence.py
+# The example sends its "no circle" placeholder, Circle(Point(0, 0), 0), which MAVSDK 4
+# refuses itself (a radius of 0 is invalid input: INVALID_ARGUMENT before anything is sent).
+# Without the placeholder the same polygon uploads, and reads back as a fence.
+def fence_points(lat: float, lon: float) -> list[tuple[float, float]]:
+    """The example's square, 0.0001 deg about home."""
+    return [(lat - 0.0001, lon - 0.0001), (lat + 0.0001, lon - 0.0001),
+            (lat + 0.0001, lon + 0.0001), (lat - 0.0001, lon + 0.0001)]
+
+
+def download_fence(gcs: Gcs) -> list[Any]:
+    """The fence as the vehicle reports it (MAV_MISSION_TYPE_FENCE download, pymavlink)."""
+    fence = M.MAV_MISSION_TYPE_FENCE
+    since = gcs.mark()
+    gcs.send(M.MAVLink_mission_request_list_message(1, 1, fence))
+    count = gcs.wait("MISSION_COUNT", lambda m: m.mission_type == fence, since=since).count
+    items = []
+    for seq in range(count):
+        since = gcs.mark()
+        gcs.send(M.MAVLink_mission_request_int_message(1, 1, seq, fence))
+        items.append(gcs.wait("MISSION_ITEM_INT", lambda m, s=seq: m.seq == s, since=since))
+    gcs.send(M.MAVLink_mission_ack_message(1, 1, M.MAV_MISSION_ACCEPTED, fence))
+    return items
+
+
+def check_fence(items: list[Any], points: list[tuple[float, float]]) -> None:
+    assert [m.command for m in items] == [M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION] * 4
+    assert [(m.x, m.y) for m in items] == [(round(a * 1e7), round(b * 1e7)) for a, b in points]
+    assert all(m.param1 == 4 for m in items)  # the vertex count
+
+
+def test_geofence_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        home = await first(drone.telemetry.home(), lambda h: True)
+        points = fence_points(home.latitude_deg, home.longitude_deg)
+        polygon = GrpcPolygon([GrpcPoint(a, b) for a, b in points],
+                              GrpcFenceType.INCLUSION)
+        circle = GrpcCircle(GrpcPoint(0, 0), 0, GrpcFenceType.INCLUSION)
+        with pytest.raises(GrpcGeofenceError) as refused:
+            await bounded(drone.geofence.upload_geofence(GrpcGeofenceData([polygon], [circle])))
+        assert refused.value._result.result == GrpcGeofenceResult.Result.INVALID_ARGUMENT
+        await bounded(drone.geofence.upload_geofence(GrpcGeofenceData([polygon], [])))
+        check_fence(download_fence(gcs), points)
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_geofence_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        home = await first(drone.telemetry.subscribe_home(), lambda h: True)
+        points = fence_points(home.latitude_deg, home.longitude_deg)
+        polygon = Polygon([Point(a, b) for a, b in points], FenceType.INCLUSION)
+        circle = Circle(Point(0, 0), 0, FenceType.INCLUSION)
+        with pytest.raises(GeofenceError) as refused:
+            await bounded(drone.geofence.upload_geofence(GeofenceData([polygon], [circle])))
+        assert refused.value.result == GeofenceResult.INVALID_ARGUMENT
+        await bounded(drone.geofence.upload_geofence(GeofenceData([polygon], [])))
+        check_fence(download_fence(gcs), points)
+        await bounded(drone.geofence.clear_geofence())
+        assert download_fence(gcs) == []
+
+    run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ mission_import.py
+def write_plan(path: Path) -> Path:
+    """A QGroundControl .plan as QGC writes one (our own, in the example's shape): take-off,
+    two waypoints and RTL at PX4's home, and two rally points."""
+    def item(command: int, frame: int, params: list[float]) -> dict[str, Any]:
+        return {"type": "SimpleItem", "autoContinue": True, "command": command,
+                "frame": frame, "params": params, "doJumpId": 1}
+
+    lat, lon = HOME_LAT, HOME_LON
+    plan = {
+        "fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
+        "geoFence": {"circles": [], "polygons": [], "version": 2},
+        "rallyPoints": {"points": [[lat - 0.0002, lon - 0.0003, 0],
+                                   [lat + 0.0010, lon - 0.0003, 0]], "version": 2},
+        "mission": {
+            "cruiseSpeed": 15, "hoverSpeed": 5, "firmwareType": 3, "vehicleType": 2,
+            "version": 2, "plannedHomePosition": [lat, lon, 488],
+            "items": [item(22, 3, [0, 0, 0, None, lat, lon, 10]),
+                      item(16, 3, [0, 0, 0, None, lat + 0.0003, lon, 10]),
+                      item(16, 3, [0, 0, 0, None, lat + 0.0003, lon - 0.0004, 10]),
+                      item(20, 2, [0, 0, 0, 0, 0, 0, 0])]}}
+    path.write_text(json.dumps(plan))
+    return path
+
+
+def check_import(mission_items: list[Any], rally_items: list[Any]) -> None:
+    assert len(mission_items) == 5 and len(rally_items) == 2  # home + 4; 2 rally points
+    assert {m.mission_type for m in rally_items} == {M.MAV_MISSION_TYPE_RALLY}
+
+
+def test_mission_import_example_grpc(start_vehicle, gcs: Gcs, tmp_path: Path) -> None:
+    plan = write_plan(tmp_path / "example-mission.plan")
+
+    async def steps(drone: Any) -> None:
+        out = await bounded(drone.mission_raw.import_qgroundcontrol_mission(str(plan)))
+        check_import(out.mission_items, out.rally_items)
+        await bounded(drone.mission_raw.upload_mission(out.mission_items))
+        await bounded(drone.mission_raw.upload_rally_points(out.rally_items))
+        assert len(await bounded(drone.mission_raw.download_mission())) == 5
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_mission_import_example_native(start_vehicle, gcs: Gcs, tmp_path: Path) -> None:
+    plan = write_plan(tmp_path / "example-mission.plan")
+
+    async def steps(drone: Any) -> None:
+        out = await bounded(drone.mission_raw.import_qgroundcontrol_mission(str(plan)))
+        check_import(out.mission_items, out.rally_items)
+        await bounded(drone.mission_raw.upload_mission(out.mission_items))
+        await bounded(drone.mission_raw.upload_rally_points(out.rally_items))
 
     run_native(start_vehicle, gcs, steps)
