@@ -16,8 +16,10 @@ MISSION_START, which MAVSDK and QGC send to start a mission, takes off without e
 :class:`fcu.mavlink.autopilot_port.AutopilotPort` applies them: a change rebuilds the
 autopilot with the new configuration, so it is accepted only disarmed on the ground, except
 the parameters with ``live_speed`` (``WPNAV_SPEED``, ``WPNAV_SPEED_UP``, ``WPNAV_SPEED_DN``),
-which also act at once in flight like DO_CHANGE_SPEED, and ``FTC_MODE``, which switches the
-fault-tolerant control at once, in flight or not.
+which also act at once in flight like DO_CHANGE_SPEED, ``FTC_MODE``, which switches the
+fault-tolerant control at once, in flight or not, and the ``FENCE_*`` parameters, which act at
+once in flight or not (as ArduCopter's: a fence enabled with the vehicle outside it is
+breached at once).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ class ApParam:
     integer: bool = False
     live_speed: str | None = None  # DO_CHANGE_SPEED type applied at once in flight
     live_ftc: bool = False  # the FTC mode: switched at once, in flight too (no rebuild)
+    live_fence: bool = False  # the geofence: applied at once, in flight too (no rebuild)
     read_only: bool = False
 
 
@@ -113,7 +116,8 @@ def _fence_param(name: str, attr: str, unit: str, description: str, lo: float, h
         set=lambda c, v: replace(c, navigator=_with(
             c.navigator, "fence", _with(c.navigator.fence, attr, cast(v)))),
         min_value=lo, max_value=hi, integer=integer,
-        allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None)
+        allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None,
+        live_fence=True)
 
 
 def _top_param(name: str, attr: str, unit: str, description: str, lo: float,

@@ -312,6 +312,13 @@ class AutopilotPort:
             self.post(Severity.INFO, f"FTC: {new.ftc}")
             return CommandResult.ok()
         nav = self.host.autopilot.navigator
+        if spec.live_fence:
+            nav.set_fence(new.navigator.fence)
+            self._config = replace(self._config, navigator=replace(
+                self._config.navigator, fence=new.navigator.fence))
+            self._expire()
+            self.post(Severity.INFO, f"{name} = {value:g}")
+            return CommandResult.ok()
         if nav.armed or not nav.landed:
             if spec.live_speed is None:
                 return CommandResult.denied("change it disarmed on the ground (the "
@@ -344,11 +351,13 @@ class AutopilotPort:
         ap.reset_estimators(t)
         ap.step(t, [])
         nav = ap.navigator
-        if old_nav.mission_items:
-            nav.load_mission(old_nav.mission_items)
         home = old_nav.home_pos_ned
         if not np.array_equal(home, nav.home_pos_ned):
             nav.set_home(home)
+        if old_nav.mission_items:
+            loaded = nav.load_mission(old_nav.mission_items)
+            if not loaded.accepted:  # (the new configuration's fence refuses it)
+                return f"the loaded mission does not fit it: {loaded.reason}"
         if keep_mode and old_nav.mode != nav.mode:
             nav.set_mode(int(old_nav.mode))
         ap.step(t, [])

@@ -186,13 +186,19 @@ class CommandDispatcher:
     mission_total : callable
         Number of mission items excluding home.
     limits : CommandLimits
+    set_param : callable, optional
+        ``set_param(name, value)`` for commands that change a parameter (DO_FENCE_ENABLE);
+        the endpoint passes its parameter table's, so reads report the change (default: the
+        port's).
     """
 
     def __init__(self, port: VehiclePort, injector: FailureInjector | None,
                  streams: StreamScheduler,
                  build_message: Callable[[int], list[MAVLinkMessage] | None],
-                 mission_total: Callable[[], int], limits: CommandLimits) -> None:
+                 mission_total: Callable[[], int], limits: CommandLimits, *,
+                 set_param: Callable[[str, float], CommandResult] | None = None) -> None:
         self._port = port
+        self._set_param = set_param if set_param is not None else port.set_param
         self._injector = injector
         self._streams = streams
         self._build_message = build_message
@@ -219,6 +225,7 @@ class CommandDispatcher:
             _M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
             _M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibrate,
             _M.MAV_CMD_DO_ORBIT: self._orbit,
+            _M.MAV_CMD_DO_FENCE_ENABLE: self._fence_enable,
         }
 
     @property
@@ -334,6 +341,16 @@ class CommandDispatcher:
         return _from_result(self._port.orbit(
             centre, abs(radius) if math.isfinite(radius) else None, signed_speed),
             heartbeat_soon=True)
+
+    def _fence_enable(self, r: CommandRequest) -> CommandOutcome:
+        """DO_FENCE_ENABLE (MAVProxy's ``fence enable``): p1 1 enables, 0 disables the fence
+        (FENCE_ENABLE, in force at once); 2 (disable the floor only) has no floor to act on."""
+        enable = _whole(r.params[0], 0, 2)
+        if enable is None:
+            return _denied(f"Fence enable: param1 = {r.params[0]} must be 0, 1 or 2")
+        if enable == 2:
+            return _unsupported("Fence enable: there is no floor fence to disable")
+        return _from_result(self._set_param("FENCE_ENABLE", float(enable)))
 
     def _set_home(self, r: CommandRequest) -> CommandOutcome:
         use_current = r.params[0]

@@ -27,14 +27,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 
 from fcu.navigation.arming import PrearmCheck, auto_disarm_reason, prearm_check
 from fcu.navigation.events import CommandResult, NavEvent, Severity
-from fcu.navigation.fence import FENCE_ACTIONS, breach, target_problem
+from fcu.navigation.fence import FENCE_ACTIONS, FenceConfig, breach, target_problem
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
 from fcu.navigation.legs import Leg
@@ -243,6 +243,17 @@ class Navigator(MissionExecution):
         self._cruise = self._cruise_from(t, out) if reference is not None and not events \
             else None
         return out
+
+    def set_fence(self, fence: FenceConfig) -> CommandResult:
+        """FENCE_* changed, in flight or not: in force at once (a fence enabled with the
+        vehicle outside it is breached at the next step); disabled, its breach and failsafe
+        are over."""
+        self.config = replace(self.config, fence=fence)
+        if not fence.enable and self._fence_breach is not None:
+            self._fence_breach = None
+            if "fence" in self._failsafes:
+                self.clear_failsafe("fence")
+        return self._ok()
 
     def _watch_fence(self, t: float) -> None:
         """A breach of the enabled fence triggers FENCE_ACTION once (announced); back

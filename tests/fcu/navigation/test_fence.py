@@ -108,3 +108,12 @@ def test_rtl_returns_below_the_fence() -> None:
     f.run_until(f.time_s + 60.0)
     top = min(out.reference.pos_ned[2] for _, out in f.outputs if out.reference is not None)
     assert top == pytest.approx(-8.0, abs=1e-9)  # FENCE_ALT_MAX - FENCE_MARGIN
+
+
+def test_fence_enabled_in_flight_outside_is_breached_and_disabling_clears_it() -> None:
+    f = airborne(6.0)
+    assert f.nav.set_fence(FenceConfig(enable=1, alt_max_m=5.0)).accepted
+    out = f.tick()
+    assert out.mode == Mode.RTL and "fence" in f.nav.failsafe_sources
+    assert f.nav.set_fence(FenceConfig(enable=0)).accepted
+    assert "fence" not in f.nav.failsafe_sources
