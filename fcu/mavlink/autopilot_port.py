@@ -44,6 +44,7 @@ from fcu.mavlink.port import (
     VehicleEvent,
     VehicleSnapshot,
 )
+from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import CommandResult as NavResult
 from fcu.navigation.navigator import Mode, mode_name
 from flightdata.geometry import body_rates_from_euler_rates
@@ -101,6 +102,8 @@ class AutopilotPort:
         self._events: list[VehicleEvent] = []
         self._snap: VehicleSnapshot | None = None
         self.telemetry = AutopilotTelemetry(host, origin)
+        self._fence_areas = FenceAreas()  # the uploaded fence (the navigator's, kept here
+        # for a rebuild)
 
     @property
     def autopilot(self) -> Autopilot:
@@ -242,6 +245,11 @@ class AutopilotPort:
             pos_ned = np.array(status.estimate.pos_ned)
         return self._nav("Set home", self.host.autopilot.navigator.set_home(pos_ned))
 
+    def fence_set(self, areas: FenceAreas) -> CommandResult:
+        """The uploaded fence, to the navigator (kept across a rebuild)."""
+        self._fence_areas = areas
+        return self._nav("Fence", self.host.autopilot.navigator.set_fence_areas(areas))
+
     def mission_set(self, items: Sequence[MissionItem]) -> CommandResult:
         """Replace the mission (converted to navigator items; unsupported commands refused)."""
         converted: list[NavItem] = []
@@ -358,6 +366,7 @@ class AutopilotPort:
             loaded = nav.load_mission(old_nav.mission_items)
             if not loaded.accepted:  # (the new configuration's fence refuses it)
                 return f"the loaded mission does not fit it: {loaded.reason}"
+        nav.set_fence_areas(self._fence_areas)
         if keep_mode and old_nav.mode != nav.mode:
             nav.set_mode(int(old_nav.mode))
         ap.step(t, [])

@@ -198,7 +198,8 @@ class CommandDispatcher:
                  mission_total: Callable[[], int], limits: CommandLimits, *,
                  set_param: Callable[[str, float], CommandResult] | None = None) -> None:
         self._port = port
-        self._set_param = set_param if set_param is not None else port.set_param
+        self._set_param = set_param if set_param is not None else (
+            lambda name, value: port.set_param(name, value))
         self._injector = injector
         self._streams = streams
         self._build_message = build_message

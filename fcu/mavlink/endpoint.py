@@ -164,7 +164,7 @@ class MavlinkEndpoint:
         self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s,
                                         config.max_stream_rate_hz)
         self._mission = MissionProtocol(self._outbox, port.snapshot, port.mission_set,
-                                        config.mission)
+                                        config.mission, port.fence_set)
         self._commands = CommandDispatcher(port, injector, self._streams, self._build_message,
                                            lambda: self._mission.total, config.limits,
                                            set_param=self._set_param)

@@ -35,7 +35,9 @@ ArduPilot conventions kept here:
   a return point) and the rally points (MAV_MISSION_TYPE_RALLY) are uploaded, downloaded
   and cleared by the same protocol, without a home item (seq 0 is their first item), each
   item checked (:func:`validate_plan_item`), and stored as uploaded (:meth:`plan_items`);
-  other mission types are answered MAV_MISSION_UNSUPPORTED.
+  the fence also goes to the vehicle as local areas (:func:`fence_areas`), which it enforces
+  while FENCE_ENABLE is 1 and FENCE_TYPE has bit 2. Other mission types are answered
+  MAV_MISSION_UNSUPPORTED.
 - Time-outs are judged on the clock passed in (the vehicle process passes the wall-clock
   monotonic time, so a simulation speed-up does not shorten them).
 - MISSION_ITEM_INT carries latitude/longitude in degE7 and local x/y in metres * 1e4.
@@ -54,6 +56,7 @@ from fcu.mavlink.enums import Severity
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.link import Address, Outbox
 from fcu.mavlink.port import CommandResult, GeoPoint, MissionItem, VehicleSnapshot
+from fcu.navigation.fence import FenceAreas
 from flightdata.mission import MissionItem as PlannedItem
 from flightdata.mission import mavlink_form
 
@@ -65,6 +68,7 @@ __all__ = [
     "to_mission_item",
     "validate_item",
     "validate_plan_item",
+    "fence_areas",
 ]
 
 _M = mavlink2
@@ -253,6 +257,35 @@ def validate_plan_item(item: WireItem, mission_type: int, config: MissionConfig
     return _M.MAV_MISSION_ACCEPTED, ""
 
 
+def fence_areas(items: Sequence[WireItem], origin: GeoPoint) -> FenceAreas:
+    """The stored fence plan as local areas about ``origin``: each run of ``param1``
+    polygon vertices of one kind is a polygon; each circle item a circle (radius param1)."""
+    polygons: dict[int, list[np.ndarray]] = {
+        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: [],
+        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: []}
+    circles: dict[int, list[tuple[float, float, float]]] = {
+        _M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: [], _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: []}
+    k = 0
+    while k < len(items):
+        item = items[k]
+        ned = geo_to_ned(item.x, item.y, origin.alt_m, origin)
+        if item.command in circles:
+            circles[item.command].append((float(ned[0]), float(ned[1]), item.params[0]))
+        elif item.command in polygons:
+            n = int(item.params[0])
+            run = items[k:k + n]
+            polygons[item.command].append(np.array(
+                [geo_to_ned(v.x, v.y, origin.alt_m, origin)[:2] for v in run]))
+            k += n
+            continue
+        k += 1
+    return FenceAreas(
+        inclusion_polygons=tuple(polygons[_M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION]),
+        exclusion_polygons=tuple(polygons[_M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION]),
+        inclusion_circles=tuple(circles[_M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION]),
+        exclusion_circles=tuple(circles[_M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION]))
+
+
 def to_mission_item(item: WireItem, origin: GeoPoint,
                     home_pos_ned: np.ndarray | None) -> MissionItem:
     """Convert a validated item to the vehicle's SI/NED form (about ``origin``).
@@ -322,8 +355,10 @@ class MissionProtocol:
 
     def __init__(self, outbox: Outbox, snapshot: Callable[[], VehicleSnapshot],
                  commit: Callable[[list[MissionItem]], CommandResult],
-                 config: MissionConfig) -> None:
+                 config: MissionConfig,
+                 commit_fence: Callable[[FenceAreas], CommandResult] | None = None) -> None:
         self._outbox = outbox
+        self._commit_fence = commit_fence
         self._snapshot = snapshot
         self._commit = commit
         self._config = config
@@ -403,6 +438,12 @@ class MissionProtocol:
             self._items = list(items)
         return result
 
+    def _set_plan(self, mission_type: int, items: list[WireItem]) -> None:
+        """Store a fence or rally plan; a fence goes to the vehicle to be enforced."""
+        self._plans[mission_type] = items
+        if mission_type == _M.MAV_MISSION_TYPE_FENCE and self._commit_fence is not None:
+            self._commit_fence(fence_areas(items, self._snapshot().origin))
+
     def load(self, items: Sequence[PlannedItem]) -> CommandResult:
         """Replace the mission by ``items`` (seq 1..) without a ground station: the boot
         mission. Validated and handed to the vehicle as an upload would be."""
@@ -430,7 +471,7 @@ class MissionProtocol:
         self._completed = None
         if count == 0:  # MAVLink: an empty upload clears
             if plan:
-                self._plans[mission_type] = []
+                self._set_plan(mission_type, [])
                 self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
             else:
                 self._finish_commit([], peer, to)
@@ -498,7 +539,7 @@ class MissionProtocol:
             return
         self._upload = None
         if up.mission_type in PLAN_COMMANDS:
-            self._plans[up.mission_type] = list(up.items)
+            self._set_plan(up.mission_type, list(up.items))
             self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, up.mission_type)
             self._outbox.status(Severity.INFO, f"{_PLAN_NAMES[up.mission_type]}: "
                                 f"{len(up.items)} items stored")
@@ -561,7 +602,7 @@ class MissionProtocol:
         if mission_type in PLAN_COMMANDS or mission_type == _M.MAV_MISSION_TYPE_ALL:
             for plan in PLAN_COMMANDS:
                 if mission_type in (plan, _M.MAV_MISSION_TYPE_ALL):
-                    self._plans[plan] = []
+                    self._set_plan(plan, [])
             if mission_type != _M.MAV_MISSION_TYPE_ALL:
                 self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
                 return

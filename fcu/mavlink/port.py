@@ -52,6 +52,7 @@ import numpy as np
 
 from fcu.mavlink.enums import MavState
 from fcu.mavlink.extended import ExtendedTelemetry
+from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 from flightdata.records import Record
 
@@ -538,6 +539,10 @@ class VehiclePort(ParamProvider, Protocol):
 
     def set_home(self, pos_ned: np.ndarray | None) -> CommandResult:
         """Move home to ``pos_ned`` (m, NED about the origin), or here when None."""
+        ...
+
+    def fence_set(self, areas: FenceAreas) -> CommandResult:
+        """The uploaded fence (polygons and circles, local NED), to enforce."""
         ...
 
     def mission_set(self, items: Sequence[MissionItem]) -> CommandResult:

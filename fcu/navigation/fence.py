@@ -17,6 +17,10 @@ refuses it; a breach in flight triggers ``FENCE_ACTION``:
 
 The breach is judged on the estimate (the autopilot never knows more). A breach triggers
 once; the fence re-arms when the vehicle is back inside by ``FENCE_MARGIN``.
+
+The fence uploaded as a plan (MAV_MISSION_TYPE_FENCE: inclusion and exclusion polygons and
+circles, :class:`FenceAreas`) is enforced the same way while ``FENCE_TYPE`` bit 2 is set:
+inside every inclusion area, outside every exclusion area.
 """
 
 from __future__ import annotations
@@ -31,8 +35,9 @@ from flightdata.config import finite, require
 
 Vec3 = Sequence[float] | np.ndarray  # m, NED
 
-__all__ = ["FENCE_ACTIONS", "Vec3", "FENCE_TYPE_ALT_MAX", "FENCE_TYPE_CIRCLE", "FenceConfig",
-           "breach", "target_problem"]
+__all__ = ["FENCE_ACTIONS", "FENCE_TYPE_ALT_MAX", "FENCE_TYPE_CIRCLE", "FENCE_TYPE_POLYGON",
+           "FenceAreas", "FenceConfig", "Vec3", "area_problem", "breach", "inside_polygon",
+           "target_problem"]
 
 FENCE_TYPE_ALT_MAX = 1  # FENCE_TYPE bit 0: maximum altitude above home
 FENCE_TYPE_CIRCLE = 2  # FENCE_TYPE bit 1: circle about home
@@ -78,6 +83,55 @@ class FenceConfig:
         return bool(self.enable and self.types & FENCE_TYPE_CIRCLE)
 
 
+@dataclass(frozen=True)
+class FenceAreas:
+    """The uploaded fence (MAV_MISSION_TYPE_FENCE) in local NED: polygons as (N, 2) arrays
+    of north, east (m) and circles as (north, east, radius) (m). As ArduPilot: the vehicle
+    must be inside every inclusion area and outside every exclusion area."""
+
+    inclusion_polygons: tuple[np.ndarray, ...] = ()
+    exclusion_polygons: tuple[np.ndarray, ...] = ()
+    inclusion_circles: tuple[tuple[float, float, float], ...] = ()
+    exclusion_circles: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def empty(self) -> bool:
+        """No area at all."""
+        return not (self.inclusion_polygons or self.exclusion_polygons
+                    or self.inclusion_circles or self.exclusion_circles)
+
+
+def inside_polygon(north: float, east: float, polygon: np.ndarray) -> bool:
+    """Point in polygon (even-odd rule: a ray towards +east crosses the edges)."""
+    inside = False
+    n = len(polygon)
+    for i in range(n):
+        (n1, e1), (n2, e2) = polygon[i], polygon[(i + 1) % n]
+        if (n1 > north) != (n2 > north):
+            e_cross = e1 + (north - n1) * (e2 - e1) / (n2 - n1)
+            if east < e_cross:
+                inside = not inside
+    return inside
+
+
+def area_problem(pos_ned: Vec3, areas: FenceAreas) -> str | None:
+    """Which uploaded fence area ``pos_ned`` (m, NED) violates, or None."""
+    north, east = float(pos_ned[0]), float(pos_ned[1])
+    for k, polygon in enumerate(areas.inclusion_polygons):
+        if not inside_polygon(north, east, polygon):
+            return f"outside inclusion polygon {k + 1}"
+    for k, polygon in enumerate(areas.exclusion_polygons):
+        if inside_polygon(north, east, polygon):
+            return f"inside exclusion polygon {k + 1}"
+    for k, (cn, ce, r) in enumerate(areas.inclusion_circles):
+        if math.hypot(north - cn, east - ce) > r:
+            return f"outside inclusion circle {k + 1}"
+    for k, (cn, ce, r) in enumerate(areas.exclusion_circles):
+        if math.hypot(north - cn, east - ce) < r:
+            return f"inside exclusion circle {k + 1}"
+    return None
+
+
 def target_problem(pos_ned: Vec3, home_ned: Vec3,
                    fence: FenceConfig) -> str | None:
     """Why a target at ``pos_ned`` (m, NED) lies outside the enabled fence about
@@ -95,7 +149,7 @@ def target_problem(pos_ned: Vec3, home_ned: Vec3,
 
 
 def breach(pos_ned: Vec3, home_ned: Vec3, fence: FenceConfig,
-           margin_m: float = 0.0) -> str | None:
+           margin_m: float = 0.0, areas: FenceAreas | None = None) -> str | None:
     """Which fence the vehicle at ``pos_ned`` breaches (outside by more than ``-margin_m``:
     a positive margin judges "not yet back inside by the margin"), or None."""
     alt_m = float(home_ned[2]) - float(pos_ned[2])
@@ -106,4 +160,6 @@ def breach(pos_ned: Vec3, home_ned: Vec3, fence: FenceConfig,
                             float(pos_ned[1]) - float(home_ned[1]))
         if dist_m > fence.radius_m - margin_m:
             return f"{dist_m:.1f} m from home, beyond FENCE_RADIUS {fence.radius_m:g} m"
+    if areas is not None and fence.enable and fence.types & FENCE_TYPE_POLYGON:
+        return area_problem(pos_ned, areas)  # (the margin applies to the parameters' fence)
     return None

@@ -34,7 +34,13 @@ import numpy as np
 
 from fcu.navigation.arming import PrearmCheck, auto_disarm_reason, prearm_check
 from fcu.navigation.events import CommandResult, NavEvent, Severity
-from fcu.navigation.fence import FENCE_ACTIONS, FenceConfig, breach, target_problem
+from fcu.navigation.fence import (
+    FENCE_ACTIONS,
+    FenceAreas,
+    FenceConfig,
+    breach,
+    target_problem,
+)
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
 from fcu.navigation.legs import Leg
@@ -140,6 +146,7 @@ class Navigator(MissionExecution):
 
     def __init__(self, config: NavigatorConfig | None = None) -> None:
         super().__init__(config if config is not None else NavigatorConfig())
+        self._fence_areas = FenceAreas()  # the uploaded fence, kept across a reset
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -255,19 +262,26 @@ class Navigator(MissionExecution):
                 self.clear_failsafe("fence")
         return self._ok()
 
+    def set_fence_areas(self, areas: FenceAreas) -> CommandResult:
+        """The uploaded fence (polygons, circles; local NED), enforced with the parameters'
+        fence while FENCE_ENABLE is 1 and FENCE_TYPE has bit 2."""
+        self._fence_areas = areas
+        return self._ok()
+
     def _watch_fence(self, t: float) -> None:
         """A breach of the enabled fence triggers FENCE_ACTION once (announced); back
         inside by FENCE_MARGIN the fence re-arms and its failsafe clears."""
         fence = self.config.fence
         pos = self._est_pos_ned
         if self._fence_breach is not None:
-            if breach(pos, self._home_pos_ned, fence, margin_m=fence.margin_m) is None:
+            if breach(pos, self._home_pos_ned, fence, margin_m=fence.margin_m,
+                      areas=self._fence_areas) is None:
                 self._fence_breach = None
                 self._event("fence", "back inside the fence", "notice")
                 if "fence" in self._failsafes:
                     self.clear_failsafe("fence")
             return
-        why = breach(pos, self._home_pos_ned, fence)
+        why = breach(pos, self._home_pos_ned, fence, areas=self._fence_areas)
         if why is None:
             return
         self._fence_breach = why

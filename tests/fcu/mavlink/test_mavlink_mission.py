@@ -295,6 +295,11 @@ def test_fence_and_rally_upload_download_and_clear(link: tuple[Gcs, VehicleThrea
     assert ack.type == M.MAV_MISSION_ACCEPTED and ack.mission_type == fence
     assert [(m.command, m.x, m.y, m.param1) for m in back] == \
         [(m.command, m.x, m.y, m.param1) for m in polygon + circle]  # no home item
+    with vehicle.lock:  # handed to the vehicle as local areas, to enforce
+        areas = vehicle.vehicle.fence
+    assert len(areas.inclusion_polygons) == 1 and not areas.exclusion_polygons
+    np.testing.assert_allclose(areas.inclusion_polygons[0][:, 0], [0.0, 10.0, 20.0], atol=0.02)
+    assert areas.exclusion_circles[0][2] == 5.0  # m, the radius
     rally = M.MAV_MISSION_TYPE_RALLY
     points = [plan_item(i, M.MAV_CMD_NAV_RALLY_POINT, rally, north_m=5.0 * i) for i in range(2)]
     ack, back = plan_round_trip(gcs, rally, points)
@@ -305,6 +310,8 @@ def test_fence_and_rally_upload_download_and_clear(link: tuple[Gcs, VehicleThrea
     ack = gcs.recv("MISSION_ACK")
     assert ack is not None and (ack.type, ack.mission_type) == (M.MAV_MISSION_ACCEPTED, fence)
     assert vehicle.endpoint.mission.plan_items(fence) == []
+    with vehicle.lock:
+        assert vehicle.vehicle.fence.empty
     assert len(vehicle.endpoint.mission.plan_items(rally)) == 2
 
 

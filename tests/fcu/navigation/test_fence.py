@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 from test_navigator import airborne, flight
 
-from fcu.navigation.fence import FenceConfig, breach, target_problem
+from fcu.navigation.fence import (
+    FenceAreas,
+    FenceConfig,
+    area_problem,
+    breach,
+    inside_polygon,
+    target_problem,
+)
 from fcu.navigation.modes import Mode
 from fcu.navigation.settings import NavigatorConfig
 from flightdata.mission import MissionItem
@@ -117,3 +124,34 @@ def test_fence_enabled_in_flight_outside_is_breached_and_disabling_clears_it() -
     assert out.mode == Mode.RTL and "fence" in f.nav.failsafe_sources
     assert f.nav.set_fence(FenceConfig(enable=0)).accepted
     assert "fence" not in f.nav.failsafe_sources
+
+
+SQUARE = np.array([[-10.0, -10.0], [10.0, -10.0], [10.0, 10.0], [-10.0, 10.0]])  # m, N E
+
+
+def test_areas_inclusion_and_exclusion() -> None:
+    assert inside_polygon(0.0, 0.0, SQUARE) and not inside_polygon(11.0, 0.0, SQUARE)
+    keep_in = FenceAreas(inclusion_polygons=(SQUARE,))
+    assert area_problem((0.0, 0.0, -5.0), keep_in) is None
+    assert area_problem((0.0, 12.0, -5.0), keep_in) == "outside inclusion polygon 1"
+    keep_out = FenceAreas(exclusion_polygons=(SQUARE,), exclusion_circles=((30.0, 0.0, 5.0),))
+    assert area_problem((0.0, 0.0, -5.0), keep_out) == "inside exclusion polygon 1"
+    assert area_problem((31.0, 0.0, -5.0), keep_out) == "inside exclusion circle 1"
+    assert area_problem((20.0, 0.0, -5.0), keep_out) is None
+    both = FenceAreas(inclusion_circles=((0.0, 0.0, 50.0),), exclusion_circles=((0.0, 0.0, 5.0),))
+    assert area_problem((10.0, 0.0, 0.0), both) is None
+    assert FenceAreas().empty and not both.empty
+
+
+def test_uploaded_polygon_breach_needs_fence_type_bit_2() -> None:
+    f = airborne(2.0, fenced())
+    f.nav.set_fence_areas(FenceAreas(inclusion_polygons=(SQUARE,)))
+    f.vehicle.frozen = True
+    f.vehicle.pos_ned = np.array([0.0, 12.0, -2.0])  # blown out of the polygon
+    assert f.tick().mode == Mode.RTL
+    assert "outside inclusion polygon 1" in f.first("fence").text
+    g = airborne(2.0, NavigatorConfig(fence=FenceConfig(enable=1, types=3)))  # no polygons
+    g.nav.set_fence_areas(FenceAreas(inclusion_polygons=(SQUARE,)))
+    g.vehicle.frozen = True
+    g.vehicle.pos_ned = np.array([0.0, 12.0, -2.0])
+    assert g.tick().mode == Mode.GUIDED
