@@ -476,6 +476,10 @@ def fence_points(lat: float, lon: float) -> list[tuple[float, float]]:
             (lat + 0.0001, lon + 0.0001), (lat - 0.0001, lon + 0.0001)]
 
 
+def seq_is(seq: int) -> Callable[[Any], bool]:
+    return lambda m: bool(m.seq == seq)
+
+
 def download_fence(gcs: Gcs) -> list[Any]:
     """The fence as the vehicle reports it (MAV_MISSION_TYPE_FENCE download, pymavlink)."""
     fence = M.MAV_MISSION_TYPE_FENCE
@@ -486,7 +490,7 @@ def download_fence(gcs: Gcs) -> list[Any]:
     for seq in range(count):
         since = gcs.mark()
         gcs.send(M.MAVLink_mission_request_int_message(1, 1, seq, fence))
-        items.append(gcs.wait("MISSION_ITEM_INT", lambda m, s=seq: m.seq == s, since=since))
+        items.append(gcs.wait("MISSION_ITEM_INT", seq_is(seq), since=since))
     gcs.send(M.MAVLink_mission_ack_message(1, 1, M.MAV_MISSION_ACCEPTED, fence))
     return items
 
@@ -534,7 +538,7 @@ def test_geofence_example_native(start_vehicle, gcs: Gcs) -> None:
 def write_plan(path: Path) -> Path:
     """A QGroundControl .plan as QGC writes one (our own, in the example's shape): take-off,
     two waypoints and RTL at PX4's home, and two rally points."""
-    def item(command: int, frame: int, params: list[float]) -> dict[str, Any]:
+    def item(command: int, frame: int, params: list[float | None]) -> dict[str, Any]:
         return {"type": "SimpleItem", "autoContinue": True, "command": command,
                 "frame": frame, "params": params, "doJumpId": 1}
 
