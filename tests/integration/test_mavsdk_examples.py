@@ -66,6 +66,9 @@ from mavsdk_grpc.geofence import GeofenceError as GrpcGeofenceError
 from mavsdk_grpc.geofence import GeofenceResult as GrpcGeofenceResult
 from mavsdk_grpc.geofence import Point as GrpcPoint
 from mavsdk_grpc.geofence import Polygon as GrpcPolygon
+from mavsdk_grpc.server_utility import StatusTextType
+from mavsdk_grpc.telemetry import LandedState as GrpcLandedState
+from mavsdk_grpc.tune import SongElement, TuneDescription
 from test_mavsdk import STEP_S, bounded, first
 from vehicle_harness import Gcs, M, free_port
 
@@ -587,3 +590,79 @@ def test_mission_import_example_native(start_vehicle, gcs: Gcs, tmp_path: Path) 
         await bounded(drone.mission_raw.upload_rally_points(out.rally_items))
 
     run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ examples that ran before
+# firmware_version.py, all_params.py, telemetry_status_text.py, takeoff_and_land.py,
+# tune.py, send_status_message.py (gRPC API only; test_mavsdk.py covers their calls with
+# mavsdk 4)
+def test_firmware_version_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        info = await bounded(drone.info.get_version())
+        assert info.flight_sw_major >= 0 and info.flight_sw_minor >= 0
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_all_params_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        all_params = await bounded(drone.param.get_all_params())
+        names = {p.name for p in all_params.int_params} | \
+            {p.name for p in all_params.float_params}
+        assert {"FENCE_ENABLE", "FENCE_ALT_MAX", "CIRCLE_RADIUS", "WPNAV_SPEED"} <= names
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_takeoff_and_land_example_grpc_with_status_text(start_vehicle, gcs: Gcs) -> None:
+    """takeoff_and_land.py (and telemetry_status_text.py: the texts it prints)."""
+    async def steps(drone: Any) -> None:
+        texts: list[str] = []
+
+        async def print_status_text() -> None:
+            async for status_text in drone.telemetry.status_text():
+                texts.append(status_text.text)
+
+        status_text_task = asyncio.ensure_future(print_status_text())
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.in_air(), bool)  # (the example sleeps 10 s)
+        await bounded(drone.action.land())
+        await first(drone.telemetry.landed_state(),
+                    lambda s: s == GrpcLandedState.ON_GROUND, FLIGHT_S)
+        status_text_task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await status_text_task
+        assert any(t.startswith("armed") for t in texts)
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_tune_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        song = [SongElement.DURATION_4, SongElement.NOTE_G, SongElement.NOTE_A,
+                SongElement.OCTAVE_UP, SongElement.NOTE_E]  # (our own short tune)
+        await bounded(drone.tune.play_tune(TuneDescription(song, 200)))
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_send_status_message_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    api_port = start_example_vehicle(start_vehicle, gcs)
+
+    async def scenario() -> None:
+        drone = System(sysid=1, port=free_port(socket.SOCK_STREAM))  # as the example
+        await bounded(drone.connect(system_address=f"udpin://127.0.0.1:{api_port}"))
+        try:
+            await grpc_connected(drone)
+            await bounded(drone.server_utility.send_status_text(StatusTextType.INFO,
+                                                                "Hello world!"))
+        finally:
+            server = drone._server_process
+            drone._stop_mavsdk_server()
+            if server is not None:
+                server.wait(timeout=SERVER_STOP_S)
+
+    asyncio.run(asyncio.wait_for(scenario(), FLIGHT_S))
