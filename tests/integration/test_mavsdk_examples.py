@@ -594,8 +594,8 @@ def test_mission_import_example_native(start_vehicle, gcs: Gcs, tmp_path: Path) 
 
 # ------------------------------------------------------------------ examples that ran before
 # firmware_version.py, all_params.py, telemetry_status_text.py, takeoff_and_land.py,
-# tune.py, send_status_message.py (gRPC API only; test_mavsdk.py covers their calls with
-# mavsdk 4)
+# tune.py, send_status_message.py (gRPC API only; test_mavsdk.py covers parameters, arming,
+# take-off and landing with mavsdk 4)
 def test_firmware_version_example_grpc(start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
         info = await bounded(drone.info.get_version())
