@@ -593,6 +593,7 @@ def test_mission_import_example_native(start_vehicle, gcs: Gcs, tmp_path: Path) 
 
 
 # ------------------------------------------------------------------ examples that ran before
+TAKEOFF_UP_M = 1.9  # m: at MAVSDK's default take-off altitude (2 m), within the tracking
 # firmware_version.py, all_params.py, telemetry_status_text.py, takeoff_and_land.py,
 # tune.py, send_status_message.py (gRPC API only; test_mavsdk.py covers parameters, arming,
 # take-off and landing with mavsdk 4)
@@ -628,7 +629,8 @@ def test_takeoff_and_land_example_grpc_with_status_text(start_vehicle, gcs: Gcs)
                     lambda h: h.is_global_position_ok and h.is_home_position_ok)
         await bounded(drone.action.arm())
         await bounded(drone.action.takeoff())
-        await first(drone.telemetry.in_air(), bool)  # (the example sleeps 10 s)
+        await first(drone.telemetry.position(),  # (the example sleeps 10 s)
+                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
         await bounded(drone.action.land())
         await first(drone.telemetry.landed_state(),
                     lambda s: s == GrpcLandedState.ON_GROUND, FLIGHT_S)
@@ -666,3 +668,40 @@ def test_send_status_message_example_grpc(start_vehicle, gcs: Gcs) -> None:
                 server.wait(timeout=SERVER_STOP_S)
 
     asyncio.run(asyncio.wait_for(scenario(), FLIGHT_S))
+
+
+def test_telemetry_examples_grpc(start_vehicle, gcs: Gcs) -> None:
+    """telemetry_flight_mode.py, telemetry_is_armed_is_in_air.py, and
+    telemetry_takeoff_and_land.py's watch over altitude and mode through a take-off and
+    landing: every stream reports, and in the order the flight goes."""
+    async def steps(drone: Any) -> None:
+        seen: dict[str, list[Any]] = {"mode": [], "armed": [], "in_air": [], "alt": []}
+
+        async def watch(name: str, stream: AsyncIterator[Any]) -> None:
+            async for value in stream:
+                if not seen[name] or seen[name][-1] != value:
+                    seen[name].append(value)
+
+        tasks = [asyncio.ensure_future(watch("mode", drone.telemetry.flight_mode())),
+                 asyncio.ensure_future(watch("armed", drone.telemetry.armed())),
+                 asyncio.ensure_future(watch("in_air", drone.telemetry.in_air())),
+                 asyncio.ensure_future(watch("alt", (round(p.relative_altitude_m)
+                                                     async for p in drone.telemetry.position())))]
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.position(),  # (the example sleeps 5 s)
+                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
+        await bounded(drone.action.land())
+        await first(drone.telemetry.landed_state(),
+                    lambda s: s == GrpcLandedState.ON_GROUND, FLIGHT_S)
+        await first(drone.telemetry.armed(), lambda armed: not armed, FLIGHT_S)  # auto-disarm
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+        assert seen["armed"][:3] == [False, True, False]
+        assert seen["in_air"][:3] == [False, True, False]
+        assert max(seen["alt"]) == 2 and len(seen["mode"]) >= 2  # up to 2 m; modes changed
+
+    run_grpc(start_vehicle, gcs, steps)
