@@ -103,7 +103,7 @@ def test_two(vehicle_link):
 
 
 def test_the_fixture_runs_under_xdist_with_a_vehicle_per_worker(tmp_path: Path) -> None:
-    (tmp_path / "conftest.py").write_text('pytest_plugins = ["gcs.pytest_plugin"]\n')
+    # (no conftest line: the installed package's pytest11 entry point loads the plugin)
     (tmp_path / "test_example.py").write_text(textwrap.dedent(EXAMPLE))
     results = tmp_path / "results"
     results.mkdir()
