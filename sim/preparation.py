@@ -64,14 +64,14 @@ def project_kernels() -> list[Any]:
     """Every numba kernel (dispatcher) defined in the project's modules imported so far,
     each once, in a stable order (module, then name); not those declared
     ``inline="always"``, whose code is compiled into their callers' and never on its own."""
-    from numba.core.dispatcher import Dispatcher
+    from numba.extending import is_jitted  # (public: a numba dispatcher)
 
     seen: dict[int, tuple[str, str, Any]] = {}
     for name, module in list(sys.modules.items()):
         if module is None or name.partition(".")[0] not in PROJECT_PACKAGES:
             continue
         for value in list(vars(module).values()):
-            if (isinstance(value, Dispatcher) and id(value) not in seen
+            if (is_jitted(value) and id(value) not in seen
                     and value.targetoptions.get("inline") != "always"):
                 func = value.py_func
                 if func.__module__.partition(".")[0] in PROJECT_PACKAGES:
