@@ -91,6 +91,7 @@ from sim.outcome import MissionArea, OutcomeJudge, mission_area
 from sim.sim_params import SimParams
 from sim.stack import SimulatedStack
 from sim.world import PlantEvent, World, WorldConfig
+from sim.world.esc import EscConfig, esc_readings
 from sim.world.fault_types import ActuatorFault, Fault, FaultEvent, SensorFault
 
 __all__ = ["SimVehicle", "VehicleSetup"]
@@ -158,6 +159,7 @@ class SimVehicle:
         self.setup = setup
         self.stack = SimulatedStack(setup.world, setup.autopilot, setup.seed, setup.faults)
         self.judge = OutcomeJudge(MissionArea())
+        self._esc = EscConfig()
         self.port = AutopilotPort(self.stack, setup.origin, truth=self._truth,
                                   on_target=self.judge.area.extend)
         self._judged_mission: tuple[NavItem, ...] | None = None
@@ -298,8 +300,11 @@ class SimVehicle:
     def _truth(self) -> SimTruth:
         """Simulator truth for SIM_STATE (never shown to the autopilot)."""
         pos, vel, quat, rate, accel, wind = self.world.motion_truth()
+        esc = esc_readings(self.world.motor_thrust_n(), self.world.battery.state.voltage_v,
+                           self._esc, self.world.config.battery)
         return SimTruth(pos_ned=pos, vel_ned=vel, quat_wxyz=quat, rate_frd=rate,
-                        accel_frd=accel, wind_ned=wind)
+                        accel_frd=accel, wind_ned=wind, esc_rpm=esc.rpm,
+                        esc_current_a=esc.current_a, esc_voltage_v=esc.voltage_v)
 
     # ------------------------------------------------------------------ FailureInjector
     def inject_failure(self, unit: int, failure_type: int, instance: int,

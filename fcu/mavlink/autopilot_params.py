@@ -9,14 +9,17 @@ the fault detector's threshold, persistence and significance (``FD_*``), the cra
 action (``FS_CRASH_CHECK``, as ArduCopter's), and the navigator's settings under their
 ArduCopter names and units (``WPNAV_SPEED`` cm/s, ``RTL_ALT`` cm, ``DISARM_DELAY`` s,
 the battery monitor's capacity, thresholds and failsafe actions (``BATT_*``,
-:mod:`fcu.monitoring.battery`), ``AUTO_OPTIONS`` bits 0 and 1 as ArduCopter's: arming in
+:mod:`fcu.monitoring.battery`), the geofence (``FENCE_*``, :mod:`fcu.navigation.fence`: off
+by default, as ArduCopter's), ``AUTO_OPTIONS`` bits 0 and 1 as ArduCopter's: arming in
 AUTO, take-off in AUTO without MISSION_START; default 0 as ArduCopter's, since
 MISSION_START, which MAVSDK and QGC send to start a mission, takes off without either bit).
 :class:`fcu.mavlink.autopilot_port.AutopilotPort` applies them: a change rebuilds the
 autopilot with the new configuration, so it is accepted only disarmed on the ground, except
 the parameters with ``live_speed`` (``WPNAV_SPEED``, ``WPNAV_SPEED_UP``, ``WPNAV_SPEED_DN``),
-which also act at once in flight like DO_CHANGE_SPEED, and ``FTC_MODE``, which switches the
-fault-tolerant control at once, in flight or not.
+which also act at once in flight like DO_CHANGE_SPEED, ``FTC_MODE``, which switches the
+fault-tolerant control at once, in flight or not, and the ``FENCE_*`` parameters, which act at
+once in flight or not (as ArduCopter's: a fence enabled with the vehicle outside it is
+breached at once).
 """
 
 from __future__ import annotations
@@ -50,6 +53,7 @@ class ApParam:
     integer: bool = False
     live_speed: str | None = None  # DO_CHANGE_SPEED type applied at once in flight
     live_ftc: bool = False  # the FTC mode: switched at once, in flight too (no rebuild)
+    live_fence: bool = False  # the geofence: applied at once, in flight too (no rebuild)
     read_only: bool = False
 
 
@@ -100,6 +104,20 @@ def _nav_param(name: str, attr: str, scale: float, unit: str, description: str,
         get=lambda c: float(getattr(c.navigator, attr)) * scale,
         set=lambda c, v: replace(c, navigator=_with(c.navigator, attr, v / scale)),
         min_value=lo, max_value=hi, live_speed=live_speed)
+
+
+def _fence_param(name: str, attr: str, unit: str, description: str, lo: float, hi: float,
+                 integer: bool = False) -> ApParam:
+    """A field of the navigator's geofence (:class:`fcu.navigation.fence.FenceConfig`)."""
+    cast: Callable[[float], Any] = int if integer else float
+    return ApParam(
+        name, f"{description}, {unit}",
+        get=lambda c: float(getattr(c.navigator.fence, attr)),
+        set=lambda c, v: replace(c, navigator=_with(
+            c.navigator, "fence", _with(c.navigator.fence, attr, cast(v)))),
+        min_value=lo, max_value=hi, integer=integer,
+        allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None,
+        live_fence=True)
 
 
 def _top_param(name: str, attr: str, unit: str, description: str, lo: float,
@@ -219,6 +237,25 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
                  "Battery critical failsafe action", 0, 2, integer=True),
     _group_param("BATT_LOW_TIMER", "battery", "low_timer_s", "s",
                  "Voltage below a threshold this long before the failsafe", 0.0, 120.0),
+    _fence_param("FENCE_ENABLE", "enable", "0 off, 1 on",
+                 "Geofence enforced (off by default, as ArduCopter)", 0, 1, integer=True),
+    _fence_param("FENCE_TYPE", "types", "bitmask",
+                 "Fences enforced: 1 maximum altitude, 2 circle about home, 4 polygons",
+                 0, 7, integer=True),
+    _fence_param("FENCE_ALT_MAX", "alt_max_m", "m", "Fence: maximum altitude above home",
+                 1.0, 1000.0),
+    _fence_param("FENCE_RADIUS", "radius_m", "m", "Fence: circle radius about home",
+                 1.0, 10000.0),
+    _fence_param("FENCE_ACTION", "action", "0 report, 1 RTL or LAND, 2 LAND, 3 SmartRTL or "
+                 "RTL (RTL), 4 BRAKE, 5 SmartRTL or LAND (LAND)",
+                 "Fence breach action", 0, 5, integer=True),
+    _fence_param("FENCE_MARGIN", "margin_m", "m",
+                 "Fence margin: RTL stays this far below FENCE_ALT_MAX; back inside by it "
+                 "re-arms the breach", 0.0, 100.0),
+    _nav_param("CIRCLE_RADIUS", "circle_radius_m", 100.0, "cm", "CIRCLE mode radius", 0.0,
+               1e6),
+    _nav_param("CIRCLE_RATE", "circle_rate_deg_s", 1.0, "deg/s",
+               "CIRCLE mode turn rate, > 0 clockwise seen from above", -90.0, 90.0),
     ApParam("AUTO_OPTIONS", "AUTO mode options, bitmask: bit 0 (1) arming in AUTO allowed, "
             "bit 1 (2) AUTO armed on the ground takes off without MISSION_START",
             get=lambda c: float(c.navigator.auto_options),

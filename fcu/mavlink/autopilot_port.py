@@ -44,6 +44,7 @@ from fcu.mavlink.port import (
     VehicleEvent,
     VehicleSnapshot,
 )
+from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import CommandResult as NavResult
 from fcu.navigation.navigator import Mode, mode_name
 from flightdata.geometry import body_rates_from_euler_rates
@@ -101,6 +102,8 @@ class AutopilotPort:
         self._events: list[VehicleEvent] = []
         self._snap: VehicleSnapshot | None = None
         self.telemetry = AutopilotTelemetry(host, origin)
+        self._fence_areas = FenceAreas()  # the uploaded fence (the navigator's, kept here
+        # for a rebuild)
 
     @property
     def autopilot(self) -> Autopilot:
@@ -210,6 +213,19 @@ class AutopilotPort:
             self._on_target(np.asarray(pos_ned, dtype=float))
         return result
 
+    def orbit(self, centre_ned: np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        """DO_ORBIT: the navigator's circle, in CIRCLE mode (the outcome judge learns the
+        circle's extent, as it learns go-to targets)."""
+        result = self._nav("Orbit", self.host.autopilot.navigator.orbit(centre_ned, radius_m,
+                                                                        speed_m_s))
+        if result.accepted and centre_ned is not None:
+            r = self.host.autopilot.navigator.config.circle_radius_m if radius_m is None \
+                else float(radius_m)
+            for dn, de in ((r, 0.0), (-r, 0.0), (0.0, r), (0.0, -r)):
+                self._on_target(np.asarray(centre_ned, dtype=float) + np.array([dn, de, 0.0]))
+        return result
+
     def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
         """Velocity set-points are not flown by this autopilot (position legs only)."""
         return CommandResult.not_supported(
@@ -228,6 +244,11 @@ class AutopilotPort:
                 return CommandResult.denied("Set home refused: no position estimate yet")
             pos_ned = np.array(status.estimate.pos_ned)
         return self._nav("Set home", self.host.autopilot.navigator.set_home(pos_ned))
+
+    def fence_set(self, areas: FenceAreas) -> CommandResult:
+        """The uploaded fence, to the navigator (kept across a rebuild)."""
+        self._fence_areas = areas
+        return self._nav("Fence", self.host.autopilot.navigator.set_fence_areas(areas))
 
     def mission_set(self, items: Sequence[MissionItem]) -> CommandResult:
         """Replace the mission (converted to navigator items; unsupported commands refused)."""
@@ -304,6 +325,13 @@ class AutopilotPort:
             self.post(Severity.INFO, f"FTC: {new.ftc}")
             return CommandResult.ok()
         nav = self.host.autopilot.navigator
+        if spec.live_fence:
+            nav.set_fence(new.navigator.fence)
+            self._config = replace(self._config, navigator=replace(
+                self._config.navigator, fence=new.navigator.fence))
+            self._expire()
+            self.post(Severity.INFO, f"{name} = {value:g}")
+            return CommandResult.ok()
         if nav.armed or not nav.landed:
             if spec.live_speed is None:
                 return CommandResult.denied("change it disarmed on the ground (the "
@@ -336,11 +364,14 @@ class AutopilotPort:
         ap.reset_estimators(t)
         ap.step(t, [])
         nav = ap.navigator
-        if old_nav.mission_items:
-            nav.load_mission(old_nav.mission_items)
         home = old_nav.home_pos_ned
         if not np.array_equal(home, nav.home_pos_ned):
             nav.set_home(home)
+        if old_nav.mission_items:
+            loaded = nav.load_mission(old_nav.mission_items)
+            if not loaded.accepted:  # (the new configuration's fence refuses it)
+                return f"the loaded mission does not fit it: {loaded.reason}"
+        nav.set_fence_areas(self._fence_areas)
         if keep_mode and old_nav.mode != nav.mode:
             nav.set_mode(int(old_nav.mode))
         ap.step(t, [])

@@ -32,19 +32,25 @@ GET_MESSAGE_INTERVAL 510 (p1 message id, at most 65535: MESSAGE_INTERVAL's field
 SET_MESSAGE_INTERVAL 511 (p1 message id, p2 interval us: -1 stop, 0 default; an interval
 shorter than one autopilot tick is accepted and clamped to one message per tick, as ArduPilot
 caps streams at its loop rate: GET_MESSAGE_INTERVAL reports the rate in force),
-REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES 520.
+PREFLIGHT_CALIBRATION 241 (the sensors are simulated: gyro, compass, barometer, accelerometer
+and level are accepted and reported started, in progress and done at once, in the ``[cal]``
+STATUSTEXTs of PX4's calibration protocol that MAVSDK and QGroundControl parse; all
+parameters 0 cancels), REQUEST_MESSAGE 512 (p1 message id), REQUEST_AUTOPILOT_CAPABILITIES
+520. Any message the
+vehicle can produce can be streamed and requested; a message it cannot produce gets
+UNSUPPORTED (not DENIED, which is for bad parameters).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
-from fcu.mavlink.enums import FailureType, FailureUnit
+from fcu.mavlink.enums import FailureType, FailureUnit, Severity
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m
 from fcu.mavlink.mission import (
     GLOBAL_FRAMES,
@@ -153,6 +159,12 @@ def _from_result(result: CommandResult, *, heartbeat_soon: bool = False) -> Comm
     return CommandOutcome(_M.MAV_RESULT_DENIED, result.reason)
 
 
+def _cal_texts(*texts: str) -> list[MAVLinkMessage]:
+    """Calibration progress as STATUSTEXTs (each under 50 characters: one packet)."""
+    return [_M.MAVLink_statustext_message(Severity.INFO, text.encode("ascii"), 0, 0)
+            for text in texts]
+
+
 def _whole(value: float, lo: int, hi: int) -> int | None:
     """``value`` as an int when it is a whole number in [lo, hi], else None."""
     if not math.isfinite(value) or value != round(value) or not lo <= value <= hi:
@@ -176,13 +188,20 @@ class CommandDispatcher:
     mission_total : callable
         Number of mission items excluding home.
     limits : CommandLimits
+    set_param : callable, optional
+        ``set_param(name, value)`` for commands that change a parameter (DO_FENCE_ENABLE);
+        the endpoint passes its parameter table's, so reads report the change (default: the
+        port's).
     """
 
     def __init__(self, port: VehiclePort, injector: FailureInjector | None,
                  streams: StreamScheduler,
                  build_message: Callable[[int], list[MAVLinkMessage] | None],
-                 mission_total: Callable[[], int], limits: CommandLimits) -> None:
+                 mission_total: Callable[[], int], limits: CommandLimits, *,
+                 set_param: Callable[[str, float], CommandResult] | None = None) -> None:
         self._port = port
+        self._set_param = set_param if set_param is not None else (
+            lambda name, value: port.set_param(name, value))
         self._injector = injector
         self._streams = streams
         self._build_message = build_message
@@ -208,6 +227,9 @@ class CommandDispatcher:
             _M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
             _M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             _M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
+            _M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibrate,
+            _M.MAV_CMD_DO_ORBIT: self._orbit,
+            _M.MAV_CMD_DO_FENCE_ENABLE: self._fence_enable,
         }
 
     @property
@@ -302,6 +324,38 @@ class CommandDispatcher:
         yaw_rad = math.radians(yaw_deg) if math.isfinite(yaw_deg) else None
         return _from_result(self._port.goto(target, yaw_rad))
 
+    def _orbit(self, r: CommandRequest) -> CommandOutcome:
+        """DO_ORBIT (PX4's; MAVSDK's do_orbit): p1 radius m (NaN: CIRCLE_RADIUS), p2
+        velocity m/s (NaN: CIRCLE_RATE; a negative radius circles counter-clockwise), p3 yaw
+        behaviour (the vehicle faces the centre), p4 orbits (not counted: until told
+        otherwise), centre latitude/longitude/altitude (NaN: the current one; the altitude
+        is AMSL in every global frame, as PX4 reads it: MAVSDK's do_orbit sends its
+        absolute altitude in MAV_FRAME_GLOBAL_RELATIVE_ALT)."""
+        radius, speed = r.params[0], r.params[1]
+        if math.isinf(radius) or math.isinf(speed):
+            return _denied(f"Orbit: radius {radius} m, velocity {speed} m/s not numbers")
+        if r.frame in RELATIVE_ALT_FRAMES:  # PX4 reads DO_ORBIT's altitude as AMSL whatever
+            r = replace(r, frame=_M.MAV_FRAME_GLOBAL)  # the frame (MAVSDK sends AMSL in 3)
+        centre = self._target_geo(r, self._port.snapshot())
+        if isinstance(centre, str):
+            return _denied(f"Orbit: {centre}")
+        # PX4: a negative radius circles counter-clockwise; NaN velocity: the default
+        signed_speed = math.copysign(abs(speed), -1.0 if radius < 0 else 1.0) \
+            if math.isfinite(speed) else None
+        return _from_result(self._port.orbit(
+            centre, abs(radius) if math.isfinite(radius) else None, signed_speed),
+            heartbeat_soon=True)
+
+    def _fence_enable(self, r: CommandRequest) -> CommandOutcome:
+        """DO_FENCE_ENABLE (MAVProxy's ``fence enable``): p1 1 enables, 0 disables the fence
+        (FENCE_ENABLE, in force at once); 2 (disable the floor only) has no floor to act on."""
+        enable = _whole(r.params[0], 0, 2)
+        if enable is None:
+            return _denied(f"Fence enable: param1 = {r.params[0]} must be 0, 1 or 2")
+        if enable == 2:
+            return _unsupported("Fence enable: there is no floor fence to disable")
+        return _from_result(self._set_param("FENCE_ENABLE", float(enable)))
+
     def _set_home(self, r: CommandRequest) -> CommandOutcome:
         use_current = r.params[0]
         if use_current == 1.0:
@@ -376,6 +430,32 @@ class CommandDispatcher:
         at_s = float(at) if math.isfinite(at) and at > 0.0 else None
         return _from_result(self._injector.inject_failure(unit, kind, instance, at_s))
 
+    # ----------------------------------------------------------------------- calibration
+    def _calibrate(self, r: CommandRequest) -> CommandOutcome:
+        """PREFLIGHT_CALIBRATION on simulated sensors: accepted, then the progress texts
+        ground stations parse (PX4's ``[cal]`` protocol, version 2: started, progress,
+        done), at once; all parameters 0 cancels (nothing runs long enough to cancel)."""
+        values = (r.params[0], r.params[1], r.params[2], r.params[3], r.x, r.y, r.z)
+        codes = [_whole(v, 0, 255) if math.isfinite(v) else 0 for v in values]
+        if any(c is None for c in codes):
+            return _denied(f"Calibration: parameters {values} must be whole numbers")
+        if not any(codes):
+            return _accepted(follow_up=_cal_texts("[cal] calibration cancelled"))
+        which = [name for name, on in (
+            ("gyro", codes[0] == 1), ("mag", codes[1] == 1), ("baro", codes[2] == 1),
+            ("accel", codes[4] in (1, 4)), ("level", codes[4] == 2)) if on]
+        others = [i + 1 for i, c in enumerate(codes) if c and i not in (0, 1, 2, 4)]
+        if others or not which or codes[4] not in (0, 1, 2, 4):
+            return _unsupported(f"Calibration {values}: only gyro (p1), compass (p2), "
+                                "barometer (p3), accelerometer and level (p5 1, 2, 4)")
+        if self._port.snapshot().armed:
+            return _denied("Calibration refused: disarm first")
+        texts: list[str] = []
+        for name in which:
+            texts += [f"[cal] calibration started: 2 {name}", "[cal] progress <50>",
+                      "[cal] progress <100>", f"[cal] calibration done: {name}"]
+        return _accepted(follow_up=_cal_texts(*texts))
+
     # ----------------------------------------------------------------------- messages
     def _send_message(self, msg_id: int) -> CommandOutcome:
         messages = self._build_message(msg_id)
@@ -405,8 +485,8 @@ class CommandDispatcher:
         interval_us = r.params[1]
         if msg_id is None:
             return _denied(f"Set interval: param1 = {r.params[0]} is not a message id")
-        if not self._streams.has(msg_id):
-            return _denied(f"Set interval: message {msg_id} cannot be streamed")
+        if not self._streams.has(msg_id):  # a message id, but one we cannot produce
+            return _unsupported(f"Set interval: message {msg_id} cannot be streamed")
         if not math.isfinite(interval_us) or (interval_us < 0 and interval_us != -1.0):
             return _denied(f"Set interval: interval {interval_us} us invalid")
         if interval_us == -1.0:

@@ -164,9 +164,10 @@ class MavlinkEndpoint:
         self._streams = StreamScheduler(config.stream_rates_hz, config.heartbeat_wall_period_s,
                                         config.max_stream_rate_hz)
         self._mission = MissionProtocol(self._outbox, port.snapshot, port.mission_set,
-                                        config.mission)
+                                        config.mission, port.fence_set)
         self._commands = CommandDispatcher(port, injector, self._streams, self._build_message,
-                                           lambda: self._mission.total, config.limits)
+                                           lambda: self._mission.total, config.limits,
+                                           set_param=self._set_param)
         self._failsafe = GcsFailsafe(config.sysid)
         self._failsafe_values: tuple[float, float, float] | None = None  # the config's source
         self._failsafe_settings = GcsFailsafeConfig()
@@ -392,6 +393,14 @@ class MavlinkEndpoint:
         else:
             self._outbox.status(Severity.EMERGENCY, f"{lost}, {kind.upper()} refused: "
                                 f"{result.reason}")
+
+    def _set_param(self, name: str, value: float) -> CommandResult:
+        """A parameter changed by a command (DO_FENCE_ENABLE), through the table as a
+        PARAM_SET would be, so that reads report it."""
+        if name not in self._params.table:
+            return CommandResult.not_supported(f"no parameter {name}")
+        outcome = self._params.table.set(name, value)
+        return CommandResult.ok() if outcome.accepted else CommandResult.denied(outcome.reason)
 
     def _clear_gcs_failsafe(self, why: str) -> None:
         self._port.clear_failsafe("gcs")

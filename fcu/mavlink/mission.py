@@ -7,8 +7,9 @@ Download: GCS MISSION_REQUEST_LIST -> vehicle MISSION_COUNT(n) -> GCS MISSION_RE
           (or MISSION_REQUEST) -> vehicle MISSION_ITEM_INT(i) (or MISSION_ITEM) ... -> GCS ACK.
 
 ArduPilot conventions kept here:
-- seq 0 is home. It is uploaded like any item (and validated) but never handed to the
-  vehicle; a download always returns the current home as seq 0 (MAV_FRAME_GLOBAL, AMSL).
+- seq 0 is home. It is uploaded like any item but, as in ArduPilot, neither judged nor
+  handed to the vehicle (MAVSDK's import of a QGC ``.plan`` sends it with altitude NaN); a
+  download always returns the current home as seq 0 (MAV_FRAME_GLOBAL, AMSL).
   With no mission the vehicle reports a count of 1 (home only).
 - The whole mission is handed to the vehicle (:meth:`VehiclePort.mission_set`) only when the
   last item has arrived and been validated: an aborted upload leaves the old mission intact.
@@ -24,16 +25,24 @@ ArduPilot conventions kept here:
   completion is answered with the ACK again.
 - Validation, per item, answered with a MISSION_ACK error that ends the upload (and a
   STATUSTEXT saying why): frames other than GLOBAL(_INT), GLOBAL_RELATIVE_ALT(_INT),
-  LOCAL_NED and MISSION -> UNSUPPORTED_FRAME; inf anywhere, or NaN in param1..4 ->
-  INVALID_PARAMn, except param4 (yaw) of NAV_WAYPOINT/LOITER/LAND/TAKEOFF where the MAVLink
-  spec defines NaN as "keep the heading mode" (MAVSDK sends it); non-finite or absurd
+  LOCAL_NED and MISSION -> UNSUPPORTED_FRAME; inf anywhere, or NaN in a param1..4 the
+  command uses (:data:`USED_PARAMS`) -> INVALID_PARAMn, except param4 (yaw) of
+  NAV_WAYPOINT/LOITER/LAND/TAKEOFF where the MAVLink spec defines NaN as "keep the heading
+  mode" (MAVSDK sends it); NaN in a parameter the command does not use is accepted
+  (ArduPilot ignores it; MAVSDK's Mission plugin sends NaN in RTL's param1); non-finite or absurd
   coordinates (|lat| > 90, |lon| > 180, |alt| > ``max_alt_m``, local |x|, |y|, |z| >
   ``max_local_m``) -> INVALID_PARAM5_X / 6_Y / 7. Fields the frame does not use (x, y, z of
   MAV_FRAME_MISSION) are not judged.
 - A mission the vehicle boots with (``ftc-vehicle --load-mission``) is loaded through
   :meth:`MissionProtocol.load`, in the form a ground station would upload it
   (:func:`flightdata.mission.mavlink_form`), so a download and MISSION_CURRENT report it.
-- Mission types other than MISSION (fence, rally) are answered MAV_MISSION_UNSUPPORTED.
+- The fence (MAV_MISSION_TYPE_FENCE: polygon vertices and circles, inclusion and exclusion,
+  a return point) and the rally points (MAV_MISSION_TYPE_RALLY) are uploaded, downloaded
+  and cleared by the same protocol, without a home item (seq 0 is their first item), each
+  item checked (:func:`validate_plan_item`), and stored as uploaded (:meth:`plan_items`);
+  the fence also goes to the vehicle as local areas (:func:`fence_areas`), which it enforces
+  while FENCE_ENABLE is 1 and FENCE_TYPE has bit 2. Other mission types are answered
+  MAV_MISSION_UNSUPPORTED.
 - Time-outs are judged on the clock passed in (the vehicle process passes the wall-clock
   monotonic time, so a simulation speed-up does not shorten them).
 - MISSION_ITEM_INT carries latitude/longitude in degE7 and local x/y in metres * 1e4.
@@ -52,6 +61,7 @@ from fcu.mavlink.enums import Severity
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.link import Address, Outbox
 from fcu.mavlink.port import CommandResult, GeoPoint, MissionItem, VehicleSnapshot
+from fcu.navigation.fence import FenceAreas
 from flightdata.mission import MissionItem as PlannedItem
 from flightdata.mission import mavlink_form
 
@@ -62,6 +72,8 @@ __all__ = [
     "WireItem",
     "to_mission_item",
     "validate_item",
+    "validate_plan_item",
+    "fence_areas",
 ]
 
 _M = mavlink2
@@ -75,6 +87,30 @@ SUPPORTED_FRAMES = GLOBAL_FRAMES | LOCAL_FRAMES | {_M.MAV_FRAME_MISSION}
 NAV_YAW_COMMANDS = frozenset({_M.MAV_CMD_NAV_WAYPOINT, _M.MAV_CMD_NAV_LOITER_UNLIM,
                               _M.MAV_CMD_NAV_LOITER_TIME, _M.MAV_CMD_NAV_LAND,
                               _M.MAV_CMD_NAV_TAKEOFF})
+# param1..4 (indices 0..3) each NAV command flies with, as ArduCopter reads them; NaN in
+# the others is accepted (ArduPilot ignores them, and MAVSDK's Mission plugin fills them
+# with NaN). Commands not listed here have NaN refused in all four.
+USED_PARAMS: dict[int, frozenset[int]] = {
+    _M.MAV_CMD_NAV_WAYPOINT: frozenset({0, 3}),  # hold time, yaw
+    _M.MAV_CMD_NAV_RETURN_TO_LAUNCH: frozenset(),
+    _M.MAV_CMD_NAV_LAND: frozenset({3}),  # yaw
+    _M.MAV_CMD_NAV_TAKEOFF: frozenset({3}),  # yaw (param1, pitch, is for planes)
+    _M.MAV_CMD_NAV_FENCE_RETURN_POINT: frozenset(),
+    _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: frozenset({0}),  # vertex count
+    _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: frozenset({0}),
+    _M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: frozenset({0}),  # radius, m
+    _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: frozenset({0}),
+    _M.MAV_CMD_NAV_RALLY_POINT: frozenset(),
+}
+#: The commands a fence or rally upload may hold (the plan types beside the mission).
+PLAN_COMMANDS: dict[int, frozenset[int]] = {
+    _M.MAV_MISSION_TYPE_FENCE: frozenset({
+        _M.MAV_CMD_NAV_FENCE_RETURN_POINT, _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION, _M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+        _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION}),
+    _M.MAV_MISSION_TYPE_RALLY: frozenset({_M.MAV_CMD_NAV_RALLY_POINT}),
+}
+_PLAN_NAMES = {_M.MAV_MISSION_TYPE_FENCE: "Fence", _M.MAV_MISSION_TYPE_RALLY: "Rally"}
 _INVALID_PARAM = (_M.MAV_MISSION_INVALID_PARAM1, _M.MAV_MISSION_INVALID_PARAM2,
                   _M.MAV_MISSION_INVALID_PARAM3, _M.MAV_MISSION_INVALID_PARAM4)
 INT32_MAX = 0x7FFFFFFF
@@ -117,6 +153,7 @@ class WireItem:
     x: float
     y: float
     z: float
+    mission_type: int = _M.MAV_MISSION_TYPE_MISSION
 
     @staticmethod
     def _int_scale(frame: int) -> float:
@@ -142,7 +179,8 @@ class WireItem:
                    current=int(msg.current), autocontinue=int(msg.autocontinue),
                    params=(float(msg.param1), float(msg.param2), float(msg.param3),
                            float(msg.param4)),
-                   x=float(msg.x) / scale, y=float(msg.y) / scale, z=float(msg.z))
+                   x=float(msg.x) / scale, y=float(msg.y) / scale, z=float(msg.z),
+                   mission_type=int(msg.mission_type))
 
     def to_message(self, use_int: bool, target_system: int,
                    target_component: int) -> MAVLinkMessage:
@@ -159,11 +197,10 @@ class WireItem:
             return _M.MAVLink_mission_item_int_message(
                 target_system, target_component, self.seq, self.frame, self.command,
                 self.current, self.autocontinue, p1, p2, p3, p4, scaled(self.x),
-                scaled(self.y), self.z, _M.MAV_MISSION_TYPE_MISSION)
+                scaled(self.y), self.z, self.mission_type)
         return _M.MAVLink_mission_item_message(
             target_system, target_component, self.seq, self.frame, self.command, self.current,
-            self.autocontinue, p1, p2, p3, p4, self.x, self.y, self.z,
-            _M.MAV_MISSION_TYPE_MISSION)
+            self.autocontinue, p1, p2, p3, p4, self.x, self.y, self.z, self.mission_type)
 
 
 def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
@@ -171,8 +208,9 @@ def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
     where = f"Mission item {item.seq}"
     if item.frame not in SUPPORTED_FRAMES:
         return _M.MAV_MISSION_UNSUPPORTED_FRAME, f"{where}: frame {item.frame} not supported"
+    used = USED_PARAMS.get(item.command, frozenset(range(4)))
     for i, value in enumerate(item.params):
-        nan_ok = i == 3 and item.command in NAV_YAW_COMMANDS
+        nan_ok = i not in used or (i == 3 and item.command in NAV_YAW_COMMANDS)
         if math.isinf(value) or (math.isnan(value) and not nan_ok):
             return _INVALID_PARAM[i], f"{where}: param{i + 1} = {value} is not a number"
         if abs(value) > FLOAT32_MAX:  # (only a boot mission can hold one: the wire is float32)
@@ -197,6 +235,60 @@ def validate_item(item: WireItem, config: MissionConfig) -> tuple[int, str]:
             if abs(value) > config.max_local_m:
                 return code, f"{where}: {name} {value:g} m beyond +-{config.max_local_m:g} m"
     return _M.MAV_MISSION_ACCEPTED, ""
+
+
+def validate_plan_item(item: WireItem, mission_type: int, config: MissionConfig
+                       ) -> tuple[int, str]:
+    """(MAV_MISSION_RESULT, reason) for one fence or rally item: a command of its type, in a
+    global frame, valid coordinates; a polygon vertex with a vertex count of at least 3, a
+    circle with a radius > 0."""
+    name = _PLAN_NAMES[mission_type]
+    where = f"{name} item {item.seq}"
+    if item.command not in PLAN_COMMANDS[mission_type]:
+        return _M.MAV_MISSION_UNSUPPORTED, f"{where}: command {item.command} not a {name} item"
+    if item.frame not in GLOBAL_FRAMES:
+        return _M.MAV_MISSION_UNSUPPORTED_FRAME, f"{where}: frame {item.frame} not global"
+    code, reason = validate_item(item, config)
+    if code != _M.MAV_MISSION_ACCEPTED:
+        return code, reason.replace("Mission item", where, 1)
+    p1 = item.params[0]
+    if item.command in (_M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION) and \
+            not (p1 >= 3 and p1 == round(p1)):
+        return _M.MAV_MISSION_INVALID_PARAM1, f"{where}: vertex count {p1} is not 3 or more"
+    if item.command in (_M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+                        _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION) and not p1 > 0:
+        return _M.MAV_MISSION_INVALID_PARAM1, f"{where}: radius {p1} m is not > 0"
+    return _M.MAV_MISSION_ACCEPTED, ""
+
+
+def fence_areas(items: Sequence[WireItem], origin: GeoPoint) -> FenceAreas:
+    """The stored fence plan as local areas about ``origin``: each run of ``param1``
+    polygon vertices of one kind is a polygon; each circle item a circle (radius param1)."""
+    polygons: dict[int, list[np.ndarray]] = {
+        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: [],
+        _M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: []}
+    circles: dict[int, list[tuple[float, float, float]]] = {
+        _M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: [], _M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: []}
+    k = 0
+    while k < len(items):
+        item = items[k]
+        ned = geo_to_ned(item.x, item.y, origin.alt_m, origin)
+        if item.command in circles:
+            circles[item.command].append((float(ned[0]), float(ned[1]), item.params[0]))
+        elif item.command in polygons:
+            n = int(item.params[0])
+            run = items[k:k + n]
+            polygons[item.command].append(np.array(
+                [geo_to_ned(v.x, v.y, origin.alt_m, origin)[:2] for v in run]))
+            k += n
+            continue
+        k += 1
+    return FenceAreas(
+        inclusion_polygons=tuple(polygons[_M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION]),
+        exclusion_polygons=tuple(polygons[_M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION]),
+        inclusion_circles=tuple(circles[_M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION]),
+        exclusion_circles=tuple(circles[_M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION]))
 
 
 def to_mission_item(item: WireItem, origin: GeoPoint,
@@ -248,6 +340,7 @@ class _Upload:
     use_int: bool
     last_item_s: float  # when an item (or the count) last came from the uploader
     last_request_s: float  # when the item waited for was last requested
+    mission_type: int = _M.MAV_MISSION_TYPE_MISSION
 
 
 class MissionProtocol:
@@ -267,12 +360,16 @@ class MissionProtocol:
 
     def __init__(self, outbox: Outbox, snapshot: Callable[[], VehicleSnapshot],
                  commit: Callable[[list[MissionItem]], CommandResult],
-                 config: MissionConfig) -> None:
+                 config: MissionConfig,
+                 commit_fence: Callable[[FenceAreas], CommandResult] | None = None) -> None:
         self._outbox = outbox
+        self._commit_fence = commit_fence
         self._snapshot = snapshot
         self._commit = commit
         self._config = config
         self._items: list[WireItem] = []  # seq 1..n-1 (home is not stored)
+        # the fence and the rally points, seq 0.. (no home item), as uploaded
+        self._plans: dict[int, list[WireItem]] = {t: [] for t in PLAN_COMMANDS}
         self._upload: _Upload | None = None
         self._completed: tuple[tuple[int, int], int] | None = None  # (peer, last seq)
 
@@ -297,6 +394,10 @@ class MissionProtocol:
         """The stored mission (seq 1..), as received."""
         return list(self._items)
 
+    def plan_items(self, mission_type: int) -> list[WireItem]:
+        """The stored fence (MAV_MISSION_TYPE_FENCE) or rally points (RALLY), as received."""
+        return list(self._plans[mission_type])
+
     def reset(self) -> None:
         """Forget any transfer in progress (reboot); the stored mission is kept."""
         self._upload = None
@@ -311,15 +412,15 @@ class MissionProtocol:
         seq = len(up.items)
         if up.use_int:
             msg = _M.MAVLink_mission_request_int_message(up.peer[0], up.peer[1], seq,
-                                                         _M.MAV_MISSION_TYPE_MISSION)
+                                                         up.mission_type)
         else:
             msg = _M.MAVLink_mission_request_message(up.peer[0], up.peer[1], seq,
-                                                     _M.MAV_MISSION_TYPE_MISSION)
+                                                     up.mission_type)
         self._outbox.send(msg, up.addr)
 
     def _fail(self, up: _Upload, code: int, reason: str) -> None:
         self._upload = None
-        self._ack(code, up.peer, up.addr)
+        self._ack(code, up.peer, up.addr, up.mission_type)
         self._outbox.status(Severity.WARNING, reason)
 
     def _home_item(self) -> WireItem:
@@ -342,6 +443,12 @@ class MissionProtocol:
             self._items = list(items)
         return result
 
+    def _set_plan(self, mission_type: int, items: list[WireItem]) -> None:
+        """Store a fence or rally plan; a fence goes to the vehicle to be enforced."""
+        self._plans[mission_type] = items
+        if mission_type == _M.MAV_MISSION_TYPE_FENCE and self._commit_fence is not None:
+            self._commit_fence(fence_areas(items, self._snapshot().origin))
+
     def load(self, items: Sequence[PlannedItem]) -> CommandResult:
         """Replace the mission by ``items`` (seq 1..) without a ground station: the boot
         mission. Validated and handed to the vehicle as an upload would be."""
@@ -360,22 +467,28 @@ class MissionProtocol:
                      now_s: float) -> None:
         """MISSION_COUNT: start an upload (or clear the mission when the count is 0)."""
         mission_type = int(msg.mission_type)
-        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+        plan = mission_type in PLAN_COMMANDS
+        if mission_type != _M.MAV_MISSION_TYPE_MISSION and not plan:
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
         count = int(msg.count)
         self._upload = None
         self._completed = None
-        if count == 0:
-            self._finish_commit([], peer, to)  # MAVLink: an empty upload clears the mission
+        if count == 0:  # MAVLink: an empty upload clears
+            if plan:
+                self._set_plan(mission_type, [])
+                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
+            else:
+                self._finish_commit([], peer, to)
             return
         if count > self._config.max_items:
-            self._ack(_M.MAV_MISSION_NO_SPACE, peer, to)
+            self._ack(_M.MAV_MISSION_NO_SPACE, peer, to, mission_type)
             self._outbox.status(Severity.WARNING, f"Mission of {count} items exceeds "
                                 f"{self._config.max_items}")
             return
         self._upload = _Upload(peer=peer, addr=to, count=count, items=[], use_int=True,
-                               last_item_s=now_s, last_request_s=now_s)
+                               last_item_s=now_s, last_request_s=now_s,
+                               mission_type=mission_type)
         self._request(self._upload)
 
     def _finish_commit(self, items: list[WireItem], peer: tuple[int, int], to: Address) -> bool:
@@ -396,14 +509,15 @@ class MissionProtocol:
         seq = int(msg.seq)
         if up is None:
             if self._completed == (peer, seq):  # our ACK was lost: say it again
-                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to)
-            elif mission_type != _M.MAV_MISSION_TYPE_MISSION:
+                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
+            elif mission_type != _M.MAV_MISSION_TYPE_MISSION and \
+                    mission_type not in PLAN_COMMANDS:
                 self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
         if peer != up.peer:
             self._ack(_M.MAV_MISSION_DENIED, peer, to, mission_type)
             return
-        if mission_type != _M.MAV_MISSION_TYPE_MISSION:
+        if mission_type != up.mission_type:
             return
         expected = len(up.items)
         up.last_item_s = now_s  # the uploader is still there
@@ -413,7 +527,14 @@ class MissionProtocol:
             return
         up.use_int = msg.get_type() == "MISSION_ITEM_INT"
         item = WireItem.from_message(msg)
-        code, reason = validate_item(item, self._config)
+        # seq 0 of a mission is home, never flown nor stored: as ArduPilot, not judged
+        # (MAVSDK's import of a QGC .plan sends it with altitude NaN)
+        if up.mission_type in PLAN_COMMANDS:
+            code, reason = validate_plan_item(item, up.mission_type, self._config)
+        elif seq > 0:
+            code, reason = validate_item(item, self._config)
+        else:
+            code, reason = _M.MAV_MISSION_ACCEPTED, ""
         if code != _M.MAV_MISSION_ACCEPTED:
             self._fail(up, code, reason)
             return
@@ -423,7 +544,13 @@ class MissionProtocol:
             self._request(up)
             return
         self._upload = None
-        if self._finish_commit(up.items[1:], peer, to):
+        if up.mission_type in PLAN_COMMANDS:
+            self._set_plan(up.mission_type, list(up.items))
+            self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, up.mission_type)
+            self._outbox.status(Severity.INFO, f"{_PLAN_NAMES[up.mission_type]}: "
+                                f"{len(up.items)} items stored")
+            self._completed = (peer, up.count - 1)
+        elif self._finish_commit(up.items[1:], peer, to):
             self._completed = (peer, up.count - 1)
 
     def tick(self, now_s: float) -> None:
@@ -444,6 +571,10 @@ class MissionProtocol:
                             to: Address) -> None:
         """MISSION_REQUEST_LIST: announce the count (home included)."""
         mission_type = int(msg.mission_type)
+        if mission_type in PLAN_COMMANDS:
+            self._outbox.send(_M.MAVLink_mission_count_message(
+                peer[0], peer[1], len(self._plans[mission_type]), mission_type), to)
+            return
         if mission_type != _M.MAV_MISSION_TYPE_MISSION:
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
@@ -453,20 +584,34 @@ class MissionProtocol:
     def handle_request(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address) -> None:
         """MISSION_REQUEST_INT / MISSION_REQUEST: send one item (idempotent, any order)."""
         mission_type = int(msg.mission_type)
+        seq = int(msg.seq)
+        use_int = msg.get_type() == "MISSION_REQUEST_INT"
+        if mission_type in PLAN_COMMANDS:
+            stored = self._plans[mission_type]
+            if not 0 <= seq < len(stored):
+                self._ack(_M.MAV_MISSION_INVALID_SEQUENCE, peer, to, mission_type)
+                return
+            self._outbox.send(stored[seq].to_message(use_int, peer[0], peer[1]), to)
+            return
         if mission_type != _M.MAV_MISSION_TYPE_MISSION:
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return
-        seq = int(msg.seq)
         if not 0 <= seq < self.count:
             self._ack(_M.MAV_MISSION_INVALID_SEQUENCE, peer, to)
             return
         item = self._home_item() if seq == 0 else self._items[seq - 1]
-        use_int = msg.get_type() == "MISSION_REQUEST_INT"
         self._outbox.send(item.to_message(use_int, peer[0], peer[1]), to)
 
     def handle_clear_all(self, msg: MAVLinkMessage, peer: tuple[int, int], to: Address) -> None:
-        """MISSION_CLEAR_ALL: clear the mission (types MISSION and ALL)."""
+        """MISSION_CLEAR_ALL: clear the mission, the fence or the rally points (ALL: all)."""
         mission_type = int(msg.mission_type)
+        if mission_type in PLAN_COMMANDS or mission_type == _M.MAV_MISSION_TYPE_ALL:
+            for plan in PLAN_COMMANDS:
+                if mission_type in (plan, _M.MAV_MISSION_TYPE_ALL):
+                    self._set_plan(plan, [])
+            if mission_type != _M.MAV_MISSION_TYPE_ALL:
+                self._ack(_M.MAV_MISSION_ACCEPTED, peer, to, mission_type)
+                return
         if mission_type not in (_M.MAV_MISSION_TYPE_MISSION, _M.MAV_MISSION_TYPE_ALL):
             self._ack(_M.MAV_MISSION_UNSUPPORTED, peer, to, mission_type)
             return

@@ -52,6 +52,7 @@ import numpy as np
 
 from fcu.mavlink.enums import MavState
 from fcu.mavlink.extended import ExtendedTelemetry
+from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 from flightdata.records import Record
 
@@ -205,6 +206,12 @@ class SimTruth:
     wind_ned : ndarray, shape (3,), or None
         True wind velocity at the vehicle (mean plus turbulence), NED, m/s (the velocity of
         the air, not the direction it comes from); None when not simulated.
+    esc_rpm, esc_current_a : ndarray, shape (4,), or None
+        What the ESCs of motors 1..4 measure: rotor speed, rev/min, and current, A (from the
+        motor model: a lost rotor reads 0 rpm, a stuck one its stuck speed); None when not
+        simulated.
+    esc_voltage_v : float or None
+        The ESCs' bus voltage, V.
     """
 
     pos_ned: np.ndarray
@@ -213,6 +220,9 @@ class SimTruth:
     rate_frd: np.ndarray
     accel_frd: np.ndarray
     wind_ned: np.ndarray | None = None
+    esc_rpm: np.ndarray | None = None
+    esc_current_a: np.ndarray | None = None
+    esc_voltage_v: float | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -517,12 +527,22 @@ class VehiclePort(ParamProvider, Protocol):
         """Track ``vel_ned`` (m/s) in GUIDED; may answer ``CommandResult.not_supported``."""
         ...
 
+    def orbit(self, centre_ned: np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        """DO_ORBIT: circle ``centre_ned`` (m, NED; None = here) at ``radius_m`` (None: the
+        default) and ``speed_m_s`` along the circle (> 0 clockwise; None: the default)."""
+        ...
+
     def change_speed(self, speed_m_s: float, speed_type: str) -> CommandResult:
         """Set the ``"ground"`` (horizontal), ``"climb"`` or ``"descent"`` speed, m/s."""
         ...
 
     def set_home(self, pos_ned: np.ndarray | None) -> CommandResult:
         """Move home to ``pos_ned`` (m, NED about the origin), or here when None."""
+        ...
+
+    def fence_set(self, areas: FenceAreas) -> CommandResult:
+        """The uploaded fence (polygons and circles, local NED), to enforce."""
         ...
 
     def mission_set(self, items: Sequence[MissionItem]) -> CommandResult:

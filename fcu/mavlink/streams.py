@@ -31,10 +31,12 @@ POSITION 6          GLOBAL_POSITION_INT, LOCAL_POSITION_NED
 EXTRA1 10           ATTITUDE, ATTITUDE_QUATERNION, ATTITUDE_TARGET, SIM_STATE, AHRS2
 EXTRA2 11           VFR_HUD
 EXTRA3 12           SYSTEM_TIME, WIND, BATTERY_STATUS, EKF_STATUS_REPORT, VIBRATION,
-                    NAMED_VALUE_FLOAT (LOE1..LOE4)
+                    NAMED_VALUE_FLOAT (LOE1..LOE4), ESC_TELEMETRY_1_TO_4
 ALL 0               every group
 ==================  ===================================================================
-HOME_POSITION belongs to no group (SET_MESSAGE_INTERVAL and REQUEST_MESSAGE only).
+HOME_POSITION belongs to no group (SET_MESSAGE_INTERVAL and REQUEST_MESSAGE only), nor do
+PX4's HIGHRES_IMU, ODOMETRY and ACTUATOR_OUTPUT_STATUS (:mod:`fcu.mavlink.messages_px4`),
+which start at rate 0: they are sent when asked for.
 The extended messages (RAW_IMU ... VIBRATION, :mod:`fcu.mavlink.messages_extended`) are
 computed when they are due, so their cost follows these rates.
 """
@@ -78,8 +80,13 @@ DEFAULT_RATES_HZ: Mapping[int, float] = {
     _M.MAVLINK_MSG_ID_WIND: 1.0,
     _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT: 1.0,
     _M.MAVLINK_MSG_ID_VIBRATION: 1.0,
+    # PX4's telemetry and ArduPilot's ESC report: streamed when asked for
+    _M.MAVLINK_MSG_ID_HIGHRES_IMU: 0.0,
+    _M.MAVLINK_MSG_ID_ODOMETRY: 0.0,
+    _M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS: 0.0,
+    _M.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4: 0.0,
 }
-"""Default stream rates, Hz of simulated time, by message id."""
+"""Default stream rates, Hz of simulated time, by message id (0: only when asked for)."""
 
 STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
     _M.MAV_DATA_STREAM_RAW_SENSORS: (
@@ -101,7 +108,8 @@ STREAM_GROUPS: Mapping[int, tuple[int, ...]] = {
     _M.MAV_DATA_STREAM_EXTRA3: (
         _M.MAVLINK_MSG_ID_SYSTEM_TIME, _M.MAVLINK_MSG_ID_WIND,
         _M.MAVLINK_MSG_ID_BATTERY_STATUS, _M.MAVLINK_MSG_ID_EKF_STATUS_REPORT,
-        _M.MAVLINK_MSG_ID_VIBRATION, _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT),
+        _M.MAVLINK_MSG_ID_VIBRATION, _M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT,
+        _M.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4),
 }
 """REQUEST_DATA_STREAM stream id -> message ids (MAV_DATA_STREAM_ALL = 0 means all)."""
 

@@ -15,6 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from fcu.navigation.circle import Circle, circle_entry
 from fcu.navigation.events import CommandResult, NavEvent, Severity
 from fcu.navigation.guidance import Reference, SpeedLimits
 from fcu.navigation.landing import LandedState, LandingDetector, looks_on_ground
@@ -71,6 +72,9 @@ class FlightLegs:
         self._ground_since_s: float | None = None
         self._landing.reset()
         self._leg: Leg | None = None
+        # DO_ORBIT's circle (centre m NED, radius m, rate rad/s, entry angle rad), flown
+        # once its approach leg is done
+        self._orbit_plan: tuple[np.ndarray, float, float, float] | None = None
         self._limits = cfg.speed_limits()
         self._home_pos_ned = np.array(cfg.home_pos_ned, dtype=float)
         self._events: list[NavEvent] = []
@@ -272,6 +276,9 @@ class FlightLegs:
         t_next = leg.ready_s + leg.hold_s
         if leg.kind in ("rtl_return", "approach"):
             self._start_land(t_next, leg.item_index)
+        elif leg.kind == "circle_approach" and self._orbit_plan is not None:
+            centre, radius_m, rate_rad_s, theta0 = self._orbit_plan
+            self._start_circle(t_next, centre, radius_m, rate_rad_s, theta0)
         elif leg.item_index is not None and self._mission_running():
             self._next_item(leg.item_index, t_next)
 
@@ -320,6 +327,40 @@ class FlightLegs:
         _, yaw = self._plan_start(t)
         self._leg = hold_leg(t, self._stopping_point(), yaw)
 
+    def _enter_circle(self, t: float) -> None:
+        """CIRCLE entered in flight: the centre CIRCLE_RADIUS ahead, the vehicle on the
+        circle, turning at CIRCLE_RATE (as ArduCopter)."""
+        start, yaw = self._plan_start(t)
+        cfg = self.config
+        radius = cfg.circle_radius_m
+        centre = start + np.array([radius * math.cos(yaw), radius * math.sin(yaw), 0.0])
+        self._start_circle(t, centre, radius, math.radians(cfg.circle_rate_deg_s),
+                           yaw + math.pi)
+
+    def _start_circle(self, t: float, centre: np.ndarray, radius_m: float, rate_rad_s: float,
+                      theta0_rad: float) -> None:
+        circle = Circle(np.array(centre, dtype=float), float(radius_m), float(rate_rad_s),
+                        float(theta0_rad), t, self._limits.accel_m_s2)
+        self._leg = Leg("circle", None, circle=circle)
+        self._event("circle", f"circling ({centre[0]:.2f}, {centre[1]:.2f}) at "
+                    f"{-centre[2]:.2f} m, radius {radius_m:.2f} m, "
+                    f"{math.degrees(rate_rad_s):.1f} deg/s")
+
+    def _orbit(self, t: float, centre: np.ndarray, radius_m: float, rate_rad_s: float) -> None:
+        """Circle ``centre`` (m, NED, its altitude the circle's): straight on when the
+        vehicle is on the circle, else after a leg to its nearest point."""
+        start, _ = self._plan_start(t)
+        entry, theta0 = circle_entry(start, centre, radius_m)
+        self._orbit_plan = (np.array(centre, dtype=float), float(radius_m), float(rate_rad_s),
+                            theta0)
+        if float(np.linalg.norm(entry - start)) <= self.config.wp_radius_m:
+            self._start_circle(t, centre, radius_m, rate_rad_s, theta0)
+            return
+        yaw_in = math.atan2(float(centre[1] - entry[1]), float(centre[0] - entry[0]))
+        self._leg = self._move_leg("circle_approach", t, entry,
+                                   yaw_in if radius_m > 0.0 else None)
+        self._event("circle", "flying to the circle at ({:.2f}, {:.2f}, {:.2f})".format(*entry))
+
     def _enter_manual(self, t: float) -> None:
         _, yaw = self._plan_start(t)
         self._leg = manual_leg(float(self._stopping_point()[2]), yaw)
@@ -347,7 +388,11 @@ class FlightLegs:
     def _start_rtl(self, t: float, item_index: int | None) -> None:
         start, yaw = self._plan_start(t)
         cfg = self.config
-        leg = rtl_leg(t, start, yaw, self._home_pos_ned, cfg.rtl_alt_m, cfg.rtl_hold_s,
+        rtl_alt_m = cfg.rtl_alt_m
+        if cfg.fence.altitude_on:  # as ArduCopter: the return stays below the fence
+            rtl_alt_m = max(min(rtl_alt_m, cfg.fence.alt_max_m - cfg.fence.margin_m),
+                            cfg.land_detect_alt_m)
+        leg = rtl_leg(t, start, yaw, self._home_pos_ned, rtl_alt_m, cfg.rtl_hold_s,
                       self._limits, item_index)
         self._leg = leg
         assert leg.target_pos_ned is not None

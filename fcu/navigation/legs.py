@@ -13,6 +13,7 @@ from typing import Literal
 
 import numpy as np
 
+from fcu.navigation.circle import Circle
 from fcu.navigation.guidance import (
     Reference,
     SpeedLimits,
@@ -23,7 +24,8 @@ from fcu.navigation.guidance import (
     takeoff_trajectory,
 )
 
-LegKind = Literal["takeoff", "move", "hold", "manual", "approach", "rtl_return", "land"]
+LegKind = Literal["takeoff", "move", "hold", "manual", "approach", "rtl_return", "land",
+                  "circle", "circle_approach"]
 
 
 @dataclass
@@ -42,6 +44,7 @@ class Leg:
     reached_s: float | None = None  # s, step time the target was reached
     ready_s: float | None = None  # s, time counted as arrival when scheduling what follows
     done: bool = False
+    circle: Circle | None = None  # the circle of a "circle" leg (no trajectory)
 
     def reference(self, time_s: float, est_pos_ned: np.ndarray, est_vel_ned: np.ndarray
                   ) -> Reference:
@@ -52,6 +55,8 @@ class Leg:
             vel = np.array([est_vel_ned[0], est_vel_ned[1], 0.0])
             return Reference(pos_ned=pos, vel_ned=vel, acc_ned=np.zeros(3),
                              yaw_rad=self.manual_yaw_rad)
+        if self.circle is not None:
+            return self.circle.reference(time_s)
         assert self.trajectory is not None
         return self.trajectory.evaluate(time_s)
 

@@ -19,6 +19,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from fcu.navigation.fence import Vec3, target_problem
 from fcu.navigation.flight import FlightLegs
 from fcu.navigation.legs import hold_leg
 from fcu.navigation.settings import NavigatorConfig
@@ -66,20 +67,27 @@ class MissionProgress:
     reached: tuple[ItemReached, ...]
 
 
-def upload_problem(items: Sequence[MissionItem], config: NavigatorConfig) -> str | None:
+def upload_problem(items: Sequence[MissionItem], config: NavigatorConfig,
+                   home_ned: Vec3 = (0.0, 0.0, 0.0)) -> str | None:
     """Why ``items`` (seq 1..n) cannot be loaded, or None: each must be a MissionItem with
-    targets within [0, ``max_alt_m``] of altitude and speeds up to ``max_speed_m_s``."""
+    targets not below ground and, with the fence enabled, inside it (about ``home_ned``,
+    m NED); speeds above ``max_speed_m_s`` are flown at that speed (as ArduCopter limits
+    them to what it can fly)."""
     for k, item in enumerate(items):
         seq = k + 1
         if not isinstance(item, MissionItem):
             return f"item {seq} is not a MissionItem"
-        if item.pos_ned is not None and not 0.0 <= -item.pos_ned[2] <= config.max_alt_m:
-            return (f"item {seq}: altitude {-item.pos_ned[2]:.2f} m outside [0, "
-                    f"{config.max_alt_m}] m")
-        if item.command == "takeoff" and item.alt_m > config.max_alt_m:
-            return f"item {seq}: take-off altitude {item.alt_m} m above {config.max_alt_m} m"
-        if item.command == "change_speed" and item.speed_m_s > config.max_speed_m_s:
-            return f"item {seq}: speed {item.speed_m_s} m/s above {config.max_speed_m_s} m/s"
+        if item.pos_ned is not None:
+            if -item.pos_ned[2] < 0.0:
+                return f"item {seq}: altitude {-item.pos_ned[2]:.2f} m below ground"
+            problem = target_problem(item.pos_ned, home_ned, config.fence)
+            if problem is not None:
+                return f"item {seq}: {problem}"
+        if item.command == "takeoff":
+            problem = target_problem((home_ned[0], home_ned[1], home_ned[2] - item.alt_m),
+                                     home_ned, config.fence)
+            if problem is not None:
+                return f"item {seq}: take-off {problem}"
     return None
 
 
@@ -179,8 +187,9 @@ class MissionExecution(FlightLegs):
         while index < len(mission.items):
             item = mission.items[index]
             mission.current_index = index
-            if item.command == "change_speed":
-                self._apply_speed(item.speed_m_s, item.speed_type)
+            if item.command == "change_speed":  # as ArduCopter, at most what it flies
+                self._apply_speed(min(item.speed_m_s, self.config.max_speed_m_s),
+                                  item.speed_type)
                 self._item_reached(index, now)
                 index += 1
                 continue

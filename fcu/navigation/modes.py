@@ -11,6 +11,9 @@ AUTO        3  fly the mission (:mod:`fcu.navigation.mission`); holds the last p
 GUIDED      4  take-off command, go-to (SET_POSITION_TARGET_LOCAL_NED, DO_REPOSITION)
 LOITER      5  hold the stopping point (estimate + v|v| / 2a)
 RTL         6  climb to ``rtl_alt_m`` if lower, fly home, hold ``rtl_hold_s``, land
+CIRCLE      7  circle a centre ``circle_radius_m`` ahead at ``circle_rate_deg_s``, facing it
+               (ArduCopter's CIRCLE_RADIUS, CIRCLE_RATE); DO_ORBIT flies the same circle
+               about the centre it gives (:mod:`fcu.navigation.circle`)
 LAND        9  descend along a cubic to the ground, then creep down until landed
 BRAKE      17  as LOITER
 =========  ==  ==========================================================================
@@ -37,6 +40,7 @@ class Mode(IntEnum):
     GUIDED = 4
     LOITER = 5
     RTL = 6
+    CIRCLE = 7
     LAND = 9
     BRAKE = 17
 
@@ -59,9 +63,9 @@ def mode_name(number: int) -> str:
     return ARDUCOPTER_MODE_NAMES.get(int(number), f"MODE_{int(number)}")
 
 
-Behaviour = Literal["manual", "mission", "hold", "rtl", "land"]
+Behaviour = Literal["manual", "mission", "hold", "rtl", "land", "circle"]
 """What a mode does in flight: hold the altitude with the horizontal position free
-(``manual``), fly the mission, hold the stopping point, return to launch, land."""
+(``manual``), fly the mission, hold the stopping point, return to launch, land, circle."""
 
 
 @dataclass(frozen=True)
@@ -91,6 +95,7 @@ MODE_TABLE: Mapping[Mode, ModeSpec] = MappingProxyType({
     Mode.GUIDED: ModeSpec("hold", needs_position=True, lands=False),
     Mode.LOITER: ModeSpec("hold", needs_position=True, lands=False),
     Mode.RTL: ModeSpec("rtl", needs_position=True, lands=True),
+    Mode.CIRCLE: ModeSpec("circle", needs_position=True, lands=False),
     Mode.LAND: ModeSpec("land", needs_position=False, lands=True),
     Mode.BRAKE: ModeSpec("hold", needs_position=True, lands=False),
 })

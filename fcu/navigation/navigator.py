@@ -27,13 +27,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
 
 from fcu.navigation.arming import PrearmCheck, auto_disarm_reason, prearm_check
 from fcu.navigation.events import CommandResult, NavEvent, Severity
+from fcu.navigation.fence import (
+    FENCE_ACTIONS,
+    FenceAreas,
+    FenceConfig,
+    breach,
+    target_problem,
+)
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
 from fcu.navigation.legs import Leg
@@ -139,6 +146,7 @@ class Navigator(MissionExecution):
 
     def __init__(self, config: NavigatorConfig | None = None) -> None:
         super().__init__(config if config is not None else NavigatorConfig())
+        self._fence_areas = FenceAreas()  # the uploaded fence, kept across a reset
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -153,6 +161,7 @@ class Navigator(MissionExecution):
         self._fix_lost_s: float | None = None
         self._output: NavOutput | None = None  # the latest step's, while it had no events
         self._cruise: _Cruise | None = None
+        self._fence_breach: str | None = None  # the breach the fence acted on, until back
         self._mission.reset_progress()
 
     @property
@@ -204,6 +213,8 @@ class Navigator(MissionExecution):
                                 estimator_healthy, on_ground_hint)
         if position_fix is not self._position_fix or not position_fix:
             self._watch_position_fix(t, position_fix)
+        if self.config.fence.enable and self._armed and self._flying:
+            self._watch_fence(t)
         cruise = self._cruise
         if cruise is not None and t < cruise.until_s and cruise.leg is self._leg and \
                 not self._events and self._position_fix and self._armed and self._flying:
@@ -239,6 +250,49 @@ class Navigator(MissionExecution):
         self._cruise = self._cruise_from(t, out) if reference is not None and not events \
             else None
         return out
+
+    def set_fence(self, fence: FenceConfig) -> CommandResult:
+        """FENCE_* changed, in flight or not: in force at once (a fence enabled with the
+        vehicle outside it is breached at the next step); disabled, its breach and failsafe
+        are over."""
+        self.config = replace(self.config, fence=fence)
+        if not fence.enable and self._fence_breach is not None:
+            self._fence_breach = None
+            if "fence" in self._failsafes:
+                self.clear_failsafe("fence")
+        return self._ok()
+
+    def set_fence_areas(self, areas: FenceAreas) -> CommandResult:
+        """The uploaded fence (polygons, circles; local NED), enforced with the parameters'
+        fence while FENCE_ENABLE is 1 and FENCE_TYPE has bit 2."""
+        self._fence_areas = areas
+        return self._ok()
+
+    def _watch_fence(self, t: float) -> None:
+        """A breach of the enabled fence triggers FENCE_ACTION once (announced); back
+        inside by FENCE_MARGIN the fence re-arms and its failsafe clears."""
+        fence = self.config.fence
+        pos = self._est_pos_ned
+        if self._fence_breach is not None:
+            if breach(pos, self._home_pos_ned, fence, margin_m=fence.margin_m,
+                      areas=self._fence_areas) is None:
+                self._fence_breach = None
+                self._event("fence", "back inside the fence", "notice")
+                if "fence" in self._failsafes:
+                    self.clear_failsafe("fence")
+            return
+        why = breach(pos, self._home_pos_ned, fence, areas=self._fence_areas)
+        if why is None:
+            return
+        self._fence_breach = why
+        action = FENCE_ACTIONS[fence.action]
+        self._event("fence", f"fence breach: {why}" + (
+            f", FENCE_ACTION {fence.action}: {action.upper()}" if action else
+            " (FENCE_ACTION 0: report only)"), "critical")
+        if action in ("rtl", "land"):
+            self.trigger_failsafe("fence", action)
+        elif action == "brake" and self._mode != Mode.BRAKE:
+            self._enter_mode(Mode.BRAKE, " (fence breach)")
 
     def _cruise_from(self, t: float, out: NavOutput) -> _Cruise | None:
         """What the ticks after ``t`` (s) may skip while nothing happens (:class:`_Cruise`),
@@ -389,6 +443,8 @@ class Navigator(MissionExecution):
             self._resume_mission(t)
         elif behaviour == "rtl":
             self._start_rtl(t, None)
+        elif behaviour == "circle":
+            self._enter_circle(t)
         else:  # land
             self._start_land(t, None)
 
@@ -463,9 +519,13 @@ class Navigator(MissionExecution):
     def takeoff(self, alt_m: float) -> CommandResult:
         """NAV_TAKEOFF in GUIDED: climb vertically to ``alt_m`` (m above home), then hold."""
         cfg = self.config
-        if not finite(alt_m) or not cfg.land_detect_alt_m < alt_m <= cfg.max_alt_m:
-            return self._refuse("take-off", f"altitude {alt_m!r} m outside "
-                                f"({cfg.land_detect_alt_m}, {cfg.max_alt_m}] m")
+        if not finite(alt_m) or not cfg.land_detect_alt_m < alt_m:
+            return self._refuse("take-off", f"altitude {alt_m!r} m not above "
+                                f"{cfg.land_detect_alt_m} m")
+        home = self._home_pos_ned
+        problem = target_problem((home[0], home[1], home[2] - alt_m), home, cfg.fence)
+        if problem is not None:
+            return self._refuse("take-off", problem)
         if self._mode != Mode.GUIDED:
             return self._refuse("take-off", f"needs GUIDED (mode is {self._mode.name})")
         if not self._armed:
@@ -480,9 +540,12 @@ class Navigator(MissionExecution):
         target = np.asarray(pos_ned, dtype=float).reshape(-1)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
             return self._refuse(what, f"target {pos_ned!r} is not three finite numbers")
-        if not 0.0 <= -target[2] <= self.config.max_alt_m:
-            return self._refuse(what, f"target altitude {-target[2]:.2f} m outside "
-                                f"[0, {self.config.max_alt_m}] m")
+        if -target[2] < 0.0:
+            return self._refuse(what, f"target altitude {-target[2]:.2f} m outside the air "
+                                "(below home)")
+        problem = target_problem(target, self._home_pos_ned, self.config.fence)
+        if problem is not None:
+            return self._refuse(what, f"target {problem}")
         return target
 
     def go_to(self, pos_ned: Sequence[float] | np.ndarray, yaw_rad: float | None = None
@@ -531,6 +594,45 @@ class Navigator(MissionExecution):
                 return result
         return self.go_to(target, yaw_rad)
 
+    def orbit(self, centre_ned: Sequence[float] | np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        """DO_ORBIT: circle ``centre_ned`` (m, NED; None = the current position, at the
+        current altitude) at ``radius_m`` (None: CIRCLE_RADIUS) and ``speed_m_s`` along the
+        circle (> 0 clockwise seen from above; None: CIRCLE_RATE), in CIRCLE mode."""
+        cfg = self.config
+        if not (self._armed and self._flying):
+            return self._refuse("orbit", "not flying")
+        radius = cfg.circle_radius_m if radius_m is None else float(radius_m)
+        if not finite(radius) or radius < 0.0:
+            return self._refuse("orbit", f"radius {radius_m!r} m is not >= 0")
+        if speed_m_s is None:
+            rate = math.radians(cfg.circle_rate_deg_s)
+        elif not finite(speed_m_s) or abs(speed_m_s) > cfg.max_speed_m_s:
+            return self._refuse("orbit", f"speed {speed_m_s!r} m/s outside "
+                                f"[-{cfg.max_speed_m_s}, {cfg.max_speed_m_s}] m/s")
+        else:
+            rate = float(speed_m_s) / radius if radius > 0.0 else 0.0
+        start, _ = self._plan_start(self._now())
+        checked = self._check_target(
+            "orbit", start.copy() if centre_ned is None else np.asarray(centre_ned, dtype=float))
+        if isinstance(checked, CommandResult):
+            return checked
+        centre = checked
+        for point in ((centre[0] + radius, centre[1], centre[2]),
+                      (centre[0], centre[1] + radius, centre[2]),
+                      (centre[0] - radius, centre[1], centre[2]),
+                      (centre[0], centre[1] - radius, centre[2])):
+            problem = target_problem(point, self._home_pos_ned, cfg.fence)
+            if problem is not None:
+                return self._refuse("orbit", f"circle {problem}")
+        if self._mode != Mode.CIRCLE:
+            self._mode, old = Mode.CIRCLE, self._mode
+            self._event("mode", f"mode {old.name} -> CIRCLE (orbit)")
+            if old == Mode.AUTO:
+                self._mission.active = False
+        self._orbit(self._now(), centre, radius, rate)
+        return self._ok()
+
     def change_speed(self, speed_m_s: float, speed_type: str = "ground") -> CommandResult:
         """DO_CHANGE_SPEED: set the ground, climb or descent speed of later legs (m/s)."""
         if speed_type not in ("ground", "climb", "descent"):
@@ -554,11 +656,12 @@ class Navigator(MissionExecution):
     def load_mission(self, items: Sequence[MissionItem]) -> CommandResult:
         """Replace the mission with ``items`` (seq 1..n; home is seq 0 and not included).
 
-        Refused while flying it in AUTO, and for targets outside [0, max_alt_m] altitude.
+        Refused while flying it in AUTO, for targets below ground, and with the fence
+        enabled for targets outside it.
         """
         if self._mode == Mode.AUTO and self._flying:
             return self._refuse("mission upload", "flying the current mission in AUTO")
-        problem = upload_problem(items, self.config)
+        problem = upload_problem(items, self.config, self._home_pos_ned)
         if problem is not None:
             return self._refuse("mission upload", problem)
         self._mission.load(items)

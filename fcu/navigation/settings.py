@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+from fcu.navigation.fence import FenceConfig
 from fcu.navigation.guidance import SpeedLimits
 from fcu.navigation.modes import SUPPORTED_MODE_NUMBERS, Mode
 from flightdata.config import finite, require
@@ -26,7 +27,6 @@ class NavigatorConfig:
     min_leg_s: float = 0.5  # s, shortest leg that moves
     max_speed_m_s: float = 5.0  # m/s, largest speed DO_CHANGE_SPEED accepts
     wp_radius_m: float = 0.1  # m, distance at which a target counts as reached [WPNAV_RADIUS]
-    max_alt_m: float = 10.0  # m, highest take-off / target altitude accepted
     rtl_alt_m: float = 1.0  # m, RTL return altitude [RTL_ALT]
     rtl_hold_s: float = 1.0  # s, hold above home before landing [RTL_LOIT_TIME]
     land_creep_speed_m_s: float = 0.1  # m/s, descent after the cubic reached the ground
@@ -42,13 +42,18 @@ class NavigatorConfig:
     auto_options: int = 0  # bitmask [AUTO_OPTIONS]: bit 0 arming in AUTO allowed, bit 1 AUTO
     # armed on the ground takes off without MISSION_START (ArduCopter's "without raising the
     # throttle": there is no throttle stick here, MISSION_START is the only other trigger)
+    circle_radius_m: float = 10.0  # m, CIRCLE mode's radius [CIRCLE_RADIUS, cm]
+    circle_rate_deg_s: float = 20.0  # deg/s, CIRCLE's turn rate, > 0 clockwise seen from
+    # above, < 0 counter-clockwise [CIRCLE_RATE]
+    fence: FenceConfig = field(default_factory=FenceConfig)  # the geofence [FENCE_*]; off by
+    # default as in ArduCopter, so no altitude or distance limit applies unless enabled
 
     def __post_init__(self) -> None:
         supported = SUPPORTED_MODE_NUMBERS
         require(isinstance(self.initial_mode, int) and self.initial_mode in supported,
                 "initial_mode", self.initial_mode, f"must be one of {sorted(supported)}")
         positive = ("speed_horizontal_m_s", "speed_up_m_s", "speed_down_m_s", "accel_m_s2",
-                    "yaw_rate_rad_s", "max_speed_m_s", "wp_radius_m", "max_alt_m",
+                    "yaw_rate_rad_s", "max_speed_m_s", "wp_radius_m",
                     "rtl_alt_m", "land_creep_speed_m_s", "land_detect_alt_m",
                     "land_detect_speed_m_s")
         for name in positive:
@@ -66,8 +71,12 @@ class NavigatorConfig:
         require(isinstance(self.auto_options, int) and not isinstance(self.auto_options, bool)
                 and 0 <= self.auto_options <= AUTO_OPTIONS_MAX, "auto_options",
                 self.auto_options, f"must be a bitmask in 0..{AUTO_OPTIONS_MAX}")
-        require(self.rtl_alt_m <= self.max_alt_m, "rtl_alt_m", self.rtl_alt_m,
-                f"must be <= max_alt_m ({self.max_alt_m})")
+        require(finite(self.circle_radius_m) and self.circle_radius_m >= 0,
+                "circle_radius_m", self.circle_radius_m, "must be a finite number >= 0")
+        require(finite(self.circle_rate_deg_s) and abs(self.circle_rate_deg_s) <= 90.0,
+                "circle_rate_deg_s", self.circle_rate_deg_s, "must be within [-90, 90] deg/s")
+        require(isinstance(self.fence, FenceConfig), "fence", self.fence,
+                "must be a FenceConfig")
 
     def allows_arming_in(self, mode: int) -> bool:
         """Arming is allowed in ``mode`` (``armable_modes``; AUTO with AUTO_OPTIONS bit 0)."""

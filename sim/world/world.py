@@ -389,6 +389,10 @@ class World:
             crashed=self.plant.crashed,
         )
 
+    def motor_thrust_n(self) -> np.ndarray:
+        """Thrust of motors 1..4 now, N (a copy; what the ESCs' report derives from)."""
+        return np.array(self._thrust_n)
+
     def motion_truth(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
                                     np.ndarray]:
         """Position, velocity, quaternion, body rates, specific force and wind of

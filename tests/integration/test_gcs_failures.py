@@ -59,16 +59,18 @@ def test_a_vehicle_left_in_auto_is_switched_to_stabilize_and_flown(tmp_path: Pat
 
 def test_rejected_mission_item(tmp_path: Path) -> None:
     mission = tmp_path / "high.toml"
-    mission.write_text('[[items]]\ncommand = "takeoff"\nalt_m = 50.0\n'  # above its 10 m limit
+    mission.write_text('[[items]]\ncommand = "takeoff"\nalt_m = 50.0\n'  # above the fence
                        '[[items]]\ncommand = "land"\n')
     proc = subprocess.run(
         gcs_command("fly", "--spawn-vehicle", "--speedup", "10", "--mission", str(mission),
+                    "--param", "FENCE_ENABLE=1", "--param", "FENCE_ALT_MAX=10",
                     "--quiet", "--tlog", str(tmp_path / "f.tlog")),
         cwd=ROOT, capture_output=True, text=True, timeout=WALL_S, stdin=subprocess.DEVNULL)
     assert proc.returncode == 5, proc.stdout + proc.stderr
     line = last_line(proc.stderr)
     assert line.startswith("ftc-gcs: mission rejected: ")
     assert "take-off altitude" in line and "50" in line  # the vehicle's reason, whole
+    assert "FENCE_ALT_MAX" in line  # naming the parameter that refuses
 
 
 def test_refused_parameter_is_one_line_with_the_vehicles_reason(tmp_path: Path) -> None:

@@ -1,5 +1,6 @@
 """MAVProxy (PyPI ``MAVProxy``), run without a terminal, drives the vehicle process: modes,
-arming and parameters, then a mission loaded from a waypoint file and flown in AUTO.
+arming and parameters, then a mission loaded from a waypoint file and flown in AUTO, and a
+fence and rally points loaded from QGC WPL files (``fence load``, ``rally load``).
 
 MAVProxy connects out to the vehicle (``--master=udpout:``; the vehicle answers whoever
 writes to it), with its default modules. Its interactive shell reads commands from a pipe:
@@ -187,6 +188,39 @@ def test_mavproxy_flies_a_mission_file_and_the_vehicle_lands(start_vehicle,
         assert landed > corners[-1]
         mp.expect(r"AP: SIM: outcome: landed", since, timeout_s=60.0)
         mp.expect(r"DISARMED", since, timeout_s=60.0)
+    finally:
+        ended = mp.close()
+    assert ended, mp.output[-3000:]
+
+
+def _plan_wpl(path: Path, command: int, points: list[tuple[float, float]], p1: float) -> Path:
+    """A QGC WPL 110 file of ``command`` items (fence vertices, rally points) at ``points``
+    (deg), what MAVProxy's ``fence load`` and ``rally load`` read."""
+    lines = ["QGC WPL 110"]
+    for seq, (lat, lon) in enumerate(points):
+        lines.append(f"{seq}\t0\t0\t{command}\t{p1:g}\t0\t0\t0\t{lat:.7f}\t{lon:.7f}\t0\t1")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.slow
+def test_mavproxy_loads_a_fence_and_rally_points_and_enables_the_fence(
+        start_vehicle, tmp_path: Path) -> None:
+    vehicle = start_vehicle("--speedup", "5")
+    host, port = vehicle.address
+    corners = [ned_to_geo(np.array([n, e, 0.0]), DEFAULT_HOME)[:2]
+               for n, e in ((-50.0, -50.0), (50.0, -50.0), (50.0, 50.0), (-50.0, 50.0))]
+    _plan_wpl(tmp_path / "fence.txt", 5001, corners, 4)  # inclusion polygon vertices
+    _plan_wpl(tmp_path / "rally.txt", 5100, corners[:2], 0)
+    mp = MavProxy(f"udpout:{host}:{port}", tmp_path)
+    try:
+        mp.expect(r"Detected vehicle 1:1", timeout_s=STARTUP_S)
+        mp.expect(r"Received (\d+) parameters", timeout_s=STARTUP_S)
+        mp.answers("fence load fence.txt", r"Sent all 4 fence items",
+                   r"AP: Fence: 4 items stored")
+        mp.answers("rally load rally.txt", r"Sent all 2 rally items",
+                   r"AP: Rally: 2 items stored")
+        mp.answers("fence enable", r"AP: FENCE_ENABLE = 1")  # DO_FENCE_ENABLE
     finally:
         ended = mp.close()
     assert ended, mp.output[-3000:]

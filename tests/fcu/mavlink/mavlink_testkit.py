@@ -242,6 +242,11 @@ class FakeVehicle:
             pos_ned, dtype=float).copy()
         return CommandResult.ok()
 
+    def fence_set(self, areas: Any) -> CommandResult:
+        self._call("fence_set", areas)
+        self.fence = areas
+        return CommandResult.ok()
+
     def mission_set(self, items: Sequence[MissionItem]) -> CommandResult:
         self._call("mission_set", list(items))
         for item in items:

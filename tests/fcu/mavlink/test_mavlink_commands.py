@@ -57,6 +57,8 @@ FRESH_CASES = [
      UNSUPPORTED),  # the injector does not simulate it
     (M.MAV_CMD_GET_HOME_POSITION, (), ACCEPTED),
     (M.MAV_CMD_GET_MESSAGE_INTERVAL, (M.MAVLINK_MSG_ID_ATTITUDE,), ACCEPTED),
+    (M.MAV_CMD_SET_MESSAGE_INTERVAL, (291, 100_000), UNSUPPORTED),  # ESC_STATUS: not ours
+    (M.MAV_CMD_PREFLIGHT_CALIBRATION, (1,), ACCEPTED),  # gyro, simulated
     (31337, (), UNSUPPORTED),  # unknown command
     (M.MAV_CMD_DO_FLIGHTTERMINATION, (1,), UNSUPPORTED),  # known to MAVLink, not to us
 ]

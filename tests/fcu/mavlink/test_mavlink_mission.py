@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -277,17 +278,85 @@ def test_unsupported_command_is_refused_by_the_vehicle(link: tuple[Gcs, VehicleT
     assert gcs.recv("STATUSTEXT", condition=lambda m: "Mission rejected" in m.text)
 
 
-@pytest.mark.parametrize("mission_type", [M.MAV_MISSION_TYPE_FENCE, M.MAV_MISSION_TYPE_RALLY])
-def test_fence_and_rally_are_unsupported(link: tuple[Gcs, VehicleThread],
-                                         mission_type: int) -> None:
-    gcs, _ = link
-    gcs.mav.mission_count_send(1, 1, 2, mission_type)
-    ack = gcs.recv("MISSION_ACK")
-    assert ack is not None and ack.type == M.MAV_MISSION_UNSUPPORTED
-    assert ack.mission_type == mission_type
+def plan_round_trip(gcs: Gcs, mission_type: int, items: list[Any]) -> tuple[Any, list[Any]]:
+    """Upload ``items`` (MISSION_ITEM_INT messages, seq 0..) as ``mission_type``; then the
+    upload's MISSION_ACK and the items downloaded back."""
+    gcs.mav.mission_count_send(1, 1, len(items), mission_type)
+    ack = None
+    while ack is None:
+        msg = gcs.recv(["MISSION_REQUEST_INT", "MISSION_ACK"])
+        assert msg is not None and msg.mission_type == mission_type
+        if msg.get_type() == "MISSION_ACK":
+            ack = msg
+        else:
+            gcs.mav.send(items[msg.seq])
     gcs.mav.mission_request_list_send(1, 1, mission_type)
+    count = gcs.recv("MISSION_COUNT")
+    assert count is not None and count.mission_type == mission_type
+    back = []
+    for seq in range(count.count):
+        gcs.mav.mission_request_int_send(1, 1, seq, mission_type)
+        back.append(gcs.recv("MISSION_ITEM_INT", condition=lambda m, s=seq: m.seq == s))
+    return ack, back
+
+
+def plan_item(seq: int, command: int, mission_type: int, p1: float = 0.0,
+              north_m: float = 0.0) -> Any:
+    lat, lon = lat_lon(north_m, 0.0)
+    return M.MAVLink_mission_item_int_message(
+        1, 1, seq, M.MAV_FRAME_GLOBAL_INT, command, int(seq == 0), 0, p1, 0, 0, 0,
+        round(lat * 1e7), round(lon * 1e7), 0.0, mission_type)
+
+
+def test_fence_and_rally_upload_download_and_clear(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = link
+    fence = M.MAV_MISSION_TYPE_FENCE
+    vertex = M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    polygon = [plan_item(i, vertex, fence, 3, north_m=10.0 * i) for i in range(3)]
+    circle = [plan_item(3, M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, fence, 5.0)]
+    ack, back = plan_round_trip(gcs, fence, polygon + circle)
+    assert ack.type == M.MAV_MISSION_ACCEPTED and ack.mission_type == fence
+    assert [(m.command, m.x, m.y, m.param1) for m in back] == \
+        [(m.command, m.x, m.y, m.param1) for m in polygon + circle]  # no home item
+    with vehicle.lock:  # handed to the vehicle as local areas, to enforce
+        areas = vehicle.vehicle.fence
+    assert len(areas.inclusion_polygons) == 1 and not areas.exclusion_polygons
+    np.testing.assert_allclose(areas.inclusion_polygons[0][:, 0], [0.0, 10.0, 20.0], atol=0.02)
+    assert areas.exclusion_circles[0][2] == 5.0  # m, the radius
+    rally = M.MAV_MISSION_TYPE_RALLY
+    points = [plan_item(i, M.MAV_CMD_NAV_RALLY_POINT, rally, north_m=5.0 * i) for i in range(2)]
+    ack, back = plan_round_trip(gcs, rally, points)
+    assert ack.type == M.MAV_MISSION_ACCEPTED and len(back) == 2
+    assert len(vehicle.endpoint.mission.plan_items(fence)) == 4  # the mission untouched
+    assert vehicle.endpoint.mission.total == 0
+    gcs.mav.mission_clear_all_send(1, 1, fence)
     ack = gcs.recv("MISSION_ACK")
-    assert ack is not None and ack.type == M.MAV_MISSION_UNSUPPORTED
+    assert ack is not None and (ack.type, ack.mission_type) == (M.MAV_MISSION_ACCEPTED, fence)
+    assert vehicle.endpoint.mission.plan_items(fence) == []
+    with vehicle.lock:
+        assert vehicle.vehicle.fence.empty
+    assert len(vehicle.endpoint.mission.plan_items(rally)) == 2
+
+
+@pytest.mark.parametrize("bad, code", [
+    (plan_item(0, M.MAV_CMD_NAV_WAYPOINT, M.MAV_MISSION_TYPE_FENCE), M.MAV_MISSION_UNSUPPORTED),
+    (plan_item(0, M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, M.MAV_MISSION_TYPE_FENCE, 2),
+     M.MAV_MISSION_INVALID_PARAM1),  # a polygon of 2 vertices
+    (plan_item(0, M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, M.MAV_MISSION_TYPE_FENCE, 0.0),
+     M.MAV_MISSION_INVALID_PARAM1),  # radius 0
+])
+def test_bad_fence_items_are_refused(link: tuple[Gcs, VehicleThread], bad: Any,
+                                     code: int) -> None:
+    gcs, _ = link
+    ack, _ = plan_round_trip(gcs, M.MAV_MISSION_TYPE_FENCE, [bad])
+    assert ack.type == code
+
+
+def test_other_mission_types_are_unsupported(link: tuple[Gcs, VehicleThread]) -> None:
+    gcs, _ = link
+    gcs.mav.mission_count_send(1, 1, 2, 7)  # not a mission type the vehicle keeps
+    ack = gcs.recv("MISSION_ACK")
+    assert ack is not None and ack.type == M.MAV_MISSION_UNSUPPORTED and ack.mission_type == 7
 
 
 def test_clear_all_and_set_current(link: tuple[Gcs, VehicleThread]) -> None:

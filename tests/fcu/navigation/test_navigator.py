@@ -14,6 +14,7 @@ import pytest
 from pymavlink import mavutil
 
 from fcu.navigation.events import NavEvent
+from fcu.navigation.fence import FenceConfig
 from fcu.navigation.guidance import Reference
 from fcu.navigation.landing import LandedState
 from fcu.navigation.mission import MissionState
@@ -110,7 +111,7 @@ def airborne(alt_m: float = 1.0, config: NavigatorConfig | None = None) -> Fligh
 def test_mode_numbers_are_arducopter_custom_modes() -> None:
     assert {m.name: int(m) for m in Mode} == {
         "STABILIZE": 0, "ALT_HOLD": 2, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6,
-        "LAND": 9, "BRAKE": 17}
+        "CIRCLE": 7, "LAND": 9, "BRAKE": 17}
     for number, name in ARDUCOPTER_MODE_NAMES.items():
         assert mavutil.mode_mapping_acm[number] == name  # pymavlink's table agrees
 
@@ -204,7 +205,7 @@ def test_guided_takeoff_refusals_then_climb_to_altitude() -> None:
     f.nav.set_mode(Mode.GUIDED)
     assert f.nav.takeoff(1.0).reason == "not armed"
     f.nav.arm()
-    assert not f.nav.takeoff(50.0).accepted  # above max_alt_m
+    assert not f.nav.takeoff(0.05).accepted  # not above the landed-detection height
     assert f.nav.takeoff(1.0).accepted
     t0 = f.time_s
     assert f.tick().landed_state == LandedState.TAKEOFF
@@ -485,9 +486,10 @@ def test_mission_item_validation_and_numbers() -> None:
     with pytest.raises(ValueError, match="pos_ned"):
         MissionItem(pos_ned=(0.0, float("inf"), -1.0))
     assert [i.mav_cmd for i in thesis_mission()] == [178, 22, 16, 178, 16, 16, 16, 16, 178, 21]
-    nav = Navigator()
+    nav = Navigator(NavigatorConfig(fence=FenceConfig(enable=1, alt_max_m=10.0)))
     result = nav.load_mission([MissionItem(pos_ned=(0.0, 0.0, -50.0))])
     assert not result.accepted and result.reason.startswith("item 1: altitude 50.00 m")
+    assert "FENCE_ALT_MAX" in result.reason
     assert nav.mission_progress().state == MissionState.NO_MISSION
 
 
