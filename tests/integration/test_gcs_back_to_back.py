@@ -119,9 +119,9 @@ def test_a_qgroundcontrol_plan_is_flown(tmp_path: Path) -> None:
     assert "upload of 6 items accepted" in events
     for seq in range(1, 7):
         assert f"item {seq} reached" in events
-    # this vehicle keeps no geofence or rally points: said, and flown without them
-    assert "the vehicle keeps no geofence (MAV_MISSION_UNSUPPORTED)" in events
-    assert "the vehicle keeps no rally points (MAV_MISSION_UNSUPPORTED)" in events
+    # the plan's geofence circle and rally point go up after the mission, as QGC sends them
+    assert "upload of geofence: 1 items accepted" in events  # the circle
+    assert "upload of rally points: 1 items accepted" in events
     # s in the air: take-off, four 1 m legs with 1 s holds, landing (25 s when written)
     assert data is not None and data["flight_s"] > 20.0
 
