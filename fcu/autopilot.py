@@ -49,7 +49,7 @@ from fcu.estimation.state import StateEstimate, group_samples
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.hal import SensorSampleLike
 from fcu.monitoring.battery import BatteryMonitor
-from fcu.monitoring.crash_check import CrashCheck
+from fcu.monitoring.crash_check import CrashCheck, contact_counts
 from fcu.monitoring.motor_faults import MotorFaultDetector
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.monitoring.watched_pair import step_pair_watched
@@ -281,9 +281,7 @@ class Autopilot:
             self._pwm = np.zeros(4)
             self._torque_applied = np.zeros(3)
             self._thrust_n = 0.0
-            self.crash_check.step(time_s, flying=False, leg="", alt_m=0.0, vel_down_m_s=0.0,
-                                  speed_m_s=0.0, lean_rad=0.0, attitude_error_rad=0.0,
-                                  collective=0.0)
+            self.crash_check.reset()  # not flying: the checks restart
             if records:
                 self._publish(records)
             self._keep_status(time_s, estimate, nav, None, None, 0.0, _ZERO3, _ZERO3)
@@ -303,8 +301,7 @@ class Autopilot:
                                    estimate.rate_frd, ref.pos_ned, ref.vel_ned, ref.acc_ned,
                                    ref.yaw_rad, self._torque_applied,
                                    self._ftc_effectiveness() if self.ftc_active else None,
-                                   time_s=time_s, contact_leg=self.navigator.leg_kind
-                                   not in ("takeoff", "land"))
+                                   time_s=time_s, contact_leg=self._contact_counts(ref))
             pwm = out[_OUT_PWM]
             thrust_n = out.item(control_chain.OUT_THRUST)
             torque_cmd = out[_OUT_TORQUE_CMD]
@@ -339,7 +336,7 @@ class Autopilot:
             control_chain.crash_measures(estimate.euler_rad, att_ref.euler_rad,
                                          estimate.pos_ned, estimate.vel_ned, thrust_n,
                                          self._full_thrust_n, out)
-            records += self._crash_check(time_s, out)
+            records += self._crash_check(time_s, ref, out)
         self._thrust_n = thrust_n
         if not self.navigator.armed:  # the crash check disarmed
             pwm = np.zeros(4)
@@ -519,7 +516,14 @@ class Autopilot:
         self._regime_of, self._regime = estimate, regime
         return regime
 
-    def _crash_check(self, time_s: float, measures: np.ndarray) -> list[DetectionRecord]:
+    def _contact_counts(self, ref: Reference) -> bool:
+        """Whether ground contact is a crash this tick (:func:`contact_counts`): the leg is
+        no take-off or landing and the reference ``ref`` is off the ground."""
+        return contact_counts(self.navigator.leg_kind, -ref.pos_ned.item(2),
+                              self.config.crash.contact_ref_alt_m)
+
+    def _crash_check(self, time_s: float, ref: Reference, measures: np.ndarray
+                     ) -> list[DetectionRecord]:
         """ArduCopter's crash and thrust-loss checks (:mod:`fcu.monitoring.crash_check`) on the
         tick's ``measures`` (:func:`fcu.control.chain.crash_measures`), in relaxed hover (the
         control chain runs them otherwise)."""
@@ -527,7 +531,7 @@ class Autopilot:
         if not (nav.armed and not nav.landed):  # not flying: the checks restart
             self.crash_check.reset()
             return []
-        found = self.crash_check.tick(time_s, nav.leg_kind not in ("takeoff", "land"),
+        found = self.crash_check.tick(time_s, self._contact_counts(ref),
                                       measures[_OUT_CRASH_MEASURES])
         return self._crash_records(time_s, found, measures) if found else []
 

@@ -13,8 +13,11 @@ navigator's view: not on the ground); the first to fire disarms the motors
   (0.3 s), in any leg (a landing descends at a few tenths of a m/s). A fall.
 - **ground contact in flight**: the estimate sits on the ground (altitude below
   ``ground_alt_m``, speed below 0.1 m/s) for ``contact_time_s`` (1 s) while the navigator
-  flies a leg that is not a take-off or a landing. A vehicle that came down without a hard
-  impact (a slow loss of thrust) and cannot get up.
+  flies a leg that is not a take-off or a landing *and* its reference is at least
+  ``contact_ref_alt_m`` (0.2 m) up: the vehicle is asked to fly and stays down. A vehicle
+  that came down without a hard impact (a slow loss of thrust) and cannot get up. (A go-to
+  sent at lift-off starts its reference on the ground: the vehicle is where it is asked to
+  be, not crashed; see :func:`contact_counts`.)
 
 ArduCopter's *thrust-loss* check warns only: collective command above ``thrust_loss_throttle``
 (90 % of full thrust) with the attitude error below 15 deg while descending faster than
@@ -46,6 +49,7 @@ class CrashCheckConfig:
     impact_window_s: float = 0.3  # s, how recent that speed must be
     contact_time_s: float = 1.0  # s on the ground in a flying leg
     ground_alt_m: float = 0.05  # m, altitude below which the estimate is on the ground
+    contact_ref_alt_m: float = 0.2  # m, reference altitude from which ground contact counts
     thrust_loss_throttle: float = 0.9  # collective command, fraction of full thrust
     thrust_loss_descent_m_s: float = 0.5  # m/s, descent speed of the thrust-loss check
     thrust_loss_time_s: float = 1.0  # s the thrust-loss check must hold
@@ -53,7 +57,8 @@ class CrashCheckConfig:
     def __post_init__(self) -> None:
         require(self.action in (0, 1), "action", self.action, "must be 0 or 1")
         for name in ("angle_deg", "angle_time_s", "impact_speed_m_s", "impact_window_s",
-                     "contact_time_s", "ground_alt_m", "thrust_loss_throttle",
+                     "contact_time_s", "ground_alt_m", "contact_ref_alt_m",
+                     "thrust_loss_throttle",
                      "thrust_loss_descent_m_s", "thrust_loss_time_s"):
             value = getattr(self, name)
             require(finite(value) and value > 0, name, value, "must be a number > 0")
@@ -132,6 +137,13 @@ def crash_tick(par: np.ndarray, state: np.ndarray, time_s: float, contact_leg: b
     return found
 
 
+def contact_counts(leg: str, ref_alt_m: float, contact_ref_alt_m: float) -> bool:
+    """Whether ground contact would be a crash now: the navigator flies a leg that is not a
+    take-off or a landing (``leg``) and its reference altitude ``ref_alt_m`` (m, up) is at
+    least ``contact_ref_alt_m`` (m) above the ground."""
+    return leg not in ("takeoff", "land") and ref_alt_m >= contact_ref_alt_m
+
+
 class CrashCheck:
     """The checks of the module docstring, fed once per tick."""
 
@@ -156,7 +168,7 @@ class CrashCheck:
         """A crash was detected in this flight."""
         return bool(self._state[_CRASHED])
 
-    def step(self, time_s: float, *, flying: bool, leg: str, alt_m: float,
+    def step(self, time_s: float, *, flying: bool, leg: str, ref_alt_m: float, alt_m: float,
              vel_down_m_s: float, speed_m_s: float, lean_rad: float,
              attitude_error_rad: float, collective: float) -> list[DetectionRecord]:
         """One tick.
@@ -169,6 +181,8 @@ class CrashCheck:
             Armed and not on the ground (the navigator's view).
         leg : str
             What the navigator flies: "takeoff", "land" or anything else.
+        ref_alt_m : float
+            Altitude of the position reference, m (up).
         alt_m, vel_down_m_s, speed_m_s : float
             Estimated altitude (m), vertical speed (m/s, + down) and speed (m/s).
         lean_rad, attitude_error_rad : float
@@ -180,7 +194,8 @@ class CrashCheck:
         if not flying:
             self.reset()
             return []
-        return self.check(time_s, leg not in ("takeoff", "land"), np.array(
+        contact_leg = contact_counts(leg, ref_alt_m, self.config.contact_ref_alt_m)
+        return self.check(time_s, contact_leg, np.array(
             [alt_m, vel_down_m_s, speed_m_s, lean_rad, attitude_error_rad, collective],
             dtype=float))
 
@@ -188,8 +203,8 @@ class CrashCheck:
               ) -> list[DetectionRecord]:
         """One tick in flight (:meth:`step` with ``flying`` true) on ``measures`` (shape (6,):
         ``alt_m``, ``vel_down_m_s``, ``speed_m_s``, ``lean_rad``, ``attitude_error_rad``,
-        ``collective`` in that order); ``contact_leg``: the leg is neither a take-off nor a
-        landing (the ground-contact check applies)."""
+        ``collective`` in that order); ``contact_leg``: the ground-contact check applies
+        (:func:`contact_counts`)."""
         return self.records(time_s, self.tick(time_s, contact_leg, measures), measures)
 
     def tick(self, time_s: float, contact_leg: bool, measures: np.ndarray) -> int:
