@@ -75,7 +75,6 @@ class SigningMismatch(VehicleNotFound):
     """The vehicle signs with another key, or signs while we do not, or does not sign while
     we do: nothing we send would be obeyed (or nothing it sends verifies)."""
 
-    exit_code = 3
     label = "signing"
 
 
@@ -89,14 +88,12 @@ class CommandRefused(FlightError):
 class VehicleBusy(CommandRefused):
     """The vehicle is armed: someone else is flying it (or it is about to take off)."""
 
-    exit_code = 4
     label = "vehicle busy"
 
 
 class RestartNeeded(CommandRefused):
     """The vehicle refuses to arm until its autopilot restarts (``--reboot`` allows it)."""
 
-    exit_code = 4
     label = "restart needed"
 
 

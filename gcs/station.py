@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import re
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, NoReturn
 
@@ -432,36 +432,41 @@ class GroundStation(ParameterClient):
 
         self.command(_M.MAV_CMD_MISSION_START, (0.0, 0.0), what="mission start",
                      with_timesync=True, applied=running, read_back=ask_progress)
+        analyzer = self.analyzer
         if not self.last_command_acked:
-            self._date_unanswered_start()
+            # the mission runs but its ACK never came: the next clock value dates its start
+            updates = analyzer.clock_updates
+            self._ask_time_until(lambda: analyzer.mission_start_s is not None or (
+                analyzer.clock_updates > updates and analyzer.clock_s is not None),
+                first_request_now=True)
+            if analyzer.mission_start_s is None:
+                analyzer.mission_start_s = analyzer.clock_s
+                self.log("FLIGHT", f"mission start dated t = {analyzer.clock_s:.3f} s by "
+                         "the clock after it (its answer was lost)")
         # The ACK is dated by the next clock value: the TIMESYNC answer sent with it, or the
         # telemetry that follows. A paused vehicle streams nothing, so if that answer was
         # lost, ask the time again until one comes back.
-        deadline = time.monotonic() + 10.0
-        last_request = time.monotonic()
-        while self.analyzer.mission_start_s is None:
-            now = time.monotonic()
-            if now >= deadline:
-                raise FlightTimeout("no telemetry after the mission start")
-            if now - last_request >= _DATE_REQUEST_S:
-                last_request = now
-                self.send(_M.MAVLink_timesync_message(0, time.time_ns()))
-            self.pump(0.02)
-        self._note_lag(self.analyzer.mission_start_s)
-        return self.analyzer.mission_start_s
+        self._ask_time_until(lambda: analyzer.mission_start_s is not None,
+                             first_request_now=False)
+        assert analyzer.mission_start_s is not None
+        self._note_lag(analyzer.mission_start_s)
+        return analyzer.mission_start_s
 
-    def _date_unanswered_start(self, timeout_s: float = 10.0) -> None:
-        """The mission runs but its ACK never came: the next clock value dates its start."""
-        updates = self.analyzer.clock_updates
+    def _ask_time_until(self, done: Callable[[], bool], first_request_now: bool,
+                        timeout_s: float = 10.0) -> None:
+        """Pump until ``done()``, asking the vehicle's time (TIMESYNC) every
+        ``_DATE_REQUEST_S`` (at once if ``first_request_now``): a paused vehicle streams
+        nothing else that carries its clock.
+
+        Raises
+        ------
+        FlightTimeout
+            Not done within ``timeout_s`` (s wall).
+        """
         deadline = time.monotonic() + timeout_s
-        last_request = -math.inf
-        while self.analyzer.mission_start_s is None:
+        last_request = -math.inf if first_request_now else time.monotonic()
+        while not done():
             now = time.monotonic()
-            if self.analyzer.clock_updates > updates and self.analyzer.clock_s is not None:
-                self.analyzer.mission_start_s = self.analyzer.clock_s
-                self.log("FLIGHT", f"mission start dated t = {self.analyzer.clock_s:.3f} s by "
-                         "the clock after it (its answer was lost)")
-                return
             if now >= deadline:
                 raise FlightTimeout("no telemetry after the mission start")
             if now - last_request >= _DATE_REQUEST_S:

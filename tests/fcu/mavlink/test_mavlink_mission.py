@@ -12,8 +12,11 @@ from mavlink_testkit import (
     GCS_ADDR,
     ORIGIN,
     WAIT_S,
+    FakeVehicle,
     Gcs,
     Item,
+    MemoryGcs,
+    MemoryLink,
     VehicleThread,
     download,
     linked,
@@ -23,6 +26,7 @@ from mavlink_testkit import (
 from numpy.testing import assert_allclose
 
 from fcu.mavlink.codec import mavlink2
+from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.geo import geo_to_ned, ned_to_geo
 from fcu.mavlink.mission import MissionConfig, WireItem, to_mission_item, validate_item
@@ -142,12 +146,20 @@ def test_missing_item_is_re_requested_on_the_clock_passed_in() -> None:
     assert len(vehicle.mission) == 2
 
 
-def test_a_repeated_item_draws_the_missing_request_at_once_and_keeps_the_upload() -> None:
+def square_upload_after_item_0(
+) -> tuple[MavlinkEndpoint, FakeVehicle, MemoryLink, MemoryGcs]:
+    """An endpoint (``FAST`` timeouts) whose upload of the 3-item square has received item
+    0, at wall time 0.125 s: (endpoint, vehicle, link, gcs) as :func:`memory_endpoint`."""
     endpoint, vehicle, link, gcs = memory_endpoint(FAST)
     gcs.put(M.MAVLink_mission_count_message(1, 1, 3, 0))
     endpoint.tick(0.0, 0.0)
     gcs.put(square()[0].message(0, legacy=False))
     endpoint.tick(0.0, 0.125)
+    return endpoint, vehicle, link, gcs
+
+
+def test_a_repeated_item_draws_the_missing_request_at_once_and_keeps_the_upload() -> None:
+    endpoint, vehicle, link, gcs = square_upload_after_item_0()
     assert [m.seq for m in link.take("MISSION_REQUEST_INT")] == [0, 1]
     for k in range(1, 13):  # the request for 1 keeps getting lost: item 0 comes again
         gcs.put(square()[0].message(0, legacy=False))
@@ -162,11 +174,7 @@ def test_a_repeated_item_draws_the_missing_request_at_once_and_keeps_the_upload(
 
 
 def test_stalled_upload_times_out_with_a_statustext() -> None:
-    endpoint, vehicle, link, gcs = memory_endpoint(FAST)
-    gcs.put(M.MAVLink_mission_count_message(1, 1, 3, 0))
-    endpoint.tick(0.0, 0.0)
-    gcs.put(square()[0].message(0, legacy=False))
-    endpoint.tick(0.0, 0.125)
+    endpoint, vehicle, link, gcs = square_upload_after_item_0()
     link.take()
     for k in range(2, 24):  # 2.75 s of silence (times exact in binary)
         endpoint.tick(0.0, 0.125 * k)
