@@ -22,6 +22,7 @@ from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import MavState, Severity
+from fcu.mavlink.follow_target import LeadReport
 from fcu.mavlink.port import (
     AttitudeTarget,
     CommandResult,
@@ -295,6 +296,9 @@ class FakeVehicle:
         self._call("clear_failsafe", source)
         self.failsafes.pop(source, None)
         return CommandResult.ok()
+
+    def follow_target(self, report: LeadReport) -> None:
+        self._call("follow_target", report)
 
     # ----------------------------------------------------------------- parameters
     def param_specs(self) -> list[ParamSpec]:
