@@ -405,10 +405,19 @@ def test_highres_imu_example_native(start_vehicle, gcs: Gcs) -> None:
 
 
 # ------------------------------------------------------------------ calibration.py
-# MAVSDK 4's Calibration plugin answers UNSUPPORTED by itself for an ArduPilot autopilot:
-# nothing reaches the wire (seen with a proxy between the two). The vehicle answers
-# PREFLIGHT_CALIBRATION as ArduPilot SITL does (tests/fcu/mavlink/test_calibration.py, and
-# below through pymavlink), so QGroundControl's calibration screens can be exercised.
+# MAVSDK's Calibration plugin answers UNSUPPORTED by itself unless the autopilot is PX4:
+# each calibrate_*() and cancel() of cpp/src/mavsdk/plugins/calibration/calibration_impl.cpp
+# begins ``if (_system_impl->effective_autopilot() != Autopilot::Px4) { call_callback(
+# callback, Calibration::Result::Unsupported, {}); return; }`` (line 50 for calibrate_gyro;
+# MAVSDK commit 3c319e198, "calibration: return unsupported unless PX4", January 2026: its
+# progress comes from PX4's "[cal]" STATUSTEXTs). The autopilot is what the HEARTBEAT's
+# ``autopilot`` field says (system_impl.cpp: MAV_AUTOPILOT_PX4 -> Px4, ARDUPILOTMEGA ->
+# ArduPilot); only a client-side CompatibilityMode::Px4 overrides it, which neither package's
+# Python API exposes. Nothing reaches the wire (seen with a proxy between the two). A vehicle
+# that said MAV_AUTOPILOT_PX4 would have its ArduCopter custom modes decoded as PX4's, so
+# this one stays ArduPilot and the example cannot pass. The vehicle answers
+# PREFLIGHT_CALIBRATION itself (tests/fcu/mavlink/test_calibration.py, and below through
+# pymavlink), so QGroundControl's calibration screens can be exercised.
 def test_calibration_example_grpc_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
         with pytest.raises(GrpcCalibrationError) as refused:
