@@ -626,7 +626,7 @@ def test_mission_import_example_native(start_vehicle, gcs: Gcs, tmp_path: Path) 
 # made through pymavlink: DISARM_DELAY 0 (set_config's retries take ~15 s, 150 s simulated at
 # 10x, and the vehicle armed on the ground would disarm after 10) and FOLL_ENABLE 1
 # (ArduCopter refuses FOLLOW without it). The vehicle's FOLLOW itself is tested with a
-# pymavlink lead in test_follow.py.
+# pymavlink lead in test_follow_lead.py.
 FOLLOW = 23  # ArduCopter's FOLLOW, what FollowMe.start() selects on ArduCopter
 HOLD = (5, 17)  # what FollowMe.stop() (MAVSDK's Hold) selects on ArduCopter: LOITER from
 # mavsdk-grpc 4.0.5's server, BRAKE from mavsdk 4.1's library

@@ -297,6 +297,11 @@ class FakeVehicle:
         self.failsafes.pop(source, None)
         return CommandResult.ok()
 
+    def orbit(self, centre_ned: np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        self._call("orbit", centre_ned, radius_m, speed_m_s)
+        return CommandResult.ok()
+
     def follow_target(self, report: LeadReport) -> None:
         self._call("follow_target", report)
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ TRACK_M = 0.1  # m: the bound on the distance from the goal once following (meas
 # the position loop's lag at 0.2 m/s and the estimate's noise; 4x margin)
 
 
-def lead_message(kind: str, t_s: float) -> object:
+def lead_message(kind: str, t_s: float) -> Any:
     """The lead's report at simulated time ``t_s`` (s since the start of its walk)."""
     vel = LEAD_VEL_NED
     pos = LEAD_START_NED + vel * t_s
@@ -59,7 +60,7 @@ class Lead:
         self.start_ms: int | None = None
         self.next_ms = 0
 
-    def run(self, seconds: float, report: bool = True) -> list[object]:
+    def run(self, seconds: float, report: bool = True) -> list[Any]:
         """Report (or not) at each of the vehicle's ATTITUDE messages (10 Hz) for ``seconds``
         of simulated time; returns what the vehicle sent meanwhile."""
         since = cursor = self.gcs.mark()
