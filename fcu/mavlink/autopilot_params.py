@@ -54,6 +54,7 @@ class ApParam:
     live_speed: str | None = None  # DO_CHANGE_SPEED type applied at once in flight
     live_ftc: bool = False  # the FTC mode: switched at once, in flight too (no rebuild)
     live_fence: bool = False  # the geofence: applied at once, in flight too (no rebuild)
+    live_follow: bool = False  # FOLLOW's settings: applied at once, in flight too
     read_only: bool = False
 
 
@@ -118,6 +119,20 @@ def _fence_param(name: str, attr: str, unit: str, description: str, lo: float, h
         min_value=lo, max_value=hi, integer=integer,
         allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None,
         live_fence=True)
+
+
+def _follow_param(name: str, attr: str, unit: str, description: str, lo: float, hi: float,
+                  integer: bool = False) -> ApParam:
+    """A field of FOLLOW's settings (:class:`fcu.navigation.follow.FollowConfig`)."""
+    cast: Callable[[float], Any] = int if integer else float
+    return ApParam(
+        name, f"{description}, {unit}",
+        get=lambda c: float(getattr(c.navigator.follow, attr)),
+        set=lambda c, v: replace(c, navigator=_with(
+            c.navigator, "follow", _with(c.navigator.follow, attr, cast(v)))),
+        min_value=lo, max_value=hi, integer=integer,
+        allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None,
+        live_follow=True)
 
 
 def _top_param(name: str, attr: str, unit: str, description: str, lo: float,
@@ -256,6 +271,27 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
                1e6),
     _nav_param("CIRCLE_RATE", "circle_rate_deg_s", 1.0, "deg/s",
                "CIRCLE mode turn rate, > 0 clockwise seen from above", -90.0, 90.0),
+    _follow_param("FOLL_ENABLE", "enable", "0 off, 1 on", "FOLLOW mode allowed", 0, 1,
+                  integer=True),
+    _follow_param("FOLL_SYSID", "sysid", "system id", "FOLLOW: the lead's system id (0: the "
+                  "first heard)", 0, 255, integer=True),
+    _follow_param("FOLL_DIST_MAX", "dist_max_m", "m",
+                  "FOLLOW: a lead farther than this is not followed (0: any distance)",
+                  0.0, 1000.0),
+    _follow_param("FOLL_OFS_TYPE", "offset_type", "0 NED, 1 relative to the lead's heading",
+                  "FOLLOW: offset frame", 0, 1, integer=True),
+    _follow_param("FOLL_OFS_X", "offset_x_m", "m", "FOLLOW: offset north or forward of the "
+                  "lead (all three 0: the offset when the lead is first seen)", -500.0, 500.0),
+    _follow_param("FOLL_OFS_Y", "offset_y_m", "m", "FOLLOW: offset east or right of the lead",
+                  -500.0, 500.0),
+    _follow_param("FOLL_OFS_Z", "offset_z_m", "m", "FOLLOW: offset below the lead (negative: "
+                  "above)", -500.0, 500.0),
+    _follow_param("FOLL_YAW_BEHAVE", "yaw_behave", "0 none, 1 face the lead, 2 the lead's "
+                  "heading, 3 direction of flight", "FOLLOW: yaw", 0, 3, integer=True),
+    _follow_param("FOLL_POS_P", "pos_p", "1/s", "FOLLOW: speed per metre from the goal",
+                  0.01, 10.0),
+    _follow_param("FOLL_ALT_TYPE", "alt_type", "0 AMSL, 1 above home",
+                  "FOLLOW: altitude of the lead's GLOBAL_POSITION_INT used", 0, 1, integer=True),
     ApParam("AUTO_OPTIONS", "AUTO mode options, bitmask: bit 0 (1) arming in AUTO allowed, "
             "bit 1 (2) AUTO armed on the ground takes off without MISSION_START",
             get=lambda c: float(c.navigator.auto_options),

@@ -28,6 +28,7 @@ from fcu.hal import SensorSampleLike
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
 from fcu.mavlink.autopilot_telemetry import AutopilotHost, AutopilotTelemetry
 from fcu.mavlink.enums import MavState, Severity
+from fcu.mavlink.follow_target import LeadReport
 from fcu.mavlink.port import (
     AttitudeTarget,
     BatteryState,
@@ -295,6 +296,13 @@ class AutopilotPort:
         """The failsafe source is over (the mode stays)."""
         return self._nav("Failsafe clear", self.host.autopilot.navigator.clear_failsafe(source))
 
+    def follow_target(self, report: LeadReport) -> None:
+        """A possible lead's report, to FOLLOW (:mod:`fcu.mavlink.follow_target`)."""
+        nav = self.host.autopilot.navigator
+        pos = report.pos_ned(self.origin, nav.home_pos_ned, nav.config.follow.alt_type)
+        vel = None if report.vel_ned_m_s is None else np.array(report.vel_ned_m_s)
+        nav.follow_report(report.sysid, pos, vel, report.heading_rad)
+
     # ------------------------------------------------------------------ autopilot parameters
     @property
     def config(self) -> AutopilotConfig:
@@ -329,6 +337,13 @@ class AutopilotPort:
             nav.set_fence(new.navigator.fence)
             self._config = replace(self._config, navigator=replace(
                 self._config.navigator, fence=new.navigator.fence))
+            self._expire()
+            self.post(Severity.INFO, f"{name} = {value:g}")
+            return CommandResult.ok()
+        if spec.live_follow:
+            nav.set_follow(new.navigator.follow)
+            self._config = replace(self._config, navigator=replace(
+                self._config.navigator, follow=new.navigator.follow))
             self._expire()
             self.post(Severity.INFO, f"{name} = {value:g}")
             return CommandResult.ok()

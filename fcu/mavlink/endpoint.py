@@ -52,6 +52,7 @@ from fcu.mavlink.commands import CommandDispatcher, CommandOutcome, CommandReque
 from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
+from fcu.mavlink.follow_target import lead_report
 from fcu.mavlink.link import Address, Link
 from fcu.mavlink.messages import Fields
 from fcu.mavlink.mission import MissionProtocol, set_current_refusal
@@ -467,6 +468,12 @@ class MavlinkEndpoint:
         if outcome.reboot:
             self._reboot()
 
+    def _lead_report(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        """Another system's position, for FOLLOW (never our own system's)."""
+        report = lead_report(msg) if src[0] != self._codec.sysid else None
+        if report is not None:
+            self._port.follow_target(report)
+
     def _set_mode_message(self, msg: MAVLinkMessage, src: tuple[int, int],
                           addr: Address) -> None:
         """Legacy SET_MODE: acknowledged as ArduPilot does (COMMAND_ACK, command = 11)."""
@@ -593,6 +600,8 @@ class MavlinkEndpoint:
         "SET_POSITION_TARGET_GLOBAL_INT": _setpoint,
         "FILE_TRANSFER_PROTOCOL": _ftp,
         "SETUP_SIGNING": _setup_signing,
+        "FOLLOW_TARGET": _lead_report,
+        "GLOBAL_POSITION_INT": _lead_report,
     }
 
     # ------------------------------------------------------------------ reboot

@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -55,6 +55,9 @@ from fcu.mavlink.extended import ExtendedTelemetry
 from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 from flightdata.records import Record
+
+if TYPE_CHECKING:
+    from fcu.mavlink.follow_target import LeadReport
 
 __all__ = [
     "AttitudeTarget",
@@ -576,4 +579,8 @@ class VehiclePort(ParamProvider, Protocol):
 
     def clear_failsafe(self, source: str) -> CommandResult:
         """Failsafe ``source`` is over (the mode is not changed back)."""
+        ...
+
+    def follow_target(self, report: LeadReport) -> None:
+        """Another system's position (FOLLOW_TARGET, GLOBAL_POSITION_INT) for FOLLOW."""
         ...

@@ -14,6 +14,7 @@ from typing import Literal
 import numpy as np
 
 from fcu.navigation.circle import Circle
+from fcu.navigation.follow import FollowChase
 from fcu.navigation.guidance import (
     Reference,
     SpeedLimits,
@@ -25,7 +26,7 @@ from fcu.navigation.guidance import (
 )
 
 LegKind = Literal["takeoff", "move", "hold", "manual", "approach", "rtl_return", "land",
-                  "circle", "circle_approach"]
+                  "circle", "circle_approach", "follow"]
 
 
 @dataclass
@@ -45,6 +46,7 @@ class Leg:
     ready_s: float | None = None  # s, time counted as arrival when scheduling what follows
     done: bool = False
     circle: Circle | None = None  # the circle of a "circle" leg (no trajectory)
+    follow: FollowChase | None = None  # the chase of a "follow" leg (no trajectory)
 
     def reference(self, time_s: float, est_pos_ned: np.ndarray, est_vel_ned: np.ndarray
                   ) -> Reference:
@@ -57,6 +59,8 @@ class Leg:
                              yaw_rad=self.manual_yaw_rad)
         if self.circle is not None:
             return self.circle.reference(time_s)
+        if self.follow is not None:
+            return self.follow.reference(time_s)
         assert self.trajectory is not None
         return self.trajectory.evaluate(time_s)
 

@@ -16,6 +16,8 @@ CIRCLE      7  circle a centre ``circle_radius_m`` ahead at ``circle_rate_deg_s`
                about the centre it gives (:mod:`fcu.navigation.circle`)
 LAND        9  descend along a cubic to the ground, then creep down until landed
 BRAKE      17  as LOITER
+FOLLOW     23  follow a lead vehicle's reports at an offset (ArduCopter's FOLL_*;
+               :mod:`fcu.navigation.follow`); refused while FOLL_ENABLE is 0
 =========  ==  ==========================================================================
 
 Other ArduCopter modes are refused with a reason. Position modes (all but STABILIZE,
@@ -43,6 +45,7 @@ class Mode(IntEnum):
     CIRCLE = 7
     LAND = 9
     BRAKE = 17
+    FOLLOW = 23
 
 
 #: All ArduCopter mode numbers and names (pymavlink ``mode_mapping_acm``), for messages.
@@ -63,7 +66,7 @@ def mode_name(number: int) -> str:
     return ARDUCOPTER_MODE_NAMES.get(int(number), f"MODE_{int(number)}")
 
 
-Behaviour = Literal["manual", "mission", "hold", "rtl", "land", "circle"]
+Behaviour = Literal["manual", "mission", "hold", "rtl", "land", "circle", "follow"]
 """What a mode does in flight: hold the altitude with the horizontal position free
 (``manual``), fly the mission, hold the stopping point, return to launch, land, circle."""
 
@@ -98,5 +101,6 @@ MODE_TABLE: Mapping[Mode, ModeSpec] = MappingProxyType({
     Mode.CIRCLE: ModeSpec("circle", needs_position=True, lands=False),
     Mode.LAND: ModeSpec("land", needs_position=False, lands=True),
     Mode.BRAKE: ModeSpec("hold", needs_position=True, lands=False),
+    Mode.FOLLOW: ModeSpec("follow", needs_position=True, lands=False),
 })
 """What each supported mode does (module docstring)."""

@@ -41,6 +41,7 @@ from fcu.navigation.fence import (
     breach,
     target_problem,
 )
+from fcu.navigation.follow_mode import FollowLegs
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
 from fcu.navigation.legs import Leg
@@ -125,7 +126,7 @@ class _Cruise(NamedTuple):
     fields: dict[str, object]  # the output's fields, reference included (replaced)
 
 
-class Navigator(MissionExecution):
+class Navigator(FollowLegs, MissionExecution):
     """Flight-mode state machine, arming, take-off/landing and mission execution.
 
     The mode state machine and the commands live here; the layers below fly the mission
@@ -401,6 +402,8 @@ class Navigator(MissionExecution):
             return self._refuse(what, "no position fix")
         if mode == Mode.AUTO and not self._mission.items:
             return self._refuse(what, "no mission loaded")
+        if mode == Mode.FOLLOW and self._follow_refusal():
+            return self._refuse(what, self._follow_refusal())
         if mode == Mode.AUTO and self._armed and not self._flying:
             problem = self._ground_start_problem()
             if problem:
@@ -445,6 +448,8 @@ class Navigator(MissionExecution):
             self._start_rtl(t, None)
         elif behaviour == "circle":
             self._enter_circle(t)
+        elif behaviour == "follow":
+            self._enter_follow(t)
         else:  # land
             self._start_land(t, None)
 

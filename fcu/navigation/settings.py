@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from fcu.navigation.fence import FenceConfig
+from fcu.navigation.follow import FollowConfig
 from fcu.navigation.guidance import SpeedLimits
 from fcu.navigation.modes import SUPPORTED_MODE_NUMBERS, Mode
 from flightdata.config import finite, require
@@ -47,6 +48,7 @@ class NavigatorConfig:
     # above, < 0 counter-clockwise [CIRCLE_RATE]
     fence: FenceConfig = field(default_factory=FenceConfig)  # the geofence [FENCE_*]; off by
     # default as in ArduCopter, so no altitude or distance limit applies unless enabled
+    follow: FollowConfig = field(default_factory=FollowConfig)  # FOLLOW mode [FOLL_*]
 
     def __post_init__(self) -> None:
         supported = SUPPORTED_MODE_NUMBERS
@@ -77,6 +79,8 @@ class NavigatorConfig:
                 "circle_rate_deg_s", self.circle_rate_deg_s, "must be within [-90, 90] deg/s")
         require(isinstance(self.fence, FenceConfig), "fence", self.fence,
                 "must be a FenceConfig")
+        require(isinstance(self.follow, FollowConfig), "follow", self.follow,
+                "must be a FollowConfig")
 
     def allows_arming_in(self, mode: int) -> bool:
         """Arming is allowed in ``mode`` (``armable_modes``; AUTO with AUTO_OPTIONS bit 0)."""

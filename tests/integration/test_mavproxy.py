@@ -203,6 +203,27 @@ def _plan_wpl(path: Path, command: int, points: list[tuple[float, float]], p1: f
     return path
 
 
+def _wpl_items(path: Path, digits: int = 7) -> list[tuple[int, float, float, float]]:
+    """(command, param1, latitude, longitude) of each item of a QGC WPL 110 file, the
+    position rounded to ``digits`` decimals of a degree."""
+    lines = path.read_text().splitlines()
+    assert lines[0].startswith("QGC WPL 110"), lines[:1]
+    rows = [line.split("\t") for line in lines[1:] if line.strip()]
+    return [(int(r[3]), float(r[4]), round(float(r[8]), digits), round(float(r[9]), digits))
+            for r in rows]
+
+
+def _listed_items(mp: MavProxy, command: str, count: int) -> list[tuple[int, float, float, float]]:
+    """What ``fence list`` / ``rally list`` downloads and prints (10 decimals of a degree:
+    the vehicle's degE7 exactly), as :func:`_wpl_items` reads a file."""
+    since = mp.send(command)
+    item = r"(\d+) \d+ (-?[\d.]+) (-?[\d.]+) -?[\d.]+ p1=(-?[\d.]+)"
+    mp.expect(rf"({item}.*\n){{{count}}}", since)
+    found = re.findall(item, mp.output[since:])[:count]
+    return [(int(c), float(p1), round(float(lat), 7), round(float(lon), 7))
+            for c, lat, lon, p1 in found]
+
+
 @pytest.mark.slow
 def test_mavproxy_loads_a_fence_and_rally_points_and_enables_the_fence(
         start_vehicle, tmp_path: Path) -> None:
@@ -221,6 +242,20 @@ def test_mavproxy_loads_a_fence_and_rally_points_and_enables_the_fence(
         mp.answers("rally load rally.txt", r"Sent all 2 rally items",
                    r"AP: Rally: 2 items stored")
         mp.answers("fence enable", r"AP: FENCE_ENABLE = 1")  # DO_FENCE_ENABLE
+        # downloaded back (MISSION_REQUEST_LIST of each type): the items loaded, to the degE7
+        # MAVProxy sent (it truncates: within one step, 1e-7 deg)
+        for kind, count in (("fence", 4), ("rally", 2)):
+            listed = _listed_items(mp, f"{kind} list", count)
+            loaded = _wpl_items(tmp_path / f"{kind}.txt")
+            assert [i[:2] for i in listed] == [i[:2] for i in loaded]
+            np.testing.assert_allclose([i[2:] for i in listed], [i[2:] for i in loaded],
+                                       rtol=0, atol=1.01e-7)
+        # and saved to a file again (MAVProxy writes 6 decimals of a degree: 0.11 m)
+        mp.answers("fence save fence_back.txt", r"Saved 4 fence items to fence_back.txt")
+        mp.answers("rally save rally_back.txt", r"Saved 2 rally items to rally_back.txt")
+        for kind in ("fence", "rally"):
+            assert _wpl_items(tmp_path / f"{kind}_back.txt", 6) == \
+                _wpl_items(tmp_path / f"{kind}.txt", 6)
     finally:
         ended = mp.close()
     assert ended, mp.output[-3000:]

@@ -31,6 +31,13 @@ from mavsdk.asyncio.plugins.calibration import (
     CalibrationResult,
 )
 from mavsdk.asyncio.plugins.failure import FailureAsync, FailureType, FailureUnit
+from mavsdk.asyncio.plugins.follow_me import (
+    Config,
+    FollowMeAsync,
+    FollowMeError,
+    FollowMeResult,
+    TargetLocation,
+)
 from mavsdk.asyncio.plugins.geofence import (
     Circle,
     FenceType,
@@ -59,6 +66,10 @@ from mavsdk_grpc.calibration import CalibrationError as GrpcCalibrationError
 from mavsdk_grpc.calibration import CalibrationResult as GrpcCalibrationResult
 from mavsdk_grpc.failure import FailureType as GrpcFailureType
 from mavsdk_grpc.failure import FailureUnit as GrpcFailureUnit
+from mavsdk_grpc.follow_me import Config as GrpcConfig
+from mavsdk_grpc.follow_me import FollowMeError as GrpcFollowMeError
+from mavsdk_grpc.follow_me import FollowMeResult as GrpcFollowMeResult
+from mavsdk_grpc.follow_me import TargetLocation as GrpcTargetLocation
 from mavsdk_grpc.geofence import Circle as GrpcCircle
 from mavsdk_grpc.geofence import FenceType as GrpcFenceType
 from mavsdk_grpc.geofence import GeofenceData as GrpcGeofenceData
@@ -127,7 +138,7 @@ class NativeDrone:
     PLUGINS = {"action": ActionAsync, "telemetry": TelemetryAsync, "param": ParamAsync,
                "mission": MissionAsync, "mission_raw": MissionRawAsync,
                "failure": FailureAsync, "calibration": CalibrationAsync,
-               "geofence": GeofenceAsync}
+               "geofence": GeofenceAsync, "follow_me": FollowMeAsync}
 
     def __init__(self, system: Any) -> None:
         self._plugins = {name: cls(system) for name, cls in self.PLUGINS.items()}
@@ -394,10 +405,19 @@ def test_highres_imu_example_native(start_vehicle, gcs: Gcs) -> None:
 
 
 # ------------------------------------------------------------------ calibration.py
-# MAVSDK 4's Calibration plugin answers UNSUPPORTED by itself for an ArduPilot autopilot:
-# nothing reaches the wire (seen with a proxy between the two). The vehicle answers
-# PREFLIGHT_CALIBRATION as ArduPilot SITL does (tests/fcu/mavlink/test_calibration.py, and
-# below through pymavlink), so QGroundControl's calibration screens can be exercised.
+# MAVSDK's Calibration plugin answers UNSUPPORTED by itself unless the autopilot is PX4:
+# each calibrate_*() and cancel() of cpp/src/mavsdk/plugins/calibration/calibration_impl.cpp
+# begins ``if (_system_impl->effective_autopilot() != Autopilot::Px4) { call_callback(
+# callback, Calibration::Result::Unsupported, {}); return; }`` (line 50 for calibrate_gyro;
+# MAVSDK commit 3c319e198, "calibration: return unsupported unless PX4", January 2026: its
+# progress comes from PX4's "[cal]" STATUSTEXTs). The autopilot is what the HEARTBEAT's
+# ``autopilot`` field says (system_impl.cpp: MAV_AUTOPILOT_PX4 -> Px4, ARDUPILOTMEGA ->
+# ArduPilot); only a client-side CompatibilityMode::Px4 overrides it, which neither package's
+# Python API exposes. Nothing reaches the wire (seen with a proxy between the two). A vehicle
+# that said MAV_AUTOPILOT_PX4 would have its ArduCopter custom modes decoded as PX4's, so
+# this one stays ArduPilot and the example cannot pass. The vehicle answers
+# PREFLIGHT_CALIBRATION itself (tests/fcu/mavlink/test_calibration.py, and below through
+# pymavlink), so QGroundControl's calibration screens can be exercised.
 def test_calibration_example_grpc_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
         with pytest.raises(GrpcCalibrationError) as refused:
@@ -588,6 +608,97 @@ def test_mission_import_example_native(start_vehicle, gcs: Gcs, tmp_path: Path) 
         check_import(out.mission_items, out.rally_items)
         await bounded(drone.mission_raw.upload_mission(out.mission_items))
         await bounded(drone.mission_raw.upload_rally_points(out.rally_items))
+
+    run_native(start_vehicle, gcs, steps)
+
+
+# ------------------------------------------------------------------ follow_me_example.py
+# MAVSDK's FollowMe plugin cannot drive an ArduPilot vehicle, for two reasons in its source
+# (cpp/src/mavsdk/plugins/follow_me/follow_me_impl.cpp):
+# - set_config() writes PX4's parameters FLW_TGT_HT, FLW_TGT_DST, FLW_TGT_FA, FLW_TGT_RS,
+#   FLW_TGT_ALT_M, FLW_TGT_MAX_VEL (set_config, each changed value), which ArduCopter does
+#   not have (its FOLLOW mode reads FOLL_*): SET_CONFIG_FAILED once they time out;
+# - set_target_location() answers NOT_ACTIVE, and nothing sends FOLLOW_TARGET, until a
+#   HEARTBEAT shows PX4's custom mode AUTO / FOLLOW_TARGET (process_heartbeat decodes the
+#   custom mode as px4_custom_mode whatever the autopilot): ArduCopter's FOLLOW (23), which
+#   start() does select (flight_mode_to_ardupilot_copter_mode), never reads as active.
+# The test runs the example on past the first refusal to show the second, with two changes
+# made through pymavlink: DISARM_DELAY 0 (set_config's retries take ~15 s, 150 s simulated at
+# 10x, and the vehicle armed on the ground would disarm after 10) and FOLL_ENABLE 1
+# (ArduCopter refuses FOLLOW without it). The vehicle's FOLLOW itself is tested with a
+# pymavlink lead in test_follow_lead.py.
+FOLLOW = 23  # ArduCopter's FOLLOW, what FollowMe.start() selects on ArduCopter
+HOLD = (5, 17)  # what FollowMe.stop() (MAVSDK's Hold) selects on ArduCopter: LOITER from
+# mavsdk-grpc 4.0.5's server, BRAKE from mavsdk 4.1's library
+FAKE_LOCATIONS = ((47.398039859999997, 8.5455725400000002),  # the example's
+                  (47.398036222362471, 8.5450146439425509),
+                  (47.397825620791885, 8.5450092830163271))
+
+
+def follow_me_config(cls: Any) -> Any:
+    """The example's Config: height 8 m, distance 2 m, responsiveness 0.02, TARGET_GPS,
+    10 m/s, angle 0."""
+    return cls(8.0, 2.0, 0.02, cls.FollowAltitudeMode.TARGET_GPS, 10, 0)
+
+
+async def follow_me_after_set_config(drone: Any, gcs: Gcs, position: AsyncIterator[Any],
+                                     target: Any, error: type[Exception],
+                                     result_of: Callable[[Exception], Any],
+                                     not_active: Any) -> None:
+    """The example from its take-off on (after set_config failed)."""
+    assert gcs.param_set("FOLL_ENABLE", 1).param_value == 1  # (not in the example)
+    await bounded(drone.action.takeoff())
+    # (the example sleeps 8 s): up at the take-off altitude
+    await first(position, lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
+    since = gcs.mark()
+    await bounded(drone.follow_me.start())
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == FOLLOW, since=since)
+    gcs.wait_text("follow: waiting for the lead's position", since)
+    for latitude, longitude in FAKE_LOCATIONS:
+        target.latitude_deg, target.longitude_deg = latitude, longitude
+        target.absolute_altitude_m = 480.0
+        target.velocity_x_m_s = target.velocity_y_m_s = target.velocity_z_m_s = 0
+        with pytest.raises(error) as refused:
+            await bounded(drone.follow_me.set_target_location(target))
+        assert result_of(refused.value) == not_active
+    # no FOLLOW_TARGET reached the vehicle: it never heard of a lead
+    assert not [t for t in gcs.texts(since) if "follow: lead is system" in t]
+    await bounded(drone.follow_me.stop())
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode in HOLD, since=since)
+    await bounded(drone.action.land())
+
+
+def test_follow_me_example_grpc_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        assert gcs.param_set("DISARM_DELAY", 0).param_value == 0  # (not in the example)
+        await bounded(drone.action.arm())
+        with pytest.raises(GrpcFollowMeError) as refused:
+            await bounded(drone.follow_me.set_config(follow_me_config(GrpcConfig)), FLIGHT_S)
+        assert refused.value._result.result == GrpcFollowMeResult.Result.SET_CONFIG_FAILED
+        await follow_me_after_set_config(
+            drone, gcs, drone.telemetry.position(), GrpcTargetLocation(0, 0, 0, 0, 0, 0),
+            GrpcFollowMeError, lambda e: e._result.result,  # type: ignore[attr-defined]
+            GrpcFollowMeResult.Result.NOT_ACTIVE)
+
+    run_grpc(start_vehicle, gcs, steps)
+
+
+def test_follow_me_example_native_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.subscribe_health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        assert gcs.param_set("DISARM_DELAY", 0).param_value == 0  # (not in the example)
+        await bounded(drone.action.arm())
+        with pytest.raises(FollowMeError) as refused:
+            await bounded(drone.follow_me.set_config(follow_me_config(Config)), FLIGHT_S)
+        assert refused.value.result == FollowMeResult.SET_CONFIG_FAILED
+        await follow_me_after_set_config(
+            drone, gcs, drone.telemetry.subscribe_position(),
+            TargetLocation(0, 0, 0, 0, 0, 0),
+            FollowMeError, lambda e: e.result,  # type: ignore[attr-defined]
+            FollowMeResult.NOT_ACTIVE)
 
     run_native(start_vehicle, gcs, steps)
 

@@ -22,6 +22,7 @@ from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import MavState, Severity
+from fcu.mavlink.follow_target import LeadReport
 from fcu.mavlink.port import (
     AttitudeTarget,
     CommandResult,
@@ -295,6 +296,14 @@ class FakeVehicle:
         self._call("clear_failsafe", source)
         self.failsafes.pop(source, None)
         return CommandResult.ok()
+
+    def orbit(self, centre_ned: np.ndarray | None, radius_m: float | None,
+              speed_m_s: float | None) -> CommandResult:
+        self._call("orbit", centre_ned, radius_m, speed_m_s)
+        return CommandResult.ok()
+
+    def follow_target(self, report: LeadReport) -> None:
+        self._call("follow_target", report)
 
     # ----------------------------------------------------------------- parameters
     def param_specs(self) -> list[ParamSpec]:

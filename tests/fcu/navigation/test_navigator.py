@@ -111,7 +111,7 @@ def airborne(alt_m: float = 1.0, config: NavigatorConfig | None = None) -> Fligh
 def test_mode_numbers_are_arducopter_custom_modes() -> None:
     assert {m.name: int(m) for m in Mode} == {
         "STABILIZE": 0, "ALT_HOLD": 2, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6,
-        "CIRCLE": 7, "LAND": 9, "BRAKE": 17}
+        "CIRCLE": 7, "LAND": 9, "BRAKE": 17, "FOLLOW": 23}
     for number, name in ARDUCOPTER_MODE_NAMES.items():
         assert mavutil.mode_mapping_acm[number] == name  # pymavlink's table agrees
 
