@@ -57,6 +57,7 @@ from fcu.navigation.modes import (
     Mode,
     mode_name,
 )
+from fcu.navigation.pilot_modes import PilotModes
 from fcu.navigation.settings import AUTO_TAKEOFF_WITHOUT_START, TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 from flightdata.mission import MissionItem
@@ -125,10 +126,11 @@ class _Cruise(NamedTuple):
     fields: dict[str, object]  # the output's fields, reference included (replaced)
 
 
-class Navigator(MissionExecution):
+class Navigator(PilotModes, MissionExecution):
     """Flight-mode state machine, arming, take-off/landing and mission execution.
 
-    The mode state machine and the commands live here; the layers below fly the mission
+    The mode state machine and the commands live here; the layers below fly the sticks
+    (:class:`~fcu.navigation.pilot_modes.PilotModes`), the mission
     (:class:`~fcu.navigation.mission.MissionExecution`) and the legs
     (:class:`~fcu.navigation.flight.FlightLegs`).
 
@@ -369,7 +371,10 @@ class Navigator(MissionExecution):
         if self._armed:
             self._disarm(text, "critical")
     def _run_ground(self, t: float) -> None:
-        """Armed on the ground at ``t`` (s): auto-disarm when due (:mod:`.arming`)."""
+        """Armed on the ground at ``t`` (s): a take-off by throttle, or auto-disarm when due
+        (:mod:`.arming`)."""
+        if self._pilot_takeoff(t):
+            return
         if self._ground_since_s is None:
             self._ground_since_s = t
         landed_like = self._landed_after_flight or MODE_TABLE[self._mode].lands
