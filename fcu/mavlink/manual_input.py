@@ -46,7 +46,7 @@ from fcu.mavlink.codec import MAVLinkMessage
 from fcu.mavlink.enums import Severity
 from fcu.mavlink.params import ParamEntry
 from fcu.mavlink.port import ParamSpec, VehiclePort
-from fcu.navigation.modes import MODE_TABLE, Mode
+from fcu.navigation.modes import MODE_TABLE
 from fcu.navigation.sticks import Sticks
 
 __all__ = ["ManualInput", "RcChannels", "RcFailsafe", "RcFailsafeAction", "RcFailsafeConfig",
@@ -250,7 +250,7 @@ class ManualInput:
         mode = self._port.snapshot().custom_mode
         if self.failsafe.on_input(wall_time_s, mode, sticks is None):
             self._port.clear_failsafe("radio")
-            self._status(Severity.NOTICE, "Radio failsafe cleared: stick input back")
+            self._status(Severity.NOTICE, "Radio failsafe cleared: sticks back")
         self._port.set_sticks(sticks)
 
     def tick(self, time_s: float, wall_time_s: float) -> None:
@@ -271,8 +271,7 @@ class ManualInput:
         if action is None:
             return
         kind = "land" if action == RcFailsafeAction.LAND else "rtl"
-        lost = f"Radio failsafe: no stick input for {config.timeout_s:g} s in " \
-               f"{_mode_name(snap.custom_mode)}"
+        lost = f"Radio failsafe: no sticks for {config.timeout_s:g} s"
         result = self._port.trigger_failsafe("radio", kind)
         if result.accepted:
             self._status(Severity.CRITICAL, f"{lost}, {kind.upper()}")
@@ -280,9 +279,3 @@ class ManualInput:
             self._status(Severity.EMERGENCY, f"{lost}, {kind.upper()} refused: "
                          f"{result.reason}")
 
-
-def _mode_name(number: int) -> str:
-    try:
-        return Mode(number).name
-    except ValueError:
-        return f"mode {number}"

@@ -151,7 +151,7 @@ def test_arming_refusals_name_the_failed_check() -> None:
     f.nav.load_mission(thesis_mission())
     assert f.nav.set_mode(Mode.AUTO).accepted
     assert f.nav.arm().reason == ("mode AUTO does not allow arming "
-                                  "(use STABILIZE, ALT_HOLD, GUIDED, LOITER; "
+                                  "(use STABILIZE, ALT_HOLD, GUIDED, LOITER, POSHOLD; "
                                   "AUTO_OPTIONS bit 0 allows AUTO)")
     f.nav.set_mode(Mode.GUIDED)
     f.nav.trigger_failsafe("gcs")
