@@ -28,10 +28,13 @@ speed-up must not fire it, as for the GCS failsafe of :mod:`fcu.mavlink.failsafe
 
 - the sticks are released in the navigator whatever the mode (stale sticks never fly:
   ArduPilot's overrides expire after RC_OVERRIDE_TIME);
-- if they were in use, the vehicle armed and FS_THR_ENABLE not 0, the failsafe fires once:
-  1 RTL, 2 RTL (continue a mission in AUTO: never met, AUTO is no pilot mode), 3 LAND (the
-  default here; ArduCopter's default is 1); announced with a STATUSTEXT. Armed on the ground
-  the navigator disarms instead. An input clears it (announced; the mode stays), as does
+- if they were in use, the vehicle is flying (armed, not on the ground) and FS_THR_ENABLE
+  is not 0, the failsafe fires once: 1 RTL, 2 RTL (continue a mission in AUTO: never met,
+  AUTO is no pilot mode), 3 LAND (the default here; ArduCopter's default is 1); announced
+  with a STATUSTEXT. On the ground nothing more happens (ArduCopter disarms; here the
+  released sticks leave the vehicle to the idle auto-disarm, DISARM_DELAY, so that a
+  ground station that sent one input, armed and switched to GUIDED a second later is not
+  disarmed under its take-off). An input clears it (announced; the mode stays), as does
   disarming.
 """
 
@@ -45,7 +48,7 @@ from enum import IntEnum
 from fcu.mavlink.codec import MAVLinkMessage
 from fcu.mavlink.enums import Severity
 from fcu.mavlink.params import ParamEntry
-from fcu.mavlink.port import ParamSpec, VehiclePort
+from fcu.mavlink.port import LandedState, ParamSpec, VehiclePort
 from fcu.navigation.modes import MODE_TABLE
 from fcu.navigation.sticks import Sticks
 
@@ -169,14 +172,14 @@ class RcFailsafe:
         """The navigator holds sticks older than ``timeout_s`` (they must be released)."""
         return self._forwarded and wall_time_s - self._last_input_s >= config.timeout_s
 
-    def check(self, armed: bool, mode: int, wall_time_s: float, config: RcFailsafeConfig
+    def check(self, flying: bool, mode: int, wall_time_s: float, config: RcFailsafeConfig
               ) -> RcFailsafeAction | None:
         """Called when :meth:`stale`: releases the sticks, and returns the action to take
-        now (once per loss) or None."""
+        now (once per loss) or None. ``flying``: armed and in the air."""
         self._forwarded = False
         in_use = self._in_use and mode in PILOT_MODES
         self._in_use = False
-        if not armed or not in_use or self._active or \
+        if not flying or not in_use or self._active or \
                 config.action == RcFailsafeAction.DISABLED:
             return None
         self._active = True
@@ -265,7 +268,8 @@ class ManualInput:
         if not fs.stale(wall_time_s, config):
             return  # the common tick
         snap = self._port.snapshot()
-        action = fs.check(snap.armed, snap.custom_mode, wall_time_s, config)
+        flying = snap.armed and snap.landed_state != LandedState.ON_GROUND
+        action = fs.check(flying, snap.custom_mode, wall_time_s, config)
         self._port.set_sticks(None)
         self.channels.reset()
         if action is None:

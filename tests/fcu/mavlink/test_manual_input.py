@@ -61,19 +61,19 @@ def test_failsafe_fires_once_after_the_timeout_of_sticks_in_use_and_clears() -> 
     assert not fs.active and not fs.in_use  # (in LAND the sticks fly nothing)
 
 
-@pytest.mark.parametrize("armed, mode, released, action", [
-    (False, Mode.LOITER, False, RcFailsafeAction.LAND),  # disarmed
+@pytest.mark.parametrize("flying, mode, released, action", [
+    (False, Mode.LOITER, False, RcFailsafeAction.LAND),  # disarmed or on the ground
     (True, Mode.GUIDED, False, RcFailsafeAction.LAND),  # sticks never flew anything
     (True, Mode.LOITER, True, RcFailsafeAction.LAND),  # released on purpose
     (True, Mode.LOITER, False, RcFailsafeAction.DISABLED),  # FS_THR_ENABLE 0
 ])
-def test_failsafe_never_fires_disarmed_unused_released_or_disabled(
-        armed: bool, mode: Mode, released: bool, action: RcFailsafeAction) -> None:
+def test_failsafe_never_fires_on_the_ground_unused_released_or_disabled(
+        flying: bool, mode: Mode, released: bool, action: RcFailsafeAction) -> None:
     config = RcFailsafeConfig(action=action, timeout_s=1.0)
     fs = RcFailsafe()
     fs.on_input(0.0, mode, released)
     if fs.stale(5.0, config):
-        assert fs.check(armed, mode, 5.0, config) is None
+        assert fs.check(flying, mode, 5.0, config) is None
     assert not fs.active
 
 
