@@ -88,7 +88,7 @@ def run(leg: PilotLeg, sticks: Sticks, seconds: float, pos: np.ndarray | None = 
         ) -> list[tuple[np.ndarray, ...]]:
     """Advance ``leg`` tick by tick with the estimate on the reference (a vehicle that
     follows exactly, unless ``pos`` pins the estimate); returns (pos, vel, acc) refs."""
-    out = []
+    out: list[tuple[np.ndarray, ...]] = []
     t = leg.time_s
     for _ in range(round(seconds / DT_S)):
         t += DT_S
