@@ -18,6 +18,7 @@ and commands between ticks (each returns a :class:`CommandResult`)::
 
     nav.set_mode(Mode.GUIDED); nav.arm(); nav.takeoff(0.6); nav.go_to((1, 0, -0.6))
     nav.load_mission(thesis_mission()); nav.start_mission()
+    nav.set_sticks(Sticks(roll, pitch, throttle, yaw))  # flies STABILIZE ... POSHOLD
 
 Commands take effect at the time of the latest ``step`` (simulated time is only known from
 ``step``); a trajectory they start begins at that time.
