@@ -15,6 +15,9 @@ Modules, one job each:
 - :mod:`~fcu.mavlink.mission`: mission protocol (ArduPilot flavour).
 - :mod:`~fcu.mavlink.commands`: COMMAND_LONG/INT, SET_MODE, GUIDED set-points.
 - :mod:`~fcu.mavlink.failsafe`: GCS heartbeat-loss failsafe.
+- :mod:`~fcu.mavlink.manual_input`: MANUAL_CONTROL and RC_CHANNELS_OVERRIDE as sticks, and
+  the RC failsafe.
+- :mod:`~fcu.mavlink.ftp`: MAVLink FTP answered at once (no file server).
 - :mod:`~fcu.mavlink.signing`: MAVLink 2 signing (SETUP_SIGNING, signed output, checks of
   what arrives, the SIGN_REJ count).
 - :mod:`~fcu.mavlink.link`, :mod:`~fcu.mavlink.udp`: transport.

@@ -19,7 +19,9 @@ the parameters with ``live_speed`` (``WPNAV_SPEED``, ``WPNAV_SPEED_UP``, ``WPNAV
 which also act at once in flight like DO_CHANGE_SPEED, ``FTC_MODE``, which switches the
 fault-tolerant control at once, in flight or not, and the ``FENCE_*`` parameters, which act at
 once in flight or not (as ArduCopter's: a fence enabled with the vehicle outside it is
-breached at once).
+breached at once). The pilot modes' stick settings (``ANGLE_MAX``, ``PILOT_*``, ``LOIT_*``,
+``THR_DZ``, ``MOT_THST_HOVER``, :class:`fcu.navigation.sticks.PilotConfig`) are ordinary
+parameters (disarmed on the ground).
 """
 
 from __future__ import annotations
@@ -133,6 +135,16 @@ def _follow_param(name: str, attr: str, unit: str, description: str, lo: float, 
         min_value=lo, max_value=hi, integer=integer,
         allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None,
         live_follow=True)
+def _pilot_param(name: str, attr: str, scale: float, unit: str, description: str, lo: float,
+                 hi: float) -> ApParam:
+    """A field of the pilot modes' settings (:class:`fcu.navigation.sticks.PilotConfig`) in
+    ArduCopter units (``value = field * scale``)."""
+    return ApParam(
+        name, f"{description}, {unit}",
+        get=lambda c: float(getattr(c.navigator.pilot, attr)) * scale,
+        set=lambda c, v: replace(c, navigator=_with(
+            c.navigator, "pilot", _with(c.navigator.pilot, attr, v / scale))),
+        min_value=lo, max_value=hi)
 
 
 def _top_param(name: str, attr: str, unit: str, description: str, lo: float,
@@ -292,6 +304,25 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
                   0.01, 10.0),
     _follow_param("FOLL_ALT_TYPE", "alt_type", "0 AMSL, 1 above home",
                   "FOLLOW: altitude of the lead's GLOBAL_POSITION_INT used", 0, 1, integer=True),
+    _pilot_param("ANGLE_MAX", "angle_max_deg", 100.0, "cdeg",
+                 "Lean angle at full roll/pitch stick (STABILIZE, ALT_HOLD)", 100.0, 8000.0),
+    _pilot_param("PILOT_Y_RATE", "yaw_rate_deg_s", 1.0, "deg/s",
+                 "Yaw rate at full yaw stick", 1.0, 500.0),
+    _pilot_param("PILOT_SPEED_UP", "speed_up_m_s", 100.0, "cm/s",
+                 "Climb rate at full throttle (ALT_HOLD, LOITER, POSHOLD)", 10.0, 500.0),
+    _pilot_param("PILOT_SPEED_DN", "speed_down_m_s", 100.0, "cm/s",
+                 "Descent rate at zero throttle (0: PILOT_SPEED_UP)", 0.0, 500.0),
+    _pilot_param("PILOT_ACCEL_Z", "accel_z_m_s2", 100.0, "cm/s/s",
+                 "Vertical acceleration following the throttle stick", 10.0, 500.0),
+    _pilot_param("LOIT_SPEED", "loiter_speed_m_s", 100.0, "cm/s",
+                 "Horizontal speed at full stick (LOITER, POSHOLD)", 10.0, 2000.0),
+    _pilot_param("LOIT_ACC_MAX", "loiter_accel_m_s2", 100.0, "cm/s/s",
+                 "Horizontal acceleration following the sticks (LOITER, POSHOLD)",
+                 10.0, 1000.0),
+    _pilot_param("THR_DZ", "throttle_deadzone", 1000.0, "of 1000",
+                 "Throttle dead zone either side of mid-stick (no climb)", 0.0, 300.0),
+    _pilot_param("MOT_THST_HOVER", "hover_throttle", 1.0, "fraction",
+                 "Throttle curve output at mid-stick (STABILIZE)", 0.1, 0.8),
     ApParam("AUTO_OPTIONS", "AUTO mode options, bitmask: bit 0 (1) arming in AUTO allowed, "
             "bit 1 (2) AUTO armed on the ground takes off without MISSION_START",
             get=lambda c: float(c.navigator.auto_options),

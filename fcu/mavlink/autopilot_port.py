@@ -48,6 +48,7 @@ from fcu.mavlink.port import (
 from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import CommandResult as NavResult
 from fcu.navigation.navigator import Mode, mode_name
+from fcu.navigation.sticks import Sticks
 from flightdata.geometry import body_rates_from_euler_rates
 from flightdata.mission import MAV_CMD_BY_COMMAND, SPEED_TYPE_BY_MAV_PARAM
 from flightdata.mission import MissionItem as NavItem
@@ -288,8 +289,15 @@ class AutopilotPort:
         check = self.host.autopilot.navigator.prearm_check()
         return CommandResult.ok() if check.ok else CommandResult.denied(check.reason)
 
+    def set_sticks(self, sticks: Sticks | None) -> CommandResult:
+        """The pilot's sticks, to the navigator (flown in the pilot modes from its next step:
+        the snapshot stays valid)."""
+        result = self.host.autopilot.navigator.set_sticks(sticks)
+        return CommandResult.ok() if result.accepted else CommandResult.denied(result.reason)
+
     def trigger_failsafe(self, source: str, action: str) -> CommandResult:
-        """GCS-loss failsafe from the endpoint: LAND/RTL in flight, disarm on the ground."""
+        """GCS-loss or RC failsafe from the endpoint: LAND/RTL in flight, disarm on the
+        ground."""
         return self._nav("Failsafe", self.host.autopilot.navigator.trigger_failsafe(source, action))
 
     def clear_failsafe(self, source: str) -> CommandResult:

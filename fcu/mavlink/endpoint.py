@@ -33,7 +33,9 @@ Signing: MAVLink 2 signing (SETUP_SIGNING, ``EndpointConfig.signing_key``) is
 handling.
 
 Clocks: telemetry rates and message time fields use simulated time (see streams.py);
-HEARTBEAT has a wall-clock floor; the GCS failsafe and mission time-outs use the wall clock.
+HEARTBEAT has a wall-clock floor; the GCS and RC failsafes and mission time-outs use the wall
+clock. MANUAL_CONTROL and RC_CHANNELS_OVERRIDE fly the pilot modes
+(:mod:`fcu.mavlink.manual_input`).
 TIMESYNC answers with the simulated time in ns (never decreasing).
 """
 
@@ -53,7 +55,9 @@ from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
 from fcu.mavlink.follow_target import lead_report
+from fcu.mavlink.ftp import ftp_reply
 from fcu.mavlink.link import Address, Link
+from fcu.mavlink.manual_input import ManualInput
 from fcu.mavlink.messages import Fields
 from fcu.mavlink.mission import MissionProtocol, set_current_refusal
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
@@ -78,11 +82,6 @@ __all__ = ["MavlinkEndpoint"]
 _M = mavlink2
 _log = logging.getLogger(__name__)
 _SETPOINT_STATUS_INTERVAL_S = 1.0  # s wall; set-point refusals arrive at stream rates
-# MAVLink FTP (https://mavlink.io/en/services/ftp.html): opcodes and error codes used here
-_FTP_ACK, _FTP_NAK = 128, 129
-_FTP_ACKED = frozenset({1, 2})  # TerminateSession, ResetSessions
-_FTP_FILE_OPS = frozenset({3, 4, 6, 7, 11, 12, 14, 15})  # list, open, create, remove, CRC, ...
-_FTP_ERR_UNKNOWN_COMMAND, _FTP_ERR_FILE_NOT_FOUND = 7, 10
 
 
 class _Outbox:
@@ -157,7 +156,7 @@ class MavlinkEndpoint:
         self._outbox = _Outbox(self._codec, link, self.stats)
         self.signing = MessageSigning(self._codec.signing, self._outbox, key=config.signing_key)
         self._records = RecordRelay()
-        entries = self._own_params()
+        entries = self._own_params() + ManualInput.param_entries()
         entries += entries_from(port)
         for provider in extra_params:
             entries += entries_from(provider)
@@ -170,6 +169,7 @@ class MavlinkEndpoint:
                                            lambda: self._mission.total, config.limits,
                                            set_param=self._set_param)
         self._failsafe = GcsFailsafe(config.sysid)
+        self.manual = ManualInput(port, self._outbox.status, self._params.table.get)
         self._failsafe_values: tuple[float, float, float] | None = None  # the config's source
         self._failsafe_settings = GcsFailsafeConfig()
         self._context_key: tuple[int, int, bool] | None = None  # _context's source values
@@ -183,8 +183,8 @@ class MavlinkEndpoint:
         self._backlog: deque[tuple[bytes, Address]] = deque()  # received, not yet handled
         # what tick does after receiving, in order; each is called (time_s, wall_time_s)
         self._steps: tuple[Callable[[float, float], None], ...] = (
-            self.signing.tick, self._forward_events, self._run_failsafe, self._mission_tick,
-            self._send_due)
+            self.signing.tick, self._forward_events, self._run_failsafe, self.manual.tick,
+            self._mission_tick, self._send_due)
 
     # ------------------------------------------------------------------ parameters
     def _own_params(self) -> list[ParamEntry]:
@@ -441,7 +441,7 @@ class MavlinkEndpoint:
             return
         handler = self._HANDLERS.get(kind)
         if handler is None or not self._for_us(msg):
-            return  # MANUAL_CONTROL, RC overrides, PING, COMMAND_ACK, ...: ignored
+            return  # PING, COMMAND_ACK, ...: ignored
         handler(self, msg, src, addr)
 
     def _command(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
@@ -538,33 +538,21 @@ class MavlinkEndpoint:
         for fields in built:
             self._outbox.send_fields(cls, fields, addr)
 
+    def _sticks(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
+        if msg.get_type() == "RC_CHANNELS_OVERRIDE":
+            self.manual.rc_override(msg, self._wall_s)
+        elif int(msg.target) in (0, self._codec.sysid):  # MANUAL_CONTROL
+            self.manual.manual_control(msg, self._wall_s)
+
     def _setup_signing(self, msg: MAVLinkMessage, src: tuple[int, int],
                        addr: Address) -> None:
         self.signing.handle_setup(msg)
 
     def _ftp(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        """MAVLink FTP: this vehicle has no file server; say so at once.
-
-        Every request is answered with a NAK (``FileNotFound`` for opening or listing,
-        ``UnknownCommand`` otherwise; TerminateSession and ResetSessions are ACKed), so a
-        ground station that tries FTP first (MAVProxy fetches parameters over FTP) falls
-        back to the parameter protocol immediately instead of after its time-out.
-        """
-        if int(msg.target_network) != 0:
-            return
-        request = bytes(msg.payload)
-        seq, session, opcode = int.from_bytes(request[0:2], "little"), request[2], request[3]
-        if opcode in _FTP_ACKED:
-            reply_opcode, data = _FTP_ACK, b""
-        else:
-            error = _FTP_ERR_FILE_NOT_FOUND if opcode in _FTP_FILE_OPS else \
-                _FTP_ERR_UNKNOWN_COMMAND
-            reply_opcode, data = _FTP_NAK, bytes([error])
-        header = ((seq + 1) % 0x10000).to_bytes(2, "little") + bytes(
-            [session, reply_opcode, len(data), opcode, 0, 0]) + bytes(4)
-        payload = (header + data).ljust(251, b"\0")
-        self._outbox.send(_M.MAVLink_file_transfer_protocol_message(0, src[0], src[1],
-                                                                    list(payload)), addr)
+        """MAVLink FTP: no file server here, said at once (:func:`fcu.mavlink.ftp.ftp_reply`)."""
+        reply = ftp_reply(msg, src)
+        if reply is not None:
+            self._outbox.send(reply, addr)
 
     def _setpoint(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
         if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
@@ -602,6 +590,8 @@ class MavlinkEndpoint:
         "SETUP_SIGNING": _setup_signing,
         "FOLLOW_TARGET": _lead_report,
         "GLOBAL_POSITION_INT": _lead_report,
+        "MANUAL_CONTROL": _sticks,
+        "RC_CHANNELS_OVERRIDE": _sticks,
     }
 
     # ------------------------------------------------------------------ reboot
@@ -611,5 +601,6 @@ class MavlinkEndpoint:
         self._codec.sysid = new_sysid
         self._failsafe.own_sysid = new_sysid
         self._failsafe.reset()
+        self.manual.reset()
         self._streams.reset()
         self._mission.reset()

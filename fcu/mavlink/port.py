@@ -54,6 +54,7 @@ from fcu.mavlink.enums import MavState
 from fcu.mavlink.extended import ExtendedTelemetry
 from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
+from fcu.navigation.sticks import Sticks
 from flightdata.records import Record
 
 if TYPE_CHECKING:
@@ -569,8 +570,14 @@ class VehiclePort(ParamProvider, Protocol):
         arming would give (RUN_PREARM_CHECKS)."""
         ...
 
+    def set_sticks(self, sticks: Sticks | None) -> CommandResult:
+        """The pilot's latest stick input (MANUAL_CONTROL, RC_CHANNELS_OVERRIDE), normalised;
+        None releases the sticks (:mod:`fcu.mavlink.manual_input`)."""
+        ...
+
     def trigger_failsafe(self, source: str, action: str) -> CommandResult:
-        """Enter failsafe ``source`` (here ``"gcs"``) with ``action`` ``"land"`` or ``"rtl"``.
+        """Enter failsafe ``source`` (``"gcs"``, ``"radio"``) with ``action`` ``"land"`` or
+        ``"rtl"``.
 
         The vehicle decides what that means in its state (ArduCopter: LAND or RTL in flight,
         disarm on the ground, arming refused while active).

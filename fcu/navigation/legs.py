@@ -24,9 +24,10 @@ from fcu.navigation.guidance import (
     landing_trajectory,
     takeoff_trajectory,
 )
+from fcu.navigation.pilot_leg import PilotLeg
 
 LegKind = Literal["takeoff", "move", "hold", "manual", "approach", "rtl_return", "land",
-                  "circle", "circle_approach", "follow"]
+                  "circle", "circle_approach", "follow", "pilot"]
 
 
 @dataclass
@@ -34,7 +35,7 @@ class Leg:
     """What the vehicle is doing in flight: a trajectory and how it completes."""
 
     kind: LegKind
-    trajectory: Trajectory | None  # None for "manual"
+    trajectory: Trajectory | None  # None for "manual", "circle", "pilot"
     target_pos_ned: np.ndarray | None = None
     arrival_s: float = math.inf  # s, reference arrives at the target
     hold_s: float = 0.0  # s, rest at the target before the leg is done
@@ -47,6 +48,7 @@ class Leg:
     done: bool = False
     circle: Circle | None = None  # the circle of a "circle" leg (no trajectory)
     follow: FollowChase | None = None  # the chase of a "follow" leg (no trajectory)
+    pilot: PilotLeg | None = None  # the sticks' targets of a "pilot" leg (no trajectory)
 
     def reference(self, time_s: float, est_pos_ned: np.ndarray, est_vel_ned: np.ndarray
                   ) -> Reference:
@@ -61,6 +63,8 @@ class Leg:
             return self.circle.reference(time_s)
         if self.follow is not None:
             return self.follow.reference(time_s)
+        if self.pilot is not None:  # (advanced once per tick by the navigator)
+            return self.pilot.reference
         assert self.trajectory is not None
         return self.trajectory.evaluate(time_s)
 

@@ -3,25 +3,32 @@
 Modes (ArduCopter numbers, :class:`Mode`; the table is :data:`MODE_TABLE`)
 --------------------------------------------------------------------------
 =========  ==  ==========================================================================
-STABILIZE   0  no pilot sticks exist here: hold the altitude captured on entry, leave the
-               horizontal position free (reference = estimate), i.e. level attitude
-ALT_HOLD    2  same as STABILIZE (there is no throttle stick either)
+STABILIZE   0  sticks: lean angles (ANGLE_MAX), collective, yaw rate. Without stick input:
+               hold the altitude captured on entry, the horizontal position free
+               (reference = estimate), i.e. level attitude
+ALT_HOLD    2  sticks: lean angles, climb rate (PILOT_SPEED_UP/DN, THR_DZ about mid-stick),
+               yaw rate. Without stick input: as STABILIZE
 AUTO        3  fly the mission (:mod:`fcu.navigation.mission`); holds the last point once
                complete
 GUIDED      4  take-off command, go-to (SET_POSITION_TARGET_LOCAL_NED, DO_REPOSITION)
-LOITER      5  hold the stopping point (estimate + v|v| / 2a)
+LOITER      5  hold the stopping point (estimate + v|v| / 2a); sticks: horizontal velocity
+               (LOIT_SPEED), climb rate as ALT_HOLD, yaw rate; centred sticks hold
 RTL         6  climb to ``rtl_alt_m`` if lower, fly home, hold ``rtl_hold_s``, land
 CIRCLE      7  circle a centre ``circle_radius_m`` ahead at ``circle_rate_deg_s``, facing it
                (ArduCopter's CIRCLE_RADIUS, CIRCLE_RATE); DO_ORBIT flies the same circle
                about the centre it gives (:mod:`fcu.navigation.circle`)
 LAND        9  descend along a cubic to the ground, then creep down until landed
-BRAKE      17  as LOITER
+POSHOLD    16  as LOITER (the sticks fly the same law here)
+BRAKE      17  as LOITER without sticks
 FOLLOW     23  follow a lead vehicle's reports at an offset (ArduCopter's FOLL_*;
                :mod:`fcu.navigation.follow`); refused while FOLL_ENABLE is 0
 =========  ==  ==========================================================================
 
-Other ArduCopter modes are refused with a reason. Position modes (all but STABILIZE,
-ALT_HOLD, LAND) are refused while the caller reports the estimator unhealthy.
+The stick laws are :mod:`fcu.navigation.pilot_leg`'s (``ModeSpec.pilot``); with sticks, the
+pilot modes also take off from the ground when the throttle is raised above the dead zone
+and land (detected) when it is held below it. Other ArduCopter modes are refused with a
+reason. Position modes (all but STABILIZE, ALT_HOLD, LAND) are refused while the caller
+reports the estimator unhealthy.
 """
 
 from __future__ import annotations
@@ -31,6 +38,8 @@ from dataclasses import dataclass
 from enum import IntEnum
 from types import MappingProxyType
 from typing import Literal
+
+from fcu.navigation.pilot_leg import PilotLaw
 
 
 class Mode(IntEnum):
@@ -44,6 +53,7 @@ class Mode(IntEnum):
     RTL = 6
     CIRCLE = 7
     LAND = 9
+    POSHOLD = 16
     BRAKE = 17
     FOLLOW = 23
 
@@ -84,22 +94,27 @@ class ModeSpec:
     lands : bool
         Ends on the ground: armed on the ground in it, the vehicle counts as landed
         (auto-disarm after ``landed_disarm_delay_s``).
+    pilot : PilotLaw or None
+        What stick input flies in this mode (:mod:`fcu.navigation.pilot_leg`); None: the
+        mode ignores the sticks.
     """
 
     behaviour: Behaviour
     needs_position: bool
     lands: bool
+    pilot: PilotLaw | None = None
 
 
 MODE_TABLE: Mapping[Mode, ModeSpec] = MappingProxyType({
-    Mode.STABILIZE: ModeSpec("manual", needs_position=False, lands=False),
-    Mode.ALT_HOLD: ModeSpec("manual", needs_position=False, lands=False),
+    Mode.STABILIZE: ModeSpec("manual", needs_position=False, lands=False, pilot="stabilize"),
+    Mode.ALT_HOLD: ModeSpec("manual", needs_position=False, lands=False, pilot="alt_hold"),
     Mode.AUTO: ModeSpec("mission", needs_position=True, lands=False),
     Mode.GUIDED: ModeSpec("hold", needs_position=True, lands=False),
-    Mode.LOITER: ModeSpec("hold", needs_position=True, lands=False),
+    Mode.LOITER: ModeSpec("hold", needs_position=True, lands=False, pilot="loiter"),
     Mode.RTL: ModeSpec("rtl", needs_position=True, lands=True),
     Mode.CIRCLE: ModeSpec("circle", needs_position=True, lands=False),
     Mode.LAND: ModeSpec("land", needs_position=False, lands=True),
+    Mode.POSHOLD: ModeSpec("hold", needs_position=True, lands=False, pilot="loiter"),
     Mode.BRAKE: ModeSpec("hold", needs_position=True, lands=False),
     Mode.FOLLOW: ModeSpec("follow", needs_position=True, lands=False),
 })

@@ -18,6 +18,7 @@ and commands between ticks (each returns a :class:`CommandResult`)::
 
     nav.set_mode(Mode.GUIDED); nav.arm(); nav.takeoff(0.6); nav.go_to((1, 0, -0.6))
     nav.load_mission(thesis_mission()); nav.start_mission()
+    nav.set_sticks(Sticks(roll, pitch, throttle, yaw))  # flies STABILIZE ... POSHOLD
 
 Commands take effect at the time of the latest ``step`` (simulated time is only known from
 ``step``); a trajectory they start begins at that time.
@@ -27,20 +28,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from fcu.navigation.arming import PrearmCheck, auto_disarm_reason, prearm_check
 from fcu.navigation.events import CommandResult, NavEvent, Severity
-from fcu.navigation.fence import (
-    FENCE_ACTIONS,
-    FenceAreas,
-    FenceConfig,
-    breach,
-    target_problem,
-)
+from fcu.navigation.fence import FenceAreas, target_problem
+from fcu.navigation.fence_watch import FenceWatch
 from fcu.navigation.follow_mode import FollowLegs
 from fcu.navigation.guidance import Reference, wrap_pi
 from fcu.navigation.landing import LandedState
@@ -58,6 +54,7 @@ from fcu.navigation.modes import (
     Mode,
     mode_name,
 )
+from fcu.navigation.pilot_modes import PilotModes
 from fcu.navigation.settings import AUTO_TAKEOFF_WITHOUT_START, TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 from flightdata.mission import MissionItem
@@ -126,10 +123,12 @@ class _Cruise(NamedTuple):
     fields: dict[str, object]  # the output's fields, reference included (replaced)
 
 
-class Navigator(FollowLegs, MissionExecution):
+class Navigator(FollowLegs, PilotModes, FenceWatch, MissionExecution):
     """Flight-mode state machine, arming, take-off/landing and mission execution.
 
-    The mode state machine and the commands live here; the layers below fly the mission
+    The mode state machine and the commands live here; the layers below fly the sticks
+    (:class:`~fcu.navigation.pilot_modes.PilotModes`), watch the geofence
+    (:class:`~fcu.navigation.fence_watch.FenceWatch`), fly the mission
     (:class:`~fcu.navigation.mission.MissionExecution`) and the legs
     (:class:`~fcu.navigation.flight.FlightLegs`).
 
@@ -252,49 +251,6 @@ class Navigator(FollowLegs, MissionExecution):
             else None
         return out
 
-    def set_fence(self, fence: FenceConfig) -> CommandResult:
-        """FENCE_* changed, in flight or not: in force at once (a fence enabled with the
-        vehicle outside it is breached at the next step); disabled, its breach and failsafe
-        are over."""
-        self.config = replace(self.config, fence=fence)
-        if not fence.enable and self._fence_breach is not None:
-            self._fence_breach = None
-            if "fence" in self._failsafes:
-                self.clear_failsafe("fence")
-        return self._ok()
-
-    def set_fence_areas(self, areas: FenceAreas) -> CommandResult:
-        """The uploaded fence (polygons, circles; local NED), enforced with the parameters'
-        fence while FENCE_ENABLE is 1 and FENCE_TYPE has bit 2."""
-        self._fence_areas = areas
-        return self._ok()
-
-    def _watch_fence(self, t: float) -> None:
-        """A breach of the enabled fence triggers FENCE_ACTION once (announced); back
-        inside by FENCE_MARGIN the fence re-arms and its failsafe clears."""
-        fence = self.config.fence
-        pos = self._est_pos_ned
-        if self._fence_breach is not None:
-            if breach(pos, self._home_pos_ned, fence, margin_m=fence.margin_m,
-                      areas=self._fence_areas) is None:
-                self._fence_breach = None
-                self._event("fence", "back inside the fence", "notice")
-                if "fence" in self._failsafes:
-                    self.clear_failsafe("fence")
-            return
-        why = breach(pos, self._home_pos_ned, fence, areas=self._fence_areas)
-        if why is None:
-            return
-        self._fence_breach = why
-        action = FENCE_ACTIONS[fence.action]
-        self._event("fence", f"fence breach: {why}" + (
-            f", FENCE_ACTION {fence.action}: {action.upper()}" if action else
-            " (FENCE_ACTION 0: report only)"), "critical")
-        if action in ("rtl", "land"):
-            self.trigger_failsafe("fence", action)
-        elif action == "brake" and self._mode != Mode.BRAKE:
-            self._enter_mode(Mode.BRAKE, " (fence breach)")
-
     def _cruise_from(self, t: float, out: NavOutput) -> _Cruise | None:
         """What the ticks after ``t`` (s) may skip while nothing happens (:class:`_Cruise`),
         or None when they may not: the leg is on the way along a moving segment, before
@@ -370,7 +326,10 @@ class Navigator(FollowLegs, MissionExecution):
         if self._armed:
             self._disarm(text, "critical")
     def _run_ground(self, t: float) -> None:
-        """Armed on the ground at ``t`` (s): auto-disarm when due (:mod:`.arming`)."""
+        """Armed on the ground at ``t`` (s): a take-off by throttle, or auto-disarm when due
+        (:mod:`.arming`)."""
+        if self._pilot_takeoff(t):
+            return
         if self._ground_since_s is None:
             self._ground_since_s = t
         landed_like = self._landed_after_flight or MODE_TABLE[self._mode].lands

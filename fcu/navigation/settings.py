@@ -8,6 +8,7 @@ from fcu.navigation.fence import FenceConfig
 from fcu.navigation.follow import FollowConfig
 from fcu.navigation.guidance import SpeedLimits
 from fcu.navigation.modes import SUPPORTED_MODE_NUMBERS, Mode
+from fcu.navigation.sticks import PilotConfig
 from flightdata.config import finite, require
 
 TIME_TOL_S = 1e-6  # s, slack when comparing step times with planned times (float sums)
@@ -37,7 +38,8 @@ class NavigatorConfig:
     landed_disarm_delay_s: float = 2.0  # s, auto-disarm after landing
     idle_disarm_delay_s: float = 10.0  # s, auto-disarm armed without take-off; 0 = never
     home_pos_ned: tuple[float, float, float] = (0.0, 0.0, 0.0)  # m, NED
-    armable_modes: tuple[int, ...] = (0, 2, 4, 5)  # STABILIZE, ALT_HOLD, GUIDED, LOITER
+    armable_modes: tuple[int, ...] = (0, 2, 4, 5, 16)  # STABILIZE, ALT_HOLD, GUIDED, LOITER,
+    # POSHOLD
     position_timeout_s: float = 3.0  # s holding attitude and height without a position fix
     # before landing [FS_POS_TIMEOUT]
     auto_options: int = 0  # bitmask [AUTO_OPTIONS]: bit 0 arming in AUTO allowed, bit 1 AUTO
@@ -49,6 +51,8 @@ class NavigatorConfig:
     fence: FenceConfig = field(default_factory=FenceConfig)  # the geofence [FENCE_*]; off by
     # default as in ArduCopter, so no altitude or distance limit applies unless enabled
     follow: FollowConfig = field(default_factory=FollowConfig)  # FOLLOW mode [FOLL_*]
+    pilot: PilotConfig = field(default_factory=PilotConfig)  # what the sticks fly in
+    # STABILIZE, ALT_HOLD, LOITER, POSHOLD [ANGLE_MAX, PILOT_*, LOIT_*, THR_DZ]
 
     def __post_init__(self) -> None:
         supported = SUPPORTED_MODE_NUMBERS
@@ -81,6 +85,8 @@ class NavigatorConfig:
                 "must be a FenceConfig")
         require(isinstance(self.follow, FollowConfig), "follow", self.follow,
                 "must be a FollowConfig")
+        require(isinstance(self.pilot, PilotConfig), "pilot", self.pilot,
+                "must be a PilotConfig")
 
     def allows_arming_in(self, mode: int) -> bool:
         """Arming is allowed in ``mode`` (``armable_modes``; AUTO with AUTO_OPTIONS bit 0)."""

@@ -1,6 +1,7 @@
 """MAVProxy (PyPI ``MAVProxy``), run without a terminal, drives the vehicle process: modes,
 arming and parameters, then a mission loaded from a waypoint file and flown in AUTO, and a
-fence and rally points loaded from QGC WPL files (``fence load``, ``rally load``).
+fence and rally points loaded from QGC WPL files (``fence load``, ``rally load``), and
+ALT_HOLD flown with ``rc`` overrides.
 
 MAVProxy connects out to the vehicle (``--master=udpout:``; the vehicle answers whoever
 writes to it), with its default modules. Its interactive shell reads commands from a pipe:
@@ -21,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from vehicle_harness import Gcs
 
 from fcu.mavlink.geo import ned_to_geo
 from sim.vehicle import DEFAULT_HOME
@@ -259,3 +261,56 @@ def test_mavproxy_loads_a_fence_and_rally_points_and_enables_the_fence(
     finally:
         ended = mp.close()
     assert ended, mp.output[-3000:]
+
+
+def _altitude_m(gcs: Gcs) -> float:
+    """The latest estimated altitude (LOCAL_POSITION_NED), m."""
+    return -float(gcs.messages("LOCAL_POSITION_NED")[-1].z)
+
+
+def _after_simulated(gcs: Gcs, seconds: float) -> float:
+    """Wait (bounded) for ``seconds`` of simulated time (LOCAL_POSITION_NED's clock); the
+    altitude then, m."""
+    start_ms = gcs.messages("LOCAL_POSITION_NED")[-1].time_boot_ms
+    msg = gcs.wait("LOCAL_POSITION_NED",
+                   lambda m: m.time_boot_ms >= start_ms + 1000.0 * seconds, timeout_s=120.0)
+    return -float(msg.z)
+
+
+@pytest.mark.slow
+def test_mavproxy_rc_overrides_fly_alt_hold_and_their_loss_lands(start_vehicle, gcs: Gcs,
+                                                                tmp_path: Path) -> None:
+    """MAVProxy's joystick-free ``rc`` command (RC_CHANNELS_OVERRIDE at 10 Hz): throttle
+    (channel 3) above the dead zone climbs in ALT_HOLD, mid-stick holds the altitude; when
+    MAVProxy goes away with the override in force, the RC failsafe lands the vehicle."""
+    vehicle = start_vehicle("--speedup", "5", outs=[gcs.port])
+    gcs.start_reader()
+    host, port = vehicle.address
+    mp = MavProxy(f"udpout:{host}:{port}", tmp_path)
+    try:
+        mp.expect(r"Detected vehicle 1:1", timeout_s=STARTUP_S)
+        mp.expect(r"Received (\d+) parameters", timeout_s=STARTUP_S)
+        mp.answers("mode GUIDED", r"GUIDED>")
+        mp.answers("arm throttle", r"COMPONENT_ARM_DISARM: ACCEPTED", r"ARMED")
+        mp.answers("takeoff 2", r"NAV_TAKEOFF: ACCEPTED", r"AP: take-off complete at 2.00 m")
+        mp.answers("mode ALT_HOLD", r"ALT_HOLD>")
+        mp.answers("rc 3 1500", r"AP: ALT_HOLD: flown by the sticks")
+        start = _after_simulated(gcs, 2.0)  # settled at mid-stick
+        # mid-stick: held (0.1 m: the altitude loop's error in the light indoor draught)
+        assert _after_simulated(gcs, 10.0) == pytest.approx(start, abs=0.1)
+        mp.send("rc 3 1700")  # 0.7: (0.7 - 0.6) / 0.4 of PILOT_SPEED_UP, 0.125 m/s
+        climbed = _after_simulated(gcs, 10.0) - start
+        # 1.25 m in 10 s, less the wall time MAVProxy takes to send it (10 Hz, its shell)
+        # in simulated seconds: up to 5 s on a loaded machine
+        assert 0.6 < climbed < 1.35, f"climbed {climbed:.2f} m"
+        mp.send("rc 3 1500")
+        held = _after_simulated(gcs, 2.0)  # the climb rate back to 0 at PILOT_ACCEL_Z
+        assert _after_simulated(gcs, 10.0) == pytest.approx(held, abs=0.1)
+        assert not [t for t in gcs.texts() if "Radio failsafe" in t]
+        since = gcs.mark()
+    finally:
+        ended = mp.close()
+    assert ended, mp.output[-3000:]
+    # MAVProxy gone with the override in force: no input for RC_FS_TIMEOUT (1 s wall)
+    assert "LAND" in gcs.wait_text("Radio failsafe: no sticks", since)
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == 9, since=since)  # LAND

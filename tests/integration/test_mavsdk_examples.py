@@ -48,6 +48,7 @@ from mavsdk.asyncio.plugins.geofence import (
     Point,
     Polygon,
 )
+from mavsdk.asyncio.plugins.manual_control import ManualControlAsync
 from mavsdk.asyncio.plugins.mission import (
     MissionAsync,
     MissionError,
@@ -138,7 +139,8 @@ class NativeDrone:
     PLUGINS = {"action": ActionAsync, "telemetry": TelemetryAsync, "param": ParamAsync,
                "mission": MissionAsync, "mission_raw": MissionRawAsync,
                "failure": FailureAsync, "calibration": CalibrationAsync,
-               "geofence": GeofenceAsync, "follow_me": FollowMeAsync}
+               "geofence": GeofenceAsync, "follow_me": FollowMeAsync,
+               "manual_control": ManualControlAsync}
 
     def __init__(self, system: Any) -> None:
         self._plugins = {name: cls(system) for name, cls in self.PLUGINS.items()}
@@ -681,6 +683,97 @@ def test_follow_me_example_grpc_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) ->
             drone, gcs, drone.telemetry.position(), GrpcTargetLocation(0, 0, 0, 0, 0, 0),
             GrpcFollowMeError, lambda e: e._result.result,  # type: ignore[attr-defined]
             GrpcFollowMeResult.Result.NOT_ACTIVE)
+# ------------------------------------------------------------------ manual_control.py
+# The example's test set, [roll, pitch, throttle, yaw] (it sends pitch as x, roll as y).
+MANUAL_INPUTS = ((0, 0, 0.5, 0), (-1, 0, 0.5, 0), (1, 0, 0.5, 0), (0, -1, 0.5, 0),
+                 (0, 1, 0.5, 0), (0, 0, 0.5, -1), (0, 0, 0.5, 1), (0, 0, 1, 0), (0, 0, 0, 0))
+ROUNDS_PER_INPUT = 20  # the example's 0.1 s loop, this many rounds on each input
+MOVED_M = 0.5  # m an input must move the vehicle by: LOIT_SPEED 1 m/s, PILOT_SPEED_UP 0.5 m/s
+# and _DN 0.3 m/s for 2 wall s (20 simulated s at 10x; several even on a loaded machine)
+TURNED_DEG = 10.0  # deg a yaw input must turn it by (PILOT_Y_RATE 45 deg/s)
+POSHOLD, ALT_HOLD, LAND = 16, 2, 9
+
+
+def unwrapped_yaw_deg(attitudes: list[Any]) -> float:
+    """How far the yaw turned over ATTITUDE messages (deg; > 0 clockwise), unwrapped."""
+    yaws = [m.yaw for m in attitudes]
+    return math.degrees(sum(math.remainder(b - a, math.tau) for a, b in zip(
+        yaws, yaws[1:], strict=False)))
+
+
+def flown(gcs: Gcs, since: int) -> tuple[float, float, float, float]:
+    """Since log index ``since``: forward, right (m, in the heading frame at the start), up
+    (m) and the yaw turned (deg), from LOCAL_POSITION_NED and ATTITUDE."""
+    log = gcs.messages()  # every message so far, in order: index = log index
+    start = [m for m in log[:since] if m.get_type() == "LOCAL_POSITION_NED"][-1]
+    end = [m for m in log[since:] if m.get_type() == "LOCAL_POSITION_NED"][-1]
+    attitudes = [m for m in log[since:] if m.get_type() == "ATTITUDE"]
+    heading = attitudes[0].yaw
+    dn, de = end.x - start.x, end.y - start.y
+    forward = dn * math.cos(heading) + de * math.sin(heading)
+    right = -dn * math.sin(heading) + de * math.cos(heading)
+    return forward, right, start.z - end.z, unwrapped_yaw_deg(attitudes)
+
+
+def check_moved(index: int, moved: tuple[float, float, float, float]) -> None:
+    """Input ``index`` of MANUAL_INPUTS moved the vehicle its way (POSHOLD, heading frame)."""
+    forward, right, up, turned = moved
+    roll, pitch, throttle, yaw = MANUAL_INPUTS[index]
+    what = f"input {MANUAL_INPUTS[index]}: forward {forward:.2f} m, right {right:.2f} m, " \
+           f"up {up:.2f} m, turned {turned:.1f} deg"
+    if roll:
+        assert roll * right > MOVED_M and abs(forward) < abs(right), what
+    elif pitch:  # x = pitch: +1 forward, as a stick pushed forward
+        assert pitch * forward > MOVED_M and abs(right) < abs(forward), what
+    elif yaw:
+        assert yaw * turned > TURNED_DEG, what
+    elif throttle != 0.5:
+        assert (1 if throttle > 0.5 else -1) * up > MOVED_M, what
+    else:  # centred sticks: held where it was
+        assert math.hypot(forward, right) < 0.2 and abs(up) < 0.2, what
+
+
+async def manual_control_loop(drone: Any, gcs: Gcs) -> None:
+    """The example from "set the manual control input after arming" on, in the air: input
+    centred, start_position_control (POSHOLD, as MAVSDK maps PX4's POSCTL for ArduCopter),
+    then its loop of inputs 0.1 s apart, each input of its set in turn (the example draws
+    them at random) for ROUNDS_PER_INPUT rounds, each checked to have moved the vehicle its
+    way. Beyond the example: start_altitude_control (ALT_HOLD) climbs on full throttle, and
+    once the inputs stop the RC failsafe lands the vehicle."""
+    await drone.manual_control.set_manual_control_input(0.0, 0.0, 0.5, 0.0)
+    since = gcs.mark()
+    await bounded(drone.manual_control.start_position_control())
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == POSHOLD, since=since)
+    for index, (roll, pitch, throttle, yaw) in enumerate(MANUAL_INPUTS):
+        since = gcs.mark()
+        for _ in range(ROUNDS_PER_INPUT):
+            await drone.manual_control.set_manual_control_input(
+                float(pitch), float(roll), float(throttle), float(yaw))
+            await asyncio.sleep(0.1)
+        check_moved(index, flown(gcs, since))
+    assert not [t for t in gcs.texts() if "failsafe" in t.lower()]
+    since = gcs.mark()
+    await bounded(drone.manual_control.start_altitude_control())
+    for _ in range(ROUNDS_PER_INPUT):
+        await drone.manual_control.set_manual_control_input(0.0, 0.0, 1.0, 0.0)
+        await asyncio.sleep(0.1)
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == ALT_HOLD, since=since)
+    assert flown(gcs, since)[2] > MOVED_M
+    since = gcs.mark()  # the inputs stop: RC_FS_TIMEOUT (1 s wall) later, FS_THR_ENABLE LAND
+    assert "LAND" in gcs.wait_text("Radio failsafe: no sticks", since)
+    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == LAND, since=since)
+
+
+def test_manual_control_example_grpc(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await drone.manual_control.set_manual_control_input(0.0, 0.0, 0.5, 0.0)
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.position(),  # (the example sleeps 5 s)
+                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
+        await manual_control_loop(drone, gcs)
 
     run_grpc(start_vehicle, gcs, steps)
 
@@ -699,6 +792,16 @@ def test_follow_me_example_native_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) 
             TargetLocation(0, 0, 0, 0, 0, 0),
             FollowMeError, lambda e: e.result,  # type: ignore[attr-defined]
             FollowMeResult.NOT_ACTIVE)
+def test_manual_control_example_native(start_vehicle, gcs: Gcs) -> None:
+    async def steps(drone: Any) -> None:
+        await first(drone.telemetry.subscribe_health(),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await drone.manual_control.set_manual_control_input(0.0, 0.0, 0.5, 0.0)
+        await bounded(drone.action.arm())
+        await bounded(drone.action.takeoff())
+        await first(drone.telemetry.subscribe_position(),
+                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
+        await manual_control_loop(drone, gcs)
 
     run_native(start_vehicle, gcs, steps)
 

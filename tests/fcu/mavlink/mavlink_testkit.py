@@ -46,9 +46,9 @@ ORIGIN = GeoPoint(40.8908, 29.3788, 100.0)  # deg, deg, m AMSL (an arbitrary lab
 WAIT_S = 5.0  # s, generous bound for any single answer over loopback
 SUPPORTED_MODES = {Mode.STABILIZE, Mode.ALT_HOLD, Mode.AUTO,
                    Mode.GUIDED, Mode.LOITER, Mode.RTL, Mode.LAND,
-                   Mode.BRAKE}
+                   Mode.POSHOLD, Mode.BRAKE}
 ARMABLE_MODES = {Mode.STABILIZE, Mode.ALT_HOLD, Mode.GUIDED,
-                 Mode.LOITER}
+                 Mode.LOITER, Mode.POSHOLD}
 MISSION_COMMANDS = {M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_LAND,
                     M.MAV_CMD_NAV_RETURN_TO_LAUNCH, M.MAV_CMD_DO_CHANGE_SPEED}
 
@@ -78,6 +78,7 @@ class FakeVehicle:
         self.failsafes: dict[str, str] = {}
         self.prearm_ok = True
         self.reboots = 0
+        self.sticks: Any = None
         self.calls: list[tuple[Any, ...]] = []
         self._events: list[VehicleEvent] = []
         self.param_values: dict[str, float] = {"WPNAV_SPEED": 5.0, "PSC_POSXY_P": 1.0,
@@ -290,6 +291,11 @@ class FakeVehicle:
         if self.armed and self.in_air:
             return self.set_mode(Mode.RTL if action == "rtl" else Mode.LAND)
         self.armed = False
+        return CommandResult.ok()
+
+    def set_sticks(self, sticks: Any) -> CommandResult:
+        self._call("set_sticks", sticks)
+        self.sticks = sticks
         return CommandResult.ok()
 
     def clear_failsafe(self, source: str) -> CommandResult:

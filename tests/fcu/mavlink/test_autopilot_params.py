@@ -62,3 +62,15 @@ def test_position_and_pd_gains_have_a_range_around_their_defaults(param) -> None
     default = param.get(AutopilotConfig())
     assert param.min_value == 0.0
     assert 4.0 * default <= param.max_value <= 100.0 * max(default, 1.0)
+
+
+def test_stick_parameters_in_arducopter_units_reach_the_pilot_settings() -> None:
+    config = AutopilotConfig()
+    values = {name: find_param(name).get(config)  # type: ignore[union-attr]
+              for name in ("ANGLE_MAX", "LOIT_SPEED", "PILOT_SPEED_UP", "THR_DZ")}
+    assert values == {"ANGLE_MAX": 3000.0, "LOIT_SPEED": 100.0, "PILOT_SPEED_UP": 50.0,
+                      "THR_DZ": 100.0}  # cdeg, cm/s, cm/s, of 1000
+    slower = find_param("LOIT_SPEED").set(config, 250.0)  # type: ignore[union-attr]
+    assert slower.navigator.pilot.loiter_speed_m_s == pytest.approx(2.5)
+    with pytest.raises(ValueError, match="angle_max_deg = 90"):
+        find_param("ANGLE_MAX").set(config, 9000.0)  # type: ignore[union-attr]

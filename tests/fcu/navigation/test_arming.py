@@ -54,7 +54,7 @@ def test_every_refusal_of_arm_is_the_prearm_checks_reason() -> None:
     g.nav.load_mission(thesis_mission())
     g.nav.set_mode(Mode.AUTO)
     assert refusal_matches_the_check(g) == ("mode AUTO does not allow arming "
-                                            "(use STABILIZE, ALT_HOLD, GUIDED, LOITER; "
+                                            "(use STABILIZE, ALT_HOLD, GUIDED, LOITER, POSHOLD; "
                                             "AUTO_OPTIONS bit 0 allows AUTO)")
     g.nav.set_mode(Mode.GUIDED)
     g.nav.trigger_failsafe("gcs")

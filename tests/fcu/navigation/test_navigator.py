@@ -111,13 +111,13 @@ def airborne(alt_m: float = 1.0, config: NavigatorConfig | None = None) -> Fligh
 def test_mode_numbers_are_arducopter_custom_modes() -> None:
     assert {m.name: int(m) for m in Mode} == {
         "STABILIZE": 0, "ALT_HOLD": 2, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6,
-        "CIRCLE": 7, "LAND": 9, "BRAKE": 17, "FOLLOW": 23}
+        "CIRCLE": 7, "LAND": 9, "POSHOLD": 16, "BRAKE": 17, "FOLLOW": 23}
     for number, name in ARDUCOPTER_MODE_NAMES.items():
         assert mavutil.mode_mapping_acm[number] == name  # pymavlink's table agrees
 
 
 @pytest.mark.parametrize(("number", "reason"), [
-    (16, "POSHOLD (16) is not supported"), (21, "SMART_RTL (21) is not supported"),
+    (23, "FOLLOW (23) is not supported"), (21, "SMART_RTL (21) is not supported"),
     (1, "ACRO (1) is not supported"), (42, "unknown mode number 42")])
 def test_unsupported_modes_are_refused_with_a_reason(number: int, reason: str) -> None:
     f = flight()
@@ -151,7 +151,7 @@ def test_arming_refusals_name_the_failed_check() -> None:
     f.nav.load_mission(thesis_mission())
     assert f.nav.set_mode(Mode.AUTO).accepted
     assert f.nav.arm().reason == ("mode AUTO does not allow arming "
-                                  "(use STABILIZE, ALT_HOLD, GUIDED, LOITER; "
+                                  "(use STABILIZE, ALT_HOLD, GUIDED, LOITER, POSHOLD; "
                                   "AUTO_OPTIONS bit 0 allows AUTO)")
     f.nav.set_mode(Mode.GUIDED)
     f.nav.trigger_failsafe("gcs")
