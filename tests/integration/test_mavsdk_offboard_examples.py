@@ -157,7 +157,7 @@ def turned_deg(from_deg: float, to_deg: float) -> float:
     return (to_deg - from_deg + 180.0) % 360.0 - 180.0
 
 
-# ------------------------------------------------------------------ offboard_position_velocity_ned.py
+# ------------------------------------------------------- offboard_position_velocity_ned.py
 @BOTH
 def test_offboard_position_velocity_ned_example(native: bool, start_vehicle,
                                                 gcs: Gcs) -> None:

@@ -117,7 +117,7 @@ def test_mode_numbers_are_arducopter_custom_modes() -> None:
 
 
 @pytest.mark.parametrize(("number", "reason"), [
-    (23, "FOLLOW (23) is not supported"), (21, "SMART_RTL (21) is not supported"),
+    (15, "AUTOTUNE (15) is not supported"), (21, "SMART_RTL (21) is not supported"),
     (1, "ACRO (1) is not supported"), (42, "unknown mode number 42")])
 def test_unsupported_modes_are_refused_with_a_reason(number: int, reason: str) -> None:
     f = flight()
