@@ -283,6 +283,8 @@ AUTOPILOT_PARAMS: tuple[ApParam, ...] = (
                1e6),
     _nav_param("CIRCLE_RATE", "circle_rate_deg_s", 1.0, "deg/s",
                "CIRCLE mode turn rate, > 0 clockwise seen from above", -90.0, 90.0),
+    _nav_param("GUID_TIMEOUT", "guided_timeout_s", 1.0, "s", "GUIDED velocity and attitude "
+               "set-points older than this are replaced by a hold", 0.1, 5.0),
     _follow_param("FOLL_ENABLE", "enable", "0 off, 1 on", "FOLLOW mode allowed", 0, 1,
                   integer=True),
     _follow_param("FOLL_SYSID", "sysid", "system id", "FOLLOW: the lead's system id (0: the "

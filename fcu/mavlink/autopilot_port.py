@@ -228,10 +228,17 @@ class AutopilotPort:
                 self._on_target(np.asarray(centre_ned, dtype=float) + np.array([dn, de, 0.0]))
         return result
 
-    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
-        """Velocity set-points are not flown by this autopilot (position legs only)."""
-        return CommandResult.not_supported(
-            "Velocity targets not supported: send a position target")
+    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None,
+                     yaw_rate_rad_s: float | None, heading_frame: bool) -> CommandResult:
+        """SET_POSITION_TARGET_* velocity: the navigator's GUIDED velocity set-point."""
+        return self._nav("Velocity target", self.host.autopilot.navigator.set_velocity(
+            vel_ned, yaw_rad, yaw_rate_rad_s, heading_frame))
+
+    def set_attitude(self, roll_rad: float, pitch_rad: float, yaw_rad: float | None,
+                     thrust: float) -> CommandResult:
+        """SET_ATTITUDE_TARGET: the navigator's GUIDED attitude set-point."""
+        return self._nav("Attitude target", self.host.autopilot.navigator.set_attitude(
+            roll_rad, pitch_rad, yaw_rad, thrust))
 
     def change_speed(self, speed_m_s: float, speed_type: str) -> CommandResult:
         """DO_CHANGE_SPEED for legs planned from now on."""

@@ -69,6 +69,9 @@ INT32_MAX = 0x7FFFFFFF
 _TYPEMASK_POS = 0b000_000_111
 _TYPEMASK_VEL = 0b000_111_000
 _TYPEMASK_YAW_IGNORE = 1024
+_TYPEMASK_YAW_RATE_IGNORE = 2048
+_ATTITUDE_IGNORE = 128  # SET_ATTITUDE_TARGET type_mask: the attitude quaternion unused
+_THROTTLE_IGNORE = 64  # SET_ATTITUDE_TARGET type_mask: the thrust unused
 _MAX_INTERVAL_MSG_ID = 0xFFFF  # MESSAGE_INTERVAL.message_id is a uint16
 # DO_CHANGE_SPEED param1 -> port speed type (airspeed is taken as ground speed: no wind sensor)
 _SPEED_TYPES = ("ground", "ground", "climb", "descent")
@@ -539,7 +542,7 @@ class CommandDispatcher:
 
         return self._set_point(msg, snap, rotate,
                                np.array([msg.x, msg.y, msg.z], dtype=float),
-                               offset=frame != _M.MAV_FRAME_LOCAL_NED)
+                               offset=frame != _M.MAV_FRAME_LOCAL_NED, body=body)
 
     def position_target_global(self, msg: MAVLinkMessage) -> CommandResult:
         """SET_POSITION_TARGET_GLOBAL_INT: as the local form, position in degE7 and m."""
@@ -558,17 +561,22 @@ class CommandDispatcher:
             if isinstance(target, str):
                 return CommandResult.denied(f"Position target: {target}")
             pos = target
-        return self._set_point(msg, snap, lambda v: v, pos, offset=False)
+        return self._set_point(msg, snap, lambda v: v, pos, offset=False, body=False)
 
     def _set_point(self, msg: MAVLinkMessage, snap: VehicleSnapshot,
                    rotate: Callable[[np.ndarray], np.ndarray], pos: np.ndarray,
-                   offset: bool) -> CommandResult:
+                   offset: bool, body: bool) -> CommandResult:
         mask = int(msg.type_mask)
         yaw: float | None = None
+        yaw_rate: float | None = None
         if not mask & _TYPEMASK_YAW_IGNORE:
             yaw = float(msg.yaw)
             if not math.isfinite(yaw):
                 return CommandResult.denied("Position target: yaw is not a number")
+        elif not mask & _TYPEMASK_YAW_RATE_IGNORE:
+            yaw_rate = float(msg.yaw_rate)
+            if not math.isfinite(yaw_rate):
+                return CommandResult.denied("Position target: yaw rate is not a number")
         if not mask & _TYPEMASK_POS:
             if not np.all(np.isfinite(pos)):
                 return CommandResult.denied("Position target: position is not a number")
@@ -586,5 +594,31 @@ class CommandDispatcher:
             if float(np.linalg.norm(vel)) > self._limits.max_speed_m_s:
                 return CommandResult.denied(
                     f"Velocity target above {self._limits.max_speed_m_s:g} m/s")
-            return self._port.set_velocity(rotate(vel), yaw)
+            # a body-frame velocity stays in the heading frame (it turns with the vehicle)
+            return self._port.set_velocity(vel, yaw, yaw_rate, heading_frame=body)
         return CommandResult.not_supported(f"Position target: type_mask 0x{mask:x} not supported")
+
+    def attitude_target(self, msg: MAVLinkMessage) -> CommandResult:
+        """SET_ATTITUDE_TARGET in GUIDED: the quaternion's roll, pitch and yaw, and the thrust
+        (0..1; ignored: 0.5, hold the altitude), which the vehicle reads as ArduCopter does
+        (:meth:`fcu.navigation.guided_setpoints.GuidedSetpoints.set_attitude`). Body rates
+        alone are not flown."""
+        mask = int(msg.type_mask)
+        if mask & _ATTITUDE_IGNORE:
+            return CommandResult.not_supported(
+                "Attitude target: body rates alone not supported: send a quaternion")
+        q = np.array(msg.q, dtype=float)
+        norm = float(np.linalg.norm(q)) if np.all(np.isfinite(q)) else math.nan
+        if not math.isfinite(norm) or abs(norm - 1.0) > 0.1:
+            return CommandResult.denied(f"Attitude target: quaternion {list(q)} is not a "
+                                        "unit quaternion")
+        w, x, y, z = q / norm
+        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        pitch = math.asin(min(max(2.0 * (w * y - z * x), -1.0), 1.0))
+        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        thrust = 0.5
+        if not mask & _THROTTLE_IGNORE:
+            thrust = float(msg.thrust)
+            if not math.isfinite(thrust) or not 0.0 <= thrust <= 1.0:
+                return CommandResult.denied(f"Attitude target: thrust {thrust} outside [0, 1]")
+        return self._port.set_attitude(roll, pitch, yaw, thrust)

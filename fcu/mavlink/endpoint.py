@@ -555,14 +555,17 @@ class MavlinkEndpoint:
             self._outbox.send(reply, addr)
 
     def _setpoint(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        if msg.get_type() == "SET_POSITION_TARGET_LOCAL_NED":
+        kind = msg.get_type()
+        if kind == "SET_POSITION_TARGET_LOCAL_NED":
             result = self._commands.position_target_local(msg)
-        else:
+        elif kind == "SET_POSITION_TARGET_GLOBAL_INT":
             result = self._commands.position_target_global(msg)
+        else:
+            result = self._commands.attitude_target(msg)
         if result.accepted:
             return
         # Set-points stream at 10-50 Hz: say the same refusal at most once per wall second.
-        text = result.reason or "Position target refused"
+        text = result.reason or "Set-point refused"
         last_s, last_text = self._last_setpoint_status
         if text != last_text or self._wall_s - last_s >= _SETPOINT_STATUS_INTERVAL_S:
             self._last_setpoint_status = (self._wall_s, text)
@@ -586,6 +589,7 @@ class MavlinkEndpoint:
         "MISSION_SET_CURRENT": _mission_set_current,
         "SET_POSITION_TARGET_LOCAL_NED": _setpoint,
         "SET_POSITION_TARGET_GLOBAL_INT": _setpoint,
+        "SET_ATTITUDE_TARGET": _setpoint,
         "FILE_TRANSFER_PROTOCOL": _ftp,
         "SETUP_SIGNING": _setup_signing,
         "FOLLOW_TARGET": _lead_report,

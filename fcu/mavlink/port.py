@@ -527,8 +527,16 @@ class VehiclePort(ParamProvider, Protocol):
         """Fly to ``pos_ned`` (m, NED about the origin), facing ``yaw_rad`` if given."""
         ...
 
-    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
-        """Track ``vel_ned`` (m/s) in GUIDED; may answer ``CommandResult.not_supported``."""
+    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None,
+                     yaw_rate_rad_s: float | None, heading_frame: bool) -> CommandResult:
+        """Fly at ``vel_ned`` (m/s, NED; ``heading_frame``: forward, right, down of the
+        heading) in GUIDED, facing ``yaw_rad`` or turning at ``yaw_rate_rad_s`` if given."""
+        ...
+
+    def set_attitude(self, roll_rad: float, pitch_rad: float, yaw_rad: float | None,
+                     thrust: float) -> CommandResult:
+        """Lean to (``roll_rad``, ``pitch_rad``), face ``yaw_rad`` (None: as now) at
+        ``thrust`` (0..1, 0.5 holds the altitude) in GUIDED (SET_ATTITUDE_TARGET)."""
         ...
 
     def orbit(self, centre_ned: np.ndarray | None, radius_m: float | None,

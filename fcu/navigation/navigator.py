@@ -39,6 +39,7 @@ from fcu.navigation.fence import FenceAreas, target_problem
 from fcu.navigation.fence_watch import FenceWatch
 from fcu.navigation.follow_mode import FollowLegs
 from fcu.navigation.guidance import Reference, wrap_pi
+from fcu.navigation.guided_setpoints import GuidedSetpoints
 from fcu.navigation.landing import LandedState
 from fcu.navigation.legs import Leg
 from fcu.navigation.mission import (
@@ -54,7 +55,6 @@ from fcu.navigation.modes import (
     Mode,
     mode_name,
 )
-from fcu.navigation.pilot_modes import PilotModes
 from fcu.navigation.settings import AUTO_TAKEOFF_WITHOUT_START, TIME_TOL_S, NavigatorConfig
 from flightdata.config import finite
 from flightdata.mission import MissionItem
@@ -123,10 +123,12 @@ class _Cruise(NamedTuple):
     fields: dict[str, object]  # the output's fields, reference included (replaced)
 
 
-class Navigator(FollowLegs, PilotModes, FenceWatch, MissionExecution):
+class Navigator(FollowLegs, GuidedSetpoints, FenceWatch, MissionExecution):
     """Flight-mode state machine, arming, take-off/landing and mission execution.
 
-    The mode state machine and the commands live here; the layers below fly the sticks
+    The mode state machine and the commands live here; the layers below follow a lead
+    (:class:`~fcu.navigation.follow_mode.FollowLegs`), fly GUIDED's velocity and attitude
+    set-points (:class:`~fcu.navigation.guided_setpoints.GuidedSetpoints`) and the sticks
     (:class:`~fcu.navigation.pilot_modes.PilotModes`), watch the geofence
     (:class:`~fcu.navigation.fence_watch.FenceWatch`), fly the mission
     (:class:`~fcu.navigation.mission.MissionExecution`) and the legs
@@ -516,7 +518,9 @@ class Navigator(FollowLegs, PilotModes, FenceWatch, MissionExecution):
               ) -> CommandResult:
         """Fly to ``pos_ned`` (m, NED) along a cubic (SET_POSITION_TARGET_LOCAL_NED).
 
-        Needs GUIDED, armed and flying. ``yaw_rad`` (rad) None keeps the current yaw. A new
+        Needs GUIDED and armed; on the ground it takes off along the leg
+        (:mod:`fcu.navigation.guided_setpoints`). ``yaw_rad`` (rad) None keeps the current
+        yaw. A new
         target replans from the current reference point, at rest (the velocity reference
         steps to zero); repeating the current target (a GCS streaming its setpoint) changes
         nothing.
@@ -530,11 +534,11 @@ class Navigator(FollowLegs, PilotModes, FenceWatch, MissionExecution):
             return self._refuse("go-to", f"needs GUIDED (mode is {self._mode.name})")
         if not self._armed:
             return self._refuse("go-to", "not armed")
-        if not self._flying:
-            return self._refuse("go-to", "not flying: take off first")
         t = self._now()
+        if not self._flying:  # a position set-point from the ground takes off (as PX4's)
+            return self._goto_from_ground(t, target, yaw_rad)
         leg = self._leg
-        if leg is not None and leg.kind == "move" and leg.item_index is None and \
+        if leg is not None and leg.kind in ("move", "takeoff") and leg.item_index is None and \
                 leg.target_pos_ned is not None and leg.trajectory is not None and \
                 float(np.max(np.abs(leg.target_pos_ned - target))) < 1e-6 and (
                     yaw_rad is None or abs(wrap_pi(

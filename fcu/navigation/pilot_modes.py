@@ -31,7 +31,7 @@ from fcu.navigation.events import CommandResult
 from fcu.navigation.flight import FlightLegs
 from fcu.navigation.legs import Leg
 from fcu.navigation.modes import MODE_TABLE, Mode
-from fcu.navigation.pilot_leg import PilotLeg
+from fcu.navigation.pilot_leg import Demand, PilotLaw, PilotLeg
 from fcu.navigation.sticks import Sticks
 
 __all__ = ["PilotModes"]
@@ -71,8 +71,11 @@ class PilotModes(FlightLegs):
             return "takeoff"
         return "land" if pilot.grounded and not pilot.climbing else kind
 
-    def _pilot_leg(self, t: float, *, from_ground: bool = False) -> Leg:
-        law = MODE_TABLE[self._mode].pilot
+    def _pilot_leg(self, t: float, *, from_ground: bool = False,
+                   law: PilotLaw | None = None) -> Leg:
+        """A pilot leg flying ``law`` (None: the mode's) from the reference flown so far, or
+        from the estimate at rest when ``from_ground``."""
+        law = MODE_TABLE[self._mode].pilot if law is None else law
         assert law is not None
         if from_ground:
             pos, vel, yaw = self._est_pos_ned, np.zeros(3), self._est_yaw_rad
@@ -103,7 +106,12 @@ class PilotModes(FlightLegs):
             pilot = leg.pilot
             assert pilot is not None
             self._event("mode", f"{self._mode.name}: flown by the sticks")
-        pilot.advance(t, sticks, self._est_pos_ned, self._est_vel_ned)
+        self._fly_pilot(t, leg, pilot, Demand.of_sticks(sticks, self.config.pilot))
+
+    def _fly_pilot(self, t: float, leg: Leg, pilot: PilotLeg, demand: Demand) -> None:
+        """Advance the pilot leg ``leg`` to ``t`` (s) under ``demand``: its targets, whether
+        it still lifts off, and landing detection unless it climbs."""
+        pilot.advance(t, demand, self._est_pos_ned, self._est_vel_ned)
         pilot.grounded = self._looks_on_ground()
         if pilot.from_ground and not pilot.grounded:
             pilot.from_ground = False
@@ -120,13 +128,20 @@ class PilotModes(FlightLegs):
             return False
         if sticks.throttle <= 0.5 + self.config.pilot.throttle_deadzone:
             return False
-        self._leg = self._pilot_leg(t, from_ground=True)
+        self._pilot_lift_off(t, None, Demand.of_sticks(sticks, self.config.pilot),
+                             f"take-off by throttle in {self._mode.name}")
+        return True
+
+    def _pilot_lift_off(self, t: float, law: PilotLaw | None, demand: Demand, text: str
+                        ) -> None:
+        """Armed on the ground at ``t`` (s): take off on a pilot leg flying ``law`` (None:
+        the mode's) under ``demand``; ``text`` announces it."""
+        self._leg = self._pilot_leg(t, from_ground=True, law=law)
         self._flying = True
         self._landed_after_flight = False
         self._ground_since_s = None
         self._landing.reset()
-        self._event("takeoff", f"take-off by throttle in {self._mode.name}")
+        self._event("takeoff", text)
         assert self._leg.pilot is not None
-        self._leg.pilot.advance(t, sticks, self._est_pos_ned, self._est_vel_ned)
-        return True
+        self._leg.pilot.advance(t, demand, self._est_pos_ned, self._est_vel_ned)
 

@@ -48,6 +48,8 @@ class NavigatorConfig:
     circle_radius_m: float = 10.0  # m, CIRCLE mode's radius [CIRCLE_RADIUS, cm]
     circle_rate_deg_s: float = 20.0  # deg/s, CIRCLE's turn rate, > 0 clockwise seen from
     # above, < 0 counter-clockwise [CIRCLE_RATE]
+    guided_timeout_s: float = 3.0  # s, a GUIDED velocity or attitude set-point older than
+    # this is replaced by a hold [GUID_TIMEOUT]
     fence: FenceConfig = field(default_factory=FenceConfig)  # the geofence [FENCE_*]; off by
     # default as in ArduCopter, so no altitude or distance limit applies unless enabled
     follow: FollowConfig = field(default_factory=FollowConfig)  # FOLLOW mode [FOLL_*]
@@ -79,6 +81,8 @@ class NavigatorConfig:
                 self.auto_options, f"must be a bitmask in 0..{AUTO_OPTIONS_MAX}")
         require(finite(self.circle_radius_m) and self.circle_radius_m >= 0,
                 "circle_radius_m", self.circle_radius_m, "must be a finite number >= 0")
+        require(finite(self.guided_timeout_s) and self.guided_timeout_s > 0.0,
+                "guided_timeout_s", self.guided_timeout_s, "must be a finite number > 0 s")
         require(finite(self.circle_rate_deg_s) and abs(self.circle_rate_deg_s) <= 90.0,
                 "circle_rate_deg_s", self.circle_rate_deg_s, "must be within [-90, 90] deg/s")
         require(isinstance(self.fence, FenceConfig), "fence", self.fence,

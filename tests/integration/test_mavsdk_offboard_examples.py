@@ -25,6 +25,7 @@ from vehicle_harness import Gcs
 NativeDrone.PLUGINS.setdefault("offboard", OffboardAsync)
 
 MOVING_M_S = 0.3  # m/s: clearly moving the way asked (the velocity estimate's noise is ~cm/s)
+SINKING_M_S = 0.1  # m/s: clearly descending (WPNAV_SPEED_DN is 0.2 m/s)
 ROLLED_DEG = 15.0  # deg: leaning the way a 30 deg roll setpoint asks
 
 
@@ -81,7 +82,7 @@ def test_offboard_position_ned_example(native: bool, start_vehicle, gcs: Gcs) ->
         await bounded(offboard.set_position_ned(sp.PositionNedYaw(5.0, 10.0, -5.0, 90.0)))
         await api.until("position_velocity_ned", lambda pv: pv.position.east_m > 1.0)
         await bounded(offboard.set_position_ned(sp.PositionNedYaw(0.0, 10.0, 0.0, 180.0)))
-        await api.velocity(lambda v: v.down_m_s > MOVING_M_S)  # on its way down
+        await api.velocity(lambda v: v.down_m_s > SINKING_M_S)  # on its way down
         await bounded(offboard.stop())
 
     run(native, start_vehicle, gcs, steps)
@@ -173,7 +174,7 @@ def test_offboard_position_velocity_ned_example(native: bool, start_vehicle,
             sp.PositionNedYaw(50.0, 0.0, -10.0, 0.0), sp.VelocityNedYaw(1.0, 0.0, 0.0, 0.0)))
         await api.until("position_velocity_ned", lambda pv: pv.position.north_m > 2.0)
         await bounded(action.land())
-        await api.velocity(lambda v: v.down_m_s > MOVING_M_S)  # landing
+        await api.velocity(lambda v: v.down_m_s > SINKING_M_S)  # landing
         # (the example then stops offboard: LAND is no longer offboard, MAVSDK says so or not)
         try:
             await bounded(offboard.stop())
@@ -191,8 +192,9 @@ def test_offboard_attitude_example(native: bool, start_vehicle, gcs: Gcs) -> Non
         await api.ready()
         await bounded(offboard.set_attitude(sp.Attitude(0.0, 0.0, 0.0, 0.0)))
         await bounded(offboard.start())
-        await bounded(offboard.set_attitude(sp.Attitude(0.0, 0.0, 0.0, 0.7)))  # "Go up"
-        await api.velocity(lambda v: v.down_m_s < -MOVING_M_S)
+        # "Go up at 70% thrust": as ArduCopter reads it, a climb at 0.4 WPNAV_SPEED_UP
+        await bounded(offboard.set_attitude(sp.Attitude(0.0, 0.0, 0.0, 0.7)))
+        await api.until("position_velocity_ned", lambda pv: pv.position.down_m < -0.3)
         await bounded(offboard.set_attitude(sp.Attitude(30.0, 0.0, 0.0, 0.6)))
         await api.until("attitude_euler", lambda a: a.roll_deg > ROLLED_DEG)
         await bounded(offboard.set_attitude(sp.Attitude(-30.0, 0.0, 0.0, 0.6)))

@@ -228,9 +228,16 @@ class FakeVehicle:
             self.yaw_rad = yaw_rad
         return CommandResult.ok()
 
-    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None) -> CommandResult:
-        self._call("set_velocity", np.asarray(vel_ned, dtype=float).copy(), yaw_rad)
-        return CommandResult.not_supported("Velocity control not supported")
+    def set_velocity(self, vel_ned: np.ndarray, yaw_rad: float | None,
+                     yaw_rate_rad_s: float | None, heading_frame: bool) -> CommandResult:
+        self._call("set_velocity", np.asarray(vel_ned, dtype=float).copy(), yaw_rad,
+                   yaw_rate_rad_s, heading_frame)
+        return CommandResult.ok()
+
+    def set_attitude(self, roll_rad: float, pitch_rad: float, yaw_rad: float | None,
+                     thrust: float) -> CommandResult:
+        self._call("set_attitude", roll_rad, pitch_rad, yaw_rad, thrust)
+        return CommandResult.ok()
 
     def change_speed(self, speed_m_s: float, speed_type: str) -> CommandResult:
         self._call("change_speed", speed_m_s, speed_type)

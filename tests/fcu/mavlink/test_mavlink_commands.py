@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -29,6 +30,15 @@ def fly() -> Iterator[tuple[Gcs, VehicleThread]]:
 def calls(vehicle: VehicleThread, name: str) -> list[tuple[Any, ...]]:
     with vehicle.lock:
         return [c for c in vehicle.vehicle.calls if c[0] == name]
+
+
+def called(vehicle: VehicleThread, name: str, n: int) -> tuple[Any, ...]:
+    """The ``n``-th call (1-based) of ``name``, waited for: a set-point gets no answer."""
+    deadline = time.monotonic() + WAIT_S
+    while len(made := calls(vehicle, name)) < n:
+        assert time.monotonic() < deadline, f"no call {n} of {name}"
+        time.sleep(0.01)
+    return made[n - 1]
 
 
 # (command, params, result) from a fresh vehicle: disarmed, STABILIZE, home set, no mission.
@@ -292,18 +302,45 @@ def test_set_position_target_local_ned(fly: tuple[Gcs, VehicleThread]) -> None:
     goto = calls(vehicle, "goto")[-1]
     assert_allclose(goto[1], [1.0, 2.0, -3.0])
     assert goto[2] == pytest.approx(0.5)
-    # velocity only (position ignored): handed to set_velocity, which this vehicle refuses
-    use_vel = 0b0000_1101_1100_0111
-    gcs.mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, use_vel,
-                                               0, 0, 0, 1.0, 0, 0, 0, 0, 0, 0, 0)
-    assert gcs.text(lambda t: "Velocity control not supported" in t) is not None
-    assert_allclose(calls(vehicle, "set_velocity")[-1][1], [1.0, 0.0, 0.0])
+    # velocity only (position ignored), with a yaw rate: handed to set_velocity
+    use_vel_rate = 0b0000_0101_1100_0111
+    gcs.mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, use_vel_rate,
+                                               0, 0, 0, 1.0, 0, 0, 0, 0, 0, 0, 0.25)
+    _, vel, yaw, yaw_rate, heading_frame = called(vehicle, "set_velocity", 1)
+    assert_allclose(vel, [1.0, 0.0, 0.0])
+    assert (yaw, yaw_rate, heading_frame) == (None, pytest.approx(0.25), False)
+    # in the body frame: kept in the heading frame (it turns with the vehicle)
+    gcs.mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_BODY_NED, use_vel_rate,
+                                               0, 0, 0, 0, 2.0, 0, 0, 0, 0, 0, 0)
+    _, vel, _, _, heading_frame = called(vehicle, "set_velocity", 2)
+    assert_allclose(vel, [0.0, 2.0, 0.0])
+    assert heading_frame
     # NaN position: refused without reaching the vehicle
     n_goto = len(calls(vehicle, "goto"))
     gcs.mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, use_pos_yaw,
                                                NAN, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
     assert gcs.text(lambda t: "not a number" in t) is not None
     assert len(calls(vehicle, "goto")) == n_goto
+
+
+def test_set_attitude_target_hands_euler_angles_and_thrust_over(
+        fly: tuple[Gcs, VehicleThread]) -> None:
+    gcs, vehicle = fly
+    roll, yaw = math.radians(30.0), math.radians(90.0)
+    q = [math.cos(yaw / 2) * math.cos(roll / 2), math.cos(yaw / 2) * math.sin(roll / 2),
+         math.sin(yaw / 2) * math.sin(roll / 2), math.sin(yaw / 2) * math.cos(roll / 2)]
+    attitude_and_thrust = 0b0000_0111  # body rates ignored
+    gcs.mav.set_attitude_target_send(0, 1, 1, attitude_and_thrust, q, 0, 0, 0, 0.7)
+    _, roll_rad, pitch_rad, yaw_rad, thrust = called(vehicle, "set_attitude", 1)
+    assert (roll_rad, pitch_rad, yaw_rad) == (pytest.approx(roll), pytest.approx(0.0, abs=1e-9),
+                                              pytest.approx(yaw))
+    assert thrust == pytest.approx(0.7)
+    # body rates alone, a thrust outside [0, 1]: refused, said, not handed over
+    gcs.mav.set_attitude_target_send(0, 1, 1, 128, [1, 0, 0, 0], 0.1, 0, 0, 0.5)
+    assert gcs.text(lambda t: "body rates alone not supported" in t) is not None
+    gcs.mav.set_attitude_target_send(0, 1, 1, attitude_and_thrust, [1, 0, 0, 0], 0, 0, 0, 1.5)
+    assert gcs.text(lambda t: "thrust 1.5 outside [0, 1]" in t) is not None
+    assert len(calls(vehicle, "set_attitude")) == 1
 
 
 def test_set_position_target_body_offset(fly: tuple[Gcs, VehicleThread]) -> None:

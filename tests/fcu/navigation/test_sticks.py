@@ -11,7 +11,7 @@ import pytest
 
 from fcu.control.position import PositionController, PositionGains
 from fcu.model import VehicleModel
-from fcu.navigation.pilot_leg import GRAVITY_M_S2, LEASH_XY_M, LEASH_Z_M, PilotLeg
+from fcu.navigation.pilot_leg import GRAVITY_M_S2, LEASH_XY_M, LEASH_Z_M, Demand, PilotLeg
 from fcu.navigation.sticks import (
     CENTRED,
     PilotConfig,
@@ -94,7 +94,7 @@ def run(leg: PilotLeg, sticks: Sticks, seconds: float, pos: np.ndarray | None = 
         t += DT_S
         ref = leg.reference
         est = ref.pos_ned if pos is None else pos
-        new = leg.advance(t, sticks, est, ref.vel_ned)
+        new = leg.advance(t, Demand.of_sticks(sticks, CFG), est, ref.vel_ned)
         out.append((new.pos_ned, new.vel_ned, new.acc_ned))
     return out
 
@@ -103,7 +103,7 @@ def test_stabilize_reference_is_open_loop_and_inverts_to_the_stick_angles() -> N
     leg = PilotLeg("stabilize", CFG, 0.0, np.array([1.0, 2.0, -3.0]), np.zeros(3), 0.7)
     sticks = Sticks(0.5, -0.8, 0.7, 0.0)
     est_pos, est_vel = np.array([1.2, 2.1, -3.3]), np.array([0.3, -0.1, 0.2])
-    ref = leg.advance(DT_S, sticks, est_pos, est_vel)
+    ref = leg.advance(DT_S, Demand.of_sticks(sticks, CFG), est_pos, est_vel)
     np.testing.assert_array_equal(ref.pos_ned, est_pos)  # no feedback: P, D terms zero
     np.testing.assert_array_equal(ref.vel_ned, est_vel)
     up = GRAVITY_M_S2 * collective_of_hover(0.7, CFG)
