@@ -39,10 +39,10 @@ class MissionUploader(Link):
         """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0); with
         ``mission_type`` FENCE or RALLY, a geofence or rally points (seq 0..n-1, no home).
 
-        Over a lossy link: when no request comes for a while (:meth:`_retry_wait_s`, 1 s at
-        most), the upload is nudged (MISSION_COUNT
-        again before the first request; else the item after the last one asked for, which
-        the vehicle either wanted or answers by asking again for the one it misses; after
+        Over a lossy link: when no request comes for a while
+        (:meth:`gcs.round_trips.RoundTrips.retry_wait_s`, 1 s at most), the upload is nudged
+        (MISSION_COUNT again before the first request; else the item after the last one asked
+        for, which the vehicle either wanted or answers by asking again for the one it misses; after
         the last item, that item again, which a vehicle that finished answers with its
         MISSION_ACK again); an upload the vehicle cancelled (it timed out) or that made no
         progress for :data:`_MISSION_STALL_S` starts over, up to :data:`_MISSION_UPLOADS`
@@ -89,7 +89,7 @@ class MissionUploader(Link):
         count = len(wire)
         home_first = mission_type == _M.MAV_MISSION_TYPE_MISSION
         for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST", "STATUSTEXT"):
-            self._take_all(kind, lambda m: True)
+            self.inbox.take_all(kind, lambda m: True)
 
         # time.monotonic() of the last send and of the last progress; whether the last send
         # was a nudge (a round trip is measured only from an answer to a request, never from a
@@ -114,7 +114,7 @@ class MissionUploader(Link):
         while (now := time.monotonic()) < deadline and now - progress_at < _MISSION_STALL_S:
             reply = self._wait_reply(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
                                      lambda m: int(getattr(m, "mission_type", 0)) == mission_type,
-                                     self._retry_wait_s(_MISSION_NUDGE_S))
+                                     self.round_trips.retry_wait_s(_MISSION_NUDGE_S))
             if reply is None:
                 nudged = True
                 if last_seq < 0:
@@ -135,7 +135,7 @@ class MissionUploader(Link):
             if seq > last_seq:
                 progress_at = time.monotonic()
                 if not nudged:
-                    self._note_round_trip(sent_at)
+                    self.round_trips.note(sent_at)
             last_seq = seq
             send_item(seq)
             nudged = False

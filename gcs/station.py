@@ -115,11 +115,11 @@ class GroundStation(FaultInjector, MissionUploader):
         sysid, compid = self.target
 
         def in_force() -> bool:
-            reply = self._take("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
+            reply = self.inbox.take("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
             return reply is not None and int(reply.interval_us) == interval_us
 
         def read_back() -> None:
-            self._take_all("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
+            self.inbox.take_all("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
             self.send(_M.MAVLink_command_long_message(
                 sysid, compid, _M.MAV_CMD_GET_MESSAGE_INTERVAL, 0, float(msg_id), 0, 0, 0, 0,
                 0, 0))
@@ -138,8 +138,8 @@ class GroundStation(FaultInjector, MissionUploader):
 
         Every stream not yet confirmed gets a SET_MESSAGE_INTERVAL and a
         GET_MESSAGE_INTERVAL per round (rounds of :data:`_STREAM_ROUNDS_S` at most, shorter on
-        a fast link: :meth:`_retry_wait_s`; ~18 s in all); a stream is confirmed when the
-        interval read back is the one asked for. The COMMAND_ACKs cannot
+        a fast link: :meth:`gcs.round_trips.RoundTrips.retry_wait_s`; ~18 s in all); a stream
+        is confirmed when the interval read back is the one asked for. The COMMAND_ACKs cannot
         tell which stream they answer, so the read-back is the proof. A stream never
         confirmed (refused, or a link too bad) keeps the vehicle's rate; the table is then
         computed from fewer samples, and an event says so.
@@ -154,7 +154,7 @@ class GroundStation(FaultInjector, MissionUploader):
         wanted = {getattr(_M, f"MAVLINK_MSG_ID_{name}"): (name, round(1e6 / rate))
                   for name, rate in rates.items()}
         pending = dict(wanted)
-        self._take_all("MESSAGE_INTERVAL", lambda m: True)
+        self.inbox.take_all("MESSAGE_INTERVAL", lambda m: True)
         give_up = time.monotonic() + sum(_STREAM_ROUNDS_S)
         rounds = 0
         while pending and time.monotonic() < give_up:
@@ -164,7 +164,7 @@ class GroundStation(FaultInjector, MissionUploader):
                     self.send(_M.MAVLink_command_long_message(
                         sysid, compid, command, 0, float(p1), float(p2), 0, 0, 0, 0, 0))
             sent_at = time.monotonic()
-            deadline = sent_at + self._retry_wait_s(
+            deadline = sent_at + self.round_trips.retry_wait_s(
                 _STREAM_ROUNDS_S[min(rounds, len(_STREAM_ROUNDS_S) - 1)])
             rounds += 1
             while pending and time.monotonic() < deadline:
@@ -174,8 +174,8 @@ class GroundStation(FaultInjector, MissionUploader):
                     if int(reply.interval_us) == pending[msg_id][1]:
                         del pending[msg_id]
                         if rounds == 1:  # (later, the answer may be to an earlier round)
-                            self._note_round_trip(sent_at)
-            self._take_all("COMMAND_ACK", lambda m: int(m.command) in (
+                            self.round_trips.note(sent_at)
+            self.inbox.take_all("COMMAND_ACK", lambda m: int(m.command) in (
                 _M.MAV_CMD_SET_MESSAGE_INTERVAL, _M.MAV_CMD_GET_MESSAGE_INTERVAL))
         self.log("STREAM", ", ".join(f"{n} {r:g} Hz" for n, r in rates.items()))
         missing = [name for name, _ in pending.values()]
@@ -210,13 +210,13 @@ class GroundStation(FaultInjector, MissionUploader):
         last_request = last_probe = -math.inf
         self.prearm_reason = None
         while time.monotonic() < deadline:
-            status = self._take("SYS_STATUS", lambda m: True)
+            status = self.inbox.take("SYS_STATUS", lambda m: True)
             if status is not None:
-                self._take_all("SYS_STATUS", lambda m: True)
+                self.inbox.take_all("SYS_STATUS", lambda m: True)
                 if int(status.onboard_control_sensors_health) & bit:
                     self.prearm_reason = None
                     return True
-            self._take_all("COMMAND_ACK",
+            self.inbox.take_all("COMMAND_ACK",
                            lambda m: int(m.command) == _M.MAV_CMD_RUN_PREARM_CHECKS)
             for text in self._take_status_texts():
                 if text.startswith("PreArm:"):
@@ -247,7 +247,7 @@ class GroundStation(FaultInjector, MissionUploader):
     def _take_status_texts(self) -> list[str]:
         """The STATUSTEXTs waiting in the inbox, chunks put back together."""
         texts = []
-        while (msg := self._take("STATUSTEXT", lambda m: True)) is not None:
+        while (msg := self.inbox.take("STATUSTEXT", lambda m: True)) is not None:
             text = mavlink_text(msg.text)
             chunk_id = int(getattr(msg, "id", 0))
             if chunk_id == 0:
