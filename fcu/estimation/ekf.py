@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from fcu.estimation import screening
+from fcu.estimation.channels import Channel, ChannelSet
 from fcu.estimation.ekf_model import (
     TRANSITION_SCRATCH,
     discrete_transition_into,
@@ -39,8 +40,6 @@ from fcu.estimation.ekf_model import (
     transition_pattern_into,
 )
 from fcu.estimation.estimator import (
-    Channel,
-    ChannelSet,
     InitialUncertainty,
     Innovation,
     ProcessNoiseDensities,
@@ -251,7 +250,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         diagonal, the ground plane (:func:`~fcu.estimation.estimator.on_ground_at`) and the
         longest prediction step (s), packed (offsets ``_C_*``).
     tables, layout : ndarrays
-        The channels (:class:`~fcu.estimation.estimator.ChannelSet`).
+        The channels (:class:`~fcu.estimation.channels.ChannelSet`).
     u : ndarray, shape (4,)
         PWM held since the previous tick.
     meas, excluded, reject

@@ -19,17 +19,11 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from fcu.estimation.channels import I_LAYOUT, I_LAYOUT_COLS, I_N_CH, I_TABLES_AT, I_TABLES_SIZE
 from fcu.estimation.ekf import SC_MEAS as E_MEAS
 from fcu.estimation.ekf import ExtendedKalmanEstimator, ekf_tick
 from fcu.estimation.ekf import buffer_views as ekf_buffer_views
-from fcu.estimation.estimator import (
-    I_LAYOUT,
-    I_LAYOUT_COLS,
-    I_N_CH,
-    I_TABLES_AT,
-    I_TABLES_SIZE,
-    pwm_array,
-)
+from fcu.estimation.estimator import pwm_array
 from fcu.estimation.screening import MEAS_WIDTH, ROW1
 from fcu.estimation.state import STATE_DIM, FloatArray, GroupedSamples, StateEstimate
 from fcu.estimation.tskf import SC_MEAS as T_MEAS
@@ -47,7 +41,7 @@ drop_stale_kernels(__file__, kernel_views.__file__)
 @refcount_free_kernel
 def gather_into(meas: FloatArray, flat: FloatArray, gather: np.ndarray) -> None:
     """A filter's measurement table from grouped samples, ``flat[gather]``
-    (:meth:`fcu.estimation.estimator.ChannelSet.gather`), written into ``meas``
+    (:meth:`fcu.estimation.channels.ChannelSet.gather`), written into ``meas``
     (n_ch, MEAS_WIDTH)."""
     for c in range(gather.shape[0]):
         for k in range(MEAS_WIDTH):
@@ -59,9 +53,9 @@ def channel_views(buf: FloatArray, ints: np.ndarray, excluded_bits: int
                   ) -> tuple[FloatArray, np.ndarray, np.ndarray, np.ndarray, int]:
     """A filter's channel tables for a tick: ``tables`` (a view of its float buffer ``buf``),
     ``layout``, the gather index and the exclusions (views of ``ints``,
-    :meth:`~fcu.estimation.estimator.ChannelSet.kernel_ints`, offsets ``I_*``), the last
+    :meth:`~fcu.estimation.channels.ChannelSet.kernel_ints`, offsets ``I_*``), the last
     written from ``excluded_bits`` (channel ``c`` excluded: bit ``1 << c``), and the tick
-    output's size (:attr:`~fcu.estimation.estimator.ChannelSet.tick_size`)."""
+    output's size (:attr:`~fcu.estimation.channels.ChannelSet.tick_size`)."""
     n_ch, cols = ints[I_N_CH], ints[I_LAYOUT_COLS]
     at = ints[I_TABLES_AT]
     tables = buf[at:at + ints[I_TABLES_SIZE]]
@@ -97,14 +91,14 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     out : ndarray, shape (e_size + t_size + 4,)
         Written: the EKF's tick output (its estimate and screening, ``e_size`` entries), the
         TSKF's (``t_size``), then the TSKF's new ``gamma_hat`` (each filter's size:
-        :attr:`~fcu.estimation.estimator.ChannelSet.tick_size`).
+        :attr:`~fcu.estimation.channels.ChannelSet.tick_size`).
     t_buf, e_buf : ndarrays
         Each filter's float buffer: its workspace, scratch, model or constants (and the
         EKF's ``s_stack``) at the offsets ``B_*`` of :mod:`~fcu.estimation.tskf` and
         :mod:`~fcu.estimation.ekf`, then the channel tables.
     t_ints, e_ints : ndarrays of int
         The current channels' integer tables for this slot layout
-        (:meth:`~fcu.estimation.estimator.ChannelSet.kernel_ints`).
+        (:meth:`~fcu.estimation.channels.ChannelSet.kernel_ints`).
     t_excluded, e_excluded : int
         Each filter's excluded channels, as bits (:func:`channel_views`).
     t_gamma : ndarray, shape (4,)

@@ -41,9 +41,8 @@ from numba import njit
 from numpy.typing import ArrayLike
 
 from fcu.estimation import screening
+from fcu.estimation.channels import Channel, ChannelSet
 from fcu.estimation.estimator import (
-    Channel,
-    ChannelSet,
     InitialUncertainty,
     Innovation,
     SensorNoise,
