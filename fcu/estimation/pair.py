@@ -4,8 +4,8 @@ The autopilot flying the EKF runs a TSKF beside it for the per-motor effectivene
 (:mod:`fcu.autopilot`). Both take the same tick's averaged samples
 (:func:`fcu.estimation.state.group_samples`), PWM, exclusions and rejection flag; :func:`step_pair`
 gives each its measurement table from the grouped samples and runs both tick kernels
-(:func:`fcu.estimation.tskf.tskf_tick`, then :func:`fcu.estimation.ekf.ekf_tick`) in one call,
-the same arithmetic as :meth:`TwoStageKalmanFilter.advance_grouped` followed by
+(:func:`fcu.estimation.tskf_kernel.tskf_tick`, then :func:`fcu.estimation.ekf.ekf_tick`) in one
+call, the same arithmetic as :meth:`TwoStageKalmanFilter.advance_grouped` followed by
 :meth:`ExtendedKalmanEstimator.step_grouped`, which ``tests/fcu/estimation/test_pair.py`` pins
 bit for bit.
 """
@@ -26,9 +26,10 @@ from fcu.estimation.ekf import buffer_views as ekf_buffer_views
 from fcu.estimation.estimator import pwm_array
 from fcu.estimation.screening import MEAS_WIDTH, ROW1
 from fcu.estimation.state import STATE_DIM, FloatArray, GroupedSamples, StateEstimate
-from fcu.estimation.tskf import SC_MEAS as T_MEAS
-from fcu.estimation.tskf import TwoStageKalmanFilter, tskf_tick
-from fcu.estimation.tskf import buffer_views as tskf_buffer_views
+from fcu.estimation.tskf import TwoStageKalmanFilter
+from fcu.estimation.tskf_kernel import SC_MEAS as T_MEAS
+from fcu.estimation.tskf_kernel import buffer_views as tskf_buffer_views
+from fcu.estimation.tskf_kernel import tskf_tick
 from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
@@ -78,7 +79,7 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
               n_steps: int, t_on_ground: bool, accel_power: float, e_buf: FloatArray,
               e_ints: np.ndarray, e_excluded: int, dt: float, e_on_ground: bool
               ) -> tuple[bool, float, int, bool, int]:
-    """:func:`~fcu.estimation.tskf.tskf_tick` and :func:`~fcu.estimation.ekf.ekf_tick` of one
+    """:func:`~fcu.estimation.tskf_kernel.tskf_tick` and :func:`~fcu.estimation.ekf.ekf_tick` of one
     tick, on the grouped samples ``flat`` (:attr:`~fcu.estimation.state.GroupedSamples.flat`).
 
     Parameters
@@ -104,14 +105,14 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     t_gamma : ndarray, shape (4,)
         The TSKF's ``gamma_hat`` before the tick (read only).
     n_steps, t_on_ground, accel_power
-        :func:`~fcu.estimation.tskf.tskf_tick`'s.
+        :func:`~fcu.estimation.tskf_kernel.tskf_tick`'s.
     dt, e_on_ground
         :func:`~fcu.estimation.ekf.ekf_tick`'s.
 
     Returns
     -------
     tuple
-        :func:`~fcu.estimation.tskf.tskf_tick`'s result (ground flag, accelerometer
+        :func:`~fcu.estimation.tskf_kernel.tskf_tick`'s result (ground flag, accelerometer
         power, update rows), then :func:`~fcu.estimation.ekf.ekf_tick`'s (ground flag, last
         channel updated).
     """
