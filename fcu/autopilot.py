@@ -53,9 +53,9 @@ from fcu.monitoring.crash_check import CrashCheck, contact_counts
 from fcu.monitoring.motor_faults import MotorFaultDetector
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.monitoring.watched_pair import step_pair_watched
-from fcu.navigation.guidance import Reference
 from fcu.navigation.modes import MODE_TABLE, Mode
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
+from fcu.navigation.reference import Reference
 from flightdata.records import DetectionRecord
 from flightdata.vocabulary import BATTERY_SENSOR, FTC_MODES, SENSORS
 

@@ -59,16 +59,11 @@ from gcs.errors import (
     VehicleBusy,
 )
 from gcs.faults import FaultSpec, sorted_schedule
+from gcs.injection import InjectionTiming
 from gcs.mavlink import mavlink2
 from gcs.mission import WireItem
-from gcs.station import (
-    COPTER_MODE_AUTO,
-    TELEMETRY_HZ,
-    GroundStation,
-    InjectionTiming,
-    mode_name,
-    same_float32,
-)
+from gcs.parameters import same_float32
+from gcs.station import COPTER_MODE_AUTO, TELEMETRY_HZ, GroundStation, mode_name
 from gcs.table import FlightReport
 
 __all__ = ["FlightOutcome", "FlightPlan", "config_params", "fly"]

@@ -4,8 +4,9 @@
 and does what every exchange with the vehicle rests on: it sends its own HEARTBEAT twice per
 wall-clock second (the vehicle's GCS-loss failsafe counts it), receives every packet, keeps
 the vehicle's protocol replies (COMMAND_ACK, PARAM_VALUE, MISSION_REQUEST/_INT, MISSION_ACK,
-STATUSTEXT, SYS_STATUS, MESSAGE_INTERVAL) until someone waits for them, finds the vehicle and
-its clock, and sends COMMAND_LONG waiting for the COMMAND_ACK. What a ground station does
+STATUSTEXT, SYS_STATUS, MESSAGE_INTERVAL) until someone waits for them
+(:class:`gcs.reply_inbox.ReplyInbox`), finds the vehicle and its clock, and sends COMMAND_LONG
+waiting for the COMMAND_ACK. What a ground station does
 over it (parameters, missions, arming, injections) is :class:`gcs.station.GroundStation`.
 
 A bad link
@@ -17,14 +18,16 @@ enlarged to 4 MiB, never overflows while the caller is busy). The caller's threa
 the rest; the codec, the socket writes and the records are shared under one lock. The
 heartbeat goes out every 0.5 s so that a link losing a third of its packets practically
 never goes the vehicle's 5 s (``FS_GCS_TIMEOUT``) without one. Commands are retried with
-back-off (:data:`ACK_TIMEOUTS_S`: 8 attempts over about 20 s), and a command whose ACK was
-lost but whose effect the vehicle already shows (armed, a mode, a stream interval read back)
-counts as done: see :meth:`Link.command`.
+back-off (:data:`ACK_TIMEOUTS_S`: 8 attempts over about 20 s; other requests are asked
+again after a wait set by the measured round trips, :class:`gcs.round_trips.RoundTrips`), and
+a command whose ACK was lost but whose effect the vehicle already shows (armed, a mode, a
+stream interval read back) counts as done: see :meth:`Link.command`.
 
 With a signing key (MAVLink 2 signing, :func:`gcs.mavlink.enable_signing`) everything sent is
 signed and only packets that verify with the key are handled; :meth:`Link.wait_vehicle` says
 at once, with :class:`gcs.errors.SigningMismatch`, when the vehicle's signing does not match
-ours (it signs and we have no key, or three of its HEARTBEATs failed the signature check).
+ours (it signs and we have no key, or three of its HEARTBEATs failed the signature check:
+:class:`gcs.signing_check.SigningCheck`).
 
 Every packet sent or received goes, in order, to the .tlog (:class:`gcs.records.TlogWriter`)
 and to a :class:`gcs.analysis.FlightAnalyzer`, whose events go to the event log.
@@ -41,7 +44,6 @@ import queue
 import select
 import threading
 import time
-from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Self
@@ -50,15 +52,11 @@ from flightdata.series import FlightEvent
 from flightdata.signing import timestamp_from_unix
 from gcs.analysis import FlightAnalyzer
 from gcs.errors import CommandRefused, FlightTimeout, SigningMismatch, VehicleNotFound
-from gcs.mavlink import (
-    MAVLinkMessage,
-    decode_packet,
-    enable_signing,
-    is_signed,
-    mavlink2,
-    open_link,
-)
+from gcs.mavlink import MAVLinkMessage, decode_packet, enable_signing, mavlink2, open_link
 from gcs.records import EventLog, TlogWriter
+from gcs.reply_inbox import ReplyInbox
+from gcs.round_trips import RoundTrips
+from gcs.signing_check import SigningCheck
 from gcs.telemetry import mavlink_text
 
 __all__ = ["ACK_TIMEOUTS_S", "Link"]
@@ -69,8 +67,6 @@ ACK_TIMEOUTS_S = (1.0, 1.5, 2.0, 2.5, 3.0, 3.0, 3.0, 3.0)
 """Wall seconds each attempt of a command waits for its answer (8 attempts, ~19 s)."""
 BOOT_PROGRESS_GAP_S = 30.0  # s wall a booting vehicle may go without a progress report
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its ACK
-_RETRY_FLOOR_S = 0.2  # s wall, the shortest wait before a request is sent again
-_UNVERIFIED_HEARTBEATS = 3  # autopilot HEARTBEATs failing the signature check: a mismatch
 _READ_WAIT_S = 0.1  # s wall, longest the reader thread sleeps before looking again
 _PUMP_BATCH = 20_000  # messages handled per pump at most (the caller keeps control)
 
@@ -98,9 +94,7 @@ class Link:
         self.signing = signing_key is not None
         if signing_key is not None:
             enable_signing(conn, signing_key, time.time())
-        self.unverified = 0  # packets dropped by the signature check
-        self._unverified_heartbeats: list[bytes] = []  # raw autopilot HEARTBEATs dropped
-        self._vehicle_signs = False  # a signed autopilot HEARTBEAT was seen
+        self._signing_check = SigningCheck(url, self.signing)
         self.url = url
         self.tlog = tlog
         self.events = events if events is not None else EventLog(None)
@@ -109,12 +103,10 @@ class Link:
         self._last_heartbeat_wall = -math.inf
         self._last_rx_wall = -math.inf
         self._last_vehicle_wall = -math.inf
-        self._inbox: list[MAVLinkMessage] = []  # protocol replies waiting for a reader
+        self.inbox = ReplyInbox()  # protocol replies waiting for a reader
         self._clock_hooks: list[Callable[[float], None]] = []
         self._handling_wall_s: float | None = None  # receipt of the message being handled
-        # s wall, the latest round trips measured: a request to the reply that answered it,
-        # only where no earlier copy of the request can have drawn the reply (Karn's rule)
-        self._round_trips_s: deque[float] = deque(maxlen=8)
+        self.round_trips = RoundTrips()  # of requests to their replies, to time retries
         self._event_hooks: list[Callable[[FlightEvent], None]] = []
         self._sent_clock: float | None = None  # vehicle clock when the last command left
         # the last command ended with its COMMAND_ACK (False: its effect showed, the answer
@@ -299,7 +291,7 @@ class Link:
                 if msg is None:
                     break
                 # BAD_DATA too: a packet that failed the signature check is counted
-                # (Link._note_unverified)
+                # (SigningCheck.note_unverified)
                 self._received.put((msg, time.time()))
 
     def pump(self, wait_s: float = 0.0) -> int:
@@ -320,7 +312,7 @@ class Link:
         while True:
             msg, stamp = item
             if msg.get_type() == "BAD_DATA":
-                self._note_unverified(msg)
+                self._signing_check.note_unverified(msg)
             else:
                 self._handle(msg, stamp)
             handled += 1
@@ -333,36 +325,13 @@ class Link:
         self._last_rx_wall = time.monotonic()
         return handled
 
-    def _note_unverified(self, bad: MAVLinkMessage) -> None:
-        """Count a packet the signature check dropped; keep the autopilot HEARTBEATs."""
-        if getattr(bad, "reason", "") != "Invalid signature":
-            return
-        self.unverified += 1
-        packet = bytes(bad.data)
-        msg = decode_packet(packet)
-        if (msg is not None and msg.get_type() == "HEARTBEAT"
-                and int(msg.autopilot) != _M.MAV_AUTOPILOT_INVALID
-                and len(self._unverified_heartbeats) < _UNVERIFIED_HEARTBEATS):
-            self._unverified_heartbeats.append(packet)
-
-    def _signing_mismatch(self) -> str | None:
-        """Why the vehicle's signing cannot match ours (None: no sign of a mismatch yet)."""
-        if not self.signing and self._vehicle_signs:
-            return (f"the autopilot on {self.url} signs its packets (MAVLink 2 signing) and "
-                    "drops unsigned ones: give its key with --signing-key")
-        if len(self._unverified_heartbeats) < _UNVERIFIED_HEARTBEATS:
-            return None
-        if not any(is_signed(p) for p in self._unverified_heartbeats):
-            return (f"the autopilot on {self.url} does not sign its packets (no signing key "
-                    "on the vehicle?), so none verifies with --signing-key")
-        return (f"the autopilot on {self.url} signs with another key than --signing-key "
-                f"({self.unverified} of its packets failed the signature check)")
+    @property
+    def unverified(self) -> int:
+        """Packets dropped by the signature check."""
+        return self._signing_check.unverified
 
     def _handle(self, msg: MAVLinkMessage, stamp: float | None = None) -> None:
-        if (not self.signing and not self._vehicle_signs and msg.get_type() == "HEARTBEAT"
-                and int(msg.autopilot) != _M.MAV_AUTOPILOT_INVALID
-                and is_signed(msg.get_msgbuf())):
-            self._vehicle_signs = True
+        self._signing_check.note_received(msg)
         before = self.analyzer.clock_s
         self._handling_wall_s = stamp
         with self._io:
@@ -373,28 +342,18 @@ class Link:
             if self.conn.target_system != vehicle[0]:
                 self.conn.target_system = vehicle[0]
                 self.conn.target_component = vehicle[1]
-            if msg.get_type() in _REPLY_TYPES:
-                self._inbox.append(msg)
-                if len(self._inbox) > 10_000:
-                    del self._inbox[:5_000]
+            self.inbox.keep(msg)
         clock = self.analyzer.clock_s
         if clock is not None and clock != before:
             for hook in list(self._clock_hooks):
                 hook(clock)
-
-    def _take(self, kind: str, match: Callable[[MAVLinkMessage], bool]) -> MAVLinkMessage | None:
-        for i, msg in enumerate(self._inbox):
-            if msg.get_type() == kind and match(msg):
-                del self._inbox[i]
-                return msg
-        return None
 
     def _wait_reply(self, kinds: Sequence[str], match: Callable[[MAVLinkMessage], bool],
                     timeout_s: float) -> MAVLinkMessage | None:
         deadline = time.monotonic() + timeout_s
         while True:
             for kind in kinds:
-                msg = self._take(kind, match)
+                msg = self.inbox.take(kind, match)
                 if msg is not None:
                     return msg
             left = deadline - time.monotonic()
@@ -467,7 +426,8 @@ class Link:
         booting_logged = False
         seen_lines = 0
         analyzer = self.analyzer
-        while analyzer.vehicle is None or analyzer.vehicle_booting or self._signing_mismatch():
+        signing_check = self._signing_check
+        while analyzer.vehicle is None or analyzer.vehicle_booting or signing_check.mismatch():
             if analyzer.vehicle_booting and not booting_logged:
                 self.log("LINK", "vehicle booting (HEARTBEAT says MAV_STATE_BOOT): waiting")
                 booting_logged = True
@@ -475,7 +435,7 @@ class Link:
                 seen_lines = analyzer.boot_progress_lines
                 self.log("LINK", f"vehicle {analyzer.boot_progress}")
                 deadline = max(deadline, time.monotonic() + progress_gap_s)
-            mismatch = self._signing_mismatch()
+            mismatch = signing_check.mismatch()
             if mismatch:
                 raise SigningMismatch(mismatch)
             left = deadline - time.monotonic()
@@ -572,7 +532,7 @@ class Link:
             return int(m.command) == command
 
         for attempt, timeout_s in enumerate(ACK_TIMEOUTS_S):
-            self._take_all("COMMAND_ACK", is_ack)
+            self.inbox.take_all("COMMAND_ACK", is_ack)
             self.send(_M.MAVLink_command_long_message(sysid, compid, command, attempt, *p),
                       with_timesync=with_timesync)
             if attempt and read_back is not None:
@@ -581,7 +541,7 @@ class Link:
             deadline = time.monotonic() + timeout_s
             ack = None
             while ack is None:
-                ack = self._take("COMMAND_ACK", is_ack)
+                ack = self.inbox.take("COMMAND_ACK", is_ack)
                 if ack is not None:
                     break
                 if attempt and applied is not None and applied():
@@ -610,24 +570,6 @@ class Link:
         raise FlightTimeout(f"no COMMAND_ACK for {name} after {len(ACK_TIMEOUTS_S)} attempts "
                             f"over {sum(ACK_TIMEOUTS_S):g} s")
 
-    def _take_all(self, kind: str, match: Callable[[MAVLinkMessage], bool]) -> None:
-        while self._take(kind, match) is not None:
-            pass
-
-    def _retry_wait_s(self, longest_s: float) -> float:
-        """Wall seconds to wait for a reply before asking again: four times the slowest of
-        the last eight measured round trips, at least :data:`_RETRY_FLOOR_S` and at most
-        ``longest_s`` (``longest_s`` before any is measured): over loopback a lost request is
-        asked again within 0.2 s, over a radio link as late as its replies take."""
-        if not self._round_trips_s:
-            return longest_s
-        return min(longest_s, max(_RETRY_FLOOR_S, 4.0 * max(self._round_trips_s)))
-
-    def _note_round_trip(self, sent_at: float) -> None:
-        """A reply came to a request sent at ``time.monotonic()`` = ``sent_at``; the caller
-        makes sure no earlier copy of the request can have drawn it (Karn's rule)."""
-        self._round_trips_s.append(time.monotonic() - sent_at)
-
     @property
     def received_wall_s(self) -> float | None:
         """Wall time (``time.time``) the message being handled was received by the reader
@@ -644,7 +586,3 @@ class Link:
         """Call ``hook(event)`` for each analyzer event."""
         self._event_hooks.append(hook)
 
-
-_REPLY_TYPES = frozenset({"COMMAND_ACK", "PARAM_VALUE", "MISSION_REQUEST_INT",
-                          "MISSION_REQUEST", "MISSION_ACK", "STATUSTEXT", "SYS_STATUS",
-                          "MESSAGE_INTERVAL"})

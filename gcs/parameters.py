@@ -25,7 +25,7 @@ __all__ = ["ParameterClient", "same_float32"]
 _M = mavlink2
 _PARAM_LIST_QUIET_S = 1.0  # s wall without PARAM_VALUE that ends a parameter download
 # PARAM_REQUEST_READ rounds for the indices a download missed: of 1 s each at most (shorter
-# on a fast link, Link._retry_wait_s), for this many seconds in all
+# on a fast link, RoundTrips.retry_wait_s), for this many seconds in all
 _PARAM_READ_ROUNDS = 12
 _REASON_WAIT_S = 0.3  # s wall, how long a refusal's STATUSTEXT may trail its PARAM_VALUE
 _FLOAT32_TOL = 1e-6  # relative: PARAM_VALUE is REAL32
@@ -59,9 +59,9 @@ class ParameterClient(Link):
                      timeout_s: float = 20.0) -> dict[str, float]:
         """PARAM_REQUEST_LIST; every PARAM_VALUE until all indices arrived (or a quiet spell),
         then PARAM_REQUEST_READ for each index that did not (a lossy link), in rounds as long
-        as the link's round trips need (:meth:`gcs.link.Link._retry_wait_s`)."""
+        as the link's round trips need (:meth:`gcs.round_trips.RoundTrips.retry_wait_s`)."""
         sysid, compid = self.target
-        self._take_all("PARAM_VALUE", lambda m: True)
+        self.inbox.take_all("PARAM_VALUE", lambda m: True)
         self.send(_M.MAVLink_param_request_list_message(sysid, compid))
         seen: dict[int, str] = {}
         deadline = time.monotonic() + timeout_s
@@ -92,14 +92,14 @@ class ParameterClient(Link):
             for index in missing:
                 self.send(_M.MAVLink_param_request_read_message(sysid, compid, b"", index))
             sent_at = time.monotonic()
-            round_end = sent_at + self._retry_wait_s(ACK_TIMEOUTS_S[0])
+            round_end = sent_at + self.round_trips.retry_wait_s(ACK_TIMEOUTS_S[0])
             while len(seen) < (self.param_count or 0) and time.monotonic() < round_end:
                 msg = self._wait_reply(["PARAM_VALUE"], lambda m: True, 0.05)
                 if msg is not None:
                     if first and int(msg.param_index) in missing:
                         # one sample, from the first round only (Karn's rule); the other
                         # answers queue behind it
-                        self._note_round_trip(sent_at)
+                        self.round_trips.note(sent_at)
                         first = False
                     self._note_param(msg, seen)
             first = False
@@ -124,7 +124,7 @@ class ParameterClient(Link):
             return mavlink_text(m.param_id) == name
 
         for timeout_s in ACK_TIMEOUTS_S[:4]:
-            self._take_all("PARAM_VALUE", named)
+            self.inbox.take_all("PARAM_VALUE", named)
             self.send(_M.MAVLink_param_request_read_message(sysid, compid,
                                                             name.encode("ascii"), -1))
             msg = self._wait_reply(["PARAM_VALUE"], named, timeout_s)
@@ -166,8 +166,8 @@ class ParameterClient(Link):
 
         kept: float | None = None  # a value read back that is not ours yet
         for attempt, timeout_s in enumerate(ACK_TIMEOUTS_S):
-            self._take_all("PARAM_VALUE", lambda m: mavlink_text(m.param_id) == name)
-            self._take_all("STATUSTEXT", lambda m: True)
+            self.inbox.take_all("PARAM_VALUE", lambda m: mavlink_text(m.param_id) == name)
+            self.inbox.take_all("STATUSTEXT", lambda m: True)
             self.send(_M.MAVLink_param_set_message(sysid, compid, name.encode("ascii"),
                                                    float(value), _M.MAV_PARAM_TYPE_REAL32))
             if attempt:

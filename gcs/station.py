@@ -3,9 +3,9 @@
 :class:`GroundStation` is a :class:`gcs.link.Link` (heartbeat, receiving and recording every
 packet, COMMAND_LONG with its COMMAND_ACK) that drives a vehicle the way any ground station
 does: it asks for the telemetry the table needs, sets parameters and checks the PARAM_VALUE
-echo, uploads missions with the MISSION_COUNT / MISSION_REQUEST_INT / MISSION_ITEM_INT /
-MISSION_ACK exchange, arms, switches modes, starts the mission and injects faults, timing
-them on the vehicle's clock.
+echo (:mod:`gcs.parameters`), uploads missions (:mod:`gcs.mission_upload`), arms, switches
+modes, starts the mission and injects faults, timing them on the vehicle's clock
+(:mod:`gcs.injection`).
 
 Clocks: socket waits and protocol time-outs are wall-clock seconds (what a person waits);
 flight progress, fault times and the mission time-out are the vehicle's simulated seconds,
@@ -27,18 +27,13 @@ from __future__ import annotations
 import math
 import re
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import Any, NoReturn
+from collections.abc import Callable
+from typing import Any
 
-import numpy as np
-
-from flightdata.series import FlightEvent
-from gcs.errors import CommandRefused, FlightTimeout, MissionRejected, VehicleNotFound
-from gcs.faults import FaultSpec
+from gcs.errors import CommandRefused, FlightTimeout, VehicleNotFound
+from gcs.injection import FaultInjector
 from gcs.mavlink import mavlink2
-from gcs.mission import WireItem, home_item
-from gcs.parameters import ParameterClient, same_float32
+from gcs.mission_upload import MissionUploader
 from gcs.records import EventLog, TlogWriter
 from gcs.table import FlightReport
 from gcs.telemetry import mavlink_text
@@ -51,9 +46,7 @@ __all__ = [
     "COPTER_MODE_STABILIZE",
     "TELEMETRY_HZ",
     "GroundStation",
-    "InjectionTiming",
     "mode_name",
-    "same_float32",
 ]
 
 _M = mavlink2
@@ -80,12 +73,6 @@ TELEMETRY_HZ: dict[str, float] = {
 }
 """Rates the ground station asks for (Hz of simulated time), by message name."""
 
-_MISSION_NUDGE_S = 1.0  # s wall without a MISSION_REQUEST before we nudge the upload, at most
-_MISSION_STALL_S = 15.0  # s wall without progress before an upload starts over
-_MISSION_UPLOADS = 3  # uploads started before giving up
-_MISSION_TYPE_WORDS = {_M.MAV_MISSION_TYPE_MISSION: "mission",
-                       _M.MAV_MISSION_TYPE_FENCE: "geofence",
-                       _M.MAV_MISSION_TYPE_RALLY: "rally points"}
 _STREAM_ROUNDS_S = (0.5, 0.5, 1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 2.0, 2.0, 2.0, 2.0)
 """Wall seconds of each round of stream requests, at most (~18 s in all)."""
 _DATE_REQUEST_S = 0.5  # s wall between TIMESYNC requests that date the mission start
@@ -98,83 +85,18 @@ _RESTART_WORDS = re.compile(r"\b(restart|reboot)", re.IGNORECASE)
 """A pre-arm reason that only a restart clears (this vehicle: a motor declared failed)."""
 
 
-@dataclass(frozen=True)
-class InjectionTiming:
-    """Where an injection landed against its target (vehicle simulated time, s).
-
-    Attributes
-    ----------
-    fault : FaultSpec
-    target_s : float
-        Vehicle time the schedule asked for (mission start + ``fault.at_s``).
-    sent_at_s : float
-        Vehicle clock when the command left.
-    achieved_s : float or None
-        Vehicle time the fault took effect (None: never confirmed).
-    """
-
-    fault: FaultSpec
-    target_s: float
-    sent_at_s: float
-    achieved_s: float | None
-
-    @property
-    def error_s(self) -> float | None:
-        """Achieved minus target, s."""
-        return None if self.achieved_s is None else self.achieved_s - self.target_s
-
-
-@dataclass
-class _InFlight:
-    """An injection sent and not yet seen taking effect."""
-
-    fault: FaultSpec
-    target_s: float  # s, vehicle time it is meant for
-    sent_s: float  # s, vehicle clock when it first left
-    scheduled: bool  # on the vehicle's clock (no lag to learn from)
-    by_param: bool  # it travels as a PARAM_SET, effective on arrival
-    last_sent_wall_s: float  # s, wall clock (time.time) when it last left
-    # s, vehicle clock when it last left: that of the first message received after it left
-    # (None until one is); a station behind on its messages still handles older ones, whose
-    # clock is earlier than the vehicle's when the PARAM_SET reached it
-    last_sent_s: float | None = None
-    received: bool = False  # the vehicle echoed its PARAM_SET
-    attempts: int = 1
-
-    def param_name(self) -> str | None:
-        """The parameter it sets when it travels as a PARAM_SET (else None)."""
-        if not self.by_param:
-            return None
-        return self.fault.param or f"SIM_MOT{self.fault.motor}_LOE"
-
-    def param_value(self) -> float:
-        return self.fault.value if self.fault.param is not None else self.fault.loe
-
-
-_RESEND_AFTER_S = 0.5  # s of vehicle time without an echo (at least 3 link lags) to resend
-_MAX_SENDS = 5  # a PARAM_SET injection is sent this many times at most
-
-
-class GroundStation(ParameterClient):
+class GroundStation(FaultInjector, MissionUploader):
     """A ground station on one link to one vehicle (see the module docstring); arguments as
-    :class:`gcs.link.Link`."""
+    :class:`gcs.link.Link`. Parameters come from :class:`gcs.parameters.ParameterClient`,
+    mission uploads from :class:`gcs.mission_upload.MissionUploader`, fault injection from
+    :class:`gcs.injection.FaultInjector`."""
 
     def __init__(self, conn: Any, url: str, *, tlog: TlogWriter | None = None,
                  events: EventLog | None = None, signing_key: bytes | None = None) -> None:
         super().__init__(conn, url, tlog=tlog, events=events, signing_key=signing_key)
-        self.injection_timing: list[InjectionTiming] = []
-        self._inflight: list[_InFlight] = []
-        self._lag_samples_s: list[float] = []
         self.prearm_reason: str | None = None  # the latest "PreArm: ..." STATUSTEXT's reason
         self._status_chunks: dict[int, list[str]] = {}
-        # what the injections changed, to undo after the flight: parameter -> value before
-        self._restore_params: dict[str, float] = {}
-        self._motor_faults_commanded = False  # INJECT_FAILURE motor faults were sent
         self.held_time = False  # this flight set SIM_PAUSE = 1 and has not let go yet
-
-    def _note_event(self, event: FlightEvent) -> None:
-        if event.kind == "INJECT":
-            self._match_injection(event)
 
     # ------------------------------------------------------------------ telemetry, arming, modes
     def set_message_rate(self, name: str, rate_hz: float) -> bool:
@@ -193,11 +115,11 @@ class GroundStation(ParameterClient):
         sysid, compid = self.target
 
         def in_force() -> bool:
-            reply = self._take("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
+            reply = self.inbox.take("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
             return reply is not None and int(reply.interval_us) == interval_us
 
         def read_back() -> None:
-            self._take_all("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
+            self.inbox.take_all("MESSAGE_INTERVAL", lambda m: int(m.message_id) == msg_id)
             self.send(_M.MAVLink_command_long_message(
                 sysid, compid, _M.MAV_CMD_GET_MESSAGE_INTERVAL, 0, float(msg_id), 0, 0, 0, 0,
                 0, 0))
@@ -216,8 +138,8 @@ class GroundStation(ParameterClient):
 
         Every stream not yet confirmed gets a SET_MESSAGE_INTERVAL and a
         GET_MESSAGE_INTERVAL per round (rounds of :data:`_STREAM_ROUNDS_S` at most, shorter on
-        a fast link: :meth:`_retry_wait_s`; ~18 s in all); a stream is confirmed when the
-        interval read back is the one asked for. The COMMAND_ACKs cannot
+        a fast link: :meth:`gcs.round_trips.RoundTrips.retry_wait_s`; ~18 s in all); a stream
+        is confirmed when the interval read back is the one asked for. The COMMAND_ACKs cannot
         tell which stream they answer, so the read-back is the proof. A stream never
         confirmed (refused, or a link too bad) keeps the vehicle's rate; the table is then
         computed from fewer samples, and an event says so.
@@ -232,7 +154,7 @@ class GroundStation(ParameterClient):
         wanted = {getattr(_M, f"MAVLINK_MSG_ID_{name}"): (name, round(1e6 / rate))
                   for name, rate in rates.items()}
         pending = dict(wanted)
-        self._take_all("MESSAGE_INTERVAL", lambda m: True)
+        self.inbox.take_all("MESSAGE_INTERVAL", lambda m: True)
         give_up = time.monotonic() + sum(_STREAM_ROUNDS_S)
         rounds = 0
         while pending and time.monotonic() < give_up:
@@ -242,7 +164,7 @@ class GroundStation(ParameterClient):
                     self.send(_M.MAVLink_command_long_message(
                         sysid, compid, command, 0, float(p1), float(p2), 0, 0, 0, 0, 0))
             sent_at = time.monotonic()
-            deadline = sent_at + self._retry_wait_s(
+            deadline = sent_at + self.round_trips.retry_wait_s(
                 _STREAM_ROUNDS_S[min(rounds, len(_STREAM_ROUNDS_S) - 1)])
             rounds += 1
             while pending and time.monotonic() < deadline:
@@ -252,8 +174,8 @@ class GroundStation(ParameterClient):
                     if int(reply.interval_us) == pending[msg_id][1]:
                         del pending[msg_id]
                         if rounds == 1:  # (later, the answer may be to an earlier round)
-                            self._note_round_trip(sent_at)
-            self._take_all("COMMAND_ACK", lambda m: int(m.command) in (
+                            self.round_trips.note(sent_at)
+            self.inbox.take_all("COMMAND_ACK", lambda m: int(m.command) in (
                 _M.MAV_CMD_SET_MESSAGE_INTERVAL, _M.MAV_CMD_GET_MESSAGE_INTERVAL))
         self.log("STREAM", ", ".join(f"{n} {r:g} Hz" for n, r in rates.items()))
         missing = [name for name, _ in pending.values()]
@@ -288,13 +210,13 @@ class GroundStation(ParameterClient):
         last_request = last_probe = -math.inf
         self.prearm_reason = None
         while time.monotonic() < deadline:
-            status = self._take("SYS_STATUS", lambda m: True)
+            status = self.inbox.take("SYS_STATUS", lambda m: True)
             if status is not None:
-                self._take_all("SYS_STATUS", lambda m: True)
+                self.inbox.take_all("SYS_STATUS", lambda m: True)
                 if int(status.onboard_control_sensors_health) & bit:
                     self.prearm_reason = None
                     return True
-            self._take_all("COMMAND_ACK",
+            self.inbox.take_all("COMMAND_ACK",
                            lambda m: int(m.command) == _M.MAV_CMD_RUN_PREARM_CHECKS)
             for text in self._take_status_texts():
                 if text.startswith("PreArm:"):
@@ -325,7 +247,7 @@ class GroundStation(ParameterClient):
     def _take_status_texts(self) -> list[str]:
         """The STATUSTEXTs waiting in the inbox, chunks put back together."""
         texts = []
-        while (msg := self._take("STATUSTEXT", lambda m: True)) is not None:
+        while (msg := self.inbox.take("STATUSTEXT", lambda m: True)) is not None:
             text = mavlink_text(msg.text)
             chunk_id = int(getattr(msg, "id", 0))
             if chunk_id == 0:
@@ -473,303 +395,6 @@ class GroundStation(ParameterClient):
                 last_request = now
                 self.send(_M.MAVLink_timesync_message(0, time.time_ns()))
             self.pump(0.02)
-
-    def _note_lag(self, effect_s: float) -> None:
-        sent = self._sent_clock
-        if sent is not None:
-            self._lag_samples_s.append(max(0.0, effect_s - sent))
-
-    # ------------------------------------------------------------------ missions
-    def upload_mission(self, items: Sequence[WireItem], *, timeout_s: float = 120.0,
-                       mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> None:
-        """Upload ``items`` (seq 1..n; home from HOME_POSITION is added as seq 0); with
-        ``mission_type`` FENCE or RALLY, a geofence or rally points (seq 0..n-1, no home).
-
-        Over a lossy link: when no request comes for a while (:meth:`_retry_wait_s`, 1 s at
-        most), the upload is nudged (MISSION_COUNT
-        again before the first request; else the item after the last one asked for, which
-        the vehicle either wanted or answers by asking again for the one it misses; after
-        the last item, that item again, which a vehicle that finished answers with its
-        MISSION_ACK again); an upload the vehicle cancelled (it timed out) or that made no
-        progress for :data:`_MISSION_STALL_S` starts over, up to :data:`_MISSION_UPLOADS`
-        times.
-
-        Raises
-        ------
-        MissionRejected
-            A MISSION_ACK other than ACCEPTED (with the vehicle's reason; ``result`` holds
-            the MAV_MISSION_RESULT).
-        FlightTimeout
-            The vehicle stopped asking for items.
-        """
-        sysid, compid = self.target
-        what = _MISSION_TYPE_WORDS.get(mission_type, f"mission type {mission_type}")
-        if mission_type == _M.MAV_MISSION_TYPE_MISSION:
-            home = home_item()
-            if self.analyzer.home is not None:
-                lat_e7, lon_e7, alt_mm = self.analyzer.home[:3]
-                home = home_item(lat_e7 * 1e-7, lon_e7 * 1e-7, alt_mm * 1e-3)
-            wire = [home, *items]
-            self.log("MISSION", f"uploading {len(items)} items (+ home)")
-        else:
-            wire = list(items)
-            self.log("MISSION", f"uploading {what}: {len(items)} items")
-        count = len(wire)
-        deadline = time.monotonic() + timeout_s
-        last_seq = -1
-        for upload in range(_MISSION_UPLOADS):
-            if upload:
-                self.log("MISSION", f"upload stalled after item {last_seq}: starting over")
-            last_seq = self._upload_once(wire, deadline, mission_type)
-            if last_seq == count:
-                self.log("MISSION", f"upload of {len(items)} items accepted" if what == "mission"
-                         else f"upload of {what}: {len(items)} items accepted")
-                return
-        raise FlightTimeout(f"{what} upload stalled after item {last_seq} of {count - 1} "
-                            f"({_MISSION_UPLOADS} uploads)")
-
-    def _upload_once(self, wire: Sequence[WireItem], deadline: float,
-                     mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> int:
-        """One upload; returns ``len(wire)`` when accepted, else the last seq asked for."""
-        sysid, compid = self.target
-        count = len(wire)
-        home_first = mission_type == _M.MAV_MISSION_TYPE_MISSION
-        for kind in ("MISSION_ACK", "MISSION_REQUEST_INT", "MISSION_REQUEST", "STATUSTEXT"):
-            self._take_all(kind, lambda m: True)
-
-        # time.monotonic() of the last send and of the last progress; whether the last send
-        # was a nudge (a round trip is measured only from an answer to a request, never from a
-        # nudge, which an answer to an earlier send may follow)
-        sent_at = progress_at = 0.0
-        nudged = False
-
-        def send_count() -> None:
-            nonlocal sent_at
-            self.send(_M.MAVLink_mission_count_message(sysid, compid, count, mission_type))
-            sent_at = time.monotonic()
-
-        def send_item(seq: int) -> None:
-            nonlocal sent_at
-            self.send(wire[seq].to_message(seq, sysid, compid, current=home_first and seq == 0,
-                                           mission_type=mission_type))
-            sent_at = time.monotonic()
-
-        send_count()
-        progress_at = sent_at
-        last_seq = -1
-        while (now := time.monotonic()) < deadline and now - progress_at < _MISSION_STALL_S:
-            reply = self._wait_reply(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
-                                     lambda m: int(getattr(m, "mission_type", 0)) == mission_type,
-                                     self._retry_wait_s(_MISSION_NUDGE_S))
-            if reply is None:
-                nudged = True
-                if last_seq < 0:
-                    send_count()
-                else:
-                    send_item(min(last_seq + 1, count - 1))
-                continue
-            if reply.get_type() == "MISSION_ACK":
-                result = int(reply.type)
-                if result == _M.MAV_MISSION_ACCEPTED:
-                    return count
-                if result == _M.MAV_MISSION_OPERATION_CANCELLED:
-                    return last_seq  # the vehicle timed out: start over
-                self._mission_rejected(wire, result, last_seq, mission_type)
-            seq = int(reply.seq)
-            if not 0 <= seq < count:
-                continue
-            if seq > last_seq:
-                progress_at = time.monotonic()
-                if not nudged:
-                    self._note_round_trip(sent_at)
-            last_seq = seq
-            send_item(seq)
-            nudged = False
-        return last_seq
-
-    def _mission_rejected(self, wire: Sequence[WireItem], result: int, last_seq: int,
-                          mission_type: int = _M.MAV_MISSION_TYPE_MISSION) -> NoReturn:
-        name = _M.enums["MAV_MISSION_RESULT"][result].name.removeprefix(
-            "MAV_MISSION_") if result in _M.enums["MAV_MISSION_RESULT"] else str(result)
-        reason = self._refusal_reason()
-        if last_seq == len(wire) - 1:
-            where = " after the last item"  # the vehicle judged the whole mission
-        elif last_seq >= 0:
-            where = f" at item {last_seq} ({wire[last_seq].describe()})"
-        else:
-            where = ""
-        what = "" if mission_type == _M.MAV_MISSION_TYPE_MISSION else \
-            f"{_MISSION_TYPE_WORDS.get(mission_type, str(mission_type))}: "
-        raise MissionRejected(f"{what}{name}{where}" + (f": {reason}" if reason else ""),
-                              result=result)
-
-    # ------------------------------------------------------------------ faults
-    def lead_s(self) -> float:
-        """How early (vehicle seconds) a command must leave to take effect on time.
-
-        The median of the measured lags between the clock when a command left and the time it
-        took effect (parameters, mission start), at least one telemetry tick (10 ms).
-        """
-        if not self._lag_samples_s:
-            return 0.01
-        return max(0.01, float(np.median(self._lag_samples_s[-9:])))
-
-    def inject(self, fault: FaultSpec, target_s: float, *, via: str = "command") -> None:
-        """Inject ``fault`` at vehicle time ``target_s``.
-
-        Parameters
-        ----------
-        fault : FaultSpec
-        target_s : float
-            Vehicle (simulated) time it is meant for.
-        via : {"command", "param"}
-            ``command`` (motor faults): PARAM_SET SIM_FI_LOE = loe (echo awaited), then
-            MAV_CMD_INJECT_FAILURE (unit MOTOR 101, type WRONG 4, instance = motor; type OK
-            0 when loe = 0) with param4 = ``target_s``: the vehicle schedules the fault on its
-            own clock, so it takes effect at ``target_s`` exactly whatever the link's delay
-            or load; this blocks until the vehicle acknowledges (send it ahead of time).
-            ``param``: PARAM_SET SIM_MOTn_LOE = loe now (ArduPilot-SITL style, effective
-            when it arrives), with a TIMESYNC request in the same datagram dating it; send
-            it :meth:`lead_s` ahead. Parameter faults (SIM_BARO_GLITCH...) are always a
-            PARAM_SET of the second kind; one whose echo does not come back is sent again
-            (:meth:`resend_lost_injections`).
-        """
-        sysid, compid = self.target
-        clock = self.analyzer.clock_s if self.analyzer.clock_s is not None else math.nan
-        scheduled = via == "command" and fault.motor is not None and fault.loe > 0
-        flight = _InFlight(fault, target_s, clock, scheduled,
-                           by_param=fault.param is not None or via == "param",
-                           last_sent_wall_s=time.time())
-        self._inflight.append(flight)
-        start = self.analyzer.mission_start_s
-        rel = f" (mission +{target_s - start:.3f} s)" if start is not None else ""
-        self.log("INJECT", f"{'scheduling' if scheduled else 'sending'} {fault.describe()} "
-                 f"for t = {target_s:.3f} s{rel}"
-                 + ("" if scheduled else f", lead {self.lead_s():.3f} s"))
-
-        if scheduled:
-            self._note_change("SIM_FI_LOE")
-            self._motor_faults_commanded = True
-            self.set_param("SIM_FI_LOE", fault.loe)
-            self.command(_M.MAV_CMD_INJECT_FAILURE,
-                         (101.0, 4.0, float(fault.motor or 0), float(target_s)),
-                         what=f"INJECT_FAILURE motor {fault.motor}")
-        elif not flight.by_param:  # a clear (loe 0): effective when it arrives
-            self.send(_M.MAVLink_command_long_message(
-                sysid, compid, _M.MAV_CMD_INJECT_FAILURE, 0, 101.0, 0.0,
-                float(fault.motor or 0), 0.0, 0.0, 0.0, 0.0), with_timesync=True)
-        else:
-            name = flight.param_name()
-            assert name is not None
-            self._note_change(name)
-            self._send_param_injection(flight)
-
-    def _note_change(self, name: str) -> None:
-        """Remember the value ``name`` had before an injection first changed it (0 when it
-        was never read: the fault parameters' value when no fault is in force)."""
-        if name not in self._restore_params:
-            before = self.param_names.get(name, self.analyzer.params.get(name, 0.0))
-            self._restore_params[name] = float(before)
-
-    def clear_injected_faults(self) -> None:
-        """Undo this flight's injections: motor faults sent as INJECT_FAILURE are cleared
-        (type OK, all motors: also those scheduled and not yet due), and every parameter an
-        injection changed (SIM_MOTn_LOE, SIM_BARO_GLITCH, SIM_FI_LOE...) goes back to its
-        value before the flight, so the next flight starts healthy.
-
-        Raises
-        ------
-        FlightError
-            A command or parameter the vehicle refused or never answered.
-        """
-        if self._motor_faults_commanded:
-            self.command(_M.MAV_CMD_INJECT_FAILURE, (101.0, 0.0, 0.0),
-                         what="INJECT_FAILURE motor all OK (clear)")
-            self._motor_faults_commanded = False
-        for name, before in list(self._restore_params.items()):
-            self.set_param(name, before)
-            del self._restore_params[name]
-        self.log("INJECT", "the flight's injected faults cleared")
-
-    @property
-    def injected_anything(self) -> bool:
-        """Faults were sent in this flight and not yet cleared."""
-        return self._motor_faults_commanded or bool(self._restore_params)
-
-    def _send_param_injection(self, flight: _InFlight) -> None:
-        """PARAM_SET of an injection, with a TIMESYNC request in the same datagram dating it."""
-        name = flight.param_name()
-        assert name is not None
-        sysid, compid = self.target
-        self.send(_M.MAVLink_param_set_message(sysid, compid, name.encode("ascii"),
-                                               float(flight.param_value()),
-                                               _M.MAV_PARAM_TYPE_REAL32), with_timesync=True)
-
-    def resend_lost_injections(self, clock_s: float) -> None:
-        """Send again each PARAM_SET injection whose echo has not come back
-        ``_RESEND_AFTER_S`` (or three link lags) of vehicle time after it left, up to
-        ``_MAX_SENDS`` times: on a lossy link a lost PARAM_SET would be a lost fault. A
-        repeat is harmless (the vehicle keeps a parameter fault it already holds).
-
-        The wait counts from the clock of the first message received after the PARAM_SET
-        left, not from the clock the station had then: a station behind on its messages
-        (a loaded machine, a fast simulation) would otherwise count time the PARAM_SET spent
-        waiting for nothing and send it again before its echo could arrive."""
-        waiting = [f for f in self._inflight if f.by_param and not f.received]
-        if not waiting:  # the usual case, on every clock update
-            return
-        wait_s = max(_RESEND_AFTER_S, 3.0 * self.lead_s())
-        for flight in waiting:
-            name = flight.param_name()
-            assert name is not None  # by_param
-            echoed = self.analyzer.params.get(name)
-            if echoed is not None and same_float32(echoed, flight.param_value()):
-                flight.received = True
-            elif flight.last_sent_s is None:
-                received = self.received_wall_s
-                if received is None or received >= flight.last_sent_wall_s:
-                    flight.last_sent_s = clock_s  # the vehicle's clock once it could have it
-            elif clock_s - flight.last_sent_s > wait_s and flight.attempts < _MAX_SENDS:
-                flight.attempts += 1
-                flight.last_sent_s, flight.last_sent_wall_s = None, time.time()
-                self.log("INJECT", f"no echo of {name} = {flight.param_value():g} after "
-                         f"{wait_s:.2f} s: sending it again (attempt {flight.attempts})")
-                self._send_param_injection(flight)
-
-    def _match_injection(self, event: FlightEvent) -> None:
-        """An INJECT event from the analyzer: pair it with the oldest in-flight motor fault."""
-        for i, flight in enumerate(self._inflight):
-            fault = flight.fault
-            if fault.motor is not None and f"motor {fault.motor} " in event.text:
-                del self._inflight[i]
-                achieved = event.time_s
-                timing = InjectionTiming(fault, flight.target_s, flight.sent_s, achieved)
-                self.injection_timing.append(timing)
-                if achieved is not None:
-                    # the link's delay, to send the next one ahead of time (a resent one
-                    # says nothing of it)
-                    if not flight.scheduled and flight.attempts == 1:
-                        self._lag_samples_s.append(max(0.0, achieved - flight.sent_s))
-                    self.log("INJECT", f"motor {fault.motor} took effect at t = "
-                             f"{achieved:.3f} s, timing error {timing.error_s:+.3f} s")
-                return
-
-    def confirm_param_faults(self) -> None:
-        """Pair parameter faults (SIM_BARO_GLITCH...) with their PARAM_VALUE echoes."""
-        still = []
-        for flight in self._inflight:
-            fault = flight.fault
-            value = None if fault.param is None else self.analyzer.params.get(fault.param)
-            if value is not None and same_float32(value, fault.value):
-                self.injection_timing.append(
-                    InjectionTiming(fault, flight.target_s, flight.sent_s, None))
-            else:
-                still.append(flight)
-        self._inflight = still
-
-    def pending_injections(self) -> list[FaultSpec]:
-        """Faults sent but not yet confirmed."""
-        return [flight.fault for flight in self._inflight]
 
     # ------------------------------------------------------------------ results
     def report(self) -> FlightReport:

@@ -38,7 +38,7 @@
                                    the flight's own wall time (start-up designs and numba
                                    kernels come from their caches: a warm-up run fills them;
                                    the packages' bytecode is written first, see
-                                   ``_write_bytecode``)
+                                   :mod:`sim.startup_bench`)
     ftc-bench campaign [--repeat N] [--campaign NAME|FILE]
                                    a campaign (default ``smoke``) flown by ftc-campaign's
                                    engine on local Dask clusters of 1 and 2 workers:
@@ -51,29 +51,21 @@
                                    :mod:`sim.compile_bench`)
     ftc-bench [all]                plant, then stack
 
-Each figure is the median of ``--repeat`` runs (machines are shared and noisy), with the
-spread, measured with the process's CPU time as well as the wall clock. Numba kernels are
+The vehicle figures are :mod:`sim.vehicle_bench`'s, the start-up ones
+:mod:`sim.startup_bench`'s. Each figure is the median of ``--repeat`` runs (machines are
+shared and noisy), with the spread, measured with the process's CPU time as well as the wall
+clock. Numba kernels are
 compiled (or loaded from the cache) before timing starts.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
-import os
-import re
-import select
-import signal
-import socket
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
-from pathlib import Path
+from dataclasses import replace
 
 import numpy as np
 
@@ -335,293 +327,6 @@ def _print_factors(runs: list[tuple[float, float]]) -> tuple[float, float]:
     return statistics.median(rtf), statistics.median(rtf_cpu)
 
 
-@dataclass
-class _VehicleRun:
-    """What a client saw of one vehicle-process flight."""
-
-    sim_s: float  # s, simulated time covered by the telemetry after the start
-    wall_s: float  # s, wall time over which it arrived
-    messages: int  # messages parsed by the client
-    vehicle_line: str  # the vehicle's own summary line
-
-    @property
-    def ratio(self) -> float:
-        return self.sim_s / self.wall_s
-
-
-def _fly_vehicle(speedup: float, sim_s: float, timing_log: Path | None = None,
-                 extra: Sequence[str] = ()) -> _VehicleRun:
-    """Start ``python -m sim``, fly the thesis mission from a client, read every message.
-
-    The vehicle boots paused with the mission loaded; the client arms, switches to AUTO,
-    starts the mission and sets SIM_PAUSE 0, sending GCS heartbeats at 1 Hz (wall) and
-    parsing all telemetry until the vehicle stops after ``sim_s`` simulated seconds.
-    """
-    from pymavlink.dialects.v20 import ardupilotmega as mav
-
-    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 << 20)
-    sock.bind(("127.0.0.1", 0))
-    args = [sys.executable, "-m", "sim", "--bind", "127.0.0.1:0", "--out",
-            f"127.0.0.1:{sock.getsockname()[1]}", "--speedup", _speedup_text(speedup), "--duration",
-            f"{sim_s:g}", "--load-mission", "--start-paused"]
-    if timing_log is not None:
-        args += ["--timing-log", str(timing_log)]
-    args += list(extra)
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True)
-    assert proc.stdout is not None
-    codec = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    try:
-        line = proc.stdout.readline()
-        match = re.search(r"listening on udp ([\d.]+):(\d+)", line)
-        if match is None:
-            raise RuntimeError(f"vehicle did not start: {line!r}")
-        vehicle = (match.group(1), int(match.group(2)))
-
-        def send(msg: object) -> None:
-            sock.sendto(msg.pack(codec), vehicle)  # type: ignore[attr-defined]
-            codec.seq = (codec.seq + 1) % 256
-
-        send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0,
-                                           0, 3))
-        for command, p1, p2 in ((mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 0),
-                                (mav.MAV_CMD_DO_SET_MODE, 1, 3),
-                                (mav.MAV_CMD_MISSION_START, 0, 0)):
-            send(mav.MAVLink_command_long_message(1, 1, command, 0, p1, p2, 0, 0, 0, 0, 0))
-        send(mav.MAVLink_param_set_message(1, 1, b"SIM_PAUSE", 0.0, mav.MAV_PARAM_TYPE_REAL32))
-        first: tuple[float, float] | None = None  # (wall, simulated) of the first sample
-        last = (0.0, 0.0)
-        count = 0
-        last_heartbeat = time.monotonic()
-        while proc.poll() is None or select.select([sock], [], [], 0.2)[0]:
-            if not select.select([sock], [], [], 0.2)[0]:
-                continue
-            data = sock.recv(65535)
-            now = time.monotonic()
-            parser = mav.MAVLink(None)
-            parser.robust_parsing = True
-            for msg in parser.parse_buffer(data) or []:
-                count += 1
-                time_ms = getattr(msg, "time_boot_ms", None)
-                if time_ms is not None and time_ms > 0:
-                    if first is None:
-                        first = (now, time_ms / 1000.0)
-                    last = (now, time_ms / 1000.0)
-            if now - last_heartbeat >= 1.0:
-                last_heartbeat = now
-                send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID,
-                                                   0, 0, 0, 3))
-        summary = proc.stdout.read().strip().splitlines()
-    finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGTERM)
-            proc.wait(30)
-        sock.close()
-    if first is None:
-        raise RuntimeError("no telemetry received")
-    return _VehicleRun(sim_s=last[1] - first[1], wall_s=last[0] - first[0], messages=count,
-                       vehicle_line=summary[-1] if summary else "")
-
-
-def _speedup_text(speedup: float) -> str:
-    """The vehicle's ``--speedup`` argument for ``speedup`` (inf: ``max``, unthrottled)."""
-    return "max" if math.isinf(speedup) else f"{speedup:g}"
-
-
-def _report_vehicle_speedup(speedup: float, repeat: int, realtime: bool) -> None:
-    extra = ["--realtime"] if realtime else []
-    for chosen in (speedup, math.inf):
-        runs = [_fly_vehicle(chosen, SIM_SECONDS, extra=extra) for _ in range(repeat)]
-        ratios = [r.ratio for r in runs]
-        rates = [r.messages / r.wall_s for r in runs]
-        print(f"vehicle process at --speedup {_speedup_text(chosen)}"
-              f"{' --realtime' if realtime else ''}, thesis mission, {SIM_SECONDS:.0f} s "
-              f"simulated, pymavlink client reading all telemetry, {repeat} runs")
-        print(f"  simulated / wall time (client): median {statistics.median(ratios):.1f}x  "
-              f"min {min(ratios):.1f}x  max {max(ratios):.1f}x")
-        print(f"  messages received: median {statistics.median(rates):.0f}/s (wall), "
-              f"{statistics.median(r.messages / r.sim_s for r in runs):.0f} per simulated s")
-        cpu_ratios = [float(m.group(1)) for r in runs
-                      if (m := re.search(r"([\d.]+)x per CPU second", r.vehicle_line))]
-        if cpu_ratios:  # what a busy machine's share of the CPU does not change
-            print(f"  simulated / CPU time (vehicle): median "
-                  f"{statistics.median(cpu_ratios):.1f}x")
-        for run in runs:
-            print(f"  vehicle: {run.vehicle_line}")
-
-
-def _report_vehicle_jitter(seconds: float, realtime: bool) -> None:
-    with tempfile.TemporaryDirectory() as tmp:
-        log_path = Path(tmp) / "timing.csv"
-        run = _fly_vehicle(1.0, seconds, timing_log=log_path,
-                           extra=["--realtime"] if realtime else [])
-        table = np.loadtxt(log_path, delimiter=",", skiprows=1, ndmin=2)
-    start_s, busy_s = table[:, 1], table[:, 2]
-    period_ms = np.diff(start_s) * 1e3
-    deviation_ms = np.abs(period_ms - 10.0)
-    print(f"vehicle process in real time (--speedup 1{' --realtime' if realtime else ''}), "
-          f"thesis mission, {seconds:g} s, pymavlink client connected: {len(period_ms)} tick "
-          "periods")
-    print(f"  period: mean {period_ms.mean():.3f} ms, |period - 10 ms|: p50 "
-          f"{np.percentile(deviation_ms, 50):.3f} ms  p99 {np.percentile(deviation_ms, 99):.3f} "
-          f"ms  max {deviation_ms.max():.3f} ms")
-    busy_ms = busy_s * 1e3
-    print(f"  busy per tick (plant + autopilot + MAVLink): p50 {np.percentile(busy_ms, 50):.3f} "
-          f"ms  p99 {np.percentile(busy_ms, 99):.3f} ms  max {busy_ms.max():.3f} ms")
-    print(f"  client: {run.ratio:.3f}x real time, {run.messages / run.wall_s:.0f} messages/s")
-    print(f"  vehicle: {run.vehicle_line}")
-
-
-# A bare pymavlink process: the floor of any process that speaks MAVLink with pymavlink's
-# codec (interpreter start, the dialect's import, one datagram).
-_BARE_HEARTBEAT_SENDER = """\
-import socket, sys
-from pymavlink.dialects.v20 import ardupilotmega as mav
-codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
-sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-heartbeat = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_GENERIC,
-                                          0, 0, mav.MAV_STATE_STANDBY, 3)
-sock.sendto(heartbeat.pack(codec), ("127.0.0.1", int(sys.argv[1])))
-"""
-
-
-def _cpu_s(pid: int) -> float:
-    """CPU seconds (user + system) process ``pid`` has used so far (Linux /proc; else NaN)."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
-    except OSError:
-        return math.nan
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
-
-
-def _first_heartbeat_s(command: Callable[[int], list[str]],
-                       timeout_s: float = 60.0) -> tuple[float, float, float, float]:
-    """Wall and CPU seconds from launching ``command(port)`` to the first HEARTBEAT parsed
-    (pymavlink) on a loopback UDP socket at ``port``, then to the first that is not
-    ``MAV_STATE_BOOT`` (ready: the autopilot is up); the process is then stopped (SIGTERM).
-    The CPU time is the process's own, read as the HEARTBEAT arrives: unlike the wall time
-    it hardly depends on the machine's load.
-
-    Returns
-    -------
-    first_wall_s, first_cpu_s, ready_wall_s, ready_cpu_s
-    """
-    from pymavlink.dialects.v20 import ardupilotmega as mav
-
-    first: tuple[float, float] | None = None
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        parser = mav.MAVLink(None)
-        parser.robust_parsing = True
-        start_s = time.perf_counter()
-        proc = subprocess.Popen(command(sock.getsockname()[1]), stdout=subprocess.DEVNULL,
-                                stdin=subprocess.DEVNULL)
-        try:
-            while time.perf_counter() - start_s < timeout_s:
-                if not select.select([sock], [], [], 0.5)[0]:
-                    if proc.poll() not in (None, 0):
-                        raise RuntimeError(f"{command(0)[0]} exited with {proc.returncode}")
-                    continue
-                msgs = parser.parse_buffer(sock.recv(65535)) or []
-                for msg in msgs:
-                    if msg.get_type() != "HEARTBEAT":
-                        continue
-                    now = time.perf_counter() - start_s, _cpu_s(proc.pid)
-                    first = first or now
-                    if int(msg.system_status) != mav.MAV_STATE_BOOT:
-                        return (*first, *now)
-            raise RuntimeError(f"no ready HEARTBEAT within {timeout_s:g} s")
-        finally:
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGTERM)
-            proc.wait(30)
-
-
-def _script(name: str, module: str) -> list[str]:
-    """How to launch this install's console script ``name`` (else ``python -m module``)."""
-    script = Path(sys.executable).with_name(name)
-    return [str(script)] if script.exists() else [sys.executable, "-m", module]
-
-
-def _vehicle_command(port: int) -> list[str]:
-    return _script("ftc-vehicle", "sim") + ["--bind", "127.0.0.1:0", "--out", f"127.0.0.1:{port}"]
-
-
-def _scenario_overhead_s(name: str) -> tuple[float, float]:
-    """``ftc-scenario run name``: (launch to exit, the flight's own wall time), s."""
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "run.json"
-        start_s = time.perf_counter()
-        subprocess.run(_script("ftc-scenario", "sim.scenario_cli")
-                       + ["run", name, "--json", str(out)], check=True,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        total_s = time.perf_counter() - start_s
-        flight_s = float(json.loads(out.read_text())["wall_s"])
-    return total_s, flight_s
-
-
-def _median(runs: Sequence[tuple[float, ...]], column: int) -> float:
-    return statistics.median(run[column] for run in runs)
-
-
-def _spread(runs: Sequence[tuple[float, ...]]) -> str:
-    """Median, min and max of the wall times, median of the CPU times, of ``runs``."""
-    return (f"wall median {_median(runs, 0):.2f} s  min {min(r[0] for r in runs):.2f} s  "
-            f"max {max(r[0] for r in runs):.2f} s;  CPU median {_median(runs, 1):.2f} s")
-
-
-def _write_bytecode() -> list[str]:
-    """Write the bytecode (``__pycache__/*.pyc``) of this project's packages where it is
-    missing or stale; returns the packages whose bytecode could not all be written.
-
-    Python writes it on a first import, unless ``PYTHONDONTWRITEBYTECODE`` is set (or the
-    folder is read-only); without it every start compiles every module from source again,
-    about 0.2 s of CPU for an entry point here. A warm start has it, as an installed package
-    has from its installation, so the start-up figures are taken with it.
-    """
-    import compileall
-
-    root = Path(__file__).resolve().parents[1]
-    return [name for name in ("sim", "fcu", "gcs", "flightdata")
-            if (root / name).is_dir() and not compileall.compile_dir(root / name, quiet=2)]
-
-
-def _report_startup(repeat: int) -> None:
-    """Median time to the first HEARTBEAT of ``ftc-vehicle`` and of a bare pymavlink sender,
-    launched alternately (so both see the same machine load), and their ratio; then the
-    start-up overhead of ``ftc-scenario run``."""
-    failed = _write_bytecode()
-    print("startup: bytecode of sim, fcu, gcs, flightdata written where missing or stale"
-          + (f" (could not write all of {', '.join(failed)})" if failed else ""))
-    _first_heartbeat_s(_vehicle_command)  # warm-up: design and numba caches, page cache
-    vehicle: list[tuple[float, float, float, float]] = []
-    bare: list[tuple[float, float, float, float]] = []
-    for _ in range(repeat):
-        vehicle.append(_first_heartbeat_s(_vehicle_command))
-        bare.append(_first_heartbeat_s(
-            lambda port: [sys.executable, "-c", _BARE_HEARTBEAT_SENDER, str(port)]))
-    print(f"startup: launch of ftc-vehicle to its first HEARTBEAT seen by a pymavlink client "
-          f"(loopback), {repeat} runs; wall time, and the process's CPU time by then")
-    print("  ftc-vehicle, first HEARTBEAT (MAV_STATE_BOOT while the autopilot loads): "
-          + _spread(vehicle))
-    ready = [(wall, cpu) for _, _, wall, cpu in vehicle]
-    print("  ftc-vehicle, first HEARTBEAT of the autopilot (STANDBY, ready): " + _spread(ready))
-    print("  reference, a bare pymavlink process sending one HEARTBEAT (interpreter, dialect "
-          "import, one datagram), in the same runs:")
-    print("  bare sender: " + _spread(bare))
-    print(f"  ratio of the medians, first HEARTBEAT: {_median(vehicle, 0) / _median(bare, 0):.1f}x "
-          f"(wall)  {_median(vehicle, 1) / _median(bare, 1):.1f}x (CPU); ready: "
-          f"{_median(ready, 0) / _median(bare, 0):.1f}x (wall)  "
-          f"{_median(ready, 1) / _median(bare, 1):.1f}x (CPU)")
-    runs = [_scenario_overhead_s(STACK_SCENARIO) for _ in range(repeat)]
-    overhead = [total - flight for total, flight in runs]
-    print(f"ftc-scenario run {STACK_SCENARIO} ({SIM_SECONDS:.0f} s flight), {repeat} runs: "
-          f"launch to exit median {statistics.median(t for t, _ in runs):.2f} s, the flight "
-          f"itself {statistics.median(f for _, f in runs):.2f} s")
-    print(f"  start-up overhead (launch to exit minus the flight): median "
-          f"{statistics.median(overhead):.2f} s  min {min(overhead):.2f} s  "
-          f"max {max(overhead):.2f} s")
-
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ftc-bench", description=__doc__.split("\n")[0])
     parser.add_argument("what", choices=("plant", "stack", "tick", "vehicle-speedup",
@@ -647,13 +352,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not 1 <= args.seconds <= 600:
         parser.error(f"--seconds {args.seconds}: must be in [1, 600]")
     if args.what == "vehicle-speedup":
-        _report_vehicle_speedup(args.speedup, args.repeat or 3, args.realtime)
+        from sim.vehicle_bench import report_vehicle_speedup
+
+        report_vehicle_speedup(args.speedup, args.repeat or 3, args.realtime)
         return 0
     if args.what == "vehicle-jitter":
-        _report_vehicle_jitter(args.seconds, args.realtime)
+        from sim.vehicle_bench import report_vehicle_jitter
+
+        report_vehicle_jitter(args.seconds, args.realtime)
         return 0
     if args.what == "startup":
-        _report_startup(args.repeat or 5)
+        from sim.startup_bench import report_startup
+
+        report_startup(args.repeat or 5)
         return 0
     if args.what == "tick":
         _report_tick(args.repeat or 5)

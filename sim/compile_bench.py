@@ -57,18 +57,18 @@ def _timed_run(command: Sequence[str], env: dict[str, str]) -> tuple[float, floa
 
 def _round(folder: Path) -> dict[str, tuple[float, float]]:
     """One round in ``folder``: cold and warm precompile, first scenario, first vehicle."""
-    from sim.bench import _first_heartbeat_s, _script, _vehicle_command
+    from sim.startup_bench import first_heartbeat_s, script_command, vehicle_command
 
     env = {**os.environ, "NUMBA_CACHE_DIR": str(folder / "numba"),
            "QUADFTC_CACHE_DIR": str(folder / "designs")}
-    precompile = [*_script("ftc-vehicle", "sim"), "--precompile"]
+    precompile = [*script_command("ftc-vehicle", "sim"), "--precompile"]
     figures = {"cold": _timed_run(precompile, env), "warm": _timed_run(precompile, env),
-               "scenario": _timed_run([*_script("ftc-scenario", "sim.scenario_cli"), "run",
+               "scenario": _timed_run([*script_command("ftc-scenario", "sim.scenario_cli"), "run",
                                        "baseline"], env)}
     saved = {k: os.environ.get(k) for k in ("NUMBA_CACHE_DIR", "QUADFTC_CACHE_DIR")}
     os.environ.update({k: env[k] for k in saved})
     try:
-        _, _, ready_wall_s, ready_cpu_s = _first_heartbeat_s(_vehicle_command)
+        _, _, ready_wall_s, ready_cpu_s = first_heartbeat_s(vehicle_command)
     finally:
         for key, value in saved.items():
             if value is None:

@@ -1,8 +1,9 @@
 """Extended Kalman filter on the full nonlinear quadrotor model (thesis section 6.1.2).
 
 The model (eq. 3.18 in NED/FRD), its Jacobian and its discretisation are in
-:mod:`fcu.estimation.ekf_model`; this module holds the filter: the compiled prediction and
-updates, the process noise, and the estimator the autopilot runs.
+:mod:`fcu.estimation.ekf_model`; this module holds the filter: its compiled tick (the prediction of
+:mod:`fcu.estimation.ekf_predict`, the screening and the updates), the process noise, and the
+estimator the autopilot runs.
 
 Measurements
 ------------
@@ -30,17 +31,15 @@ import numpy as np
 from numba import njit
 
 from fcu.estimation import screening
+from fcu.estimation.channels import Channel, ChannelSet
 from fcu.estimation.ekf_model import (
     TRANSITION_SCRATCH,
-    discrete_transition_into,
     model_derivative_into,
     model_jacobian_into,
     pack_params,
-    transition_pattern_into,
 )
+from fcu.estimation.ekf_predict import predict_covariance_into
 from fcu.estimation.estimator import (
-    Channel,
-    ChannelSet,
     InitialUncertainty,
     Innovation,
     ProcessNoiseDensities,
@@ -49,117 +48,18 @@ from fcu.estimation.estimator import (
     TickEstimator,
 )
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
-from fcu.estimation.small_matrix import (
-    add_scaled_row,
-    mul_nonzero_left,
-    transpose_into,
-)
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
 from flightdata.kernel_views import refcount_free_kernel, shaped
 
-# ekf_tick compiles in the kernels of ekf_model, screening, kalman_update, small_matrix and
-# kernel_views
+# ekf_tick compiles in the kernels of ekf_predict, ekf_model, screening, kalman_update,
+# small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
 
 if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view is asked for
     from fcu.estimation.ekf_filterpy import QuadrotorEKF
-
-
-@njit(cache=True, error_model="numpy")
-def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
-                  r_mat: FloatArray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                              np.ndarray]:
-    """Kalman measurement update for a given innovation (the maths of filterpy's update):
-    :func:`kalman_update_into` on copies.
-
-    Parameters
-    ----------
-    x : ndarray, shape (n,)
-        Prior state.
-    p_mat : ndarray, shape (n, n)
-        Prior covariance.
-    y : ndarray, shape (m,)
-        Innovation ``z - h(x)``.
-    h_mat : ndarray, shape (m, n)
-        Measurement Jacobian.
-    r_mat : ndarray, shape (m, m)
-        Measurement noise covariance.
-
-    Returns
-    -------
-    x_post, p_post, s_mat, s_inv, k_gain : ndarrays, shapes (n,), (n, n), (m, m), (m, m), (n, m)
-    """
-    n, m = x.shape[0], y.shape[0]
-    x_post = x.copy()
-    p_post = p_mat.copy()
-    s_mat = np.empty((m, m))
-    s_inv = np.empty((m, m))
-    k_gain_t = np.empty((m, n))
-    kalman_update_into(x_post, p_post, y, h_mat, r_mat, s_mat, s_inv, k_gain_t,
-                       np.empty(UPDATE_SCRATCH))
-    return x_post, p_post, s_mat, s_inv, k_gain_t.T.copy()
-
-
-@njit(cache=True, error_model="numpy")
-def predict_covariance(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
-                       p: FloatArray, on_ground: bool, qc_diag: FloatArray
-                       ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """One filterpy ``predict`` of the EKF in a single compiled call
-    (:func:`predict_covariance_into` on copies).
-
-    Returns ``x_{k+1|k}`` (RK4, yaw wrapped to [-pi, pi)), ``F``, ``Q``
-    (:func:`discrete_transition`) and ``P_{k+1|k} = F P F' + Q``.
-    """
-    x_next = x.copy()
-    p_next = p_mat.copy()
-    f_mat = np.empty((N, N))
-    q_mat = np.empty((N, N))
-    predict_covariance_into(x_next, p_next, u, dt, p, on_ground, qc_diag, f_mat, q_mat,
-                            np.empty(TRANSITION_SCRATCH), np.empty((N, N + 1)))
-    return x_next, f_mat, q_mat, p_next
-
-
-@refcount_free_kernel
-def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt: float,
-                            p: FloatArray, on_ground: bool, qc_diag: FloatArray,
-                            f_mat: FloatArray, q_mat: FloatArray, scratch: FloatArray,
-                            nz_f: FloatArray) -> None:
-    """One filterpy ``predict`` in place: ``x`` (16,), ``p_mat`` (16, 16) become the prior,
-    ``F`` and ``Q`` are written to ``f_mat``, ``q_mat`` (``scratch``: shape
-    :data:`~fcu.estimation.ekf_model.TRANSITION_SCRATCH`; ``nz_f``: (16, 17), written with
-    the columns of ``F`` that may be non-zero).
-
-    ``F`` is block upper triangular like ``A``: ``F P F'`` is taken as ``F (F P)'`` (``P``
-    symmetric), two products by the sparse ``F`` (its non-zero entries listed once), the
-    second one over the upper triangle only.
-    """
-    # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
-    discrete_transition_into(x, f_mat, q_mat, x, u, dt, p, on_ground, qc_diag, scratch)
-    x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
-    fp, fp_t = scratch[0], scratch[1]
-    # F's non-zero columns: among those of Phi, listed by discrete_transition_into (a
-    # listed entry that is 0.0 adds exact zeros: the same sums)
-    transition_pattern_into(nz_f, scratch)
-    # F P
-    mul_nonzero_left(fp, f_mat, nz_f, p_mat)
-    # (F P)' = P F'
-    transpose_into(fp_t, fp)
-    # P = F (P F') + Q: whole rows (the products two vector operations each), then the
-    # upper triangle j >= i mirrored (the result is symmetric)
-    for i in range(N):
-        for j in range(N):
-            p_mat[i, j] = 0.0
-        for t in range(int(nz_f[i, 0])):
-            k = int(nz_f[i, 1 + t])
-            add_scaled_row(p_mat, i, f_mat[i, k], fp_t, k)
-        for j in range(N):
-            p_mat[i, j] += q_mat[i, j]
-    for i in range(N):
-        for j in range(i):
-            p_mat[i, j] = p_mat[j, i]
 
 
 # ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
@@ -251,7 +151,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         diagonal, the ground plane (:func:`~fcu.estimation.estimator.on_ground_at`) and the
         longest prediction step (s), packed (offsets ``_C_*``).
     tables, layout : ndarrays
-        The channels (:class:`~fcu.estimation.estimator.ChannelSet`).
+        The channels (:class:`~fcu.estimation.channels.ChannelSet`).
     u : ndarray, shape (4,)
         PWM held since the previous tick.
     meas, excluded, reject
@@ -628,5 +528,4 @@ class ExtendedKalmanEstimator(TickEstimator):
 __all__ = [
     "EkfProcessNoise",
     "ExtendedKalmanEstimator",
-    "kalman_update",
 ]

@@ -14,8 +14,9 @@ from collections.abc import Callable
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from fcu.estimation.ekf import kalman_update, predict_covariance
 from fcu.estimation.ekf_model import discrete_transition
+from fcu.estimation.ekf_predict import predict_covariance
+from fcu.estimation.kalman_update import kalman_update
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 
 __all__ = ["QuadrotorEKF"]

@@ -2,13 +2,15 @@
 
 :func:`kalman_update_into` is the EKF's sequential update of one channel
 (:mod:`fcu.estimation.ekf`) and the TSKF's bias-free stage, eq. 6.17-6.20
-(:mod:`fcu.estimation.tskf`). Its products run over the rank-m structure of an update of m
-rows (m <= 16), with zero entries of ``H`` skipped: a measurement row picks one or a few
-state entries.
+(:mod:`fcu.estimation.tskf`); :func:`kalman_update` is the same on copies, as filterpy's
+update (:mod:`fcu.estimation.ekf_filterpy`). Its products run over the rank-m structure of an
+update of m rows (m <= 16), with zero entries of ``H`` skipped: a measurement row picks one
+or a few state entries.
 """
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from fcu.estimation.small_matrix import (
@@ -28,7 +30,7 @@ from flightdata.kernel_views import shaped
 # kalman_update_into compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
 
-__all__ = ["UPDATE_SCRATCH", "kalman_update_into"]
+__all__ = ["UPDATE_SCRATCH", "kalman_update", "kalman_update_into"]
 
 UPDATE_SCRATCH = 3 * 16 * 16 + 16 * 17
 """Size of the scratch :func:`kalman_update_into` works in (n, m <= 16)."""
@@ -90,3 +92,38 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     for i in range(n):
         for j in range(i):
             p_mat[i, j] = p_mat[j, i]
+
+
+@njit(cache=True, error_model="numpy")
+def kalman_update(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
+                  r_mat: FloatArray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                              np.ndarray]:
+    """Kalman measurement update for a given innovation (the maths of filterpy's update):
+    :func:`kalman_update_into` on copies.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Prior state.
+    p_mat : ndarray, shape (n, n)
+        Prior covariance.
+    y : ndarray, shape (m,)
+        Innovation ``z - h(x)``.
+    h_mat : ndarray, shape (m, n)
+        Measurement Jacobian.
+    r_mat : ndarray, shape (m, m)
+        Measurement noise covariance.
+
+    Returns
+    -------
+    x_post, p_post, s_mat, s_inv, k_gain : ndarrays, shapes (n,), (n, n), (m, m), (m, m), (n, m)
+    """
+    n, m = x.shape[0], y.shape[0]
+    x_post = x.copy()
+    p_post = p_mat.copy()
+    s_mat = np.empty((m, m))
+    s_inv = np.empty((m, m))
+    k_gain_t = np.empty((m, n))
+    kalman_update_into(x_post, p_post, y, h_mat, r_mat, s_mat, s_inv, k_gain_t,
+                       np.empty(UPDATE_SCRATCH))
+    return x_post, p_post, s_mat, s_inv, k_gain_t.T.copy()

@@ -4,8 +4,8 @@ The autopilot flying the EKF runs a TSKF beside it for the per-motor effectivene
 (:mod:`fcu.autopilot`). Both take the same tick's averaged samples
 (:func:`fcu.estimation.state.group_samples`), PWM, exclusions and rejection flag; :func:`step_pair`
 gives each its measurement table from the grouped samples and runs both tick kernels
-(:func:`fcu.estimation.tskf.tskf_tick`, then :func:`fcu.estimation.ekf.ekf_tick`) in one call,
-the same arithmetic as :meth:`TwoStageKalmanFilter.advance_grouped` followed by
+(:func:`fcu.estimation.tskf_kernel.tskf_tick`, then :func:`fcu.estimation.ekf.ekf_tick`) in one
+call, the same arithmetic as :meth:`TwoStageKalmanFilter.advance_grouped` followed by
 :meth:`ExtendedKalmanEstimator.step_grouped`, which ``tests/fcu/estimation/test_pair.py`` pins
 bit for bit.
 """
@@ -19,22 +19,17 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+from fcu.estimation.channels import I_LAYOUT, I_LAYOUT_COLS, I_N_CH, I_TABLES_AT, I_TABLES_SIZE
 from fcu.estimation.ekf import SC_MEAS as E_MEAS
 from fcu.estimation.ekf import ExtendedKalmanEstimator, ekf_tick
 from fcu.estimation.ekf import buffer_views as ekf_buffer_views
-from fcu.estimation.estimator import (
-    I_LAYOUT,
-    I_LAYOUT_COLS,
-    I_N_CH,
-    I_TABLES_AT,
-    I_TABLES_SIZE,
-    pwm_array,
-)
+from fcu.estimation.estimator import pwm_array
 from fcu.estimation.screening import MEAS_WIDTH, ROW1
 from fcu.estimation.state import STATE_DIM, FloatArray, GroupedSamples, StateEstimate
-from fcu.estimation.tskf import SC_MEAS as T_MEAS
-from fcu.estimation.tskf import TwoStageKalmanFilter, tskf_tick
-from fcu.estimation.tskf import buffer_views as tskf_buffer_views
+from fcu.estimation.tskf import TwoStageKalmanFilter
+from fcu.estimation.tskf_kernel import SC_MEAS as T_MEAS
+from fcu.estimation.tskf_kernel import buffer_views as tskf_buffer_views
+from fcu.estimation.tskf_kernel import tskf_tick
 from fcu.estimation.tskf_model import N_MOTORS
 from flightdata import kernel_views
 from flightdata.kernel_cache import drop_stale_kernels
@@ -47,7 +42,7 @@ drop_stale_kernels(__file__, kernel_views.__file__)
 @refcount_free_kernel
 def gather_into(meas: FloatArray, flat: FloatArray, gather: np.ndarray) -> None:
     """A filter's measurement table from grouped samples, ``flat[gather]``
-    (:meth:`fcu.estimation.estimator.ChannelSet.gather`), written into ``meas``
+    (:meth:`fcu.estimation.channels.ChannelSet.gather`), written into ``meas``
     (n_ch, MEAS_WIDTH)."""
     for c in range(gather.shape[0]):
         for k in range(MEAS_WIDTH):
@@ -59,9 +54,9 @@ def channel_views(buf: FloatArray, ints: np.ndarray, excluded_bits: int
                   ) -> tuple[FloatArray, np.ndarray, np.ndarray, np.ndarray, int]:
     """A filter's channel tables for a tick: ``tables`` (a view of its float buffer ``buf``),
     ``layout``, the gather index and the exclusions (views of ``ints``,
-    :meth:`~fcu.estimation.estimator.ChannelSet.kernel_ints`, offsets ``I_*``), the last
+    :meth:`~fcu.estimation.channels.ChannelSet.kernel_ints`, offsets ``I_*``), the last
     written from ``excluded_bits`` (channel ``c`` excluded: bit ``1 << c``), and the tick
-    output's size (:attr:`~fcu.estimation.estimator.ChannelSet.tick_size`)."""
+    output's size (:attr:`~fcu.estimation.channels.ChannelSet.tick_size`)."""
     n_ch, cols = ints[I_N_CH], ints[I_LAYOUT_COLS]
     at = ints[I_TABLES_AT]
     tables = buf[at:at + ints[I_TABLES_SIZE]]
@@ -84,7 +79,7 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
               n_steps: int, t_on_ground: bool, accel_power: float, e_buf: FloatArray,
               e_ints: np.ndarray, e_excluded: int, dt: float, e_on_ground: bool
               ) -> tuple[bool, float, int, bool, int]:
-    """:func:`~fcu.estimation.tskf.tskf_tick` and :func:`~fcu.estimation.ekf.ekf_tick` of one
+    """:func:`~fcu.estimation.tskf_kernel.tskf_tick` and :func:`~fcu.estimation.ekf.ekf_tick` of one
     tick, on the grouped samples ``flat`` (:attr:`~fcu.estimation.state.GroupedSamples.flat`).
 
     Parameters
@@ -97,27 +92,27 @@ def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out:
     out : ndarray, shape (e_size + t_size + 4,)
         Written: the EKF's tick output (its estimate and screening, ``e_size`` entries), the
         TSKF's (``t_size``), then the TSKF's new ``gamma_hat`` (each filter's size:
-        :attr:`~fcu.estimation.estimator.ChannelSet.tick_size`).
+        :attr:`~fcu.estimation.channels.ChannelSet.tick_size`).
     t_buf, e_buf : ndarrays
         Each filter's float buffer: its workspace, scratch, model or constants (and the
         EKF's ``s_stack``) at the offsets ``B_*`` of :mod:`~fcu.estimation.tskf` and
         :mod:`~fcu.estimation.ekf`, then the channel tables.
     t_ints, e_ints : ndarrays of int
         The current channels' integer tables for this slot layout
-        (:meth:`~fcu.estimation.estimator.ChannelSet.kernel_ints`).
+        (:meth:`~fcu.estimation.channels.ChannelSet.kernel_ints`).
     t_excluded, e_excluded : int
         Each filter's excluded channels, as bits (:func:`channel_views`).
     t_gamma : ndarray, shape (4,)
         The TSKF's ``gamma_hat`` before the tick (read only).
     n_steps, t_on_ground, accel_power
-        :func:`~fcu.estimation.tskf.tskf_tick`'s.
+        :func:`~fcu.estimation.tskf_kernel.tskf_tick`'s.
     dt, e_on_ground
         :func:`~fcu.estimation.ekf.ekf_tick`'s.
 
     Returns
     -------
     tuple
-        :func:`~fcu.estimation.tskf.tskf_tick`'s result (ground flag, accelerometer
+        :func:`~fcu.estimation.tskf_kernel.tskf_tick`'s result (ground flag, accelerometer
         power, update rows), then :func:`~fcu.estimation.ekf.ekf_tick`'s (ground flag, last
         channel updated).
     """

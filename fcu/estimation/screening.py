@@ -148,7 +148,7 @@ def on_ground_at(x: FloatArray, ground: FloatArray) -> bool:
 @njit(cache=True, error_model="numpy", inline="always")
 def channel_tables(tables: FloatArray, layout: np.ndarray) -> tuple[FloatArray, FloatArray, int]:
     """A channel set's float tables, packed into one array for the tick kernels
-    (:attr:`~fcu.estimation.estimator.ChannelSet.tables`): every channel's ``S`` stacked,
+    (:attr:`~fcu.estimation.channels.ChannelSet.tables`): every channel's ``S`` stacked,
     ``sel_stack`` (rows_total, 16), then the ``noise`` table (n_ch, 3), as views; and the
     offset after them (where a filter's own tables follow)."""
     n_ch = layout.shape[0]

@@ -393,7 +393,7 @@ def group_sample_arrays(flat: FloatArray, sensor_index: np.ndarray, time_s: Floa
         time (s), the samples averaged (samples with a non-finite value are dropped) and
         the index of its first sample (-1: none); the spare zero after them stays (what the
         estimators' measurement tables read for an absent batch,
-        :meth:`fcu.estimation.estimator.ChannelSet.measurements`).
+        :meth:`fcu.estimation.channels.ChannelSet.measurements`).
     sensor_index : ndarray of int, shape (n,)
         Each sample's sensor, an index into ``slot_of``.
     time_s : ndarray, shape (n,)

@@ -1,11 +1,12 @@
 """The Two-Stage Kalman Filter's algebra, compiled and in place: time update of both stages,
 measurement update and the outputs (eq. 6.10-6.26).
 
-:mod:`fcu.estimation.tskf` runs them, a tick at a time, in :func:`fcu.estimation.tskf.tskf_tick`
-(whose cached kernels are dropped when this module changes: :mod:`flightdata.kernel_cache`).
-The matrices are small (16 states, 4 biases, at most 16 measurement rows) and sparse (the
-discrete hover model, the measurement rows): the products skip zero entries of their left
-factor (:mod:`fcu.estimation.small_matrix`) and nothing is allocated.
+:mod:`fcu.estimation.tskf` runs them, a tick at a time, in
+:func:`fcu.estimation.tskf_kernel.tskf_tick` (whose cached kernels are dropped when this
+module changes: :mod:`flightdata.kernel_cache`). The matrices are small (16 states, 4 biases,
+at most 16 measurement rows) and sparse (the discrete hover model, the measurement rows): the
+products skip zero entries of their left factor (:mod:`fcu.estimation.small_matrix`) and
+nothing is allocated.
 """
 
 from __future__ import annotations

@@ -53,7 +53,8 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from fcu.estimation.estimator import ChannelCheck, ChannelSet, Screening
+from fcu.estimation.channels import ChannelSet
+from fcu.estimation.estimator import ChannelCheck, Screening
 from fcu.estimation.screening import ABSENT, REJECTED, STATUS_NAMES
 from fcu.estimation.state import GroupedSamples, SampleBatch
 from flightdata.config import finite, require

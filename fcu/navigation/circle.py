@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.navigation.guidance import Reference
+from fcu.navigation.reference import Reference
 
 __all__ = ["Circle", "circle_entry"]
 

@@ -40,7 +40,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.navigation.guidance import Reference, SpeedLimits, wrap_pi
+from fcu.navigation.guidance import SpeedLimits
+from fcu.navigation.reference import Reference, wrap_pi
 from flightdata.config import finite, require
 
 __all__ = ["FollowChase", "FollowConfig", "FollowTarget", "LeadEstimate"]

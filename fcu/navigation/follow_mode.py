@@ -16,8 +16,8 @@ import numpy as np
 from fcu.navigation.events import CommandResult
 from fcu.navigation.flight import FlightLegs
 from fcu.navigation.follow import FollowChase, FollowConfig, FollowTarget
-from fcu.navigation.guidance import Reference
 from fcu.navigation.legs import Leg
+from fcu.navigation.reference import Reference
 
 __all__ = ["FollowLegs"]
 

@@ -16,7 +16,6 @@ import numpy as np
 from fcu.navigation.circle import Circle
 from fcu.navigation.follow import FollowChase
 from fcu.navigation.guidance import (
-    Reference,
     SpeedLimits,
     Trajectory,
     Waypoint,
@@ -25,6 +24,7 @@ from fcu.navigation.guidance import (
     takeoff_trajectory,
 )
 from fcu.navigation.pilot_leg import PilotLeg
+from fcu.navigation.reference import Reference
 
 LegKind = Literal["takeoff", "move", "hold", "manual", "approach", "rtl_return", "land",
                   "circle", "circle_approach", "follow", "pilot"]

@@ -178,5 +178,5 @@ def test_a_station_behind_on_its_messages_does_not_resend_an_injection_early() -
 def test_a_request_is_sent_again_after_four_round_trips(round_trips_s: list[float],
                                                          nudge_s: float) -> None:
     gs = GroundStation(None, "test")
-    gs._round_trips_s.extend(round_trips_s)
-    assert gs._retry_wait_s(1.0) == pytest.approx(nudge_s)
+    gs.round_trips.samples_s.extend(round_trips_s)
+    assert gs.round_trips.retry_wait_s(1.0) == pytest.approx(nudge_s)

@@ -91,13 +91,13 @@ def test_the_filters_buffers_keep_their_row_updated_matrices_on_cache_lines() ->
     # priors, F, Q, the scratch) at a multiple of 8 entries: no vector access straddles two
     # cache lines (small_matrix.aligned_zeros)
     from fcu.estimation import ekf as ekf_module
-    from fcu.estimation import tskf as tskf_module
+    from fcu.estimation import tskf_kernel as tskf_module
 
     model = load_scenario("lqg_abdob_loe").autopilot.model
     for estimator in (ExtendedKalmanEstimator(model), TwoStageKalmanFilter(model)):
         assert estimator._buf.ctypes.data % 64 == 0
     offsets = [ekf_module.B_SCRATCH, ekf_module._P, ekf_module._P_PRIOR, ekf_module._F,
                ekf_module._Q, ekf_module._SC_UPDATE, ekf_module._SC_JAC, tskf_module.B_SCRATCH,
-               tskf_module._PX, tskf_module._PRIOR + tskf_module._PX, tskf_module._SC_UPDATE,
-               tskf_module._SC_P_HAT]
+               tskf_module.W_P_X, tskf_module.W_PRIOR + tskf_module.W_P_X, tskf_module.SC_UPDATE,
+               tskf_module.SC_P_HAT]
     assert all(at % 8 == 0 for at in offsets)

@@ -163,7 +163,7 @@ def test_transposed_product_is_the_product_transposed_to_the_bit() -> None:
 
 
 def test_the_update_keeps_the_covariance_symmetric_and_positive() -> None:
-    from fcu.estimation.ekf import kalman_update
+    from fcu.estimation.kalman_update import kalman_update
 
     p0 = _spd(16) / 16.0
     h = np.zeros((3, 16))

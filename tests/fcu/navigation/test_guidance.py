@@ -10,20 +10,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fcu.navigation.guidance import (
-    CubicSegment,
-    HoldSegment,
-    RampSegment,
-    Reference,
     SpeedLimits,
     Trajectory,
     Waypoint,
-    _reference_from_nine,
     hold_trajectory,
     landing_trajectory,
     leg_duration_s,
     takeoff_trajectory,
-    wrap_pi,
 )
+from fcu.navigation.reference import Reference, reference_from_nine, wrap_pi
+from fcu.navigation.segments import CubicSegment, HoldSegment, RampSegment
 from flightdata.mission import thesis_mission
 
 coord = st.floats(min_value=-5.0, max_value=5.0, allow_nan=False)
@@ -280,11 +276,11 @@ def test_cubic_reference_is_the_closed_form_bit_for_bit_read_only_and_its_own() 
 def test_a_non_finite_cubic_reference_raises_the_public_error() -> None:
     seg = CubicSegment(0.0, 1.0, np.zeros(3), np.array([1.0, 0.0, 0.0]))
     with pytest.raises(ValueError, match="yaw_rad"):
-        _reference_from_nine(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0)
+        reference_from_nine(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, math.nan, 0.0)
     with pytest.raises(ValueError, match="vel_ned"):
-        _reference_from_nine(0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        reference_from_nine(0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     # huge finite values whose sum overflows are still a valid reference
-    big = _reference_from_nine(1e308, 1e308, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    big = reference_from_nine(1e308, 1e308, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     np.testing.assert_array_equal(big.pos_ned, [1e308, 1e308, 0.0])
     assert seg.evaluate(0.5).pos_ned[0] == 0.5
 

@@ -15,11 +15,11 @@ from pymavlink import mavutil
 
 from fcu.navigation.events import NavEvent
 from fcu.navigation.fence import FenceConfig
-from fcu.navigation.guidance import Reference
 from fcu.navigation.landing import LandedState
 from fcu.navigation.mission import MissionState
 from fcu.navigation.modes import ARDUCOPTER_MODE_NAMES, Mode
 from fcu.navigation.navigator import Navigator, NavOutput
+from fcu.navigation.reference import Reference
 from fcu.navigation.settings import NavigatorConfig
 from flightdata.mission import MissionItem, thesis_mission
 
