@@ -298,13 +298,19 @@ def test_mavproxy_rc_overrides_fly_alt_hold_and_their_loss_lands(start_vehicle, 
         start = _after_simulated(gcs, 2.0)  # settled at mid-stick
         # mid-stick: held (0.1 m: the altitude loop's error in the light indoor draught)
         assert _after_simulated(gcs, 10.0) == pytest.approx(start, abs=0.1)
+        since = gcs.mark()
         mp.send("rc 3 1700")  # 0.7: (0.7 - 0.6) / 0.4 of PILOT_SPEED_UP, 0.125 m/s
-        climbed = _after_simulated(gcs, 10.0) - start
-        # 1.25 m in 10 s, less the wall time MAVProxy takes to send it (10 Hz, its shell)
-        # in simulated seconds: up to 5 s on a loaded machine
-        assert 0.6 < climbed < 1.35, f"climbed {climbed:.2f} m"
-        mp.send("rc 3 1500")
-        held = _after_simulated(gcs, 2.0)  # the climb rate back to 0 at PILOT_ACCEL_Z
+        # from when the override arrives (MAVProxy's shell and 10 Hz loop take wall time,
+        # several simulated seconds on a loaded machine): 1.0 m in 8 s
+        gcs.wait("LOCAL_POSITION_NED", lambda m: m.vz < -0.1, since=since, timeout_s=120.0)
+        climbing = _after_simulated(gcs, 0.0)
+        climbed = _after_simulated(gcs, 8.0) - climbing
+        assert 0.85 < climbed < 1.15, f"climbed {climbed:.2f} m"  # the velocity loop's error
+        since = gcs.mark()
+        mp.send("rc 3 1500")  # the climb rate back to 0 at PILOT_ACCEL_Z once it arrives
+        gcs.wait("LOCAL_POSITION_NED", lambda m: abs(m.vz) < 0.02, since=since,
+                 timeout_s=120.0)
+        held = _after_simulated(gcs, 1.0)
         assert _after_simulated(gcs, 10.0) == pytest.approx(held, abs=0.1)
         assert not [t for t in gcs.texts() if "Radio failsafe" in t]
         since = gcs.mark()
