@@ -315,7 +315,9 @@ def test_go_to_refusals_and_reposition_switches_to_guided() -> None:
     f = flight()
     f.nav.set_mode(Mode.GUIDED)
     f.nav.arm()
-    assert f.nav.go_to((1, 0, -1)).reason == "not flying: take off first"
+    # on the ground: a target on the ground is refused, one up takes off (as PX4's OFFBOARD)
+    assert f.nav.go_to((1, 0, -0.05)).reason == "not flying: the target is on the ground"
+    assert f.nav.go_to((1, 0, -1)).accepted and f.nav.leg_kind == "takeoff"
     f = airborne(1.0)
     assert f.nav.go_to((1, 0, 0.5)).reason.startswith("target altitude -0.50 m outside")
     assert f.nav.go_to((np.nan, 0, -1)).reason.endswith("is not three finite numbers")
