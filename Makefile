@@ -26,7 +26,7 @@ demo: setup
 	$(BIN)/ftc-gcs demo
 
 # one worker per CPU (at most 4); a module's tests stay on one worker (its fixtures, its ports)
-test: setup
+test: lint
 	$(BIN)/python -m pytest -q -n auto --maxprocesses 4 --dist loadscope
 
 # everything but the whole flights (tests marked slow, see tests/conftest.py)
