@@ -240,10 +240,12 @@ class SimVehicle:
             self._judged_mission = items
             for point in mission_area(items, nav.home_pos_ned).corners():
                 self.judge.area.extend(point)
-        if nav.sticks is not None:  # a pilot flies it: where the sticks take it is meant
+        if nav.flying_pilot_leg:  # sticks or set-points fly it: where they take it is meant,
+            # and where it would stop when they let go
             status = self.stack.autopilot.status
             if status is not None and status.reference is not None:
                 self.judge.area.extend(status.reference.pos_ned)
+            self.judge.area.extend(nav.stopping_point_ned)
         armed = nav.armed
         if armed and not self._was_armed:
             self.judge.rearm()

@@ -60,6 +60,17 @@ class PilotModes(FlightLegs):
         return self._ok()
 
     @property
+    def flying_pilot_leg(self) -> bool:
+        """The leg flown follows live input (sticks, GUIDED velocity or attitude set-points):
+        where it goes is decided as it flies, not planned."""
+        return self._leg is not None and self._leg.pilot is not None
+
+    @property
+    def stopping_point_ned(self) -> np.ndarray:
+        """Where the vehicle would stop if braked now (estimate + v|v| / 2a, m, NED)."""
+        return self._stopping_point()
+
+    @property
     def leg_kind(self) -> str:
         """As :attr:`FlightLegs.leg_kind`; a pilot leg is "takeoff" while it lifts off the
         ground, "land" while the throttle asks to descend, else "pilot"."""

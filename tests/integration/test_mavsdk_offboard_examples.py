@@ -5,11 +5,14 @@ order, against a vehicle at PX4's default home. MAVSDK's ``offboard.start()`` pu
 ArduPilot autopilot in GUIDED, and its setpoints arrive as SET_POSITION_TARGET_LOCAL_NED
 (position, velocity, both) and SET_ATTITUDE_TARGET. The examples' ``asyncio.sleep`` pauses
 become waits on telemetry showing the vehicle does what the setpoint asks (climbing, moving
-north, rolling right...), so a setpoint that is accepted but not flown fails the test.
+north, rolling right...), so a setpoint that is accepted but not flown fails the test, and
+then the rest of the pause in simulated time, so each set-point is flown as long as the
+example flies it.
 """
 
 from __future__ import annotations
 
+import asyncio
 import math
 from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Any
@@ -32,9 +35,21 @@ ROLLED_DEG = 15.0  # deg: leaning the way a 30 deg roll setpoint asks
 class Api:
     """What differs between the two packages: the setpoint classes and the stream names."""
 
-    def __init__(self, drone: Any, native: bool) -> None:
-        self.drone, self.native = drone, native
+    def __init__(self, drone: Any, native: bool, gcs: Gcs) -> None:
+        self.drone, self.native, self.gcs = drone, native, gcs
         self.sp = native_offboard if native else grpc_offboard
+
+    async def sleep(self, seconds: float) -> None:
+        """The example's ``asyncio.sleep(seconds)``, in simulated time (the vehicle's clock,
+        LOCAL_POSITION_NED's), so the set-point is flown as long as the example flies it."""
+        def now_ms() -> int:
+            return int(self.gcs.messages("LOCAL_POSITION_NED")[-1].time_boot_ms)
+
+        end_ms = now_ms() + 1000.0 * seconds
+        deadline = asyncio.get_running_loop().time() + FLIGHT_S / 4
+        while now_ms() < end_ms:
+            assert asyncio.get_running_loop().time() < deadline, "the vehicle's clock stalls"
+            await asyncio.sleep(0.05)
 
     def stream(self, name: str) -> AsyncIterator[Any]:
         telemetry = self.drone.telemetry
@@ -58,9 +73,11 @@ class Api:
 def run(native: bool, start_vehicle: Any, gcs: Gcs,
         steps: Callable[[Api], Awaitable[None]]) -> None:
     async def with_api(drone: Any) -> None:
-        await steps(Api(drone, native))
+        await steps(Api(drone, native, gcs))
 
     (run_native if native else run_grpc)(start_vehicle, gcs, with_api)
+    # where the set-points took it was meant: no outcome judged (a fly-away, a crash)
+    assert not [t for t in gcs.texts() if "outcome" in t], "; ".join(gcs.texts())
 
 
 BOTH = pytest.mark.parametrize("native", [False, True], ids=["grpc", "native"])
@@ -101,12 +118,16 @@ def test_offboard_velocity_ned_example(native: bool, start_vehicle, gcs: Gcs) ->
         await api.until("position_velocity_ned", lambda pv: pv.position.down_m < -2.0)
         await bounded(offboard.set_velocity_ned(sp.VelocityNedYaw(2.0, 0.0, 0.0, 90.0)))
         await api.velocity(lambda v: v.north_m_s > MOVING_M_S)
+        await api.sleep(4.0)
         await bounded(offboard.set_velocity_ned(sp.VelocityNedYaw(-2.0, 0.0, 0.0, 270.0)))
         await api.velocity(lambda v: v.north_m_s < -MOVING_M_S)
+        await api.sleep(4.0)
         await bounded(offboard.set_velocity_ned(sp.VelocityNedYaw(0.0, -2.0, 0.0, 90.0)))
         await api.velocity(lambda v: v.east_m_s < -MOVING_M_S)
+        await api.sleep(4.0)
         await bounded(offboard.set_velocity_ned(sp.VelocityNedYaw(0.0, 2.0, 0.0, 90.0)))
         await api.velocity(lambda v: v.east_m_s > MOVING_M_S)
+        await api.sleep(4.0)
         await bounded(offboard.set_velocity_ned(sp.VelocityNedYaw(0.0, 0.0, 0.0, 180.0)))
         await api.until("heading", lambda h: abs(h.heading_deg - 180.0) < 20.0)
         await bounded(offboard.set_velocity_ned(sp.VelocityNedYaw(0.0, 0.0, 1.0, 0.0)))
@@ -141,12 +162,14 @@ def test_offboard_velocity_body_example(native: bool, start_vehicle, gcs: Gcs) -
         await bounded(offboard.set_velocity_body(
             sp.VelocityBodyYawspeed(5.0, 0.0, 0.0, 30.0)))
         await api.velocity(lambda v: math.hypot(v.north_m_s, v.east_m_s) > 1.0)
+        await api.sleep(15.0)
         await bounded(offboard.set_velocity_body(sp.VelocityBodyYawspeed(0.0, 0.0, 0.0, 0.0)))
         await api.velocity(lambda v: math.hypot(v.north_m_s, v.east_m_s) < MOVING_M_S)
         # "Fly a circle sideways"
         await bounded(offboard.set_velocity_body(
             sp.VelocityBodyYawspeed(0.0, -5.0, 0.0, 30.0)))
         await api.velocity(lambda v: math.hypot(v.north_m_s, v.east_m_s) > 1.0)
+        await api.sleep(15.0)
         await bounded(offboard.set_velocity_body(sp.VelocityBodyYawspeed(0.0, 0.0, 0.0, 0.0)))
         await bounded(offboard.stop())
 
@@ -195,12 +218,16 @@ def test_offboard_attitude_example(native: bool, start_vehicle, gcs: Gcs) -> Non
         # "Go up at 70% thrust": as ArduCopter reads it, a climb at 0.4 WPNAV_SPEED_UP
         await bounded(offboard.set_attitude(sp.Attitude(0.0, 0.0, 0.0, 0.7)))
         await api.until("position_velocity_ned", lambda pv: pv.position.down_m < -0.3)
+        await api.sleep(2.0)
         await bounded(offboard.set_attitude(sp.Attitude(30.0, 0.0, 0.0, 0.6)))
         await api.until("attitude_euler", lambda a: a.roll_deg > ROLLED_DEG)
+        await api.sleep(2.0)
         await bounded(offboard.set_attitude(sp.Attitude(-30.0, 0.0, 0.0, 0.6)))
         await api.until("attitude_euler", lambda a: a.roll_deg < -ROLLED_DEG)
+        await api.sleep(2.0)
         await bounded(offboard.set_attitude(sp.Attitude(0.0, 0.0, 0.0, 0.6)))  # "Hover"
         await api.until("attitude_euler", lambda a: abs(a.roll_deg) < 5.0)
+        await api.sleep(2.0)
         await bounded(offboard.stop())
         await bounded(action.land())
         await api.until("landed_state", lambda s: s.name == "ON_GROUND")

@@ -102,3 +102,4 @@ def test_a_position_set_point_on_the_ground_takes_off_to_it() -> None:
     stack2 = armed_in_guided()
     refused = stack2.autopilot.navigator.go_to(np.array([1.0, 0.0, 0.0]))
     assert not refused.accepted and "on the ground" in refused.reason
+
