@@ -3,7 +3,9 @@
 Modules, one job each:
 
 - :mod:`~fcu.mavlink.port`: what the endpoint needs from the vehicle (``VehiclePort``,
-  ``VehicleSnapshot``, ``FailureInjector``, ``ParamProvider``) in SI units and NED.
+  ``FailureInjector``, ``ParamProvider``) in SI units and NED;
+  :mod:`~fcu.mavlink.port_records`: the records crossing it (``VehicleSnapshot``,
+  ``CommandResult``, set-points, mission items, parameter specs, events).
 - :mod:`~fcu.mavlink.enums`: the MAVLink numbers it speaks in (``MavState``, ``Severity``,
   ``FailureUnit``, ``FailureType``); flight modes are the navigator's
   (:class:`fcu.navigation.modes.Mode`, ArduCopter's numbers).

@@ -29,7 +29,7 @@ from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
 from fcu.mavlink.autopilot_telemetry import AutopilotHost, AutopilotTelemetry
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.follow_target import LeadReport
-from fcu.mavlink.port import (
+from fcu.mavlink.port_records import (
     AttitudeTarget,
     BatteryState,
     CommandResult,

@@ -58,7 +58,8 @@ from fcu.mavlink.mission import (
     RELATIVE_ALT_FRAMES,
     set_current_refusal,
 )
-from fcu.mavlink.port import CommandResult, FailureInjector, VehiclePort, VehicleSnapshot
+from fcu.mavlink.port import FailureInjector, VehiclePort
+from fcu.mavlink.port_records import CommandResult, VehicleSnapshot
 from fcu.mavlink.streams import StreamScheduler
 
 __all__ = ["CommandDispatcher", "CommandLimits", "CommandOutcome", "CommandRequest"]

@@ -61,15 +61,13 @@ from fcu.mavlink.manual_input import ManualInput
 from fcu.mavlink.messages import Fields
 from fcu.mavlink.mission import MissionProtocol, set_current_refusal
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
-from fcu.mavlink.port import (
+from fcu.mavlink.port import FailureInjector, ParamProvider, VehiclePort
+from fcu.mavlink.port_records import (
     CommandResult,
-    FailureInjector,
     MissionItemReached,
-    ParamProvider,
     ParamSpec,
     RecordEvent,
     StatusText,
-    VehiclePort,
     VehicleSnapshot,
 )
 from fcu.mavlink.record_relay import RecordRelay

@@ -60,7 +60,7 @@ from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.enums import Severity
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.link import Address, Outbox
-from fcu.mavlink.port import CommandResult, GeoPoint, MissionItem, VehicleSnapshot
+from fcu.mavlink.port_records import CommandResult, GeoPoint, MissionItem, VehicleSnapshot
 from fcu.navigation.fence import FenceAreas
 from flightdata.mission import MissionItem as PlannedItem
 from flightdata.mission import mavlink_form
