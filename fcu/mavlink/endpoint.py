@@ -50,7 +50,8 @@ from collections.abc import Callable, Sequence
 from fcu.mavlink import messages as build
 from fcu.mavlink import streamed
 from fcu.mavlink.codec import Codec, MAVLinkMessage, mavlink2
-from fcu.mavlink.commands import CommandDispatcher, CommandOutcome, CommandRequest
+from fcu.mavlink.command_request import CommandOutcome, CommandRequest
+from fcu.mavlink.commands import CommandDispatcher
 from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig

@@ -6,7 +6,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from fcu.mavlink.commands import CommandLimits
+from fcu.mavlink.command_request import CommandLimits
 from fcu.mavlink.failsafe import FailsafeAction
 from fcu.mavlink.mission import MissionConfig
 from fcu.mavlink.signing import check_key
