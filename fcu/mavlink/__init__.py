@@ -14,7 +14,8 @@ Modules, one job each:
 - :mod:`~fcu.mavlink.messages`: telemetry and reply messages from a snapshot (unit edge).
 - :mod:`~fcu.mavlink.streams`: telemetry scheduling (simulated time, wall-clock heartbeat).
 - :mod:`~fcu.mavlink.params`: parameter table and protocol.
-- :mod:`~fcu.mavlink.mission`: mission protocol (ArduPilot flavour).
+- :mod:`~fcu.mavlink.mission`: mission protocol (ArduPilot flavour);
+  :mod:`~fcu.mavlink.mission_items`: its items, their checks and conversions.
 - :mod:`~fcu.mavlink.commands`: COMMAND_LONG/INT, SET_MODE, GUIDED set-points.
 - :mod:`~fcu.mavlink.failsafe`: GCS heartbeat-loss failsafe.
 - :mod:`~fcu.mavlink.manual_input`: MANUAL_CONTROL and RC_CHANNELS_OVERRIDE as sticks, and

@@ -17,7 +17,7 @@ import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m
-from fcu.mavlink.mission import GLOBAL_FRAMES, LOCAL_FRAMES, RELATIVE_ALT_FRAMES
+from fcu.mavlink.mission_items import GLOBAL_FRAMES, LOCAL_FRAMES, RELATIVE_ALT_FRAMES
 from fcu.mavlink.port_records import CommandResult, VehicleSnapshot
 
 __all__ = ["INT32_MAX", "CommandLimits", "CommandOutcome", "CommandRequest", "accepted",

@@ -66,7 +66,7 @@ from fcu.mavlink.command_request import (
 )
 from fcu.mavlink.enums import FailureType, FailureUnit
 from fcu.mavlink.message_commands import MessageCommands
-from fcu.mavlink.mission import RELATIVE_ALT_FRAMES, set_current_refusal
+from fcu.mavlink.mission_items import RELATIVE_ALT_FRAMES, set_current_refusal
 from fcu.mavlink.port import FailureInjector, VehiclePort
 from fcu.mavlink.port_records import CommandResult
 from fcu.mavlink.setpoint_commands import SetpointCommands

@@ -60,7 +60,8 @@ from fcu.mavlink.ftp import ftp_reply
 from fcu.mavlink.link import Address, Link
 from fcu.mavlink.manual_input import ManualInput
 from fcu.mavlink.messages import Fields
-from fcu.mavlink.mission import MissionProtocol, set_current_refusal
+from fcu.mavlink.mission import MissionProtocol
+from fcu.mavlink.mission_items import set_current_refusal
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
 from fcu.mavlink.port import FailureInjector, ParamProvider, VehiclePort
 from fcu.mavlink.port_records import (

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 from fcu.mavlink.command_request import CommandLimits
 from fcu.mavlink.failsafe import FailsafeAction
-from fcu.mavlink.mission import MissionConfig
+from fcu.mavlink.mission_items import MissionConfig
 from fcu.mavlink.signing import check_key
 from fcu.mavlink.streams import DEFAULT_RATES_HZ
 

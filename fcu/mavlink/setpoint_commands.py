@@ -12,7 +12,7 @@ import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.command_request import CommandLimits, CommandRequest, target_ned
-from fcu.mavlink.mission import GLOBAL_FRAMES
+from fcu.mavlink.mission_items import GLOBAL_FRAMES
 from fcu.mavlink.port import VehiclePort
 from fcu.mavlink.port_records import CommandResult, VehicleSnapshot
 
