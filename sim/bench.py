@@ -168,7 +168,7 @@ TICK_KERNELS = (
     ("sim.world.battery", "_battery_step", "world: battery and power module"),
     ("fcu.estimation.state", "group_sample_arrays", "sample grouping"),
     ("fcu.monitoring.watched_pair", "_pair_watch_tick", "EKF + TSKF, sensor watch"),
-    ("fcu.monitoring.motor_faults", "_detector_tick_call", "motor fault detector"),
+    ("fcu.monitoring.motor_faults", "detector_tick_call", "motor fault detector"),
     ("fcu.control.chain", "_control_tick", "control chain and crash check"),
 )
 

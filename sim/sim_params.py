@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
-from fcu.mavlink.port import CommandResult, ParamSpec
+from fcu.mavlink.port_records import CommandResult, ParamSpec
 from sim.world.fault_types import ActuatorFault, Fault, SensorFault, StructuralFault
 from sim.world.wind import WindConfig
 from sim.world.world import World

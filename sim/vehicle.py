@@ -44,7 +44,7 @@ from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import Severity
 from fcu.mavlink.link import Address
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 from fcu.mavlink.udp import DEFAULT_PEERS, UdpLink
 from fcu.monitoring.vibration import VibrationMonitor
 from sim.instances import DEFAULT_BIND

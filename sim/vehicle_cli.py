@@ -285,7 +285,7 @@ def main(argv: Sequence[str] | None = None) -> int:
               file=sys.stderr)
         return 1
 
-    from fcu.mavlink.port import GeoPoint
+    from fcu.mavlink.port_records import GeoPoint
     from flightdata.config import ConfigError
     from sim.scenario import load_scenario
     from sim.vehicle import DEFAULT_HOME, VehicleOptions, VehicleProcess, build_setup

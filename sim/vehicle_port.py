@@ -85,7 +85,7 @@ from dataclasses import dataclass, replace
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import AutopilotPort
 from fcu.mavlink.enums import FailureType, FailureUnit, Severity
-from fcu.mavlink.port import CommandResult, GeoPoint, SimTruth
+from fcu.mavlink.port_records import CommandResult, GeoPoint, SimTruth
 from flightdata.mission import MissionItem as NavItem
 from sim.outcome import MissionArea, OutcomeJudge, mission_area
 from sim.sim_params import SimParams

@@ -52,7 +52,7 @@ from fcu.mavlink.extended import (
     SecondaryAttitude,
     VibrationLevels,
 )
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 from fcu.monitoring.vibration import VibrationMonitor
 from flightdata.atmosphere import isa_pressure_pa, isa_temperature_c
 

@@ -50,26 +50,23 @@ from collections.abc import Callable, Sequence
 from fcu.mavlink import messages as build
 from fcu.mavlink import streamed
 from fcu.mavlink.codec import Codec, MAVLinkMessage, mavlink2
-from fcu.mavlink.commands import CommandDispatcher, CommandOutcome, CommandRequest
+from fcu.mavlink.commands import CommandDispatcher
 from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
-from fcu.mavlink.follow_target import lead_report
-from fcu.mavlink.ftp import ftp_reply
 from fcu.mavlink.link import Address, Link
+from fcu.mavlink.link_outbox import LinkOutbox
 from fcu.mavlink.manual_input import ManualInput
-from fcu.mavlink.messages import Fields
-from fcu.mavlink.mission import MissionProtocol, set_current_refusal
+from fcu.mavlink.message_handlers import MessageHandlers
+from fcu.mavlink.mission import MissionProtocol
 from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
-from fcu.mavlink.port import (
+from fcu.mavlink.port import FailureInjector, ParamProvider, VehiclePort
+from fcu.mavlink.port_records import (
     CommandResult,
-    FailureInjector,
     MissionItemReached,
-    ParamProvider,
     ParamSpec,
     RecordEvent,
     StatusText,
-    VehiclePort,
     VehicleSnapshot,
 )
 from fcu.mavlink.record_relay import RecordRelay
@@ -81,48 +78,14 @@ __all__ = ["MavlinkEndpoint"]
 
 _M = mavlink2
 _log = logging.getLogger(__name__)
-_SETPOINT_STATUS_INTERVAL_S = 1.0  # s wall; set-point refusals arrive at stream rates
 
 
-class _Outbox:
-    """Packs and sends for every protocol part; STATUSTEXT chunking lives here."""
-
-    def __init__(self, codec: Codec, link: Link, stats: EndpointStats) -> None:
-        self._codec = codec
-        self._link = link
-        self._stats = stats
-        self._chunk_id = 0
-
-    def send(self, msg: MAVLinkMessage, to: Address | None = None) -> None:
-        try:
-            data = self._codec.pack(msg)
-        except Exception:  # a field out of its wire range is a bug; keep flying
-            self._stats.build_errors += 1
-            _log.exception("cannot pack %s", msg.get_type())
-            return
-        self._link.send(data, to)
-
-    def send_fields(self, cls: type[MAVLinkMessage], fields: Fields,
-                    to: Address | None = None) -> None:
-        """:meth:`send` of ``cls(*fields)``, packed without the message object: what the
-        builders of :mod:`fcu.mavlink.messages` return (the telemetry streams are most of
-        what is sent)."""
-        try:
-            data = self._codec.pack_fields(cls, fields)
-        except Exception:  # a field out of its wire range is a bug; keep flying
-            self._stats.build_errors += 1
-            _log.exception("cannot pack %s", cls.msgname)
-            return
-        self._link.send(data, to)
-
-    def status(self, severity: int, text: str) -> None:
-        self._chunk_id = self._chunk_id % 0xFFFF + 1
-        for msg in build.statustext_chunks(severity, text, self._chunk_id):
-            self.send(msg)
-
-
-class MavlinkEndpoint:
+class MavlinkEndpoint(MessageHandlers):
     """MAVLink endpoint of the autopilot (see the module docstring for how to drive it).
+
+    Received messages go to their handlers in
+    :class:`~fcu.mavlink.message_handlers.MessageHandlers`; everything sent goes through one
+    :class:`~fcu.mavlink.link_outbox.LinkOutbox`.
 
     Parameters
     ----------
@@ -153,7 +116,7 @@ class MavlinkEndpoint:
         self._link = link
         self.stats = EndpointStats()
         self._codec = Codec(config.sysid, config.compid) if codec is None else codec
-        self._outbox = _Outbox(self._codec, link, self.stats)
+        self._outbox = LinkOutbox(self._codec, link, self.stats)
         self.signing = MessageSigning(self._codec.signing, self._outbox, key=config.signing_key)
         self._records = RecordRelay()
         entries = self._own_params() + ManualInput.param_entries()
@@ -414,189 +377,6 @@ class MavlinkEndpoint:
         if not streamed.can_build(msg_id):
             return None
         return streamed.build_stream(msg_id, self._port.snapshot(), self._context())
-
-    # ------------------------------------------------------------------ receiving
-    def _for_us(self, msg: MAVLinkMessage) -> bool:
-        target_system = getattr(msg, "target_system", 0)
-        target_component = getattr(msg, "target_component", 0)
-        ok = (target_system in (0, self._codec.sysid)
-              and target_component in (0, self._codec.compid))
-        if not ok:
-            self.stats.not_for_us += 1
-        return ok
-
-    def _handle_message(self, msg: MAVLinkMessage, addr: Address) -> None:
-        src = (msg.get_srcSystem(), msg.get_srcComponent())
-        if src == (self._codec.sysid, self._codec.compid):
-            return  # our own packet looped back
-        self._link.add_peer(addr)
-        kind = msg.get_type()
-        if kind == "HEARTBEAT":
-            if self._failsafe.on_heartbeat(src[0], int(msg.type), self._wall_s,
-                                           self._failsafe_config()):
-                self._clear_gcs_failsafe("heartbeat back")
-            return
-        if kind == "TIMESYNC":
-            self._timesync(msg, addr)
-            return
-        handler = self._HANDLERS.get(kind)
-        if handler is None or not self._for_us(msg):
-            return  # PING, COMMAND_ACK, ...: ignored
-        handler(self, msg, src, addr)
-
-    def _command(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        self.stats.commands += 1
-        command = int(msg.command)
-        try:
-            outcome = self._commands.dispatch(CommandRequest.from_message(msg))
-        except Exception:
-            self.stats.handler_errors += 1
-            _log.exception("command %d", command)
-            outcome = CommandOutcome(_M.MAV_RESULT_FAILED, f"command {command} failed")
-        self._finish_command(command, outcome, src, addr)
-
-    def _finish_command(self, command: int, outcome: CommandOutcome, src: tuple[int, int],
-                        addr: Address) -> None:
-        """Exactly one COMMAND_ACK, then the reason and follow-up messages."""
-        self._outbox.send(build.command_ack(command, outcome.result, *src), addr)
-        if outcome.reason:
-            self._outbox.status(Severity.WARNING, outcome.reason)
-        for follow in outcome.follow_up:
-            self._outbox.send(follow, addr)
-        if outcome.heartbeat_soon:
-            self._streams.request_heartbeat()
-        if outcome.reboot:
-            self._reboot()
-
-    def _lead_report(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        """Another system's position, for FOLLOW (never our own system's)."""
-        report = lead_report(msg) if src[0] != self._codec.sysid else None
-        if report is not None:
-            self._port.follow_target(report)
-
-    def _set_mode_message(self, msg: MAVLinkMessage, src: tuple[int, int],
-                          addr: Address) -> None:
-        """Legacy SET_MODE: acknowledged as ArduPilot does (COMMAND_ACK, command = 11)."""
-        if not int(msg.base_mode) & _M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            outcome = CommandOutcome(_M.MAV_RESULT_DENIED,
-                                     "Set mode: only custom (ArduCopter) modes are supported")
-        else:
-            outcome = self._commands.set_mode(int(msg.custom_mode))
-        self._finish_command(_M.MAVLINK_MSG_ID_SET_MODE, outcome, src, addr)
-
-    def _timesync(self, msg: MAVLinkMessage, addr: Address) -> None:
-        if int(msg.tc1) != 0:
-            return  # an answer to someone else's request
-        now_ns = max(int(self._time_s * 1e9), self._last_tc1_ns)
-        self._last_tc1_ns = now_ns
-        self._outbox.send(_M.MAVLink_timesync_message(now_ns, int(msg.ts1)), addr)
-
-    def _request_data_stream(self, msg: MAVLinkMessage, src: tuple[int, int],
-                             addr: Address) -> None:
-        rate = float(msg.req_message_rate) if int(msg.start_stop) else 0.0
-        self._streams.set_group_rate(int(msg.req_stream_id), rate)
-
-    def _param_list(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        self._params.handle_request_list(addr)
-
-    def _param_read(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        self._params.handle_request_read(msg, addr)
-
-    def _param_set(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        self._params.handle_set(msg)
-
-    def _mission_count(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        self._mission.handle_count(msg, src, addr, self._wall_s)
-
-    def _mission_item(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        self._mission.handle_item(msg, src, addr, self._wall_s)
-
-    def _mission_request_list(self, msg: MAVLinkMessage, src: tuple[int, int],
-                              addr: Address) -> None:
-        self._mission.handle_request_list(msg, src, addr)
-
-    def _mission_request(self, msg: MAVLinkMessage, src: tuple[int, int],
-                         addr: Address) -> None:
-        self._mission.handle_request(msg, src, addr)
-
-    def _mission_clear(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        self._mission.handle_clear_all(msg, src, addr)
-
-    def _mission_set_current(self, msg: MAVLinkMessage, src: tuple[int, int],
-                             addr: Address) -> None:
-        """MISSION_SET_CURRENT (no ACK exists): answered with MISSION_CURRENT."""
-        seq = int(msg.seq)
-        total = self._mission.total
-        if not 0 <= seq <= total or total == 0:
-            self._outbox.status(Severity.WARNING, set_current_refusal(seq, total))
-        else:
-            result = self._port.mission_set_current(max(seq, 1))
-            if not result.accepted:
-                self._outbox.status(Severity.WARNING, f"Set mission current: {result.reason}")
-        cls, built = streamed.stream_fields(_M.MAVLINK_MSG_ID_MISSION_CURRENT,
-                                            self._port.snapshot(), self._context())
-        for fields in built:
-            self._outbox.send_fields(cls, fields, addr)
-
-    def _sticks(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        if msg.get_type() == "RC_CHANNELS_OVERRIDE":
-            self.manual.rc_override(msg, self._wall_s)
-        elif int(msg.target) in (0, self._codec.sysid):  # MANUAL_CONTROL
-            self.manual.manual_control(msg, self._wall_s)
-
-    def _setup_signing(self, msg: MAVLinkMessage, src: tuple[int, int],
-                       addr: Address) -> None:
-        self.signing.handle_setup(msg)
-
-    def _ftp(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        """MAVLink FTP: no file server here, said at once (:func:`fcu.mavlink.ftp.ftp_reply`)."""
-        reply = ftp_reply(msg, src)
-        if reply is not None:
-            self._outbox.send(reply, addr)
-
-    def _setpoint(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        kind = msg.get_type()
-        if kind == "SET_POSITION_TARGET_LOCAL_NED":
-            result = self._commands.position_target_local(msg)
-        elif kind == "SET_POSITION_TARGET_GLOBAL_INT":
-            result = self._commands.position_target_global(msg)
-        else:
-            result = self._commands.attitude_target(msg)
-        if result.accepted:
-            return
-        # Set-points stream at 10-50 Hz: say the same refusal at most once per wall second.
-        text = result.reason or "Set-point refused"
-        last_s, last_text = self._last_setpoint_status
-        if text != last_text or self._wall_s - last_s >= _SETPOINT_STATUS_INTERVAL_S:
-            self._last_setpoint_status = (self._wall_s, text)
-            self._outbox.status(Severity.WARNING, text)
-
-    _HANDLERS = {
-        "COMMAND_LONG": _command,
-        "COMMAND_INT": _command,
-        "SET_MODE": _set_mode_message,
-        "REQUEST_DATA_STREAM": _request_data_stream,
-        "PARAM_REQUEST_LIST": _param_list,
-        "PARAM_REQUEST_READ": _param_read,
-        "PARAM_SET": _param_set,
-        "MISSION_COUNT": _mission_count,
-        "MISSION_ITEM_INT": _mission_item,
-        "MISSION_ITEM": _mission_item,
-        "MISSION_REQUEST_LIST": _mission_request_list,
-        "MISSION_REQUEST_INT": _mission_request,
-        "MISSION_REQUEST": _mission_request,
-        "MISSION_CLEAR_ALL": _mission_clear,
-        "MISSION_SET_CURRENT": _mission_set_current,
-        "SET_POSITION_TARGET_LOCAL_NED": _setpoint,
-        "SET_POSITION_TARGET_GLOBAL_INT": _setpoint,
-        "SET_ATTITUDE_TARGET": _setpoint,
-        "FILE_TRANSFER_PROTOCOL": _ftp,
-        "SETUP_SIGNING": _setup_signing,
-        "FOLLOW_TARGET": _lead_report,
-        "GLOBAL_POSITION_INT": _lead_report,
-        "MANUAL_CONTROL": _sticks,
-        "RC_CHANNELS_OVERRIDE": _sticks,
-    }
 
     # ------------------------------------------------------------------ reboot
     def _reboot(self) -> None:

@@ -6,9 +6,9 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from fcu.mavlink.commands import CommandLimits
+from fcu.mavlink.command_request import CommandLimits
 from fcu.mavlink.failsafe import FailsafeAction
-from fcu.mavlink.mission import MissionConfig
+from fcu.mavlink.mission_items import MissionConfig
 from fcu.mavlink.signing import check_key
 from fcu.mavlink.streams import DEFAULT_RATES_HZ
 

@@ -3,7 +3,7 @@
 The messages ArduPilot SITL streams beside the basic set (RAW_IMU, SCALED_IMU,
 SCALED_PRESSURE, VIBRATION, EKF_STATUS_REPORT, AHRS2, NAV_CONTROLLER_OUTPUT) need quantities
 that cost more than a snapshot field: filters over every accelerometer sample, the
-estimator's covariance, the navigator's leg. A :class:`~fcu.mavlink.port.VehicleSnapshot`
+estimator's covariance, the navigator's leg. A :class:`~fcu.mavlink.port_records.VehicleSnapshot`
 therefore carries an :class:`ExtendedTelemetry` (``snapshot.extended``) whose methods compute
 each quantity when its message is built, i.e. at that message's stream rate, never every
 tick. Everything here is SI and NED/FRD; MAVLink units exist only in

@@ -24,7 +24,7 @@ import numpy as np
 
 from fcu.mavlink.codec import MAVLinkMessage
 from fcu.mavlink.geo import geo_to_ned
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 from flightdata.geometry import euler_from_quat
 
 __all__ = ["LeadReport", "lead_report"]

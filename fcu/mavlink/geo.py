@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 
 __all__ = ["WGS84_A_M", "WGS84_E2", "geo_to_ned", "home_alt_amsl_m", "metres_per_degree",
            "ned_to_geo"]

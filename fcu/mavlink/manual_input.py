@@ -48,7 +48,8 @@ from enum import IntEnum
 from fcu.mavlink.codec import MAVLinkMessage
 from fcu.mavlink.enums import Severity
 from fcu.mavlink.params import ParamEntry
-from fcu.mavlink.port import LandedState, ParamSpec, VehiclePort
+from fcu.mavlink.port import VehiclePort
+from fcu.mavlink.port_records import LandedState, ParamSpec
 from fcu.navigation.modes import MODE_TABLE
 from fcu.navigation.sticks import Sticks
 

@@ -1,4 +1,4 @@
-"""Build MAVLink messages from a :class:`~fcu.mavlink.port.VehicleSnapshot`.
+"""Build MAVLink messages from a :class:`~fcu.mavlink.port_records.VehicleSnapshot`.
 
 This is the unit-conversion edge: SI/NED inside, MAVLink units on the wire. Every integer
 field is clamped into its wire type (a NaN becomes the field's "unknown" value), so a
@@ -36,7 +36,7 @@ import numpy as np
 from fcu.mavlink.codec import MAVLinkMessage, heartbeat_fields, mavlink2
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
-from fcu.mavlink.port import LandedState, VehicleSnapshot
+from fcu.mavlink.port_records import LandedState, VehicleSnapshot
 from fcu.navigation.modes import Mode
 from flightdata.geometry import euler_from_wxyz, quat_from_euler, wrap_pi
 

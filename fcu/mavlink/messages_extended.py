@@ -41,7 +41,7 @@ from fcu.mavlink.messages import (
     time_boot_ms,
     time_usec,
 )
-from fcu.mavlink.port import VehicleSnapshot
+from fcu.mavlink.port_records import VehicleSnapshot
 
 __all__ = ["EXTENDED_BUILDERS", "G0_M_S2"]
 

@@ -38,7 +38,7 @@ from fcu.mavlink.messages import (
     pwm_to_us,
     time_usec,
 )
-from fcu.mavlink.port import VehicleSnapshot
+from fcu.mavlink.port_records import VehicleSnapshot
 from flightdata.geometry import quat_from_euler
 
 __all__ = ["PX4_BUILDERS"]

@@ -38,7 +38,8 @@ import numpy as np
 from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.enums import Severity
 from fcu.mavlink.link import Address, Outbox
-from fcu.mavlink.port import CommandResult, ParamProvider, ParamSpec
+from fcu.mavlink.port import ParamProvider
+from fcu.mavlink.port_records import CommandResult, ParamSpec
 
 __all__ = ["REPEAT_QUIET_S", "ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable",
            "entries_from", "wire_type"]

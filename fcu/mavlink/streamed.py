@@ -14,7 +14,7 @@ from fcu.mavlink.codec import MAVLinkMessage
 from fcu.mavlink.messages import BUILDERS, BuilderTable, Fields, TelemetryContext
 from fcu.mavlink.messages_extended import EXTENDED_BUILDERS
 from fcu.mavlink.messages_px4 import PX4_BUILDERS
-from fcu.mavlink.port import VehicleSnapshot
+from fcu.mavlink.port_records import VehicleSnapshot
 
 __all__ = ["ALL_BUILDERS", "build_stream", "can_build", "stream_fields"]
 

@@ -87,22 +87,39 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from fcu.model import VehicleModel
+from fcu.monitoring.motor_fault_kernel import (
+    I_DECLARED,
+    I_MOTORS,
+    I_SIZE,
+    MASS_KG,
+    MASS_VAR,
+    MASS_VAR_FLOOR,
+    MASS_WINDOW_S,
+    P_COMMON_TAU,
+    P_DT,
+    P_G,
+    P_K,
+    P_MASS_SETTLE,
+    P_MASS_SIGMAS,
+    P_MASS_THRESHOLD,
+    P_NOISE_TAU,
+    P_SIGNIFICANCE,
+    P_THRESHOLD,
+    P_U_HOVER,
+    W_FLOOR,
+    W_PARAMS,
+    W_SIZE,
+    W_STATE,
+    W_U,
+    W_VAR,
+    detector_tick_call,
+)
 from flightdata.config import finite, require
-from flightdata.kernel_calls import KernelCall
 from flightdata.records import DetectionRecord
 
-# fault signatures in (roll, pitch, yaw) deficit, normalised (module docstring)
-SIGNATURES = np.array([[0.0, 0.0, -1.0, 1.0],
-                       [-1.0, 1.0, 0.0, 0.0],
-                       [-1.0, -1.0, 1.0, 1.0]])
-_PWM_FILTER_S = 0.2  # s, time constant of the PWM low-pass
-
-
 _CALM_RATIO = 2.0  # measured excitation within this many times its floor: calm air
-_ATTACK_S = 2.0  # s, time constant of the noise estimate's rise
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -177,274 +194,11 @@ class MotorEvidence:
     noise: np.ndarray  # (3,) measured excitation (roll, pitch, yaw deficit, 1 sigma)
 
 
-@njit(cache=True, error_model="numpy")
-def _fit_into(d: np.ndarray, var: np.ndarray, motors: np.ndarray, k: int,
-              scratch: np.ndarray, f: np.ndarray) -> float:
-    """:func:`weighted_fit` over the first ``k`` of ``motors`` without allocating: ``f[:k]``
-    receives the fit, ``scratch`` (at least 41 floats) the intermediate products; returns
-    the weighted residual sum of squares."""
-    # scratch: w 0:3, b 3:6, A (3 x k, row stride 4) 6:18, [A' A | A' b] (k x k+1,
-    # row stride 5) 18:38
-    for i in range(3):
-        scratch[i] = 1.0 / math.sqrt(var[i])  # w = Sigma^-1/2
-        scratch[3 + i] = d[i] * scratch[i]  # b = Sigma^-1/2 d
-        for j in range(k):
-            scratch[6 + 4 * i + j] = SIGNATURES[i, motors[j]] * scratch[i]  # A = Sigma^-1/2 M_S
-    # augmented normal equations [A' A | A' b]
-    for p in range(k):
-        for q in range(k):
-            scratch[18 + 5 * p + q] = (scratch[6 + p] * scratch[6 + q]
-                                       + scratch[10 + p] * scratch[10 + q]
-                                       + scratch[14 + p] * scratch[14 + q])
-        scratch[18 + 5 * p + k] = (scratch[6 + p] * scratch[3] + scratch[10 + p] * scratch[4]
-                                   + scratch[14 + p] * scratch[5])
-    for c in range(k):  # elimination, the largest pivot of column c first
-        pivot = c
-        for r in range(c + 1, k):
-            if abs(scratch[18 + 5 * r + c]) > abs(scratch[18 + 5 * pivot + c]):
-                pivot = r
-        if pivot != c:
-            for q in range(k + 1):
-                scratch[18 + 5 * c + q], scratch[18 + 5 * pivot + q] = \
-                    scratch[18 + 5 * pivot + q], scratch[18 + 5 * c + q]
-        for r in range(c + 1, k):
-            factor = scratch[18 + 5 * r + c] / scratch[18 + 5 * c + c]
-            for q in range(c, k + 1):
-                scratch[18 + 5 * r + q] -= factor * scratch[18 + 5 * c + q]
-    for c in range(k - 1, -1, -1):  # back substitution
-        acc = scratch[18 + 5 * c + k]
-        for q in range(c + 1, k):
-            acc -= scratch[18 + 5 * c + q] * f[q]
-        f[c] = acc / scratch[18 + 5 * c + c]
-    rss = 0.0  # |b - A f|^2
-    for i in range(3):
-        r_i = scratch[3 + i]
-        for j in range(k):
-            r_i -= scratch[6 + 4 * i + j] * f[j]
-        rss += r_i * r_i
-    return rss
-
-
-@njit(cache=True, error_model="numpy")
-def weighted_fit(d: np.ndarray, var: np.ndarray, motors: np.ndarray
-                 ) -> tuple[np.ndarray, float]:
-    """``f = argmin (d - M_S f)' Sigma^-1 (d - M_S f)`` over the signatures of ``motors``
-    (indices 0..3, at most 3 of them) and its weighted residual sum of squares.
-
-    With ``A = Sigma^-1/2 M_S`` and ``b = Sigma^-1/2 d``: the normal equations
-    ``(A' A) f = A' b`` (the signatures of distinct motors are independent), solved by
-    Gaussian elimination with partial pivoting; ``RSS = |b - A f|^2``. Written out in loops
-    (:func:`_fit_into`, which the detector's tick calls on its own workspace): at most 3
-    unknowns, where a BLAS or LAPACK call costs more than the arithmetic.
-    """
-    k = motors.shape[0]
-    f = np.empty(k)
-    rss = _fit_into(d, var, motors, k, np.empty(_FIT_SCRATCH), f)
-    return f, rss
-
-
-# the detector's float workspace, one array (MotorFaultDetector._work): views of it are the
-# low-passed PWM u, the measured excitation Sigma (diagonal), its floor, the scalar state and
-# the settings the kernel reads
-_W_U = slice(0, 4)
-_W_VAR = slice(4, 7)
-_W_FLOOR = slice(7, 10)
-_W_STATE = slice(10, 16)
-_W_PARAMS = slice(16, 27)
-_W_SIZE = 27
-# the scalar state (indices into the _W_STATE view)
-_E = 0  # PWM, common-mode thrust deficit per motor, e
-_MASS_KG = 1  # kg, mass change dm = 4 K e / g
-_N_LEARNED = 2  # ticks of excitation learned
-_MASS_VAR = 3  # kg^2, measured spread of the common mode, s_m^2
-_MASS_N = 4  # ticks of that spread learned
-_HALF = 5  # 1 while a motor is half suspected (the latest tick that looked)
-_STATE_SIZE = 6
-# the settings (indices into the _W_PARAMS view)
-_DT, _U_HOVER, _K, _G, _COMMON_TAU, _NOISE_TAU, _THRESHOLD, _SIGNIFICANCE, _MASS_THRESHOLD, \
-    _MASS_SIGMAS, _MASS_SETTLE = range(11)
-# the detector's integer workspace (MotorFaultDetector._iwork): the mass history's ring
-# buffer (first slot, count), the number k of declared motors, then the declared motors
-# (0..3, in declaration order) and room for one candidate after them
-_I_FIRST, _I_COUNT, _I_DECLARED, _I_MOTORS = 0, 1, 2, 3
-_I_SIZE = 8
-_FIT_SCRATCH = 41  # floats _fit_into works in
-# the kernel's own scratch: _fit_into's, then the fits f0 and f, deficit and d
-_S_F0, _S_F, _S_DEFICIT, _S_D, _S_SIZE = 41, 45, 49, 53, 56
-_MASS_WINDOW_S = 0.5  # s, over which the mass estimate must have settled
-_MASS_VAR_FLOOR = 0.01 ** 2  # kg^2, the least spread of the common mode (10 g)
-
-
-@njit(cache=True, error_model="numpy")
-def _detector_tick(time_s: float, gamma: np.ndarray, pwm: np.ndarray, work: np.ndarray,
-                   iwork: np.ndarray, history: np.ndarray, isolate: bool, evidence: bool,
-                   learn: bool, settling: bool, mass_reported: bool, loe: np.ndarray
-                   ) -> tuple[int, float, float, bool, float]:
-    """The detector's arithmetic for one tick (module docstring, steps 1 and 2 and the mass
-    change's spread and settling), compiled; the decisions stay with the caller.
-
-    Updates in place, in the float workspace ``work`` (``_W_*``), the low-passed PWM ``u``,
-    the measured excitation ``var`` (Sigma's diagonal) and the scalar state (``_E``...),
-    and the mass history ``history`` (rows time s, dm kg; a ring buffer whose first slot
-    and count are in ``iwork``). ``iwork`` holds the declared motors (0..3) in declaration
-    order; ``isolate`` is False once a motor is lost or three are declared (a fourth is not
-    identifiable). Writes the per-motor LOE ``delta`` into ``loe`` (an array returned to
-    Python would cost more than the tick's arithmetic). One allocation: the scratch.
-
-    Returns the strongest suspected motor (0..3, -1 for none) with its GLR statistic T and
-    LOE, whether the mass estimate has settled and the mass threshold
-    ``max(mass_threshold_kg, mass_sigmas s_m)`` (before this tick's spread update).
-    """
-    u = work[_W_U]
-    var = work[_W_VAR]
-    floor_var = work[_W_FLOOR]
-    state = work[_W_STATE]
-    params = work[_W_PARAMS]
-    motors = iwork[_I_MOTORS:]
-    k = iwork[_I_DECLARED]
-    scratch = np.empty(_S_SIZE)
-    fit_work = scratch[:_FIT_SCRATCH]
-    f0 = scratch[_S_F0:_S_F]
-    f = scratch[_S_F:_S_DEFICIT]
-    deficit = scratch[_S_DEFICIT:_S_D]
-    d = scratch[_S_D:_S_SIZE]
-    dt = params[_DT]
-    u_hover = params[_U_HOVER]
-    threshold = params[_THRESHOLD]
-    significance = params[_SIGNIFICANCE]
-    # u: PWM low-passed over _PWM_FILTER_S, u = u + a (max(pwm, 1e-4) - u)
-    a = min(1.0, dt / _PWM_FILTER_S)
-    for j in range(4):
-        p = pwm[j]
-        u[j] = u[j] + a * ((p if p > 1e-4 or p != p else 1e-4) - u[j])
-    # gamma_i u_i, PWM units; d = M a with a_i = gamma_i u_i / u_h: no common mode
-    for j in range(4):
-        deficit[j] = gamma[j] * u[j]
-    for i in range(3):
-        acc = 0.0
-        for j in range(4):
-            acc += SIGNATURES[i, j] * (deficit[j] / u_hover)
-        d[i] = acc
-    is_declared = 0  # bit j: motor j declared
-    for i in range(k):
-        is_declared |= 1 << motors[i]
-
-    # step 2: GLR of one more fault on each motor j, T_j = RSS(declared) - RSS(declared + j)
-    best, best_t, best_loe = -1, 0.0, 0.0
-    half_now = False
-    fitted = False
-    if evidence or learn:
-        if isolate:
-            rss0 = _fit_into(d, var, motors, k, fit_work, f0)
-            fitted = True
-            for j in range(4):
-                if is_declared & (1 << j):
-                    continue
-                motors[k] = j  # the candidate after the declared ones
-                rss = _fit_into(d, var, motors, k + 1, fit_work, f)
-                loe_j = f[k] * u_hover / u[j]  # LOE_j = f_j u_h / u_j
-                t = rss0 - rss
-                if loe_j > 0.5 * threshold and t > 0.25 * significance:
-                    half_now = True
-                if loe_j > threshold and t > significance and (best < 0 or t > best_t):
-                    best, best_t, best_loe = j, t, loe_j
-        state[_HALF] = 1.0 if half_now else 0.0
-    half = state[_HALF] != 0.0
-
-    # step 1: e = mean of gamma_j u_j over the motors not declared (the smallest when all
-    # are), low-passed over common_tau_s, held while a motor is half suspected
-    if not half:
-        n = 0
-        total = 0.0
-        for j in range(4):
-            if not is_declared & (1 << j):
-                total += deficit[j]
-                n += 1
-        if n > 0:
-            raw = total / n
-        else:
-            raw = deficit[0]
-            for j in range(1, 4):
-                if deficit[j] < raw or deficit[j] != deficit[j]:
-                    raw = deficit[j]
-        state[_E] += min(1.0, dt / params[_COMMON_TAU]) * (raw - state[_E])
-    e = state[_E]
-    state[_MASS_KG] = 4.0 * params[_K] * e / params[_G]  # dm = 4 K e / g
-    for j in range(4):  # delta_i = gamma_i - e / u_i, clipped to [0, 1]
-        x = deficit[j] / u[j] - e / u[j]
-        loe[j] = x if x != x else min(max(x, 0.0), 1.0)
-
-    # measured excitation: Sigma from the residual of d after the declared faults, fast
-    # attack _ATTACK_S, slow decay noise_tau_s, unbiased while young, floored
-    if not half_now and learn and not settling:
-        if not fitted:
-            _fit_into(d, var, motors, k, fit_work, f0)
-        state[_N_LEARNED] += 1.0
-        up = max(dt / _ATTACK_S, 1.0 / state[_N_LEARNED])
-        down = max(dt / params[_NOISE_TAU], 1.0 / state[_N_LEARNED])
-        for i in range(3):
-            res = d[i]  # d - M_declared f
-            for j in range(k):
-                res -= SIGNATURES[i, motors[j]] * f0[j]
-            sq = res * res
-            rate = up if sq > var[i] else down
-            v = var[i] + rate * (sq - var[i])
-            var[i] = v if v > floor_var[i] or v != v else floor_var[i]
-
-    # the mass change's threshold max(mass_threshold_kg, mass_sigmas s_m), its spread s_m
-    # (learned while nothing is reported, |dm| < mass_threshold_kg and nothing is half
-    # suspected) and whether dm has settled (within mass_settle_kg over the last 0.5 s)
-    dm = state[_MASS_KG]
-    mass_threshold = max(params[_MASS_THRESHOLD],
-                         params[_MASS_SIGMAS] * math.sqrt(state[_MASS_VAR]))
-    settled = False
-    capacity = history.shape[1]
-    if not evidence:
-        iwork[_I_COUNT] = 0
-    else:
-        if not mass_reported and abs(dm) < params[_MASS_THRESHOLD] and not half:
-            state[_MASS_N] += 1.0
-            sq_m = dm * dm
-            rate_m = max(dt / (_ATTACK_S if sq_m > state[_MASS_VAR] else params[_NOISE_TAU]),
-                         1.0 / state[_MASS_N])
-            state[_MASS_VAR] = max(state[_MASS_VAR] + rate_m * (sq_m - state[_MASS_VAR]),
-                                   _MASS_VAR_FLOOR)
-        if half:  # the common mode is held: no news about the mass
-            iwork[_I_COUNT] = 0
-        else:
-            if iwork[_I_COUNT] == capacity:  # ticks faster than the capacity allows: forget
-                iwork[_I_FIRST] = (iwork[_I_FIRST] + 1) % capacity  # the oldest
-                iwork[_I_COUNT] -= 1
-            slot = (iwork[_I_FIRST] + iwork[_I_COUNT]) % capacity
-            history[0, slot] = time_s
-            history[1, slot] = dm
-            iwork[_I_COUNT] += 1
-        while iwork[_I_COUNT] > 0 and \
-                history[0, iwork[_I_FIRST]] < time_s - _MASS_WINDOW_S - 1e-9:
-            iwork[_I_FIRST] = (iwork[_I_FIRST] + 1) % capacity
-            iwork[_I_COUNT] -= 1
-        count = iwork[_I_COUNT]
-        if count > 1:
-            first = iwork[_I_FIRST]
-            last = (first + count - 1) % capacity
-            low = high = history[1, first]
-            for i in range(1, count):
-                v = history[1, (first + i) % capacity]
-                low = min(low, v)
-                high = max(high, v)
-            settled = (history[0, last] - history[0, first] >= _MASS_WINDOW_S - 1e-9
-                       and high - low <= params[_MASS_SETTLE])
-    return best, best_t, best_loe, settled, mass_threshold
-
-
-# (its arguments: the TSKF's gamma and the PWM, float64 (4,); the detector's buffers)
-_detector_tick_call = KernelCall(_detector_tick)
-
-
 class MotorFaultDetector:
     """Motor fault detection, isolation and the mass change (module docstring).
 
-    The arithmetic of a tick is one compiled call (:func:`_detector_tick`); the decisions
+    The arithmetic of a tick is one compiled call
+    (:func:`fcu.monitoring.motor_fault_kernel.detector_tick`); the decisions
     (suspicion, declaration, recovery, the mass report) and their records are made here.
 
     Parameters
@@ -461,23 +215,23 @@ class MotorFaultDetector:
         self.dt_s = float(dt_s)
         self._settle_s = config.settle_s  # (read every tick)
         self._u_hover = model.hover_pwm
-        # the kernel's workspaces (_W_*, _I_*); the attributes below are views of them
-        self._work = np.zeros(_W_SIZE)
-        self._iwork = np.zeros(_I_SIZE, dtype=np.int64)
-        self._u = self._work[_W_U]
-        self._var = self._work[_W_VAR]
-        self._floor_var = self._work[_W_FLOOR]
-        self._state = self._work[_W_STATE]
-        self._params = self._work[_W_PARAMS]
+        # the kernel's workspaces (W_*, I_*); the attributes below are views of them
+        self._work = np.zeros(W_SIZE)
+        self._iwork = np.zeros(I_SIZE, dtype=np.int64)
+        self._u = self._work[W_U]
+        self._var = self._work[W_VAR]
+        self._floor_var = self._work[W_FLOOR]
+        self._state = self._work[W_STATE]
+        self._params = self._work[W_PARAMS]
         self._floor_var[:] = np.square(np.array(config.noise_floor, dtype=float))
         self._calm_var = _CALM_RATIO**2 * self._floor_var
-        self._params[[_DT, _U_HOVER, _K, _G, _COMMON_TAU, _NOISE_TAU, _THRESHOLD,
-                      _SIGNIFICANCE, _MASS_THRESHOLD, _MASS_SIGMAS, _MASS_SETTLE]] = (
+        self._params[[P_DT, P_U_HOVER, P_K, P_G, P_COMMON_TAU, P_NOISE_TAU, P_THRESHOLD,
+                      P_SIGNIFICANCE, P_MASS_THRESHOLD, P_MASS_SIGMAS, P_MASS_SETTLE]] = (
             self.dt_s, model.hover_pwm, model.thrust_gain, model.gravity, config.common_tau_s,
             config.noise_tau_s, config.threshold, config.significance,
             config.mass_threshold_kg, config.mass_sigmas, config.mass_settle_kg)
         # the mass history holds 0.5 s of ticks; room for ticks up to 4 times faster
-        self._history = np.zeros((2, 4 * math.ceil(_MASS_WINDOW_S / self.dt_s) + 8))
+        self._history = np.zeros((2, 4 * math.ceil(MASS_WINDOW_S / self.dt_s) + 8))
         self.reset()
 
     def reset(self) -> None:
@@ -485,7 +239,7 @@ class MotorFaultDetector:
         self._var[:] = self._floor_var
         self._u[:] = self._u_hover
         self._state[:] = 0.0
-        self._state[_MASS_VAR] = _MASS_VAR_FLOOR
+        self._state[MASS_VAR] = MASS_VAR_FLOOR
         self._iwork[:] = 0  # mass history: no slot used; no motor declared
         self._declared: list[int] = []  # motor indices 0..3, in declaration order
         self._lost: set[int] = set()
@@ -502,8 +256,8 @@ class MotorFaultDetector:
     def _declarations_changed(self) -> None:
         """Refresh what follows from the declared and lost motors (read every tick)."""
         k = len(self._declared)
-        self._iwork[_I_DECLARED] = k
-        self._iwork[_I_MOTORS:_I_MOTORS + k] = self._declared
+        self._iwork[I_DECLARED] = k
+        self._iwork[I_MOTORS:I_MOTORS + k] = self._declared
         self._isolate = not self._lost and len(self._declared) < 3
         self._active = tuple(sorted(j + 1 for j in self._declared))
         self._declared_flags = (1 in self._active, 2 in self._active, 3 in self._active,
@@ -536,7 +290,7 @@ class MotorFaultDetector:
         """
         settling = time_s - self._last_declared_s < self._settle_s
         self._loe = loe_out = np.empty(4)  # a new one every tick: the previous one may be kept
-        best, t, loe, settled, mass_threshold = _detector_tick_call.call(
+        best, t, loe, settled, mass_threshold = detector_tick_call.call(
             time_s, gamma, pwm, self._work, self._iwork, self._history, self._isolate,
             evidence, learn, settling, self._mass_reported, loe_out)
         if not evidence:
@@ -617,7 +371,7 @@ class MotorFaultDetector:
                     threshold: float) -> DetectionRecord | None:
         """Report a mass change beyond ``threshold`` (kg) held for ``mass_persistence_s``
         once ``settled``, clear it below half the threshold (module docstring)."""
-        dm = self._state.item(_MASS_KG)
+        dm = self._state.item(MASS_KG)
         if not self._mass_reported:
             pending = abs(dm) > threshold
         else:
@@ -650,7 +404,7 @@ class MotorFaultDetector:
     @property
     def mass_change_kg(self) -> float:
         """The latest mass change estimate, kg, + heavier."""
-        return self._state.item(_MASS_KG)
+        return self._state.item(MASS_KG)
 
     @property
     def active(self) -> tuple[int, ...]:

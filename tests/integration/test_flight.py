@@ -18,7 +18,7 @@ import pytest
 from vehicle_harness import ANSWER_S, ROOT, Gcs, M, mission_item
 
 from fcu.mavlink.geo import geo_to_ned
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 from flightdata.mission import MissionItem
 from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord, from_wire
 from sim.runner import fly

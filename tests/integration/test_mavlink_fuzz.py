@@ -21,7 +21,7 @@ from vehicle_harness import ANSWER_S, Gcs, M
 
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.endpoint import MavlinkEndpoint
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 from sim.vehicle_port import SimVehicle, VehicleSetup
 from sim.world import WorldConfig
 

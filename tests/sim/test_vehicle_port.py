@@ -6,7 +6,7 @@ import pytest
 
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.enums import FailureType, FailureUnit
-from fcu.mavlink.port import GeoPoint, StatusText
+from fcu.mavlink.port_records import GeoPoint, StatusText
 from sim.vehicle_port import SimVehicle, VehicleSetup
 from sim.world import WorldConfig
 

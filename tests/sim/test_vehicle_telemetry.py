@@ -15,7 +15,7 @@ from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import vehicle_autopilot_config
 from fcu.mavlink.autopilot_telemetry import AutopilotTelemetry
 from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 from flightdata.atmosphere import isa_pressure_pa
 from sim.vehicle_port import SimVehicle, VehicleSetup
 from sim.world import WorldConfig

@@ -23,7 +23,7 @@ from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.follow_target import LeadReport
-from fcu.mavlink.port import (
+from fcu.mavlink.port_records import (
     AttitudeTarget,
     CommandResult,
     GeoPoint,

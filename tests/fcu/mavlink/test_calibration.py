@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import pytest
 
 from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.commands import CommandDispatcher, CommandLimits, CommandRequest
+from fcu.mavlink.command_request import CommandLimits, CommandRequest
+from fcu.mavlink.commands import CommandDispatcher
 
 M = mavlink2
 NAN = float("nan")

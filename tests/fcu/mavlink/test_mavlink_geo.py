@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m, metres_per_degree, ned_to_geo
-from fcu.mavlink.port import GeoPoint
+from fcu.mavlink.port_records import GeoPoint
 
 
 def test_metres_per_degree_match_the_wgs84_figures() -> None:

@@ -14,7 +14,7 @@ import pytest
 from mavlink_testkit import ORIGIN, FakeVehicle, MemoryGcs, MemoryLink, memory_endpoint
 
 from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.commands import CommandLimits
+from fcu.mavlink.command_request import CommandLimits
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.geo import ned_to_geo

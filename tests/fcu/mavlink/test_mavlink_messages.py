@@ -16,7 +16,7 @@ from fcu.mavlink import streamed
 from fcu.mavlink.codec import Codec, mavlink2
 from fcu.mavlink.enums import MavState
 from fcu.mavlink.geo import metres_per_degree
-from fcu.mavlink.port import BatteryState, SensorHealth, VehicleSnapshot
+from fcu.mavlink.port_records import BatteryState, SensorHealth, VehicleSnapshot
 from fcu.mavlink.streams import DEFAULT_RATES_HZ
 from fcu.navigation.modes import Mode
 from flightdata.geometry import euler_from_quat

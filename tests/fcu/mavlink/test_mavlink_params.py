@@ -12,7 +12,7 @@ from mavlink_testkit import Gcs, VehicleThread, linked
 
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.params import ParamEntry, ParamTable, wire_type
-from fcu.mavlink.port import CommandResult, ParamSpec
+from fcu.mavlink.port_records import CommandResult, ParamSpec
 
 M = mavlink2
 Link = tuple[Gcs, VehicleThread]

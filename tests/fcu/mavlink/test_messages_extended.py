@@ -22,7 +22,7 @@ from fcu.mavlink.extended import (
     VibrationLevels,
 )
 from fcu.mavlink.geo import ned_to_geo
-from fcu.mavlink.port import BatteryState, SimTruth
+from fcu.mavlink.port_records import BatteryState, SimTruth
 from fcu.mavlink.streams import DEFAULT_RATES_HZ, STREAM_GROUPS
 
 M = mavlink2

@@ -15,7 +15,7 @@ from fcu.mavlink import messages as build
 from fcu.mavlink import streamed
 from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.extended import PressureReading
-from fcu.mavlink.port import SimTruth
+from fcu.mavlink.port_records import SimTruth
 from fcu.mavlink.streams import DEFAULT_RATES_HZ, STREAM_GROUPS
 
 M = mavlink2

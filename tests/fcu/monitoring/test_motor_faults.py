@@ -10,12 +10,8 @@ import numpy as np
 import pytest
 
 from fcu.model import VehicleModel
-from fcu.monitoring.motor_faults import (
-    SIGNATURES,
-    DetectorConfig,
-    MotorFaultDetector,
-    weighted_fit,
-)
+from fcu.monitoring.motor_fault_kernel import SIGNATURES, weighted_fit
+from fcu.monitoring.motor_faults import DetectorConfig, MotorFaultDetector
 from flightdata.records import DetectionRecord
 
 MODEL = VehicleModel()
