@@ -1,5 +1,6 @@
 """GUIDED's velocity, attitude and position set-points flown by the whole stack (headless,
-simulated time): what MAVSDK's offboard examples send, checked against the true state."""
+simulated time): what MAVSDK's offboard and go-to examples send, checked against the true
+state."""
 
 from __future__ import annotations
 
@@ -15,9 +16,10 @@ from sim.stack import SimulatedStack
 SEED = 4
 
 
-def armed_in_guided() -> SimulatedStack:
+def armed_in_guided(seed: int = SEED) -> SimulatedStack:
+    """The baseline stack booted, in GUIDED, armed on the ground."""
     scenario = load_scenario("baseline")
-    stack = SimulatedStack(scenario.world, scenario.autopilot, SEED)
+    stack = SimulatedStack(scenario.world, scenario.autopilot, seed)
     stack.first_tick()
     nav = stack.autopilot.navigator
     assert nav.set_mode(int(Mode.GUIDED)).accepted
@@ -103,3 +105,28 @@ def test_a_position_set_point_on_the_ground_takes_off_to_it() -> None:
     refused = stack2.autopilot.navigator.go_to(np.array([1.0, 0.0, 0.0]))
     assert not refused.accepted and "on the ground" in refused.reason
 
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_go_to_at_lift_off_climbs_away_without_a_crash(seed: int) -> None:
+    """MAVSDK's ``goto.py`` sends its go-to as soon as the vehicle reads in the air. The new
+    leg's reference starts where the vehicle is, on the ground; on a long, shallow leg (the
+    example's: 190 m west, 20 m up) it stays within 5 cm of the ground for more than the
+    ground-contact check's 1 s. That once disarmed the vehicle as "crash detected"
+    (:func:`fcu.monitoring.crash_check.contact_counts`)."""
+    stack = armed_in_guided(seed)
+    nav = stack.autopilot.navigator
+    assert nav.takeoff(2.5).accepted
+    while not any(e.kind == "liftoff" for e in stack.world.drain_events()):
+        stack.tick()
+        assert stack.time_s < 10.0, "no lift-off"
+    assert nav.reposition([-15.0, -190.0, -20.0]).accepted  # the tick of lift-off
+    events = []
+    lift_off_s = stack.time_s
+    while stack.time_s < lift_off_s + 30.0:  # s: the leg starts slowly, ~0.15 m up by then
+        stack.tick()
+        events += stack.autopilot.drain_events()
+    crashes = [e.text for e in events if e.record is not None and e.record.kind == "crash"]
+    assert not crashes
+    assert nav.armed
+    assert -stack.world.truth().pos_ned[2] > 0.1  # m: on its way up to 20 m
