@@ -56,7 +56,8 @@ COPTER_MODE_AUTO = _M.COPTER_MODE_AUTO
 COPTER_MODE_GUIDED = _M.COPTER_MODE_GUIDED
 COPTER_MODE_LAND = _M.COPTER_MODE_LAND
 ARMING_MODES = frozenset({_M.COPTER_MODE_STABILIZE, _M.COPTER_MODE_ALT_HOLD,
-                          _M.COPTER_MODE_GUIDED, _M.COPTER_MODE_LOITER})
+                          _M.COPTER_MODE_GUIDED, _M.COPTER_MODE_LOITER,
+                          _M.COPTER_MODE_POSHOLD})
 """ArduCopter modes that allow arming (AUTO, LAND, RTL do not, without AUTO_OPTIONS)."""
 TELEMETRY_HZ: dict[str, float] = {
     # the table's inputs at the autopilot's 100 Hz: one sample per tick, as the runner logs
