@@ -109,32 +109,33 @@ def _nav_param(name: str, attr: str, scale: float, unit: str, description: str,
         min_value=lo, max_value=hi, live_speed=live_speed)
 
 
-def _fence_param(name: str, attr: str, unit: str, description: str, lo: float, hi: float,
-                 integer: bool = False) -> ApParam:
-    """A field of the navigator's geofence (:class:`fcu.navigation.fence.FenceConfig`)."""
+def _section_param(section: str, name: str, attr: str, unit: str, description: str,
+                   lo: float, hi: float, integer: bool) -> ApParam:
+    """A field of a settings section of the navigator (``fence``, ``follow``), applied at
+    once in flight too."""
     cast: Callable[[float], Any] = int if integer else float
     return ApParam(
         name, f"{description}, {unit}",
-        get=lambda c: float(getattr(c.navigator.fence, attr)),
+        get=lambda c: float(getattr(getattr(c.navigator, section), attr)),
         set=lambda c, v: replace(c, navigator=_with(
-            c.navigator, "fence", _with(c.navigator.fence, attr, cast(v)))),
+            c.navigator, section, _with(getattr(c.navigator, section), attr, cast(v)))),
         min_value=lo, max_value=hi, integer=integer,
         allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None,
-        live_fence=True)
+        live_fence=section == "fence", live_follow=section == "follow")
+
+
+def _fence_param(name: str, attr: str, unit: str, description: str, lo: float, hi: float,
+                 integer: bool = False) -> ApParam:
+    """A field of the navigator's geofence (:class:`fcu.navigation.fence.FenceConfig`)."""
+    return _section_param("fence", name, attr, unit, description, lo, hi, integer)
 
 
 def _follow_param(name: str, attr: str, unit: str, description: str, lo: float, hi: float,
                   integer: bool = False) -> ApParam:
     """A field of FOLLOW's settings (:class:`fcu.navigation.follow.FollowConfig`)."""
-    cast: Callable[[float], Any] = int if integer else float
-    return ApParam(
-        name, f"{description}, {unit}",
-        get=lambda c: float(getattr(c.navigator.follow, attr)),
-        set=lambda c, v: replace(c, navigator=_with(
-            c.navigator, "follow", _with(c.navigator.follow, attr, cast(v)))),
-        min_value=lo, max_value=hi, integer=integer,
-        allowed=tuple(float(v) for v in range(int(lo), int(hi) + 1)) if integer else None,
-        live_follow=True)
+    return _section_param("follow", name, attr, unit, description, lo, hi, integer)
+
+
 def _pilot_param(name: str, attr: str, scale: float, unit: str, description: str, lo: float,
                  hi: float) -> ApParam:
     """A field of the pilot modes' settings (:class:`fcu.navigation.sticks.PilotConfig`) in
