@@ -14,7 +14,7 @@ $(BIN)/.installed: pyproject.toml $(CONSTRAINTS)
 	$(BIN)/python -m pip install -c $(CONSTRAINTS) -e '.[dev]'
 	# bytecode now: a shell with PYTHONDONTWRITEBYTECODE set would compile every module
 	# from source at every start (about 0.2 s per command)
-	$(BIN)/python -m compileall -q sim fcu gcs flightdata
+	$(BIN)/python -m compileall -q sim fcu gcs flightdata jitsupport
 	touch $@
 
 # every kernel compiled (or, when the cache is current, loaded: about 2 s), so that no command
@@ -34,8 +34,8 @@ test-fast: setup
 	$(BIN)/python -m pytest -q -m "not slow" -n auto
 
 lint: setup
-	$(BIN)/ruff check sim fcu gcs flightdata tests
-	$(BIN)/mypy sim fcu gcs flightdata
+	$(BIN)/ruff check sim fcu gcs flightdata jitsupport tests
+	$(BIN)/mypy sim fcu gcs flightdata jitsupport
 
 bench: setup
 	$(BIN)/python -m pip install -c $(CONSTRAINTS) -e '.[bench]'

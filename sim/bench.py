@@ -69,7 +69,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from flightdata.kernel_calls import KernelCall
+from jitsupport.calls import KernelCall
 from sim.scenario import DEFAULT_WIND, load_scenario
 from sim.world import World, WorldConfig
 from sim.world.airframe import Airframe

@@ -18,7 +18,7 @@ them (minutes on a loaded machine) and the workers do not compile the same kerne
 Start-up designs are cached (:mod:`flightdata.design_cache`) in a temporary directory of the test
 session, never in the user's cache: the vehicles the tests start inherit it.
 
-Every compiled call made through a :class:`flightdata.kernel_calls.KernelCall` checks its
+Every compiled call made through a :class:`jitsupport.calls.KernelCall` checks its
 argument types against its first call's (the vehicles the tests start inherit that too), so
 that a call site whose types drift fails the flight that shows it.
 """
@@ -36,7 +36,7 @@ from pathlib import Path
 import pytest
 
 from flightdata.design_cache import CACHE_DIR_ENV
-from flightdata.kernel_calls import CHECK_ENV
+from jitsupport.calls import CHECK_ENV
 
 os.environ[CHECK_ENV] = "1"  # (module docstring; set before any kernel is first called)
 

@@ -13,18 +13,20 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("flightdata", "fcu", "sim", "gcs")
+PACKAGES = ("flightdata", "jitsupport", "fcu", "sim", "gcs")
 ALLOWED: dict[str, tuple[str, ...]] = {
     # the shared vocabulary and flight-data toolkit: none of the three rooms
     "flightdata": ("flightdata",),
+    # the compiled kernels' support (layouts, cache, views, calls): none of the rooms either
+    "jitsupport": ("jitsupport",),
     # the autopilot: itself and the shared vocabulary, never the world or the ground station
-    "fcu": ("fcu", "flightdata"),
+    "fcu": ("fcu", "flightdata", "jitsupport"),
     # the ground station: pymavlink and the shared vocabulary only
     "gcs": ("gcs", "flightdata"),
     # the simulated world knows nothing of the autopilot nor of the composition roots
-    "sim/world": ("sim.world", "flightdata"),
+    "sim/world": ("sim.world", "flightdata", "jitsupport"),
     # the composition roots wire the world to the autopilot
-    "sim": ("sim", "fcu", "flightdata"),
+    "sim": ("sim", "fcu", "flightdata", "jitsupport"),
     # campaigns compose headless runs: scenarios in, rows out; the autopilot only through them
     "sim/campaign": ("sim", "flightdata"),
 }

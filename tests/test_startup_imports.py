@@ -50,7 +50,7 @@ print(sorted(m for m in sys.modules if m == "scipy.linalg" or m.startswith("scip
 def test_a_calm_world_loads_no_scipy_linalg_once_its_designs_are_cached() -> None:
     # the first run may make the wind's grid coefficients (scipy.linalg.expm) and store them;
     # the second reads them back, and numba's first kernel load finds the BLAS bindings
-    # loaded on their own (flightdata.kernel_cache.preload_blas_bindings)
+    # loaded on their own (jitsupport.cache.preload_blas_bindings)
     for _ in range(2):
         done = subprocess.run([sys.executable, "-c", CALM_WORLD], cwd=REPO,
                               capture_output=True, text=True, timeout=600)

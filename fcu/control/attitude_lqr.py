@@ -18,7 +18,7 @@ from fcu.control.motor_lead import lead_tick
 from fcu.control.scalar import clip, wrap_pi
 from fcu.model import VehicleModel
 from flightdata.design_cache import cached_design
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport.cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # lqr_tick compiles in kernels of attitude, motor_lead, scalar
 

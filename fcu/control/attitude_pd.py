@@ -16,7 +16,7 @@ from fcu.control.attitude import LeadFilteredLaw, _euler_rates, check_axes
 from fcu.control.motor_lead import lead_tick
 from fcu.control.scalar import wrap_pi
 from fcu.model import VehicleModel
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport.cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # pd_tick compiles in kernels of attitude, motor_lead, scalar
 

@@ -17,7 +17,7 @@ from fcu.control.attitude import check_period
 from fcu.control.scalar import wrap_pi
 from fcu.floats import floats
 from flightdata.design_cache import cached_design
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport.cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # the kernel compiles in fcu.control.scalar's wrap_pi
 

@@ -50,10 +50,10 @@ from fcu.control.registry import AttitudeLaw, ControlAllocator, DisturbanceObser
 from fcu.control.scalar import py_max, py_min
 from fcu.monitoring import crash_check as crash_module
 from fcu.monitoring.crash_check import CrashCheck, crash_tick
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_calls import KernelCall
-from flightdata.kernel_views import borrowed, shaped
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.calls import KernelCall
+from jitsupport.views import borrowed, shaped
 
 # control_tick compiles in the kernels of the parts' modules and of kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__, crash_module.__file__)

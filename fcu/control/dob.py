@@ -63,7 +63,7 @@ from fcu.control.scalar import wrap_pi
 from fcu.floats import floats
 from fcu.model import VehicleModel
 from flightdata.design_cache import cached_design
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport.cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # dob_tick compiles in fcu.control.scalar's wrap_pi
 

@@ -59,7 +59,7 @@ from numba import njit
 from fcu.control.scalar import clip, py_max, py_min
 from fcu.floats import floats
 from fcu.model import VehicleModel
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport.cache import drop_stale_kernels
 
 drop_stale_kernels(__file__)  # the kernels compile in those of fcu.control.scalar
 

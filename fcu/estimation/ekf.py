@@ -50,9 +50,9 @@ from fcu.estimation.estimator import (
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import refcount_free_kernel, shaped
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import refcount_free_kernel, shaped
 
 # ekf_tick compiles in the kernels of ekf_predict, ekf_model, screening, kalman_update,
 # small_matrix and kernel_views

@@ -64,8 +64,8 @@ from numba import njit
 from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row, transpose_into
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import refcount_free_kernel
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import refcount_free_kernel
 
 drop_stale_kernels(__file__)  # discrete_transition compiles in the kernels of small_matrix
 

@@ -22,9 +22,9 @@ from fcu.estimation.ekf_model import (
 )
 from fcu.estimation.small_matrix import add_scaled_row, mul_nonzero_left, transpose_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import refcount_free_kernel
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import refcount_free_kernel
 
 # the kernels compile in those of ekf_model, small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)

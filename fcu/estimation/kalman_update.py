@@ -23,9 +23,9 @@ from fcu.estimation.small_matrix import (
     spd_inverse,
 )
 from fcu.estimation.state import FloatArray
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import shaped
 
 # kalman_update_into compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)

@@ -31,9 +31,9 @@ from fcu.estimation.tskf_kernel import SC_MEAS as T_MEAS
 from fcu.estimation.tskf_kernel import buffer_views as tskf_buffer_views
 from fcu.estimation.tskf_kernel import tskf_tick
 from fcu.estimation.tskf_model import N_MOTORS
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import borrowed, refcount_free_kernel, shaped
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import borrowed, refcount_free_kernel, shaped
 
 # pair_tick compiles in the kernels of ekf, tskf and the modules they call
 drop_stale_kernels(__file__, kernel_views.__file__)

@@ -12,9 +12,9 @@ from numba import njit
 
 from fcu.estimation.small_matrix import nonzero_columns, spd_quadratic
 from fcu.estimation.state import STATE_DIM, Z_INDEX, FloatArray
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import refcount_free_kernel, shaped
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import refcount_free_kernel, shaped
 
 # screen_channel compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)
@@ -111,7 +111,7 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
 
 # ---- one tick's screening of every channel, compiled ----------------------------------------
 # The filters' tick kernels (ekf_tick, tskf_tick) compile the kernels below into themselves;
-# their modules drop their cached kernels when this one changes (flightdata.kernel_cache).
+# their modules drop their cached kernels when this one changes (jitsupport.cache).
 # ChannelCheck.status by code (ABSENT: no batch this tick)
 APPLIED, REJECTED, EXCLUDED, SKIPPED, ABSENT = 0, 1, 2, 3, -1
 STATUS_NAMES: tuple[ChannelStatus, ...] = ("applied", "rejected", "excluded", "skipped")

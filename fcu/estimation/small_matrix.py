@@ -19,7 +19,7 @@ from numba.extending import intrinsic
 from numba.np.arrayobj import make_array
 
 from fcu.estimation.state import FloatArray
-from flightdata.kernel_views import refcount_free_kernel
+from jitsupport.views import refcount_free_kernel
 
 __all__ = ["ROW", "add_mul_vec", "add_scaled_difference_row", "add_scaled_row", "aligned_zeros",
            "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into",

@@ -42,10 +42,10 @@ from numpy.typing import NDArray
 
 from fcu.floats import wrap_pi
 from fcu.hal import SensorSampleArrays, SensorSampleLike
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import shaped
 from flightdata.vocabulary import HEIGHT_SOURCES, SENSORS
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import shaped
 
 # group_sample_arrays compiles in kernel_views' shaped
 drop_stale_kernels(__file__, kernel_views.__file__)

@@ -79,8 +79,8 @@ from fcu.estimation.tskf_model import (
 )
 from fcu.floats import clip
 from fcu.model import VehicleModel
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
 
 # tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
 drop_stale_kernels(__file__, kernel_views.__file__)

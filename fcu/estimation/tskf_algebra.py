@@ -3,7 +3,7 @@ measurement update and the outputs (eq. 6.10-6.26).
 
 :mod:`fcu.estimation.tskf` runs them, a tick at a time, in
 :func:`fcu.estimation.tskf_kernel.tskf_tick` (whose cached kernels are dropped when this
-module changes: :mod:`flightdata.kernel_cache`). The matrices are small (16 states, 4 biases,
+module changes: :mod:`jitsupport.cache`). The matrices are small (16 states, 4 biases,
 at most 16 measurement rows) and sparse (the discrete hover model, the measurement rows): the
 products skip zero entries of their left factor (:mod:`fcu.estimation.small_matrix`) and
 nothing is allocated.
@@ -31,9 +31,9 @@ from fcu.estimation.small_matrix import (
 )
 from fcu.estimation.state import STATE_DIM, FloatArray
 from fcu.estimation.tskf_model import N_MOTORS
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import refcount_free_kernel, shaped
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import refcount_free_kernel, shaped
 
 # compiles in the kernels of kalman_update and small_matrix and kernel_views
 drop_stale_kernels(__file__, kernel_views.__file__)

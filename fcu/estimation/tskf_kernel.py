@@ -28,9 +28,9 @@ from fcu.estimation.tskf_algebra import (
 )
 from fcu.estimation.tskf_channels import MAPPED
 from fcu.estimation.tskf_model import N_MOTORS
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_views import refcount_free_kernel, shaped
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.views import refcount_free_kernel, shaped
 
 # tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
 drop_stale_kernels(__file__, kernel_views.__file__)

@@ -16,7 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
-from flightdata.kernel_calls import KernelCall
+from jitsupport.calls import KernelCall
 
 # fault signatures in (roll, pitch, yaw) deficit, normalised (module docstring)
 SIGNATURES = np.array([[0.0, 0.0, -1.0, 1.0],

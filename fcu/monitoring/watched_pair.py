@@ -23,11 +23,11 @@ from fcu.estimation.state import STATE_DIM, FloatArray, GroupedSamples, StateEst
 from fcu.estimation.tskf import TwoStageKalmanFilter
 from fcu.monitoring import sensor_health as sensor_health_module
 from fcu.monitoring.sensor_health import SensorHealth, watch_sensors
-from flightdata import kernel_views
-from flightdata.kernel_cache import drop_stale_kernels
-from flightdata.kernel_calls import KernelCall
-from flightdata.kernel_views import refcount_free_kernel
 from flightdata.records import DetectionRecord
+from jitsupport import views as kernel_views
+from jitsupport.cache import drop_stale_kernels
+from jitsupport.calls import KernelCall
+from jitsupport.views import refcount_free_kernel
 
 # pair_watch_tick compiles in pair_tick and every estimation kernel it calls, and
 # watch_sensors

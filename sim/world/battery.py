@@ -46,8 +46,8 @@ import numpy as np
 from numba import njit
 
 from flightdata.config import finite, require
-from flightdata.kernel_calls import KernelCall
 from flightdata.vocabulary import BATTERY_SENSOR
+from jitsupport.calls import KernelCall
 from sim.world.fault_types import SENSOR_NAMES
 from sim.world.samples import SAMPLE_RECORD, SensorSample
 

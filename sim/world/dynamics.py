@@ -67,7 +67,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from flightdata.config import finite
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport.cache import drop_stale_kernels
 from sim.world.airframe import Airframe
 from sim.world.rotations import rotation_entries, yaw_of
 

@@ -34,7 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
-from flightdata.kernel_cache import drop_stale_kernels
+from jitsupport.cache import drop_stale_kernels
 from sim.world.dynamics import plant_step, specific_force_into
 from sim.world.fault_kernels import (
     actuator_draws_ready,

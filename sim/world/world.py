@@ -45,8 +45,8 @@ from typing import Literal
 import numpy as np
 
 from flightdata.config import finite, require
-from flightdata.kernel_cache import preload_blas_bindings
-from flightdata.kernel_calls import KernelCall
+from jitsupport.cache import preload_blas_bindings
+from jitsupport.calls import KernelCall
 from sim.world.airframe import Airframe
 from sim.world.battery import Battery, BatteryConfig
 from sim.world.dynamics import (

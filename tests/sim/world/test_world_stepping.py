@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from flightdata.kernel_calls import KernelCall
+from jitsupport.calls import KernelCall
 from sim.world import Truth, World, WorldConfig
 from sim.world import world as world_module
 from sim.world.fault_kernels import (

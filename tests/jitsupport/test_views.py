@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from flightdata.kernel_views import borrowed, shaped
+from jitsupport.views import borrowed, shaped
 
 
 @njit(cache=False)

@@ -18,7 +18,7 @@ passed or dropped: a few hundred per estimation tick. :data:`refcount_free_kerne
 kernel that allocates nothing without numba's runtime (NRT), so without any of those calls.
 
 Kernels that use them compile this module's code into their own: their modules pass this
-file to :func:`flightdata.kernel_cache.drop_stale_kernels`.
+file to :func:`jitsupport.cache.drop_stale_kernels`.
 """
 
 from __future__ import annotations

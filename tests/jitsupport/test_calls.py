@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from flightdata.kernel_calls import CHECK_ENV, KernelCall
+from jitsupport.calls import CHECK_ENV, KernelCall
 
 
 @njit(cache=False)

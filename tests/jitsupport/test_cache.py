@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from numba.core import config as numba_config
 
-from flightdata.kernel_cache import drop_stale_kernels, kernel_cache_folder, sources_fingerprint
+from jitsupport.cache import drop_stale_kernels, kernel_cache_folder, sources_fingerprint
 
 
 @pytest.fixture(autouse=True)
