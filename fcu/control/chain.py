@@ -53,6 +53,7 @@ from fcu.monitoring.crash_check import CrashCheck, crash_tick
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
 from jitsupport.calls import KernelCall
+from jitsupport.layout import Layout
 from jitsupport.views import borrowed, shaped
 
 # control_tick compiles in the kernels of the parts' modules and of kernel_views
@@ -63,32 +64,39 @@ __all__ = ["ControlChain", "attitude_reference", "control_tick", "crash_measures
 LAW_OTHER, LAW_PD, LAW_LQR = 0, 1, 2
 DOB_NONE, DOB_VB, DOB_AB, DOB_OTHER = 0, 1, 2, 3
 
-# the output vector of a tick
-OUT_PWM = 0  # PWM u1..u4 commanded (4)
-OUT_THRUST = 4  # N, U1 commanded
-OUT_TORQUE_CMD = 5  # N*m, torque allocated, after the DOB compensation (3)
-OUT_D_HAT = 8  # N*m, DOB estimate (3; zeros without a DOB)
-OUT_REF = 11  # attitude reference, reference_filter_tick's layout (9)
-OUT_ACCEL = 20  # m/s^2 NED, mu after the limits (3)
-OUT_TORQUE_APPLIED = 23  # N*m, what the PWM asks of the airframe, eq. 3.2 (3)
+# the output vector of a tick (jitsupport.layout)
+OUT = Layout("control tick output")
+OUT_PWM = OUT.field("pwm", 4)  # PWM u1..u4 commanded
+OUT_THRUST = OUT.field("thrust_n", 1)  # N, U1 commanded
+# N*m, torque allocated, after the DOB compensation
+OUT_TORQUE_CMD = OUT.field("torque_cmd_nm", 3)
+OUT_D_HAT = OUT.field("d_hat_nm", 3)  # N*m, DOB estimate (zeros without a DOB)
+# attitude reference, reference_filter_tick's layout
+OUT_REF = OUT.field("reference", reference_module.OUT_SIZE)
+OUT_ACCEL = OUT.field("accel_ned", 3)  # m/s^2 NED, mu after the limits
+# N*m, what the PWM asks of the airframe, eq. 3.2
+OUT_TORQUE_APPLIED = OUT.field("torque_applied_nm", 3)
 # the crash check's measures, in fcu.monitoring.crash_check's order (ALT...COLLECTIVE)
-OUT_ALT = 26  # m, estimated altitude (up)
-OUT_VEL_DOWN = 27  # m/s, estimated vertical speed (+ down)
-OUT_SPEED = 28  # m/s, estimated speed |v|
-OUT_LEAN = 29  # rad, angle of the body z axis from the vertical
-OUT_ATT_ERROR = 30  # rad, larger of the roll and pitch errors against the reference
-OUT_COLLECTIVE = 31  # U1 as a fraction of full thrust
-OUT_CRASH_FOUND = 32  # what the crash check found: crash_tick's bits (0 without the check)
-OUT_SIZE = 33
+OUT_ALT = OUT.field("alt_m", 1)  # m, estimated altitude (up)
+OUT_VEL_DOWN = OUT.field("vel_down_m_s", 1)  # m/s, estimated vertical speed (+ down)
+OUT_SPEED = OUT.field("speed_m_s", 1)  # m/s, estimated speed |v|
+OUT_LEAN = OUT.field("lean_rad", 1)  # rad, angle of the body z axis from the vertical
+# rad, larger of the roll and pitch errors against the reference
+OUT_ATT_ERROR = OUT.field("att_error_rad", 1)
+OUT_COLLECTIVE = OUT.field("collective", 1)  # U1 as a fraction of full thrust
+# what the crash check found: crash_tick's bits (0 without the check)
+OUT_CRASH_FOUND = OUT.field("crash_found", 1)
+OUT_SIZE = OUT.size
 
 # control_tick's scratch: each part's output
-_S_POS = 0
-_S_REF = _S_POS + position_module.OUT_SIZE
-_S_TORQUE = _S_REF + reference_module.OUT_SIZE
-_S_D_HAT = _S_TORQUE + 3
-_S_REPORT = _S_D_HAT + 3
-_S_PWM = _S_REPORT + REPORT_SIZE
-_SCRATCH_SIZE = _S_PWM + 4
+SCRATCH = Layout("control tick scratch")
+_S_POS = SCRATCH.field("position", position_module.OUT_SIZE)
+_S_REF = SCRATCH.field("reference", reference_module.OUT_SIZE)
+_S_TORQUE = SCRATCH.field("torque", 3)
+_S_D_HAT = SCRATCH.field("d_hat", 3)
+_S_REPORT = SCRATCH.field("report", REPORT_SIZE)
+_S_PWM = SCRATCH.field("pwm", 4)
+_SCRATCH_SIZE = SCRATCH.size
 
 _EULER = OUT_REF + reference_module.OUT_EULER
 _RATE = OUT_REF + reference_module.OUT_RATE

@@ -52,6 +52,7 @@ from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
 from fcu.model import VehicleModel
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
+from jitsupport.layout import Layout
 from jitsupport.views import refcount_free_kernel, shaped
 
 # ekf_tick compiles in the kernels of ekf_predict, ekf_model, screening, kalman_update,
@@ -62,54 +63,60 @@ if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view 
     from fcu.estimation.ekf_filterpy import QuadrotorEKF
 
 
-# ---- the estimator's workspace (ekf_tick): one float array, these offsets ----------------
+# ---- the estimator's state: one float array, these layouts (jitsupport.layout) -----------
 N = STATE_DIM
 NN = N * N
 MAX_ROWS = 3  # rows of one channel at the most
 MAX_CHANNELS = screening.MAX_CHANNELS  # channels of a height source
-_X = 0  # posterior x (N)
-_P = _X + N  # posterior P (N x N, row-major)
-_X_PRIOR = _P + NN  # prior x
-_P_PRIOR = _X_PRIOR + N  # prior P
-_F = _P_PRIOR + NN  # the latest prediction's F
-_Q = _F + NN  # and Q
-_Y = _Q + NN  # y_stack (N rows at the most)
-_Z = _Y + N  # z_stack
-_NIS = _Z + N  # per channel: NIS of its update
-_COUNTS = _NIS + MAX_CHANNELS  # samples applied (0: not updated)
-_S_INV = _COUNTS + MAX_CHANNELS  # the last update's S^-1 (m x m, row-major, stride MAX_ROWS)
-_K = _S_INV + MAX_ROWS * MAX_ROWS  # and K (N x m, stride MAX_ROWS)
-WORK_SIZE = _K + N * MAX_ROWS
-# scratch of ekf_tick (no state: only within a tick)
-_SC_TRANSITION = 0  # discrete_transition_into's (TRANSITION_SCRATCH)
-_SC_UPDATE = _SC_TRANSITION + TRANSITION_SCRATCH[0] * NN  # kalman_update_into's
-_SC_JAC = _SC_UPDATE + UPDATE_SCRATCH  # A at the update's x (N x N)
-_SC_XD = _SC_JAC + NN  # f at the update's x (N)
-_SC_H = _SC_XD + N  # H (MAX_ROWS x N)
-_SC_HX = _SC_H + MAX_ROWS * N  # h(x), then y (MAX_ROWS each)
-_SC_Y = _SC_HX + MAX_ROWS
-_SC_R = _SC_Y + MAX_ROWS  # R (MAX_ROWS x MAX_ROWS)
-_SC_S = _SC_R + MAX_ROWS * MAX_ROWS  # S, S^-1 (MAX_ROWS x MAX_ROWS each)
-_SC_S_INV = _SC_S + MAX_ROWS * MAX_ROWS
-_SC_K = _SC_S_INV + MAX_ROWS * MAX_ROWS  # K' (MAX_ROWS x N)
-_SC_NZ_F = _SC_K + N * MAX_ROWS  # F's non-zero columns (N x (N + 1))
-SC_MEAS = _SC_NZ_F + N * (N + 1)  # the tick's measurement table, when gathered here (pair_tick)
-SCRATCH_SIZE = SC_MEAS + MAX_CHANNELS * screening.MEAS_WIDTH
-# the estimator's constants (ekf_tick): one float array, these offsets
+WORK = Layout("EKF work (ekf_tick's state)")
+_X = WORK.field("x", N)  # posterior x
+_P = WORK.field("P", NN)  # posterior P (N x N, row-major)
+_X_PRIOR = WORK.field("x_prior", N)  # prior x
+_P_PRIOR = WORK.field("P_prior", NN)  # prior P
+_F = WORK.field("F", NN)  # the latest prediction's F
+_Q = WORK.field("Q", NN)  # and Q
+_Y = WORK.field("y_stack", N)  # innovations (N rows at the most)
+_Z = WORK.field("z_stack", N)  # measurements
+_NIS = WORK.field("nis", MAX_CHANNELS)  # per channel: NIS of its update
+_COUNTS = WORK.field("counts", MAX_CHANNELS)  # samples applied (0: not updated)
+# the last update's S^-1 (m x m, stride MAX_ROWS)
+_S_INV = WORK.field("S_inv", MAX_ROWS * MAX_ROWS)
+_K = WORK.field("K", N * MAX_ROWS)  # and K (N x m, stride MAX_ROWS)
+WORK_SIZE = WORK.size
+SCRATCH = Layout("EKF scratch (within one ekf_tick)")
+# discrete_transition_into's
+_SC_TRANSITION = SCRATCH.field("transition", TRANSITION_SCRATCH[0] * NN)
+_SC_UPDATE = SCRATCH.field("update", UPDATE_SCRATCH)  # kalman_update_into's
+_SC_JAC = SCRATCH.field("A", NN)  # A at the update's x (N x N)
+_SC_XD = SCRATCH.field("f", N)  # f at the update's x (N)
+_SC_H = SCRATCH.field("H", MAX_ROWS * N)  # H (MAX_ROWS x N)
+_SC_HX = SCRATCH.field("h", MAX_ROWS)  # h(x)
+_SC_Y = SCRATCH.field("y", MAX_ROWS)  # y
+_SC_R = SCRATCH.field("R", MAX_ROWS * MAX_ROWS)  # R (MAX_ROWS x MAX_ROWS)
+_SC_S = SCRATCH.field("S", MAX_ROWS * MAX_ROWS)  # S
+_SC_S_INV = SCRATCH.field("S_inv", MAX_ROWS * MAX_ROWS)  # S^-1
+_SC_K = SCRATCH.field("K_t", N * MAX_ROWS)  # K' (MAX_ROWS x N)
+_SC_NZ_F = SCRATCH.field("F_nonzero", N * (N + 1))  # F's non-zero columns (N x (N + 1))
+# the tick's measurement table, when gathered here (pair_tick)
+SC_MEAS = SCRATCH.field("measurements", MAX_CHANNELS * screening.MEAS_WIDTH)
+SCRATCH_SIZE = SCRATCH.size
 N_PARAMS = 9  # entries of pack_params' model
-_C_PARAMS = 0  # the packed model (pack_params)
-_C_QC = _C_PARAMS + N_PARAMS  # Qc diagonal (N)
-_C_GROUND = _C_QC + N  # the ground plane (3, on_ground_at)
-_C_DT_MAX = _C_GROUND + 3  # the longest prediction step, s
-CONSTANTS_SIZE = _C_DT_MAX + 1
-# the estimator's float arrays, kept in one (ExtendedKalmanEstimator._buf) at these offsets,
-# so that a compiled call takes them as one argument (fcu.estimation.pair); then every height
-# source's channel tables (ChannelSet.tables_at)
-B_WORK = 0  # work (WORK_SIZE)
-B_S_STACK = B_WORK + WORK_SIZE  # s_stack (MAX_CHANNELS x MAX_ROWS x MAX_ROWS)
-B_SCRATCH = B_S_STACK + MAX_CHANNELS * MAX_ROWS * MAX_ROWS  # scratch (SCRATCH_SIZE)
-B_CONSTANTS = B_SCRATCH + SCRATCH_SIZE  # constants (CONSTANTS_SIZE)
-B_TABLES = B_CONSTANTS + CONSTANTS_SIZE
+CONSTANTS = Layout("EKF constants")
+_C_PARAMS = CONSTANTS.field("model", N_PARAMS)  # the packed model (pack_params)
+_C_QC = CONSTANTS.field("Qc", N)  # Qc diagonal (N)
+_C_GROUND = CONSTANTS.field("ground", 3)  # the ground plane (on_ground_at)
+_C_DT_MAX = CONSTANTS.field("dt_max", 1)  # the longest prediction step, s
+CONSTANTS_SIZE = CONSTANTS.size
+# the estimator's float arrays, kept in one (ExtendedKalmanEstimator._buf), so that a
+# compiled call takes them as one argument (fcu.estimation.pair); then every height source's
+# channel tables (ChannelSet.tables_at)
+BUFFER = Layout("EKF buffer (ExtendedKalmanEstimator._buf)")
+B_WORK = BUFFER.field("work", WORK_SIZE)
+# (MAX_CHANNELS x MAX_ROWS x MAX_ROWS)
+B_S_STACK = BUFFER.field("s_stack", MAX_CHANNELS * MAX_ROWS * MAX_ROWS)
+B_SCRATCH = BUFFER.field("scratch", SCRATCH_SIZE)
+B_CONSTANTS = BUFFER.field("constants", CONSTANTS_SIZE)
+B_TABLES = BUFFER.size
 
 
 @njit(cache=True, error_model="numpy", inline="always")

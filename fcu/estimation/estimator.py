@@ -48,7 +48,6 @@ from fcu.estimation.screening import (
     screen_channels,
     select,
 )
-from fcu.estimation.small_matrix import aligned_zeros
 from fcu.estimation.state import (
     STATE_DIM,
     BuiltOnRead,
@@ -64,6 +63,7 @@ from fcu.estimation.state import (
 from fcu.hal import SensorSampleLike
 from fcu.model import VehicleModel
 from flightdata.vocabulary import HEIGHT_SOURCES
+from jitsupport.layout import aligned_zeros
 
 _FLOAT64 = np.dtype(np.float64)  # (the dtype of float64 arrays, compared by identity)
 _NDARRAY = np.ndarray
@@ -296,7 +296,7 @@ class TickEstimator:
 
     def _packed_buffer(self, at: int) -> FloatArray:
         """A float buffer of ``at`` entries (zeros, from a 64-byte boundary:
-        :func:`~fcu.estimation.small_matrix.aligned_zeros`) for the filter's own arrays, then
+        :func:`~jitsupport.layout.aligned_zeros`) for the filter's own arrays, then
         the :attr:`ChannelSet.tables` of every height source, which become views of it
         (:attr:`ChannelSet.tables_at`): one argument of a compiled call
         (:mod:`fcu.estimation.pair`)."""

@@ -12,16 +12,16 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 from numba.np.arrayobj import make_array
 
 from fcu.estimation.state import FloatArray
+from jitsupport.layout import LANES
 from jitsupport.views import refcount_free_kernel
 
-__all__ = ["ROW", "add_mul_vec", "add_scaled_difference_row", "add_scaled_row", "aligned_zeros",
+__all__ = ["ROW", "add_mul_vec", "add_scaled_difference_row", "add_scaled_row",
            "mul_at_into", "mul_at_t_into", "mul_bt_nonzero_into", "mul_bt_sparse_into", "mul_into",
            "mul_nonzero_left", "mul_sparse_left", "nonzero_columns", "set_scaled_row",
            "spd_inverse", "spd_quadratic", "spd_solve", "sub_mul_vec_into", "symmetrize",
@@ -30,20 +30,8 @@ __all__ = ["ROW", "add_mul_vec", "add_scaled_difference_row", "add_scaled_row", 
 
 ROW = 16
 """Entries of a row that :func:`add_scaled_row` updates (the filters' 16 states)."""
-_LANES = 8  # doubles of one vector register (AVX-512); a row is two of them
+_LANES = LANES  # doubles of one vector register (AVX-512); a row is two of them
 _BIASES = 4  # the TSKF's biases (one per motor): the inner size of its small products
-
-
-def aligned_zeros(n: int) -> FloatArray:
-    """``n`` float zeros whose memory starts on a 64-byte boundary (a cache line, and one
-    vector of ``_LANES`` doubles): the filters' packed buffers, in which every matrix the
-    kernels update by whole rows starts at a multiple of ``_LANES`` entries, so that none of
-    their vector loads and stores straddles two cache lines (numpy's own allocation is
-    16-byte aligned: then most of them would, at a cost of about 0.6 us per estimation tick
-    of :func:`fcu.estimation.pair.pair_tick`)."""
-    raw = np.zeros(n + _LANES)
-    start = (-(raw.ctypes.data // 8)) % _LANES  # entries to the next boundary
-    return raw[start:start + n]
 
 
 def _row_vectors(context: Any, builder: Any, ary_t: Any, ary_v: Any, r_t: Any,

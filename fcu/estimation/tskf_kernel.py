@@ -30,54 +30,58 @@ from fcu.estimation.tskf_channels import MAPPED
 from fcu.estimation.tskf_model import N_MOTORS
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
+from jitsupport.layout import Layout
 from jitsupport.views import refcount_free_kernel, shaped
 
 # tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
 drop_stale_kernels(__file__, kernel_views.__file__)
 
 
-# ---- the filter's workspace (tskf_tick): one float array, these offsets --------------------
+# ---- the filter's state: one float array, these layouts (jitsupport.layout) --------------
 N, G = STATE_DIM, N_MOTORS
 MAX_M = STATE_DIM  # measurement rows of one update at the most
-W_X_BAR = 0  # x_bar (N)
-W_P_X = W_X_BAR + N  # P^x (N x N, row-major)
-W_P_GAMMA = W_P_X + N * N  # P^gamma (G x G)
-W_V = W_P_GAMMA + G * G  # V (N x G)
-W_PRIOR = W_V + N * G  # the same four, priors
-W_RES = 2 * W_PRIOR  # residual r (m)
-W_RES_COV = W_RES + MAX_M  # S_bar (m x m)
-W_INN = W_RES_COV + MAX_M * MAX_M  # innovation r - H gamma (m)
-W_INN_COV = W_INN + MAX_M  # its covariance (m x m)
-WORK_SIZE = W_INN_COV + MAX_M * MAX_M
-# scratch of tskf_tick (no state: only within a tick)
-_SC_PREDICT = 0  # tskf_predict_into's
-SC_UPDATE = _SC_PREDICT + PREDICT_SCRATCH  # tskf_update_into's
-_SC_X_HAT = SC_UPDATE + TSKF_UPDATE_SCRATCH  # x_hat and its covariance's diagonal (2 N)
-SC_P_HAT = _SC_X_HAT + 2 * N  # its covariance (N x N)
-_SC_C = SC_P_HAT + N * N  # C (MAX_M x N)
-_SC_Y = _SC_C + MAX_M * N  # y, then r (MAX_M)
-_SC_R_DIAG = _SC_Y + MAX_M  # diagonal of R (MAX_M)
-_SC_ROW_DELTA = _SC_R_DIAG + MAX_M  # delta of each row (MAX_M)
-_SC_USED = _SC_ROW_DELTA + MAX_M  # the state entries the channels read (N at the most)
-SC_MEAS = _SC_USED + N  # the tick's measurement table, when gathered here (pair_tick)
-SCRATCH_SIZE = SC_MEAS + screening.MAX_CHANNELS * screening.MEAS_WIDTH
-# ---- the filter's constants (tskf_tick): one float array, these offsets --------------------
-_M_A = 0  # A_d of the flight and ground models (2 x N x N)
-_M_B = _M_A + 2 * N * N  # B_d (2 x N x G)
-_M_G = _M_B + 2 * N * G  # g_d (2 x N)
-_M_Q = _M_G + 2 * N  # Q_d (2 x N x N)
-_M_Q_GAMMA = _M_Q + 2 * N * N  # Q^gamma per step in flight
-_M_DT = _M_Q_GAMMA + 1  # filter period, s
-_M_GROUND = _M_DT + 1  # the ground plane (3, on_ground_at)
-_M_NZ_A = _M_GROUND + 3  # A_d's non-zero columns, both models (2 x N x (N + 1))
-MODEL_SIZE = _M_NZ_A + 2 * N * (N + 1)
-# the filter's float arrays, kept in one (TwoStageKalmanFilter._buf) at these offsets, so that
-# a compiled call takes them as one argument (fcu.estimation.pair); then every height
-# source's channel tables (ChannelSet.tables_at)
-B_WORK = 0  # work (WORK_SIZE)
-B_SCRATCH = B_WORK + WORK_SIZE  # scratch (SCRATCH_SIZE)
-B_MODEL = B_SCRATCH + SCRATCH_SIZE  # model (MODEL_SIZE)
-B_TABLES = B_MODEL + MODEL_SIZE
+WORK = Layout("TSKF work (tskf_tick's state)")
+W_X_BAR = WORK.field("x_bar", N)  # x_bar
+W_P_X = WORK.field("P_x", N * N)  # P^x (N x N, row-major)
+W_P_GAMMA = WORK.field("P_gamma", G * G)  # P^gamma (G x G)
+W_V = WORK.field("V", N * G)  # V (N x G)
+W_PRIOR = WORK.field("priors", WORK.size)  # the same four, priors (at W_PRIOR + W_*)
+W_RES = WORK.field("r", MAX_M)  # residual r (m)
+W_RES_COV = WORK.field("S_bar", MAX_M * MAX_M)  # S_bar (m x m)
+W_INN = WORK.field("innovation", MAX_M)  # innovation r - H gamma (m)
+W_INN_COV = WORK.field("innovation_cov", MAX_M * MAX_M)  # its covariance (m x m)
+WORK_SIZE = WORK.size
+SCRATCH = Layout("TSKF scratch (within one tskf_tick)")
+_SC_PREDICT = SCRATCH.field("predict", PREDICT_SCRATCH)  # tskf_predict_into's
+SC_UPDATE = SCRATCH.field("update", TSKF_UPDATE_SCRATCH)  # tskf_update_into's
+_SC_X_HAT = SCRATCH.field("x_hat", 2 * N)  # x_hat and its covariance's diagonal (2 N)
+SC_P_HAT = SCRATCH.field("P_hat", N * N)  # its covariance (N x N)
+_SC_C = SCRATCH.field("C", MAX_M * N)  # C (MAX_M x N)
+_SC_Y = SCRATCH.field("y", MAX_M)  # y, then r (MAX_M)
+_SC_R_DIAG = SCRATCH.field("R_diagonal", MAX_M)  # diagonal of R (MAX_M)
+_SC_ROW_DELTA = SCRATCH.field("row_delta", MAX_M)  # delta of each row (MAX_M)
+_SC_USED = SCRATCH.field("used", N)  # the state entries the channels read (N at the most)
+# the tick's measurement table, when gathered here (pair_tick)
+SC_MEAS = SCRATCH.field("measurements", screening.MAX_CHANNELS * screening.MEAS_WIDTH)
+SCRATCH_SIZE = SCRATCH.size
+MODEL = Layout("TSKF model (tskf_tick's constants)")
+_M_A = MODEL.field("A_d", 2 * N * N)  # A_d of the flight and ground models (2 x N x N)
+_M_B = MODEL.field("B_d", 2 * N * G)  # B_d (2 x N x G)
+_M_G = MODEL.field("g_d", 2 * N)  # g_d (2 x N)
+_M_Q = MODEL.field("Q_d", 2 * N * N)  # Q_d (2 x N x N)
+_M_Q_GAMMA = MODEL.field("Q_gamma", 1)  # Q^gamma per step in flight
+_M_DT = MODEL.field("dt", 1)  # filter period, s
+_M_GROUND = MODEL.field("ground", 3)  # the ground plane (on_ground_at)
+_M_NZ_A = MODEL.field("A_d_nonzero", 2 * N * (N + 1))  # A_d's non-zero columns, both models
+MODEL_SIZE = MODEL.size
+# the filter's float arrays, kept in one (TwoStageKalmanFilter._buf), so that a compiled call
+# takes them as one argument (fcu.estimation.pair); then every height source's channel
+# tables (ChannelSet.tables_at)
+BUFFER = Layout("TSKF buffer (TwoStageKalmanFilter._buf)")
+B_WORK = BUFFER.field("work", WORK_SIZE)
+B_SCRATCH = BUFFER.field("scratch", SCRATCH_SIZE)
+B_MODEL = BUFFER.field("model", MODEL_SIZE)
+B_TABLES = BUFFER.size
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -60,6 +60,7 @@ from fcu.estimation.state import GroupedSamples, SampleBatch
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
 from flightdata.vocabulary import SENSORS
+from jitsupport.layout import Layout
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -89,10 +90,21 @@ class SensorHealthConfig:
 
 
 # SensorHealth's state table: one row per sensor of SENSORS, these columns (times in s;
-# NaN: not running); the kind it is excluded as, a code of _KINDS (0: trusted)
-(_EXCLUDED_AS, _EXCLUDED_S, _REJECTIONS, _LAST_N, _LAST_TIME_S, _SAME, _JUMPED,
- _FROZEN_SINCE_S, _GOOD_SINCE_S, _SIGMA, _LAST_VALUE) = range(11)
-_STATE_WIDTH = _LAST_VALUE + 3  # the latest batch value, _LAST_N entries (0: none yet)
+# NaN: not running)
+ROW = Layout("sensor health row")
+# the kind it is excluded as, a code of _KINDS (0: trusted)
+_EXCLUDED_AS = ROW.field("excluded_as", 1)
+_EXCLUDED_S = ROW.field("excluded_s", 1)  # s, when it was excluded
+_REJECTIONS = ROW.field("rejections", 1)  # consecutive batches the estimator rejected
+_LAST_N = ROW.field("last_n", 1)  # entries of the latest batch value (0: none yet)
+_LAST_TIME_S = ROW.field("last_time_s", 1)  # s, time of the latest batch
+_SAME = ROW.field("same", 1)  # consecutive batches with the same value
+_JUMPED = ROW.field("jumped", 1)  # 1 after a jump beyond the physical bounds
+_FROZEN_SINCE_S = ROW.field("frozen_since_s", 1)  # s, start of the run of equal values
+_GOOD_SINCE_S = ROW.field("good_since_s", 1)  # s, start of the run of good batches
+_SIGMA = ROW.field("sigma", 1)  # the sensor's noise, its unit
+_LAST_VALUE = ROW.field("last_value", 3)  # the latest batch value, _LAST_N entries
+_STATE_WIDTH = ROW.size
 _KINDS: tuple[str, ...] = ("", "sensor_frozen", "sensor_rejected", "sensor_inconsistent")
 _TRUSTED, _FROZEN, _REJECTED, _INCONSISTENT = range(4)
 # its parameter vector (SensorHealthConfig)

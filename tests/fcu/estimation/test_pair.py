@@ -89,7 +89,7 @@ def test_the_pair_checks_both_times_before_stepping() -> None:
 def test_the_filters_buffers_keep_their_row_updated_matrices_on_cache_lines() -> None:
     # 64-byte buffers, and every matrix the kernels update by whole 16-entry rows (P, the
     # priors, F, Q, the scratch) at a multiple of 8 entries: no vector access straddles two
-    # cache lines (small_matrix.aligned_zeros)
+    # cache lines (jitsupport.layout.aligned_zeros)
     from fcu.estimation import ekf as ekf_module
     from fcu.estimation import tskf_kernel as tskf_module
 

@@ -1,0 +1,105 @@
+"""The layout helper, and the layouts of the compiled filters and the control chain."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fcu.control import chain
+from fcu.estimation import ekf, tskf_kernel
+from fcu.monitoring import sensor_health
+from jitsupport.layout import LANES, Layout, aligned_zeros
+
+
+def test_fields_follow_each_other_in_declaration_order() -> None:
+    lay = Layout("demo")
+    assert lay.field("a", 3) == 0
+    assert lay.field("b", 16) == 3
+    assert lay.field("c", 1) == 19
+    assert lay.size == 20
+    assert [(f.name, f.start, f.stop) for f in lay.fields] == [
+        ("a", 0, 3), ("b", 3, 19), ("c", 19, 20)]
+
+
+def test_align_pads_to_the_next_multiple() -> None:
+    lay = Layout("demo")
+    lay.field("a", 3)
+    assert lay.field("b", 16, align=LANES) == LANES  # 3 entries of padding
+    assert lay.field("c", 2, align=LANES) == 3 * LANES
+    assert lay.size == 3 * LANES + 2
+
+
+def test_view_reads_a_field_by_name_and_shares_memory() -> None:
+    lay = Layout("demo")
+    lay.field("x", 2)
+    lay.field("P", 4)
+    buf = np.arange(lay.size, dtype=float)
+    p = lay.view(buf, "P", (2, 2))
+    assert p.tolist() == [[2.0, 3.0], [4.0, 5.0]]
+    p[0, 0] = -1.0
+    assert buf[2] == -1.0
+
+
+@pytest.mark.parametrize("call", [lambda lay: lay.field("a", 1),
+                                  lambda lay: lay.field("b", -1),
+                                  lambda lay: lay.field("c", 1, align=0)])
+def test_bad_fields_are_refused_with_the_layout_and_field_named(call: object) -> None:
+    lay = Layout("demo layout")
+    lay.field("a", 1)
+    with pytest.raises(ValueError, match="demo layout"):
+        call(lay)  # type: ignore[operator]
+
+
+def test_an_unknown_field_names_the_fields_there_are() -> None:
+    lay = Layout("demo")
+    lay.field("x", 1)
+    with pytest.raises(KeyError, match="fields: x"):
+        lay["y"]
+
+
+def test_aligned_zeros_start_on_a_cache_line() -> None:
+    for n in (1, 7, 100, 5527):
+        z = aligned_zeros(n)
+        assert z.shape == (n,) and not z.any()
+        assert z.ctypes.data % (8 * LANES) == 0
+
+
+@pytest.mark.parametrize("layout", [ekf.WORK, ekf.SCRATCH, ekf.CONSTANTS, ekf.BUFFER,
+                                    tskf_kernel.WORK, tskf_kernel.SCRATCH, tskf_kernel.MODEL,
+                                    tskf_kernel.BUFFER, chain.OUT, chain.SCRATCH,
+                                    sensor_health.ROW], ids=lambda lay: lay.name)
+def test_product_layouts_tile_their_array_without_gap_or_overlap(layout: Layout) -> None:
+    end = 0
+    for f in layout.fields:
+        assert f.start == end, f"{layout.name}: {f.name} starts at {f.start}, not {end}"
+        end = f.stop
+    assert end == layout.size
+
+
+def test_row_updated_matrices_start_on_a_vector_boundary() -> None:
+    """The covariance matrices the row kernels update whole rows of (small_matrix) start at
+    a multiple of LANES entries of an aligned buffer: a field of odd size declared before
+    them would make every row load straddle two cache lines."""
+    starts = {"EKF P": ekf.B_WORK + ekf.WORK["P"].start,
+              "EKF P prior": ekf.B_WORK + ekf.WORK["P_prior"].start,
+              "TSKF P^x": tskf_kernel.B_WORK + tskf_kernel.WORK["P_x"].start,
+              "TSKF P^x prior": (tskf_kernel.B_WORK + tskf_kernel.W_PRIOR
+                                 + tskf_kernel.WORK["P_x"].start)}
+    assert {k: v % LANES for k, v in starts.items()} == dict.fromkeys(starts, 0)
+
+
+def test_the_tskf_priors_mirror_the_posteriors() -> None:
+    """tskf_tick copies the first W_PRIOR entries (x_bar, P^x, P^gamma, V) onto the priors."""
+    work = tskf_kernel.WORK
+    assert work["priors"].size == work["priors"].start == sum(
+        work[name].size for name in ("x_bar", "P_x", "P_gamma", "V"))
+
+
+def test_the_chain_output_holds_the_crash_measures_in_crash_check_order() -> None:
+    from fcu.monitoring import crash_check
+    names = [f.name for f in chain.OUT.fields]
+    first = names.index("alt_m")
+    assert names[first:first + crash_check.MEASURES_SIZE] == [
+        "alt_m", "vel_down_m_s", "speed_m_s", "lean_rad", "att_error_rad", "collective"]
+    assert (crash_check.ALT, crash_check.VEL_DOWN, crash_check.SPEED, crash_check.LEAN,
+            crash_check.ATTITUDE_ERROR, crash_check.COLLECTIVE) == tuple(range(6))
