@@ -9,7 +9,10 @@ and stay numpy calls where they appear: matrix products (BLAS fuses multiply-add
 numpy's own ``tan``, ``arcsin``, ``arctan2`` and ``hypot`` (SIMD versions that may differ
 from ``math``'s in the last bit).
 
-The helpers below reproduce numpy's semantics for one element at a time.
+The helpers below reproduce numpy's semantics for one element at a time. Those marked
+``@register_jitable`` are also what the kernels call: numba compiles the same function into
+a kernel that calls it (no compiled twin to keep in step); a kernel module that calls them
+names this file to :func:`jitsupport.cache.drop_stale_kernels`.
 """
 
 from __future__ import annotations
@@ -18,11 +21,13 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from numba.extending import register_jitable
 
 _FLOAT64 = np.dtype(np.float64)  # compared with ==: arrays from cached kernels carry their own
 # float64 dtype object, for which `is` fails
 
 
+@register_jitable(error_model="numpy")
 def clip(value: float, lo: float, hi: float) -> float:
     """``np.clip`` of one float: raised to ``lo``, then lowered to ``hi`` (so ``hi`` wins
     when ``lo > hi``, as in numpy); a NaN value passes through."""
@@ -39,9 +44,23 @@ def sign(value: float) -> float:
     return value if value != value else 0.0
 
 
+@register_jitable(error_model="numpy")
 def wrap_pi(angle_rad: float) -> float:
-    """Wrap an angle to [-pi, pi), rad: ``(a + pi) % (2 pi) - pi`` as numpy computes it."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+    """Wrap an angle to [-pi, pi), rad: ``(a + pi) % (2 pi) - pi`` (Python's float modulo,
+    which numpy's and numba's follow); a Python float for any float given."""
+    return float((angle_rad + math.pi) % (2.0 * math.pi) - math.pi)
+
+
+@register_jitable(error_model="numpy")
+def py_min(a: float, b: float) -> float:
+    """Builtin ``min(a, b)``: ``b`` only when strictly smaller (for kernels)."""
+    return b if b < a else a
+
+
+@register_jitable(error_model="numpy")
+def py_max(a: float, b: float) -> float:
+    """Builtin ``max(a, b)``: ``b`` only when strictly larger (for kernels)."""
+    return b if b > a else a
 
 
 def floats(value: np.ndarray | Sequence[float], n: int) -> list[float]:

@@ -25,14 +25,8 @@ __all__ = [
     "eulers_from_quats",
     "quat_from_euler",
     "quats_from_euler",
-    "wrap_pi",
     "wrap_pi_array",
 ]
-
-
-def wrap_pi(angle_rad: float) -> float:
-    """``angle_rad`` wrapped to [-pi, pi), rad."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def wrap_pi_array(angle_rad: npt.ArrayLike) -> np.ndarray:

@@ -38,7 +38,7 @@ import numpy as np
 __all__ = ["PRECOMPILE_FLIGHTS", "KernelProgress", "Progress", "precompile",
            "prepare_vehicle", "project_kernels", "reporting"]
 
-PROJECT_PACKAGES = ("sim", "fcu", "flightdata")  # whose kernels are counted
+PROJECT_PACKAGES = ("sim", "fcu", "flightdata", "jitsupport")  # whose kernels are counted
 REPORT_PERIOD_S = 5.0  # s wall between progress reports
 
 

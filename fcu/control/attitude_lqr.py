@@ -13,14 +13,16 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.control.attitude import LeadFilteredLaw, _euler_rates, check_axes
 from fcu.control.motor_lead import lead_tick
-from fcu.control.scalar import clip, wrap_pi
+from fcu.floats import clip, wrap_pi
 from fcu.model import VehicleModel
 from flightdata.design_cache import cached_design
 from jitsupport.cache import drop_stale_kernels
 
-drop_stale_kernels(__file__)  # lqr_tick compiles in kernels of attitude, motor_lead, scalar
+# lqr_tick compiles in the kernels of attitude and motor_lead, and fcu.floats' helpers
+drop_stale_kernels(__file__, fcu.floats.__file__)
 
 
 @dataclass(frozen=True, kw_only=True)

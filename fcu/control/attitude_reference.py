@@ -13,13 +13,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.control.attitude import check_period
-from fcu.control.scalar import wrap_pi
-from fcu.floats import floats
+from fcu.floats import floats, wrap_pi
 from flightdata.design_cache import cached_design
 from jitsupport.cache import drop_stale_kernels
 
-drop_stale_kernels(__file__)  # the kernel compiles in fcu.control.scalar's wrap_pi
+drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernel compiles in fcu.floats' wrap_pi
 
 
 @dataclass(frozen=True, slots=True)

@@ -32,6 +32,7 @@ import math
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.control import attitude_reference as reference_module
 from fcu.control import position as position_module
 from fcu.control.allocation import PAR_SIZE as ALLOC_PAR_SIZE
@@ -47,7 +48,7 @@ from fcu.control.dob import NoDob, _DiscreteDob, dob_tick
 from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
 from fcu.control.position import PositionController, position_tick
 from fcu.control.registry import AttitudeLaw, ControlAllocator, DisturbanceObserver
-from fcu.control.scalar import py_max, py_min
+from fcu.floats import py_max, py_min
 from fcu.monitoring import crash_check as crash_module
 from fcu.monitoring.crash_check import CrashCheck, crash_tick
 from jitsupport import views as kernel_views
@@ -57,7 +58,7 @@ from jitsupport.layout import Layout
 from jitsupport.views import borrowed, shaped
 
 # control_tick compiles in the kernels of the parts' modules and of kernel_views
-drop_stale_kernels(__file__, kernel_views.__file__, crash_module.__file__)
+drop_stale_kernels(__file__, kernel_views.__file__, crash_module.__file__, fcu.floats.__file__)
 
 __all__ = ["ControlChain", "attitude_reference", "control_tick", "crash_measures"]
 

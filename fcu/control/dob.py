@@ -59,13 +59,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
-from fcu.control.scalar import wrap_pi
-from fcu.floats import floats
+import fcu.floats
+from fcu.floats import floats, wrap_pi
 from fcu.model import VehicleModel
 from flightdata.design_cache import cached_design
 from jitsupport.cache import drop_stale_kernels
 
-drop_stale_kernels(__file__)  # dob_tick compiles in fcu.control.scalar's wrap_pi
+drop_stale_kernels(__file__, fcu.floats.__file__)  # dob_tick compiles in fcu.floats' wrap_pi
 
 if TYPE_CHECKING:
     import control

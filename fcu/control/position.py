@@ -56,12 +56,12 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from fcu.control.scalar import clip, py_max, py_min
-from fcu.floats import floats
+import fcu.floats
+from fcu.floats import clip, floats, py_max, py_min
 from fcu.model import VehicleModel
 from jitsupport.cache import drop_stale_kernels
 
-drop_stale_kernels(__file__)  # the kernels compile in those of fcu.control.scalar
+drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernels compile in fcu.floats' helpers
 
 
 @dataclass(frozen=True, kw_only=True)

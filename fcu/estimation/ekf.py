@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation import screening
 from fcu.estimation.channels import Channel, ChannelSet
 from fcu.estimation.ekf_model import (
@@ -49,6 +50,7 @@ from fcu.estimation.estimator import (
 )
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
+from fcu.floats import wrap_pi
 from fcu.model import VehicleModel
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
@@ -57,7 +59,7 @@ from jitsupport.views import refcount_free_kernel, shaped
 
 # ekf_tick compiles in the kernels of ekf_predict, ekf_model, screening, kalman_update,
 # small_matrix and kernel_views
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 if TYPE_CHECKING:  # filterpy (and the scipy.stats it loads) only when the view is asked for
     from fcu.estimation.ekf_filterpy import QuadrotorEKF
@@ -270,10 +272,10 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
                 r_mat[r, q] = 0.0
             r_mat[r, r] = screening.noise_var(noise, c, count)
         if layout[c, screening.WRAP_YAW] != 0:  # attitude: yaw difference wrapped
-            y[2] = (y[2] + math.pi) % (2.0 * math.pi) - math.pi
+            y[2] = wrap_pi(y[2])
         # K = P H' (H P H' + R)^-1;  x = x + K y;  P = (I-KH) P (I-KH)' + K R K'
         kalman_update_into(x, p_mat, y, h_mat, r_mat, s_mat, s_inv, k_gain_t, sc_update)
-        x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+        x[YAW_INDEX] = wrap_pi(x[YAW_INDEX])
         # NIS = y' S^-1 y
         nis = 0.0
         for r in range(m):
@@ -297,7 +299,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         out[i] = x[i]
         out[N + i] = p_mat[i, i]
     # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
-    out[YAW_INDEX] = (out[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    out[YAW_INDEX] = wrap_pi(out[YAW_INDEX])
     return on_ground, last
 
 

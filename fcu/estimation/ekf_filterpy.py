@@ -8,7 +8,6 @@ scipy.stats it loads, about a second of start-up): the autopilot's tick never ne
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import numpy as np
@@ -18,6 +17,7 @@ from fcu.estimation.ekf_model import discrete_transition
 from fcu.estimation.ekf_predict import predict_covariance
 from fcu.estimation.kalman_update import kalman_update
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
+from fcu.floats import wrap_pi
 
 __all__ = ["QuadrotorEKF"]
 
@@ -72,7 +72,7 @@ class QuadrotorEKF(ExtendedKalmanFilter):
         # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
         x_next, f_mat, q_mat = discrete_transition(self.x, u, self.step_dt_s, self.params,
                                                    self.on_ground, self.qc_diag)
-        x_next[YAW_INDEX] = (x_next[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+        x_next[YAW_INDEX] = wrap_pi(x_next[YAW_INDEX])
         self.x = x_next
         self.F = f_mat
         self.Q = q_mat

@@ -61,13 +61,15 @@ import math
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row, transpose_into
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from jitsupport.cache import drop_stale_kernels
 from jitsupport.views import refcount_free_kernel
 
-drop_stale_kernels(__file__)  # discrete_transition compiles in the kernels of small_matrix
+# discrete_transition compiles in the kernels of small_matrix
+drop_stale_kernels(__file__, fcu.floats.__file__)
 
 # ---- packed parameter vector of the numba kernels ------------------------------------------
 _P_K, _P_W, _P_L, _P_KPSI, _P_M, _P_G, _P_IXX, _P_IYY, _P_IZZ = range(9)

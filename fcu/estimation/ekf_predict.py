@@ -10,11 +10,10 @@ on copies, one filterpy ``predict`` (:mod:`fcu.estimation.ekf_filterpy`).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation.ekf_model import (
     TRANSITION_SCRATCH,
     discrete_transition_into,
@@ -22,12 +21,13 @@ from fcu.estimation.ekf_model import (
 )
 from fcu.estimation.small_matrix import add_scaled_row, mul_nonzero_left, transpose_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
+from fcu.floats import wrap_pi
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
 from jitsupport.views import refcount_free_kernel
 
 # the kernels compile in those of ekf_model, small_matrix and kernel_views
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 __all__ = ["predict_covariance", "predict_covariance_into"]
 
@@ -69,7 +69,7 @@ def predict_covariance_into(x: FloatArray, p_mat: FloatArray, u: FloatArray, dt:
     """
     # x_{k+1|k} = RK4(f, x_{k|k}, u_k, dt);  F = sum (A dt)^n/n!;  Q = Van Loan (see module)
     discrete_transition_into(x, f_mat, q_mat, x, u, dt, p, on_ground, qc_diag, scratch)
-    x[YAW_INDEX] = (x[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    x[YAW_INDEX] = wrap_pi(x[YAW_INDEX])
     fp, fp_t = scratch[0], scratch[1]
     # F's non-zero columns: among those of Phi, listed by discrete_transition_into (a
     # listed entry that is 0.0 adds exact zeros: the same sums)

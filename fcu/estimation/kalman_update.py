@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation.small_matrix import (
     ROW,
     add_scaled_row,
@@ -28,7 +29,7 @@ from jitsupport.cache import drop_stale_kernels
 from jitsupport.views import shaped
 
 # kalman_update_into compiles in the kernels of small_matrix and kernel_views
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 __all__ = ["UPDATE_SCRATCH", "kalman_update", "kalman_update_into"]
 

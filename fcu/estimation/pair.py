@@ -19,6 +19,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
+import fcu.floats
 from fcu.estimation.channels import I_LAYOUT, I_LAYOUT_COLS, I_N_CH, I_TABLES_AT, I_TABLES_SIZE
 from fcu.estimation.ekf import SC_MEAS as E_MEAS
 from fcu.estimation.ekf import ExtendedKalmanEstimator, ekf_tick
@@ -36,7 +37,7 @@ from jitsupport.cache import drop_stale_kernels
 from jitsupport.views import borrowed, refcount_free_kernel, shaped
 
 # pair_tick compiles in the kernels of ekf, tskf and the modules they call
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 
 @refcount_free_kernel

@@ -5,19 +5,19 @@ docstring), and the layout of the tables the filters' tick kernels read.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation.small_matrix import nonzero_columns, spd_quadratic
 from fcu.estimation.state import STATE_DIM, Z_INDEX, FloatArray
+from fcu.floats import wrap_pi
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
 from jitsupport.views import refcount_free_kernel, shaped
 
 # screen_channel compiles in the kernels of small_matrix and kernel_views
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 ChannelStatus = str  # "applied" | "rejected" | "excluded" | "skipped"
 
@@ -88,7 +88,7 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
             acc += sel[r, k] * x[k]
         nu[r] = z[r] - acc
     if wrap_yaw:
-        nu[2] = (nu[2] + math.pi) % (2.0 * math.pi) - math.pi
+        nu[2] = wrap_pi(nu[2])
     # S P S' + R:  (S P S')[r, q] = sum_b (S P)[r, b] S[q, b],  (S P)[r, b] = sum_a S[r, a] P[a, b]
     # (a over the non-zero S[r, a], b over the non-zero S[q, b])
     for r in range(m):

@@ -40,6 +40,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+import fcu.floats
 from fcu.floats import wrap_pi
 from fcu.hal import SensorSampleArrays, SensorSampleLike
 from flightdata.vocabulary import HEIGHT_SOURCES, SENSORS
@@ -48,7 +49,7 @@ from jitsupport.cache import drop_stale_kernels
 from jitsupport.views import shaped
 
 # group_sample_arrays compiles in kernel_views' shaped
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 FloatArray = NDArray[np.float64]
 ArrayLikeFloat = FloatArray | list[float] | tuple[float, ...]
@@ -437,7 +438,7 @@ def group_sample_arrays(flat: FloatArray, sensor_index: np.ndarray, time_s: Floa
             mean[s, 0] += values[j, 0]
             mean[s, 1] += values[j, 1]
             # yaw offset from the first reading, wrapped to [-pi, pi)
-            mean[s, 2] += yaw0 + ((values[j, 2] - yaw0 + math.pi) % (2.0 * math.pi) - math.pi)
+            mean[s, 2] += yaw0 + wrap_pi(values[j, 2] - yaw0)
         else:
             for i in range(axes[s]):
                 mean[s, i] += values[j, i]
@@ -448,7 +449,7 @@ def group_sample_arrays(flat: FloatArray, sensor_index: np.ndarray, time_s: Floa
             for i in range(axes[s]):
                 mean[s, i] /= count[s]
         if s == yaw_slot:
-            mean[s, 2] = (mean[s, 2] + math.pi) % (2.0 * math.pi) - math.pi
+            mean[s, 2] = wrap_pi(mean[s, 2])
         if count[s] > 0:
             time_sum[s] /= count[s]
     out[:, w + 1] = count

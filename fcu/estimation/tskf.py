@@ -36,6 +36,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+import fcu.floats
 from fcu.estimation import screening
 from fcu.estimation.channels import Channel, ChannelSet
 from fcu.estimation.estimator import (
@@ -83,7 +84,7 @@ from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
 
 # tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 
 def _workspace_array(at: int, shape: tuple[int | str, ...], doc: str) -> property:

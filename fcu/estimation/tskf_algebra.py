@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
 from fcu.estimation.small_matrix import (
     add_mul_vec,
@@ -36,7 +37,7 @@ from jitsupport.cache import drop_stale_kernels
 from jitsupport.views import refcount_free_kernel, shaped
 
 # compiles in the kernels of kalman_update and small_matrix and kernel_views
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output_into",
            "tskf_predict_into", "tskf_update_into"]

@@ -11,11 +11,10 @@ the channel tables (:class:`~fcu.estimation.tskf_channels.TskfChannelSet`).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation import screening
 from fcu.estimation.small_matrix import sub_mul_vec_into
 from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
@@ -28,13 +27,14 @@ from fcu.estimation.tskf_algebra import (
 )
 from fcu.estimation.tskf_channels import MAPPED
 from fcu.estimation.tskf_model import N_MOTORS
+from fcu.floats import wrap_pi
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
 from jitsupport.layout import Layout
 from jitsupport.views import refcount_free_kernel, shaped
 
 # tskf_tick compiles in the kernels of tskf_algebra, screening and what they call
-drop_stale_kernels(__file__, kernel_views.__file__)
+drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
 
 
 # ---- the filter's state: one float array, these layouts (jitsupport.layout) --------------
@@ -265,16 +265,16 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
         res = work[W_RES:W_RES + m]
         sub_mul_vec_into(res, y, c_mat, x_bar)
         if yaw_row >= 0:
-            res[yaw_row] = (res[yaw_row] + math.pi) % (2.0 * math.pi) - math.pi
+            res[yaw_row] = wrap_pi(res[yaw_row])
         # eq. 6.12-6.14, 6.17-6.20, 6.23, 6.24
         tskf_update_into(c_mat, res, r_diag, x_bar, p_x, gamma, p_gamma, v,
                          shaped(work[W_RES_COV:W_RES_COV + m * m], (m, m)), work[W_INN:W_INN + m],
                          shaped(work[W_INN_COV:W_INN_COV + m * m], (m, m)),
                          scratch[SC_UPDATE:SC_UPDATE + TSKF_UPDATE_SCRATCH])
-        x_bar[YAW_INDEX] = (x_bar[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+        x_bar[YAW_INDEX] = wrap_pi(x_bar[YAW_INDEX])
     # x_hat = x_bar + V gamma_hat (eq. 6.25); P = V P^gamma V' + P^x (eq. 6.26), diagonal
     estimate = out[:2 * N]
     tskf_output_into(estimate, x_bar, p_x, gamma, p_gamma, v)
     # the estimate's yaw in [-pi, pi), as StateEstimate keeps it
-    estimate[YAW_INDEX] = (estimate[YAW_INDEX] + math.pi) % (2.0 * math.pi) - math.pi
+    estimate[YAW_INDEX] = wrap_pi(estimate[YAW_INDEX])
     return on_ground, accel_power, m

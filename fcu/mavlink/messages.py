@@ -33,12 +33,13 @@ from typing import Any, TypeAlias
 
 import numpy as np
 
+from fcu.floats import wrap_pi
 from fcu.mavlink.codec import MAVLinkMessage, heartbeat_fields, mavlink2
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.port_records import LandedState, VehicleSnapshot
 from fcu.navigation.modes import Mode
-from flightdata.geometry import euler_from_wxyz, quat_from_euler, wrap_pi
+from flightdata.geometry import euler_from_wxyz, quat_from_euler
 
 __all__ = [
     "AUTOPILOT_CAPABILITIES",

@@ -53,14 +53,19 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+import fcu.floats
 from fcu.estimation.channels import ChannelSet
 from fcu.estimation.estimator import ChannelCheck, Screening
 from fcu.estimation.screening import ABSENT, REJECTED, STATUS_NAMES
 from fcu.estimation.state import GroupedSamples, SampleBatch
+from fcu.floats import wrap_pi
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
 from flightdata.vocabulary import SENSORS
+from jitsupport.cache import drop_stale_kernels
 from jitsupport.layout import Layout
+
+drop_stale_kernels(__file__, fcu.floats.__file__)  # watch_sensors compiles in fcu.floats' wrap_pi
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -261,7 +266,7 @@ def watch_sensors(par: np.ndarray, state: np.ndarray, events: np.ndarray, index:
                     for i in range(n):
                         change = flat[at + i] - state[r, _LAST_VALUE + i]
                         if i == 2 and index[c, _I_YAW] != 0:
-                            change = (change + math.pi) % (2.0 * math.pi) - math.pi
+                            change = wrap_pi(change)
                         jumped = jumped or change > limit or change < -limit
                     state[r, _JUMPED] = 1.0 if jumped else 0.0
             for i in range(n):

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+import fcu.floats
 from fcu.estimation import pair
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.pair import pair_arguments, pair_kept, pair_tick
@@ -32,7 +33,7 @@ from jitsupport.views import refcount_free_kernel
 # pair_watch_tick compiles in pair_tick and every estimation kernel it calls, and
 # watch_sensors
 drop_stale_kernels(__file__, *map(str, Path(pair.__file__).parent.glob("*.py")),
-                   sensor_health_module.__file__, kernel_views.__file__)
+                   sensor_health_module.__file__, kernel_views.__file__, fcu.floats.__file__)
 
 __all__ = ["pair_watch_tick", "step_pair_watched"]
 

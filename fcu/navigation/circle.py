@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fcu.floats import wrap_pi
 from fcu.navigation.reference import Reference
 
 __all__ = ["Circle", "circle_entry"]
@@ -62,7 +63,7 @@ class Circle:
                         r * c * ddtheta - r * s * dtheta**2, 0.0])
         yaw = math.atan2(-s, -c)  # towards the centre
         return Reference(pos_ned=pos, vel_ned=vel, acc_ned=acc,
-                         yaw_rad=(yaw + math.pi) % (2.0 * math.pi) - math.pi,
+                         yaw_rad=wrap_pi(yaw),
                          yaw_rate_rad_s=dtheta)
 
 

@@ -40,8 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fcu.floats import wrap_pi
 from fcu.navigation.guidance import SpeedLimits
-from fcu.navigation.reference import Reference, wrap_pi
+from fcu.navigation.reference import Reference
 from flightdata.config import finite, require
 
 __all__ = ["FollowChase", "FollowConfig", "FollowTarget", "LeadEstimate"]

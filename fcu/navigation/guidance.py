@@ -42,7 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.navigation.reference import Reference, read_only_vec3, wrap_pi
+from fcu.floats import wrap_pi
+from fcu.navigation.reference import Reference, read_only_vec3
 from fcu.navigation.segments import CubicSegment, HoldSegment, RampSegment, Segment
 from flightdata.config import finite, require
 

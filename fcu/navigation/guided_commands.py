@@ -13,9 +13,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from fcu.floats import wrap_pi
 from fcu.navigation.events import CommandResult
 from fcu.navigation.fence import target_problem
-from fcu.navigation.guidance import wrap_pi
 from fcu.navigation.mode_changes import ModeChanges
 from fcu.navigation.modes import Mode
 from flightdata.config import finite

@@ -47,7 +47,8 @@ from typing import Literal
 
 import numpy as np
 
-from fcu.navigation.guidance import Reference, wrap_pi
+from fcu.floats import wrap_pi
+from fcu.navigation.guidance import Reference
 from fcu.navigation.sticks import (
     PilotConfig,
     Sticks,

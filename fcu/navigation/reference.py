@@ -17,9 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fcu.floats import wrap_pi
 from flightdata.config import finite, require
 
-__all__ = ["Reference", "read_only_vec3", "reference_from_nine", "wrap_pi"]
+__all__ = ["Reference", "read_only_vec3", "reference_from_nine"]
 
 
 def read_only_vec3(value: np.ndarray | Sequence[float], name: str) -> np.ndarray:
@@ -29,11 +30,6 @@ def read_only_vec3(value: np.ndarray | Sequence[float], name: str) -> np.ndarray
         raise ValueError(f"{name} = {value!r}: must be three finite numbers")
     arr.setflags(write=False)
     return arr
-
-
-def wrap_pi(angle_rad: float) -> float:
-    """Wrap an angle to [-pi, pi), rad."""
-    return float((angle_rad + math.pi) % (2.0 * math.pi) - math.pi)
 
 
 _ZERO3 = np.zeros(3)

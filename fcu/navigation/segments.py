@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fcu.navigation.reference import Reference, read_only_vec3, reference_from_nine, wrap_pi
+from fcu.floats import wrap_pi
+from fcu.navigation.reference import Reference, read_only_vec3, reference_from_nine
 from flightdata.config import finite, require
 
 __all__ = ["CubicSegment", "HoldSegment", "RampSegment", "Segment"]

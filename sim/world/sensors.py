@@ -34,6 +34,7 @@ from functools import reduce
 
 import numpy as np
 from numba import njit
+from numba.extending import register_jitable
 
 from flightdata.config import finite, require
 from sim.world.fault_types import SENSOR_AXES, SENSOR_NAMES
@@ -145,8 +146,10 @@ def _euler_zyx(w: float, x: float, y: float, z: float) -> tuple[float, float, fl
     return roll, pitch, yaw
 
 
-def _wrap_pi(angle: float) -> float:
-    """Bring an angle pushed just past +-pi by noise back into [-pi, pi] (exact otherwise)."""
+@register_jitable
+def _fold_past_pi(angle: float) -> float:
+    """Bring an angle pushed just past +-pi by noise back into [-pi, pi] (exact otherwise,
+    unlike ``(a + pi) % (2 pi) - pi``, which rounds; the Python and compiled sensors)."""
     if angle > math.pi:
         return angle - 2.0 * math.pi
     if angle < -math.pi:
@@ -296,7 +299,8 @@ class SensorSuite:
                 reading = np.array((xs[0] + r[0], xs[1] + r[1], xs[2] + r[2]))
             elif i == _ATT:
                 roll, pitch, yaw = _euler_zyx(xs[6], xs[7], xs[8], xs[9])
-                reading = np.array((_wrap_pi(roll + r[0]), pitch + r[1], _wrap_pi(yaw + r[2])))
+                reading = np.array((_fold_past_pi(roll + r[0]), pitch + r[1],
+                                    _fold_past_pi(yaw + r[2])))
             else:
                 reading = np.array((-xs[2] + r[0],))  # altitude = -z_ned
             name = SENSOR_NAMES[i]
@@ -306,7 +310,6 @@ class SensorSuite:
 
 
 _euler_zyx_compiled = njit(cache=True)(_euler_zyx)
-_wrap_pi_compiled = njit(cache=True)(_wrap_pi)
 
 
 @njit(cache=True)
@@ -356,9 +359,9 @@ def sensor_reading(sensors: np.ndarray, i: int, x: np.ndarray, specific_force: n
         out[0], out[1], out[2] = x[0] + r[0], x[1] + r[1], x[2] + r[2]
     elif i == _ATT:  # ZYX Euler angles + noise, roll and yaw wrapped into [-pi, pi]
         roll, pitch, yaw = _euler_zyx_compiled(x[6], x[7], x[8], x[9])
-        out[0] = _wrap_pi_compiled(roll + r[0])
+        out[0] = _fold_past_pi(roll + r[0])
         out[1] = pitch + r[1]
-        out[2] = _wrap_pi_compiled(yaw + r[2])
+        out[2] = _fold_past_pi(yaw + r[2])
     else:
         out[0] = -x[2] + r[0]  # altitude = -z_ned
 

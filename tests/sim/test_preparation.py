@@ -23,24 +23,25 @@ def test_a_progress_line_fits_one_statustext() -> None:
 def test_the_project_kernels_are_the_dispatchers_of_its_modules_each_once() -> None:
     from numba.core.dispatcher import Dispatcher
 
-    import fcu.control.scalar as scalar
+    import fcu.control.attitude_pd as attitude_pd
+    import fcu.estimation.pair as pair
 
     kernels = project_kernels()
-    assert scalar.clip in kernels and scalar.wrap_pi in kernels
+    assert attitude_pd.pd_tick in kernels and pair.pair_tick in kernels
     assert len(kernels) == len({id(k) for k in kernels})
     assert all(isinstance(k, Dispatcher) for k in kernels)
-    assert all(k.py_func.__module__.split(".")[0] in ("sim", "fcu", "flightdata")
+    assert all(k.py_func.__module__.split(".")[0] in ("sim", "fcu", "flightdata", "jitsupport")
                for k in kernels)
 
 
 _COUNT_A_COMPILE = """
 from sim.preparation import KernelProgress
-from fcu.control import scalar
+from sim.world import sensors
 with KernelProgress() as progress:
     before = progress.snapshot().compiled
-    scalar.clip(1.5, 0.0, 1.0)      # compiled: the cache is empty
-    scalar.clip(0.5, 0.0, 1.0)      # the same types: nothing more
-    scalar.clip(1, 0, 2)            # integers: a second specialisation
+    sensors._euler_zyx_compiled(1.0, 0.0, 0.0, 0.0)  # compiled: the cache is empty
+    sensors._euler_zyx_compiled(0.5, 0.5, 0.5, 0.5)  # the same types: nothing more
+    sensors._euler_zyx_compiled(1, 0, 0, 0)          # integers: a second specialisation
 final = progress.finish()
 print(before, final.compiled, final.total >= final.compiled, final.done)
 print("\\n".join(progress.kernel_names))
@@ -53,7 +54,7 @@ def test_compiles_are_counted_once_per_kernel_and_signature(tmp_path: Path) -> N
                           capture_output=True, text=True, timeout=600, check=True)
     first, *names = done.stdout.strip().splitlines()
     assert first == "0 1 True True"  # one kernel compiled, in two specialisations:
-    assert len(names) == 2 and all(n.startswith("fcu.control.scalar.clip(") for n in names)
+    assert len(names) == 2 and all(n.startswith("sim.world.sensors._euler_zyx(") for n in names)
     # loaded from the cache the first process filled: compiled nothing
     again = subprocess.run([sys.executable, "-c", _COUNT_A_COMPILE], cwd=ROOT, env=env,
                            capture_output=True, text=True, timeout=600, check=True)

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from fcu.floats import wrap_pi
 from fcu.navigation.guidance import (
     SpeedLimits,
     Trajectory,
@@ -18,7 +19,7 @@ from fcu.navigation.guidance import (
     leg_duration_s,
     takeoff_trajectory,
 )
-from fcu.navigation.reference import Reference, reference_from_nine, wrap_pi
+from fcu.navigation.reference import Reference, reference_from_nine
 from fcu.navigation.segments import CubicSegment, HoldSegment, RampSegment
 from flightdata.mission import thesis_mission
 
