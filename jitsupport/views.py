@@ -31,7 +31,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numba.np.arrayobj import make_array, populate_array
 
-__all__ = ["borrowed", "refcount_free_kernel", "shaped"]
+__all__ = ["borrowed", "carve", "refcount_free_kernel", "shaped"]
 
 # (_nrt: a target option of numba's that its type stubs do not list)
 refcount_free_kernel = njit(cache=True, error_model="numpy",  # type: ignore[call-overload]
@@ -114,3 +114,20 @@ def shaped(flat: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     if size != flat.size:
         raise ValueError("shaped: the shape does not match the size")
     return _c_order_view(flat, shape)  # type: ignore[call-arg]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def carve(flat: np.ndarray, at: int, shape: tuple[int, ...],
+          room: int = -1) -> tuple[np.ndarray, int]:
+    """The next matrix of a workspace laid out as it is used: ``flat[at:]`` viewed with
+    ``shape`` (:func:`shaped`), and where the next one starts, ``room`` entries on (the
+    view's size when ``room`` is -1; a larger ``room`` keeps the place of the largest such
+    matrix, so the views after it stay put whatever the sizes of this call)::
+
+        ap, at = carve(scratch, 0, (n, n))
+        w, at = carve(scratch, at, (n, n_g))
+    """
+    size = 1
+    for dim in shape:
+        size *= dim
+    return shaped(flat[at:at + size], shape), at + (size if room < 0 else room)

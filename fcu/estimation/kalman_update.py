@@ -26,7 +26,7 @@ from fcu.estimation.small_matrix import (
 from fcu.estimation.state import FloatArray
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.views import shaped
+from jitsupport.views import carve
 
 # kalman_update_into compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
@@ -56,11 +56,12 @@ def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: F
     triangle is computed, and mirrored, so ``P`` stays exactly symmetric.
     """
     n, m = p_mat.shape[0], y.shape[0]
-    ut = shaped(scratch[:m * n], (m, n))
-    low = shaped(scratch[16 * 16:16 * 16 + m * m], (m, m))
-    low_inv = shaped(scratch[16 * 16 + m * m:16 * 16 + 2 * m * m], (m, m))
+    # each matrix keeps the room of its largest size (m, n <= 16)
+    ut, o = carve(scratch, 0, (m, n), 16 * 16)
+    low, o = carve(scratch, o, (m, m), 16 * 16)
+    low_inv, o = carve(scratch, o, (m, m), 16 * 16)
+    nz, o = carve(scratch, o, (m, n + 1))
     k_t = k_gain_t  # K', rows along the state
-    nz = shaped(scratch[3 * 16 * 16:3 * 16 * 16 + m * (n + 1)], (m, n + 1))
     # the non-zero entries of each row of H (the products below skip the others)
     nonzero_columns(nz, h_mat)
     # (P H')' = H P   (P symmetric)

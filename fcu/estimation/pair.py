@@ -34,7 +34,7 @@ from fcu.estimation.tskf_kernel import tskf_tick
 from fcu.estimation.tskf_model import N_MOTORS
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.views import borrowed, refcount_free_kernel, shaped
+from jitsupport.views import borrowed, carve, refcount_free_kernel, shaped
 
 # pair_tick compiles in the kernels of ekf, tskf and the modules they call
 drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
@@ -61,11 +61,8 @@ def channel_views(buf: FloatArray, ints: np.ndarray, excluded_bits: int
     n_ch, cols = ints[I_N_CH], ints[I_LAYOUT_COLS]
     at = ints[I_TABLES_AT]
     tables = buf[at:at + ints[I_TABLES_SIZE]]
-    o = I_LAYOUT
-    layout = shaped(ints[o:o + n_ch * cols], (n_ch, cols))
-    o += n_ch * cols
-    gather = shaped(ints[o:o + n_ch * MEAS_WIDTH], (n_ch, MEAS_WIDTH))
-    o += n_ch * MEAS_WIDTH
+    layout, o = carve(ints, I_LAYOUT, (n_ch, cols))
+    gather, o = carve(ints, o, (n_ch, MEAS_WIDTH))
     excluded = ints[o:o + n_ch]
     for c in range(n_ch):
         excluded[c] = (excluded_bits >> c) & 1

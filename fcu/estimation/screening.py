@@ -14,7 +14,7 @@ from fcu.estimation.state import STATE_DIM, Z_INDEX, FloatArray
 from fcu.floats import wrap_pi
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.views import refcount_free_kernel, shaped
+from jitsupport.views import carve, refcount_free_kernel, shaped
 
 # screen_channel compiles in the kernels of small_matrix and kernel_views
 drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
@@ -73,11 +73,11 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
     of ``S`` skipped, in the same order.
     """
     m, n = sel.shape
-    nz = shaped(scratch[:m * (n + 1)], (m, n + 1))
-    o = 16 * 17
-    s_mat = shaped(scratch[o:o + m * m], (m, m))
-    low = shaped(scratch[o + 16 * 16:o + 16 * 16 + m * m], (m, m))
-    tmp = scratch[o + 2 * 16 * 16:o + 2 * 16 * 16 + m]
+    # each matrix keeps the room of its largest size (m, n <= 16)
+    nz, o = carve(scratch, 0, (m, n + 1), 16 * 17)
+    s_mat, o = carve(scratch, o, (m, m), 16 * 16)
+    low, o = carve(scratch, o, (m, m), 16 * 16)
+    tmp, o = carve(scratch, o, (m,))
     # the non-zero entries of each row of S
     nonzero_columns(nz, sel)
     for r in range(m):

@@ -34,7 +34,7 @@ from fcu.estimation.state import STATE_DIM, FloatArray
 from fcu.estimation.tskf_model import N_MOTORS
 from jitsupport import views as kernel_views
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.views import refcount_free_kernel, shaped
+from jitsupport.views import carve, refcount_free_kernel
 
 # compiles in the kernels of kalman_update and small_matrix and kernel_views
 drop_stale_kernels(__file__, fcu.floats.__file__, kernel_views.__file__)
@@ -90,32 +90,19 @@ def tskf_predict_into(a: FloatArray, nz_a: FloatArray, b: FloatArray, g_d: Float
         At least :data:`PREDICT_SCRATCH` entries.
     """
     n, n_g = _sizes(v.shape[0], v.shape[1])
-    o = 0
-    ap = shaped(scratch[o:o + n * n], (n, n))
-    o += n * n
-    ap_t = shaped(scratch[o:o + n * n], (n, n))
-    o += n * n
-    w = shaped(scratch[o:o + n * n_g], (n, n_g))
-    o += n * n_g
-    wp = shaped(scratch[o:o + n * n_g], (n, n_g))
-    o += n * n_g
-    v_pred = shaped(scratch[o:o + n * n_g], (n, n_g))
-    o += n * n_g
-    vp = shaped(scratch[o:o + n * n_g], (n, n_g))
-    o += n * n_g
-    p_gamma_pred = shaped(scratch[o:o + n_g * n_g], (n_g, n_g))
-    o += n_g * n_g
-    pgp_inv = shaped(scratch[o:o + n_g * n_g], (n_g, n_g))
-    o += n_g * n_g
-    low = shaped(scratch[o:o + 2 * n_g * n_g], (2, n_g, n_g))
-    o += 2 * n_g * n_g
-    x_pred = scratch[o:o + n]
-    o += n
-    w_t = shaped(scratch[o:o + n_g * n], (n_g, n))  # W', V_{k+1|k}': rows along the state
-    o += n_g * n
-    v_pred_t = shaped(scratch[o:o + n_g * n], (n_g, n))
-    o += n_g * n
-    row = shaped(scratch[o:o + n], (1, n))
+    ap, o = carve(scratch, 0, (n, n))
+    ap_t, o = carve(scratch, o, (n, n))
+    w, o = carve(scratch, o, (n, n_g))
+    wp, o = carve(scratch, o, (n, n_g))
+    v_pred, o = carve(scratch, o, (n, n_g))
+    vp, o = carve(scratch, o, (n, n_g))
+    p_gamma_pred, o = carve(scratch, o, (n_g, n_g))
+    pgp_inv, o = carve(scratch, o, (n_g, n_g))
+    low, o = carve(scratch, o, (2, n_g, n_g))
+    x_pred, o = carve(scratch, o, (n,))
+    w_t, o = carve(scratch, o, (n_g, n))  # W', V_{k+1|k}': rows along the state
+    v_pred_t, o = carve(scratch, o, (n_g, n))
+    row, o = carve(scratch, o, (1, n))
     # W_k = A_k V_{k|k} + E_k,  E_k = -B_k diag(u_k)   (eq. 6.21, 6.6 discrete)
     mul_nonzero_left(w, a, nz_a, v)
     for i in range(n):
@@ -197,24 +184,16 @@ def tskf_update_into(c: FloatArray, r: FloatArray, r_diag: FloatArray, x_bar: Fl
     """
     m = c.shape[0]
     n, n_g = _sizes(c.shape[1], gamma.shape[0])
-    o = UPDATE_SCRATCH
-    r_mat = shaped(scratch[o:o + m * m], (m, m))
-    o += 16 * 16
-    k_x_t = shaped(scratch[o:o + m * n], (m, n))  # K^x'
-    o += 16 * 16
-    h = shaped(scratch[o:o + m * n_g], (m, n_g))
-    o += 16 * n_g
-    hp = shaped(scratch[o:o + m * n_g], (m, n_g))
-    o += 16 * n_g
-    k_g = shaped(scratch[o:o + n_g * m], (n_g, m))
-    o += 16 * n_g
-    s_inv = shaped(scratch[o:o + m * m], (m, m))
-    o += 16 * 16
-    low = shaped(scratch[o:o + m * m], (m, m))
-    o += 16 * 16
-    k_g_t = shaped(scratch[o:o + m * n_g], (m, n_g))
-    o += 16 * n_g
-    kh_t = shaped(scratch[o:o + n_g * n], (n_g, n))  # (K^x H)', rows along the state
+    # each matrix keeps the room of its largest size (m <= 16 rows)
+    r_mat, o = carve(scratch, UPDATE_SCRATCH, (m, m), 16 * 16)
+    k_x_t, o = carve(scratch, o, (m, n), 16 * 16)  # K^x'
+    h, o = carve(scratch, o, (m, n_g), 16 * n_g)
+    hp, o = carve(scratch, o, (m, n_g), 16 * n_g)
+    k_g, o = carve(scratch, o, (n_g, m), 16 * n_g)
+    s_inv, o = carve(scratch, o, (m, m), 16 * 16)
+    low, o = carve(scratch, o, (m, m), 16 * 16)
+    k_g_t, o = carve(scratch, o, (m, n_g), 16 * n_g)
+    kh_t, o = carve(scratch, o, (n_g, n))  # (K^x H)', rows along the state
     for i in range(m):
         for j in range(m):
             r_mat[i, j] = 0.0

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from jitsupport.views import borrowed, shaped
+from jitsupport.views import borrowed, carve, shaped
 
 
 @njit(cache=False)
@@ -35,3 +35,25 @@ def test_a_shape_that_does_not_fit_is_refused() -> None:
     with pytest.raises(ValueError, match="shape does not match"):
         _views(np.zeros(10), 3, 4)
 
+
+
+@njit(cache=False)
+def _carved(flat: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Three matrices carved one after the other, the second keeping room for 4 x 4."""
+    a, at = carve(flat, 0, (2, 3))
+    b, at = carve(flat, at, (m, m), 16)
+    c, at = carve(flat, at, (m,))
+    a[1, 2] = -1.0
+    c[0] = -2.0
+    return a.copy(), b.copy(), c.copy(), at
+
+
+@pytest.mark.parametrize("m", [1, 2, 4])
+def test_carve_lays_views_after_each_other_keeping_the_room_asked_for(m: int) -> None:
+    flat = np.arange(40.0)
+    a, b, c, end = _carved(flat, m)
+    assert end == 6 + 16 + m  # the second view takes 16 entries whatever m is
+    assert flat[5] == -1.0 and flat[22] == -2.0  # written through, C order
+    np.testing.assert_array_equal(a, [[0.0, 1.0, 2.0], [3.0, 4.0, -1.0]])
+    np.testing.assert_array_equal(b, np.arange(6.0, 6.0 + m * m).reshape(m, m))
+    np.testing.assert_array_equal(c, np.r_[-2.0, np.arange(23.0, 22.0 + m)])
