@@ -9,9 +9,9 @@ import socket
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from fcu.mavlink.boot_beacon import BootBeacon
-from fcu.mavlink.codec import Codec
-from fcu.mavlink.udp import UdpLink
+from fcu.mavlink.transport.boot_beacon import BootBeacon
+from fcu.mavlink.transport.codec import Codec
+from fcu.mavlink.transport.udp import UdpLink
 
 LOOPBACK = "127.0.0.1"
 KEY = hashlib.sha256(b"boot beacon").digest()

@@ -7,9 +7,9 @@ from dataclasses import dataclass
 
 import pytest
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.command_request import CommandLimits, CommandRequest
-from fcu.mavlink.commands import CommandDispatcher
+from fcu.mavlink.protocols.command_request import CommandLimits, CommandRequest
+from fcu.mavlink.protocols.commands import CommandDispatcher
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 NAN = float("nan")

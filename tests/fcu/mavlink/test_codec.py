@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from fcu.mavlink.codec import Codec, mavlink2
+from fcu.mavlink.transport.codec import Codec, mavlink2
 
 M = mavlink2
 KEY = bytes(range(7, 39))  # 32 bytes
@@ -142,7 +142,7 @@ def test_a_value_out_of_its_wire_range_raises_as_pymavlink_does() -> None:
 def test_without_the_compiled_crc_the_packets_are_the_same(
         monkeypatch: pytest.MonkeyPatch) -> None:
     """pymavlink's own CRC (its Python loop when fastcrc is missing) gives the same packets."""
-    import fcu.mavlink.codec as codec_module
+    import fcu.mavlink.transport.codec as codec_module
 
     msgs = [M.MAVLink_attitude_message(123, 0.1, -0.2, 3.0, 0.0, 0.5, -0.5),
             M.MAVLink_statustext_message(4, b"hello", 0, 0),

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from mavlink_testkit import ORIGIN, MemoryGcs, memory_endpoint
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.follow_target import lead_report
 from fcu.mavlink.geo import ned_to_geo
+from fcu.mavlink.protocols.follow_target import lead_report
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 NAN = math.nan

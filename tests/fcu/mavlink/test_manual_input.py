@@ -6,14 +6,14 @@ from __future__ import annotations
 import pytest
 from mavlink_testkit import memory_endpoint
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.manual_input import (
+from fcu.mavlink.protocols.manual_input import (
     RcChannels,
     RcFailsafe,
     RcFailsafeAction,
     RcFailsafeConfig,
     manual_control_pwm,
 )
+from fcu.mavlink.transport.codec import mavlink2
 from fcu.navigation.modes import Mode
 from fcu.navigation.sticks import Sticks
 

@@ -12,8 +12,8 @@ import pytest
 from mavlink_testkit import ORIGIN, WAIT_S, Gcs, VehicleThread, linked, started
 from numpy.testing import assert_allclose
 
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.geo import ned_to_geo
+from fcu.mavlink.transport.codec import mavlink2
 from fcu.navigation.modes import Mode
 
 M = mavlink2

@@ -7,10 +7,10 @@ import time
 import pytest
 from mavlink_testkit import WAIT_S, Gcs, MemoryGcs, memory_endpoint, started
 
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import MavState
-from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
+from fcu.mavlink.protocols.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
+from fcu.mavlink.transport.codec import mavlink2
 from fcu.navigation.modes import Mode
 
 M = mavlink2

@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from mavlink_testkit import ORIGIN, FakeVehicle, MemoryGcs, MemoryLink, memory_endpoint
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.command_request import CommandLimits
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.geo import ned_to_geo
+from fcu.mavlink.protocols.command_request import CommandLimits
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 ATTITUDE = M.MAVLINK_MSG_ID_ATTITUDE

@@ -11,13 +11,13 @@ import pytest
 from mavlink_testkit import ORIGIN, FakeVehicle
 from numpy.testing import assert_allclose
 
-from fcu.mavlink import messages as build
-from fcu.mavlink import streamed
-from fcu.mavlink.codec import Codec, mavlink2
 from fcu.mavlink.enums import MavState
 from fcu.mavlink.geo import metres_per_degree
 from fcu.mavlink.port_records import BatteryState, SensorHealth, VehicleSnapshot
-from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from fcu.mavlink.telemetry import messages as build
+from fcu.mavlink.telemetry import streamed
+from fcu.mavlink.telemetry.streams import DEFAULT_RATES_HZ
+from fcu.mavlink.transport.codec import Codec, mavlink2
 from fcu.navigation.modes import Mode
 from flightdata.geometry import euler_from_quat
 

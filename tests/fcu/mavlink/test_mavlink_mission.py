@@ -25,12 +25,17 @@ from mavlink_testkit import (
 )
 from numpy.testing import assert_allclose
 
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.geo import geo_to_ned, ned_to_geo
-from fcu.mavlink.mission_items import MissionConfig, WireItem, to_mission_item, validate_item
 from fcu.mavlink.port_records import GeoPoint, MissionState
+from fcu.mavlink.protocols.mission_items import (
+    MissionConfig,
+    WireItem,
+    to_mission_item,
+    validate_item,
+)
+from fcu.mavlink.transport.codec import mavlink2
 from fcu.navigation.modes import Mode
 from flightdata.mission import MissionItem as PlannedItem
 from flightdata.mission import thesis_mission

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from mavlink_testkit import Gcs, VehicleThread, linked
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.params import ParamEntry, ParamTable, wire_type
 from fcu.mavlink.port_records import CommandResult, ParamSpec
+from fcu.mavlink.protocols.params import ParamEntry, ParamTable, wire_type
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 Link = tuple[Gcs, VehicleThread]

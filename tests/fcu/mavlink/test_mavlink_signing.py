@@ -11,10 +11,10 @@ from typing import Any
 import pytest
 from mavlink_testkit import GCS_ADDR, MemoryGcs, MemoryLink, memory_endpoint
 
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
-from fcu.mavlink.signing import MAX_STREAMS, REPORT_NAME, MessageSigning, SigningStats
+from fcu.mavlink.transport.codec import mavlink2
+from fcu.mavlink.transport.signing import MAX_STREAMS, REPORT_NAME, MessageSigning, SigningStats
 from fcu.navigation.modes import Mode
 from flightdata.signing import MAX_TIMESTAMP, timestamp_from_unix
 

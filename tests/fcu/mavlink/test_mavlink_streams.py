@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from mavlink_testkit import memory_endpoint
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.streams import DEFAULT_RATES_HZ, STREAM_GROUPS, StreamScheduler
+from fcu.mavlink.telemetry.streams import DEFAULT_RATES_HZ, STREAM_GROUPS, StreamScheduler
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 HB = M.MAVLINK_MSG_ID_HEARTBEAT

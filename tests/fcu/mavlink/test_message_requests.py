@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from mavlink_testkit import MemoryGcs, MemoryLink, memory_endpoint
 
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import MavlinkEndpoint
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 DT_S = 0.01  # s, one autopilot tick

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 from test_mavlink_messages import one, snap
 
-from fcu.mavlink import messages as build
-from fcu.mavlink import streamed
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.extended import (
+from fcu.mavlink.geo import ned_to_geo
+from fcu.mavlink.port_records import BatteryState, SimTruth
+from fcu.mavlink.telemetry import messages as build
+from fcu.mavlink.telemetry import streamed
+from fcu.mavlink.telemetry.extended import (
     EkfReport,
     ImuReading,
     NavControllerReport,
@@ -21,9 +22,8 @@ from fcu.mavlink.extended import (
     SecondaryAttitude,
     VibrationLevels,
 )
-from fcu.mavlink.geo import ned_to_geo
-from fcu.mavlink.port_records import BatteryState, SimTruth
-from fcu.mavlink.streams import DEFAULT_RATES_HZ, STREAM_GROUPS
+from fcu.mavlink.telemetry.streams import DEFAULT_RATES_HZ, STREAM_GROUPS
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 G0 = 9.80665

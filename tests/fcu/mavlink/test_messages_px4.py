@@ -11,12 +11,12 @@ import pytest
 from test_mavlink_messages import one, snap
 from test_messages_extended import IMU, Extended
 
-from fcu.mavlink import messages as build
-from fcu.mavlink import streamed
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.extended import PressureReading
 from fcu.mavlink.port_records import SimTruth
-from fcu.mavlink.streams import DEFAULT_RATES_HZ, STREAM_GROUPS
+from fcu.mavlink.telemetry import messages as build
+from fcu.mavlink.telemetry import streamed
+from fcu.mavlink.telemetry.extended import PressureReading
+from fcu.mavlink.telemetry.streams import DEFAULT_RATES_HZ, STREAM_GROUPS
+from fcu.mavlink.transport.codec import mavlink2
 
 M = mavlink2
 PX4_IDS = (M.MAVLINK_MSG_ID_HIGHRES_IMU, M.MAVLINK_MSG_ID_ODOMETRY,

@@ -9,7 +9,7 @@ import socket
 
 import pytest
 
-from fcu.mavlink.udp import UdpLink
+from fcu.mavlink.transport.udp import UdpLink
 
 OUT = ("127.0.0.1", 14550)
 WAIT_S = 5.0  # s, generous bound for a datagram over loopback
@@ -31,7 +31,7 @@ def test_forty_chattering_peers_never_displace_the_first_sixteen(
     link = UdpLink("127.0.0.1", 0, default_peers=[OUT], clock=clock)
     first = [("127.0.0.1", 30000 + k) for k in range(16)]
     chatter = [("127.0.0.1", 31000 + k) for k in range(40)]
-    with caplog.at_level(logging.INFO, logger="fcu.mavlink.udp"):
+    with caplog.at_level(logging.INFO, logger="fcu.mavlink.transport.udp"):
         for peer in first:
             link.add_peer(peer)
         for _ in range(10):  # each chatters ten times

@@ -8,7 +8,7 @@ parameter protocol immediately instead of after its time-out.
 
 from __future__ import annotations
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 
 __all__ = ["ftp_reply"]
 

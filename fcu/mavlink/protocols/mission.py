@@ -26,7 +26,7 @@ ArduPilot conventions kept here:
 - Validation, per item, answered with a MISSION_ACK error that ends the upload (and a
   STATUSTEXT saying why): frames other than GLOBAL(_INT), GLOBAL_RELATIVE_ALT(_INT),
   LOCAL_NED and MISSION -> UNSUPPORTED_FRAME; inf anywhere, or NaN in a param1..4 the
-  command uses (:data:`~fcu.mavlink.mission_items.USED_PARAMS`) -> INVALID_PARAMn, except
+  command uses (:data:`~fcu.mavlink.protocols.mission_items.USED_PARAMS`) -> INVALID_PARAMn, except
   param4 (yaw) of NAV_WAYPOINT/LOITER/LAND/TAKEOFF where the MAVLink spec defines NaN as
   "keep the heading mode" (MAVSDK sends it); NaN in a parameter the command does not use is
   accepted (ArduPilot ignores it; MAVSDK's Mission plugin sends NaN in RTL's param1);
@@ -39,10 +39,11 @@ ArduPilot conventions kept here:
 - The fence (MAV_MISSION_TYPE_FENCE: polygon vertices and circles, inclusion and exclusion,
   a return point) and the rally points (MAV_MISSION_TYPE_RALLY) are uploaded, downloaded and
   cleared by the same protocol, without a home item (seq 0 is their first item), each item
-  checked (:func:`~fcu.mavlink.mission_items.validate_plan_item`), and stored as uploaded
-  (:meth:`plan_items`); the fence also goes to the vehicle as local areas
-  (:func:`~fcu.mavlink.mission_items.fence_areas`), which it enforces while FENCE_ENABLE is
-  1 and FENCE_TYPE has bit 2. Other mission types are answered MAV_MISSION_UNSUPPORTED.
+  checked (:func:`~fcu.mavlink.protocols.mission_items.validate_plan_item`), and stored as
+  uploaded (:meth:`plan_items`); the fence also goes to the vehicle as local areas
+  (:func:`~fcu.mavlink.protocols.mission_items.fence_areas`), which it enforces while
+  FENCE_ENABLE is 1 and FENCE_TYPE has bit 2. Other mission types are answered
+  MAV_MISSION_UNSUPPORTED.
 - Time-outs are judged on the clock passed in (the vehicle process passes the wall-clock
   monotonic time, so a simulation speed-up does not shorten them).
 - MISSION_ITEM_INT carries latitude/longitude in degE7 and local x/y in metres * 1e4.
@@ -53,11 +54,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.enums import Severity
 from fcu.mavlink.geo import ned_to_geo
-from fcu.mavlink.link import Address, Outbox
-from fcu.mavlink.mission_items import (
+from fcu.mavlink.port_records import CommandResult, MissionItem, VehicleSnapshot
+from fcu.mavlink.protocols.mission_items import (
     PLAN_COMMANDS,
     PLAN_NAMES,
     MissionConfig,
@@ -67,7 +67,8 @@ from fcu.mavlink.mission_items import (
     validate_item,
     validate_plan_item,
 )
-from fcu.mavlink.port_records import CommandResult, MissionItem, VehicleSnapshot
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.transport.link import Address, Outbox
 from fcu.navigation.fence import FenceAreas
 from flightdata.mission import MissionItem as PlannedItem
 

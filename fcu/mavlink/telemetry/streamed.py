@@ -1,8 +1,8 @@
 """Every telemetry message the vehicle can stream or send on request, by message id.
 
-The builders of :mod:`fcu.mavlink.messages` (the core set), of
-:mod:`fcu.mavlink.messages_extended` (ArduPilot SITL's extended telemetry) and of
-:mod:`fcu.mavlink.messages_px4` (PX4's, on request), in one table.
+The builders of :mod:`fcu.mavlink.telemetry.messages` (the core set), of
+:mod:`fcu.mavlink.telemetry.messages_extended` (ArduPilot SITL's extended telemetry) and of
+:mod:`fcu.mavlink.telemetry.messages_px4` (PX4's, on request), in one table.
 A builder gives its messages' constructor arguments: :func:`stream_fields` hands them to the
 packer as they are (the endpoint's telemetry path, no message object made), and
 :func:`build_stream` makes the messages (replies to REQUEST_MESSAGE, tests).
@@ -10,11 +10,11 @@ packer as they are (the endpoint's telemetry path, no message object made), and
 
 from __future__ import annotations
 
-from fcu.mavlink.codec import MAVLinkMessage
-from fcu.mavlink.messages import BUILDERS, BuilderTable, Fields, TelemetryContext
-from fcu.mavlink.messages_extended import EXTENDED_BUILDERS
-from fcu.mavlink.messages_px4 import PX4_BUILDERS
 from fcu.mavlink.port_records import VehicleSnapshot
+from fcu.mavlink.telemetry.messages import BUILDERS, BuilderTable, Fields, TelemetryContext
+from fcu.mavlink.telemetry.messages_extended import EXTENDED_BUILDERS
+from fcu.mavlink.telemetry.messages_px4 import PX4_BUILDERS
+from fcu.mavlink.transport.codec import MAVLinkMessage
 
 __all__ = ["ALL_BUILDERS", "build_stream", "can_build", "stream_fields"]
 

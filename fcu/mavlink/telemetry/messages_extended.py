@@ -1,16 +1,16 @@
 """Build the extended telemetry messages, as ArduPilot SITL sends them, from a snapshot.
 
-The quantities come from ``snapshot.extended`` (:mod:`fcu.mavlink.extended`), computed when
-one of these messages is built; WIND comes from simulator truth (``snapshot.truth``, like
-SIM_STATE: the wind at the vehicle is what the simulator blows, not an estimate). Units on
-the wire, as ArduPilot's:
+The quantities come from ``snapshot.extended`` (:mod:`fcu.mavlink.telemetry.extended`),
+computed when one of these messages is built; WIND comes from simulator truth
+(``snapshot.truth``, like SIM_STATE: the wind at the vehicle is what the simulator blows, not
+an estimate). Units on the wire, as ArduPilot's:
 
 ====================  =======================================================================
 RAW_IMU, SCALED_IMU   accelerations in mG (``1000 a / 9.80665``), rates in mrad/s, magnetic
                       field 0 (no magnetometer), temperature in cdegC (RAW_IMU ``id`` 0)
 SCALED_PRESSURE       press_abs in hPa, press_diff 0 hPa (no airspeed sensor), cdegC
 VIBRATION             m/s^2 per axis, clip counts of IMUs 0..2 (one IMU)
-EKF_STATUS_REPORT     variances as :class:`fcu.mavlink.extended.EkfReport`, flags
+EKF_STATUS_REPORT     variances as :class:`fcu.mavlink.telemetry.extended.EkfReport`, flags
 AHRS2                 rad, altitude m AMSL, degE7 (the estimator that is not flying)
 NAV_CONTROLLER_OUTPUT deg (float roll/pitch, int16 bearings 0..359), wp_dist in whole metres
                       (uint16, as ArduPilot), alt_error m, aspd_error 0 (no airspeed), m
@@ -28,9 +28,9 @@ from __future__ import annotations
 
 import math
 
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.geo import ned_to_geo
-from fcu.mavlink.messages import (
+from fcu.mavlink.port_records import VehicleSnapshot
+from fcu.mavlink.telemetry.messages import (
     INT16_MAX,
     UINT16_MAX,
     UINT32_MAX,
@@ -41,7 +41,7 @@ from fcu.mavlink.messages import (
     time_boot_ms,
     time_usec,
 )
-from fcu.mavlink.port_records import VehicleSnapshot
+from fcu.mavlink.transport.codec import mavlink2
 
 __all__ = ["EXTENDED_BUILDERS", "G0_M_S2"]
 
@@ -180,4 +180,5 @@ EXTENDED_BUILDERS = builder_table(
     (_M.MAVLink_wind_message, wind),
     (_M.MAVLink_rc_channels_message, rc_channels),
 )
-"""Message id -> (its message class, its builder), as :data:`fcu.mavlink.messages.BUILDERS`."""
+"""Message id -> (its message class, its builder), as
+:data:`fcu.mavlink.telemetry.messages.BUILDERS`."""

@@ -45,9 +45,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.enums import Severity
-from fcu.mavlink.link import Outbox
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.transport.link import Outbox
 from flightdata.signing import (
     KEY_BYTES,
     MAX_TIMESTAMP,
@@ -115,7 +115,7 @@ class MessageSigning:
     ----------
     state : pymavlink MAVLinkSigning
         The signing state of the packer that signs outgoing packets
-        (:attr:`fcu.mavlink.codec.Codec.signing`).
+        (:attr:`fcu.mavlink.transport.codec.Codec.signing`).
     outbox : Outbox
         Where STATUSTEXT and SIGN_REJ go.
     key : bytes or None

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 from flightdata.records import WIRE_NAME, Record, to_wire
 
 __all__ = ["REPEATS_AFTER_S", "RecordRelay", "record_message"]

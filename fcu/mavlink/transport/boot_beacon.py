@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import threading
 
-from fcu.mavlink.codec import Codec, heartbeat_message, mavlink2
 from fcu.mavlink.enums import MavState, Severity
-from fcu.mavlink.signing import start_signing
-from fcu.mavlink.udp import UdpLink
+from fcu.mavlink.transport.codec import Codec, heartbeat_message, mavlink2
+from fcu.mavlink.transport.signing import start_signing
+from fcu.mavlink.transport.udp import UdpLink
 
 __all__ = ["BootBeacon"]
 

@@ -12,8 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
-from fcu.mavlink.command_request import (
+from fcu.mavlink.protocols.command_request import (
     INT32_MAX,
     CommandOutcome,
     CommandRequest,
@@ -22,7 +21,8 @@ from fcu.mavlink.command_request import (
     unsupported,
     whole_number,
 )
-from fcu.mavlink.streams import StreamScheduler
+from fcu.mavlink.telemetry.streams import StreamScheduler
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 
 __all__ = ["MessageCommands"]
 
@@ -32,7 +32,7 @@ _MAX_INTERVAL_MSG_ID = 0xFFFF  # MESSAGE_INTERVAL.message_id is a uint16
 
 class MessageCommands:
     """Message requests and intervals (module docstring); a part of
-    :class:`fcu.mavlink.commands.CommandDispatcher`, whose streams and message builder it
+    :class:`fcu.mavlink.protocols.commands.CommandDispatcher`, whose streams and message builder it
     uses."""
 
     _streams: StreamScheduler

@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m
-from fcu.mavlink.mission_items import GLOBAL_FRAMES, LOCAL_FRAMES, RELATIVE_ALT_FRAMES
 from fcu.mavlink.port_records import CommandResult, VehicleSnapshot
+from fcu.mavlink.protocols.mission_items import GLOBAL_FRAMES, LOCAL_FRAMES, RELATIVE_ALT_FRAMES
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 
 __all__ = ["INT32_MAX", "CommandLimits", "CommandOutcome", "CommandRequest", "accepted",
            "denied", "outcome_of", "target_ned", "unsupported", "whole_number"]

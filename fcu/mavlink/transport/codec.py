@@ -8,8 +8,8 @@ through pymavlink's import-time environment variables (``MAVLINK20``, ``MAVLINK_
 rolling sequence number, and parses incoming datagrams. UDP delivers whole datagrams, so each
 datagram is parsed by a fresh parser: a truncated or garbage packet can never swallow the
 start of the next datagram. The parsers carry no signing key: they decode signed and unsigned
-packets alike, and :mod:`fcu.mavlink.signing` checks signatures on the decoded packets (with
-the key held by the packer's signing state, which signs what is sent).
+packets alike, and :mod:`fcu.mavlink.transport.signing` checks signatures on the decoded
+packets (with the key held by the packer's signing state, which signs what is sent).
 
 Packing writes the packet pymavlink's ``MAVLink_message.pack`` writes, byte for byte, without
 its per-packet objects: per message type, the payload struct and the field order are looked up
@@ -244,7 +244,7 @@ class Codec:
             One UDP datagram (any content, including random bytes).
         """
         parser = mavlink2.MAVLink(None)
-        parser.robust_parsing = True  # no key: signatures are checked by fcu.mavlink.signing
+        parser.robust_parsing = True  # no key: fcu.mavlink.transport.signing checks signatures
         messages: list[MAVLinkMessage] = []
         malformed = 0
         unknown = 0

@@ -24,7 +24,7 @@ ALT_HOLD, LOITER, POSHOLD: ``ModeSpec.pilot``), until the mode is another one or
 are released: a vehicle flown by a ground station without sticks never meets this failsafe
 (ArduPilot has it only once an RC input has been seen). When no input has arrived for
 RC_FS_TIMEOUT seconds of **wall-clock** time (a joystick sends in wall time: a simulation
-speed-up must not fire it, as for the GCS failsafe of :mod:`fcu.mavlink.failsafe`):
+speed-up must not fire it, as for the GCS failsafe of :mod:`fcu.mavlink.protocols.failsafe`):
 
 - the sticks are released in the navigator whatever the mode (stale sticks never fly:
   ArduPilot's overrides expire after RC_OVERRIDE_TIME);
@@ -45,11 +45,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import IntEnum
 
-from fcu.mavlink.codec import MAVLinkMessage
 from fcu.mavlink.enums import Severity
-from fcu.mavlink.params import ParamEntry
 from fcu.mavlink.port import VehiclePort
 from fcu.mavlink.port_records import LandedState, ParamSpec
+from fcu.mavlink.protocols.params import ParamEntry
+from fcu.mavlink.transport.codec import MAVLinkMessage
 from fcu.navigation.modes import MODE_TABLE
 from fcu.navigation.sticks import Sticks
 

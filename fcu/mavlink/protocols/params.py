@@ -35,11 +35,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.enums import Severity
-from fcu.mavlink.link import Address, Outbox
 from fcu.mavlink.port import ParamProvider
 from fcu.mavlink.port_records import CommandResult, ParamSpec
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
+from fcu.mavlink.transport.link import Address, Outbox
 
 __all__ = ["REPEAT_QUIET_S", "ParamEntry", "ParamService", "ParamSetOutcome", "ParamTable",
            "entries_from", "wire_type"]

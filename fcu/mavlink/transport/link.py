@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from fcu.mavlink.codec import MAVLinkMessage
+from fcu.mavlink.transport.codec import MAVLinkMessage
 
 __all__ = ["Address", "Link", "Outbox"]
 

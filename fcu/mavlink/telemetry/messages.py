@@ -33,10 +33,10 @@ from typing import Any, TypeAlias
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage, heartbeat_fields, mavlink2
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.port_records import LandedState, VehicleSnapshot
+from fcu.mavlink.transport.codec import MAVLinkMessage, heartbeat_fields, mavlink2
 from fcu.navigation.modes import Mode
 from flightdata.geometry import euler_from_wxyz, quat_from_euler, wrap_pi
 
@@ -80,8 +80,8 @@ AUTOPILOT_CAPABILITIES = (
 
 Fields: TypeAlias = tuple[Any, ...]
 """A message's constructor arguments (``cls.fieldnames`` order), what the builders return:
-the endpoint packs them as they are (:meth:`fcu.mavlink.codec.Codec.pack_fields`), without a
-pymavlink message object."""
+the endpoint packs them as they are (:meth:`fcu.mavlink.transport.codec.Codec.pack_fields`),
+without a pymavlink message object."""
 
 # ArduCopter sets GUIDED_ENABLED for the modes under position control (GCS_Copter::base_mode).
 _GUIDED_MODES = frozenset({Mode.AUTO, Mode.GUIDED, Mode.LOITER, Mode.RTL, Mode.BRAKE})

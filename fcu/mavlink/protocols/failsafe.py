@@ -28,7 +28,7 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
-from fcu.mavlink.codec import mavlink2
+from fcu.mavlink.transport.codec import mavlink2
 
 __all__ = ["GCS_SYSID_MAVSDK", "FailsafeAction", "GcsFailsafe", "GcsFailsafeConfig"]
 

@@ -1,7 +1,7 @@
 """Telemetry PX4 sends beside ArduPilot's, built from a snapshot, for tools written for PX4.
 
 Streamed only when asked for (SET_MESSAGE_INTERVAL, REQUEST_MESSAGE; default rate 0), except
-where ArduPilot has a message in a stream group (:mod:`fcu.mavlink.streams`). Units on the
+where ArduPilot has a message in a stream group (:mod:`fcu.mavlink.telemetry.streams`). Units on the
 wire, as the MAVLink spec gives them:
 
 =======================  =====================================================================
@@ -28,8 +28,8 @@ import math
 
 import numpy as np
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.messages import (
+from fcu.mavlink.port_records import VehicleSnapshot
+from fcu.mavlink.telemetry.messages import (
     UINT16_MAX,
     Fields,
     TelemetryContext,
@@ -38,7 +38,7 @@ from fcu.mavlink.messages import (
     pwm_to_us,
     time_usec,
 )
-from fcu.mavlink.port_records import VehicleSnapshot
+from fcu.mavlink.transport.codec import mavlink2
 from flightdata.geometry import quat_from_euler
 
 __all__ = ["PX4_BUILDERS"]
@@ -114,4 +114,5 @@ PX4_BUILDERS = builder_table(
     (_M.MAVLink_actuator_output_status_message, actuator_output_status),
     (_M.MAVLink_esc_telemetry_1_to_4_message, esc_telemetry_1_to_4),
 )
-"""Message id -> (its message class, its builder), as :data:`fcu.mavlink.messages.BUILDERS`."""
+"""Message id -> (its message class, its builder), as
+:data:`fcu.mavlink.telemetry.messages.BUILDERS`."""

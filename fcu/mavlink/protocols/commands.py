@@ -1,8 +1,9 @@
 """COMMAND_LONG / COMMAND_INT dispatch, SET_MODE, and GUIDED set-points.
 
-The request and its answer are :mod:`fcu.mavlink.command_request`'s; the handlers of message
-requests and intervals, calibration and set-points are in :mod:`fcu.mavlink.message_commands`,
-:mod:`fcu.mavlink.calibration_command` and :mod:`fcu.mavlink.setpoint_commands`.
+The request and its answer are :mod:`fcu.mavlink.protocols.command_request`'s; the handlers
+of message requests and intervals, calibration and set-points are in
+:mod:`fcu.mavlink.protocols.message_commands`, :mod:`fcu.mavlink.protocols.calibration_command`
+and :mod:`fcu.mavlink.protocols.setpoint_commands`.
 
 Every command addressed to us gets exactly one COMMAND_ACK (the endpoint sends it from the
 :class:`CommandOutcome` returned here); an unknown command is answered
@@ -51,9 +52,11 @@ import math
 from collections.abc import Callable
 from dataclasses import replace
 
-from fcu.mavlink.calibration_command import CalibrationCommand
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
-from fcu.mavlink.command_request import (
+from fcu.mavlink.enums import FailureType, FailureUnit
+from fcu.mavlink.port import FailureInjector, VehiclePort
+from fcu.mavlink.port_records import CommandResult
+from fcu.mavlink.protocols.calibration_command import CalibrationCommand
+from fcu.mavlink.protocols.command_request import (
     CommandLimits,
     CommandOutcome,
     CommandRequest,
@@ -64,13 +67,11 @@ from fcu.mavlink.command_request import (
     unsupported,
     whole_number,
 )
-from fcu.mavlink.enums import FailureType, FailureUnit
-from fcu.mavlink.message_commands import MessageCommands
-from fcu.mavlink.mission_items import RELATIVE_ALT_FRAMES, set_current_refusal
-from fcu.mavlink.port import FailureInjector, VehiclePort
-from fcu.mavlink.port_records import CommandResult
-from fcu.mavlink.setpoint_commands import SetpointCommands
-from fcu.mavlink.streams import StreamScheduler
+from fcu.mavlink.protocols.message_commands import MessageCommands
+from fcu.mavlink.protocols.mission_items import RELATIVE_ALT_FRAMES, set_current_refusal
+from fcu.mavlink.protocols.setpoint_commands import SetpointCommands
+from fcu.mavlink.telemetry.streams import StreamScheduler
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 
 __all__ = ["CommandDispatcher"]
 
@@ -84,9 +85,9 @@ class CommandDispatcher(MessageCommands, CalibrationCommand, SetpointCommands):
     """Turns commands into port calls and one ACK result each.
 
     The flight, mission and system commands are handled here; message requests and
-    intervals (:class:`~fcu.mavlink.message_commands.MessageCommands`), calibration
-    (:class:`~fcu.mavlink.calibration_command.CalibrationCommand`) and the GUIDED
-    set-points (:class:`~fcu.mavlink.setpoint_commands.SetpointCommands`) in the parts it
+    intervals (:class:`~fcu.mavlink.protocols.message_commands.MessageCommands`), calibration
+    (:class:`~fcu.mavlink.protocols.calibration_command.CalibrationCommand`) and the GUIDED
+    set-points (:class:`~fcu.mavlink.protocols.setpoint_commands.SetpointCommands`) in the parts it
     is made of.
 
     Parameters

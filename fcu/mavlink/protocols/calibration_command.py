@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import math
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
-from fcu.mavlink.command_request import (
+from fcu.mavlink.enums import Severity
+from fcu.mavlink.port import VehiclePort
+from fcu.mavlink.protocols.command_request import (
     CommandOutcome,
     CommandRequest,
     accepted,
@@ -18,8 +19,7 @@ from fcu.mavlink.command_request import (
     unsupported,
     whole_number,
 )
-from fcu.mavlink.enums import Severity
-from fcu.mavlink.port import VehiclePort
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 
 __all__ = ["CalibrationCommand"]
 
@@ -34,7 +34,7 @@ def _cal_texts(*texts: str) -> list[MAVLinkMessage]:
 
 class CalibrationCommand:
     """PREFLIGHT_CALIBRATION (module docstring); a part of
-    :class:`fcu.mavlink.commands.CommandDispatcher`, whose port it reads."""
+    :class:`fcu.mavlink.protocols.commands.CommandDispatcher`, whose port it reads."""
 
     _port: VehiclePort
 

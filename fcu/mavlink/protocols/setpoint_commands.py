@@ -10,11 +10,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
-from fcu.mavlink.command_request import CommandLimits, CommandRequest, target_ned
-from fcu.mavlink.mission_items import GLOBAL_FRAMES
 from fcu.mavlink.port import VehiclePort
 from fcu.mavlink.port_records import CommandResult, VehicleSnapshot
+from fcu.mavlink.protocols.command_request import CommandLimits, CommandRequest, target_ned
+from fcu.mavlink.protocols.mission_items import GLOBAL_FRAMES
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 
 __all__ = ["SetpointCommands"]
 
@@ -29,7 +29,7 @@ _THROTTLE_IGNORE = 64  # SET_ATTITUDE_TARGET type_mask: the thrust unused
 
 class SetpointCommands:
     """GUIDED set-points (module docstring); a part of
-    :class:`fcu.mavlink.commands.CommandDispatcher`, whose port and limits it uses."""
+    :class:`fcu.mavlink.protocols.commands.CommandDispatcher`, whose port and limits it uses."""
 
     _port: VehiclePort
     _limits: CommandLimits

@@ -1,4 +1,4 @@
-"""Mission items as the mission protocol carries them (:mod:`fcu.mavlink.mission`): the
+"""Mission items as the mission protocol carries them (:mod:`fcu.mavlink.protocols.mission`): the
 frames, :class:`WireItem` (MISSION_ITEM_INT and the legacy MISSION_ITEM), the per-item checks
 (:func:`validate_item`, :func:`validate_plan_item`; the rules are in the protocol's module
 docstring), and the conversions to what the vehicle flies (:func:`to_mission_item`) and
@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage, mavlink2
 from fcu.mavlink.geo import geo_to_ned, home_alt_amsl_m
 from fcu.mavlink.port_records import GeoPoint, MissionItem
+from fcu.mavlink.transport.codec import MAVLinkMessage, mavlink2
 from fcu.navigation.fence import FenceAreas
 from flightdata.mission import MissionItem as PlannedItem
 from flightdata.mission import mavlink_form

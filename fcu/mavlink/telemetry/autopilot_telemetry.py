@@ -1,4 +1,5 @@
-"""The extended telemetry of an autopilot (:class:`fcu.mavlink.extended.ExtendedTelemetry`).
+"""The extended telemetry of an autopilot
+(:class:`fcu.mavlink.telemetry.extended.ExtendedTelemetry`).
 
 :class:`AutopilotTelemetry` is handed each tick's sensor samples (:meth:`~AutopilotTelemetry.
 observe`, the samples the autopilot received that tick) and keeps them unprocessed until a
@@ -43,8 +44,8 @@ import numpy as np
 from fcu.autopilot import Autopilot
 from fcu.estimation.state import EULER, POS, VEL, YAW_INDEX, StateEstimate
 from fcu.hal import SensorSampleLike
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.extended import (
+from fcu.mavlink.port_records import GeoPoint
+from fcu.mavlink.telemetry.extended import (
     EkfReport,
     ImuReading,
     NavControllerReport,
@@ -52,7 +53,7 @@ from fcu.mavlink.extended import (
     SecondaryAttitude,
     VibrationLevels,
 )
-from fcu.mavlink.port_records import GeoPoint
+from fcu.mavlink.transport.codec import mavlink2
 from fcu.monitoring.vibration import VibrationMonitor
 from flightdata.atmosphere import isa_pressure_pa, isa_temperature_c
 
@@ -81,7 +82,7 @@ class AutopilotHost(Protocol):
 
 
 class AutopilotTelemetry:
-    """:class:`fcu.mavlink.extended.ExtendedTelemetry` over the autopilot a host holds.
+    """:class:`fcu.mavlink.telemetry.extended.ExtendedTelemetry` over the autopilot a host holds.
 
     Parameters
     ----------

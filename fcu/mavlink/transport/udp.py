@@ -31,7 +31,7 @@ import socket
 import time
 from collections.abc import Callable, Iterable
 
-from fcu.mavlink.link import Address
+from fcu.mavlink.transport.link import Address
 
 __all__ = ["DEFAULT_PEERS", "UdpLink"]
 

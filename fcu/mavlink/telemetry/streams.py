@@ -35,9 +35,9 @@ EXTRA3 12           SYSTEM_TIME, WIND, BATTERY_STATUS, EKF_STATUS_REPORT, VIBRAT
 ALL 0               every group
 ==================  ===================================================================
 HOME_POSITION belongs to no group (SET_MESSAGE_INTERVAL and REQUEST_MESSAGE only), nor do
-PX4's HIGHRES_IMU, ODOMETRY and ACTUATOR_OUTPUT_STATUS (:mod:`fcu.mavlink.messages_px4`),
+PX4's HIGHRES_IMU, ODOMETRY and ACTUATOR_OUTPUT_STATUS (:mod:`fcu.mavlink.telemetry.messages_px4`),
 which start at rate 0: they are sent when asked for.
-The extended messages (RAW_IMU ... VIBRATION, :mod:`fcu.mavlink.messages_extended`) are
+The extended messages (RAW_IMU ... VIBRATION, :mod:`fcu.mavlink.telemetry.messages_extended`) are
 computed when they are due, so their cost follows these rates.
 """
 
@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from fcu.mavlink.codec import mavlink2
+from fcu.mavlink.transport.codec import mavlink2
 
 __all__ = ["DEFAULT_RATES_HZ", "STREAM_GROUPS", "StreamScheduler"]
 

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fcu.mavlink.codec import MAVLinkMessage
 from fcu.mavlink.geo import geo_to_ned
 from fcu.mavlink.port_records import GeoPoint
+from fcu.mavlink.transport.codec import MAVLinkMessage
 from flightdata.geometry import euler_from_quat
 
 __all__ = ["LeadReport", "lead_report"]

@@ -7,7 +7,7 @@ estimator's covariance, the navigator's leg. A :class:`~fcu.mavlink.port_records
 therefore carries an :class:`ExtendedTelemetry` (``snapshot.extended``) whose methods compute
 each quantity when its message is built, i.e. at that message's stream rate, never every
 tick. Everything here is SI and NED/FRD; MAVLink units exist only in
-:mod:`fcu.mavlink.messages_extended`.
+:mod:`fcu.mavlink.telemetry.messages_extended`.
 """
 
 from __future__ import annotations
