@@ -19,8 +19,8 @@ with a key, the signature block (link id, 48-bit timestamp, the first 6 bytes of
 ``sha256(key + packet)``; the timestamp then grows by one). MAVLink 2 drops the payload's
 trailing zero bytes (at least one byte stays). :meth:`Codec.pack_fields` packs the same packet
 from a message type and its constructor arguments, without the message object (the telemetry
-streams' path: most of what the vehicle sends). tests/fcu/mavlink/test_codec.py compares both
-with pymavlink for every message type of the dialect, signed and unsigned.
+streams' path: most of what the vehicle sends). tests/fcu/mavlink/transport/test_codec.py
+compares both with pymavlink for every message type of the dialect, signed and unsigned.
 """
 
 from __future__ import annotations
