@@ -7,7 +7,7 @@ and the aligned arrays behind it as a :class:`flightdata.series.FlightSeries`
 ``ftc-gcs report`` run the same code over the same packets, so a report recomputed from a
 flight's .tlog equals the table printed at the end of that flight.
 
-Sources (vehicle messages; docs: fcu/mavlink/messages.py)
+Sources (vehicle messages; docs: fcu/mavlink/telemetry/messages.py)
 ---------------------------------------------------------
 =========================  ==================================================================
 reference position         POSITION_TARGET_LOCAL_NED x, y, z (m, NED about the origin)

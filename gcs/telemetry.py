@@ -309,7 +309,7 @@ class TelemetryReader:
         text = mavlink_text(msg.text)
         chunk_id = int(getattr(msg, "id", 0))
         if self.vehicle_booting and text.startswith(BOOT_PROGRESS_PREFIXES):
-            self.boot_progress = text  # (fcu.mavlink.boot_beacon's lines)
+            self.boot_progress = text  # (fcu.mavlink.transport.boot_beacon's lines)
             self.boot_progress_lines += 1
         if chunk_id == 0:
             self._later("status", (int(msg.severity), text))

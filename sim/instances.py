@@ -1,13 +1,13 @@
 """Where vehicle number N listens and sends by default, as SITL's ``-I N`` arranges it.
 
 Light on purpose (no numpy): ``ftc-vehicle`` binds its socket from these before it loads the
-autopilot (:mod:`fcu.mavlink.boot_beacon`).
+autopilot (:mod:`fcu.mavlink.transport.boot_beacon`).
 """
 
 from __future__ import annotations
 
-from fcu.mavlink.link import Address
-from fcu.mavlink.udp import DEFAULT_PEERS
+from fcu.mavlink.transport.link import Address
+from fcu.mavlink.transport.udp import DEFAULT_PEERS
 
 __all__ = ["DEFAULT_BIND", "MAX_INSTANCE", "instance_addresses"]
 

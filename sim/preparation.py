@@ -11,8 +11,8 @@ This module does that first call on purpose, at a time of the user's choosing:
   ``make setup`` runs it (through ``ftc-vehicle --precompile``), so a fresh clone's first
   ``ftc-vehicle``, ``ftc-scenario`` or campaign worker only loads.
 - :func:`prepare_vehicle` does the same for one vehicle's own configuration at its boot,
-  while its boot HEARTBEATs say ``MAV_STATE_BOOT`` (:mod:`fcu.mavlink.boot_beacon` sends the
-  progress lines meanwhile).
+  while its boot HEARTBEATs say ``MAV_STATE_BOOT`` (:mod:`fcu.mavlink.transport.boot_beacon`
+  sends the progress lines meanwhile).
 
 :class:`KernelProgress` counts the project's kernels compiled so far from numba's event API
 (``numba.core.event``, the ``numba:compile`` events), out of every kernel the project

@@ -39,13 +39,13 @@ from pathlib import Path
 import numpy as np
 
 from fcu.mavlink.autopilot_port import vehicle_autopilot_config
-from fcu.mavlink.boot_beacon import BootBeacon
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import Severity
-from fcu.mavlink.link import Address
 from fcu.mavlink.port_records import GeoPoint
-from fcu.mavlink.udp import DEFAULT_PEERS, UdpLink
+from fcu.mavlink.transport.boot_beacon import BootBeacon
+from fcu.mavlink.transport.link import Address
+from fcu.mavlink.transport.udp import DEFAULT_PEERS, UdpLink
 from fcu.monitoring.vibration import VibrationMonitor
 from sim.instances import DEFAULT_BIND
 from sim.scenario import Scenario

@@ -29,13 +29,13 @@ key installed later over MAVLink (SETUP_SIGNING) lasts until the process ends; o
 the command line is there again after a restart.
 
 The socket is bound first and a HEARTBEAT saying ``MAV_STATE_BOOT`` goes out at once (and at
-1 Hz) while the autopilot loads (:mod:`fcu.mavlink.boot_beacon`): its compiled kernels load
-from numba's cache in about a second, or compile (minutes on a fresh machine where nothing
-ran ``ftc-vehicle --precompile``), and a STATUSTEXT ``preparing: N of M kernels compiled, T s``
-follows a boot HEARTBEAT every few seconds meanwhile (also printed on stdout); then one line
-on stdout says where it listens, and the HEARTBEATs say STANDBY. ``--boot-delay S`` stays in
-BOOT, reporting progress, S wall seconds more: a slow boot on demand, to test a ground
-station's patience.
+1 Hz) while the autopilot loads (:mod:`fcu.mavlink.transport.boot_beacon`): its compiled
+kernels load from numba's cache in about a second, or compile (minutes on a fresh machine
+where nothing ran ``ftc-vehicle --precompile``), and a STATUSTEXT
+``preparing: N of M kernels compiled, T s`` follows a boot HEARTBEAT every few seconds
+meanwhile (also printed on stdout); then one line on stdout says where it listens, and the
+HEARTBEATs say STANDBY. ``--boot-delay S`` stays in BOOT, reporting progress, S wall seconds
+more: a slow boot on demand, to test a ground station's patience.
 
 ``ftc-vehicle --precompile`` flies nothing over MAVLink: it compiles (or loads) every kernel
 the project can run (:func:`sim.preparation.precompile`), printing its progress, and exits 0;
@@ -61,7 +61,7 @@ from typing import TYPE_CHECKING, NoReturn
 from flightdata.arguments import positive_float
 
 if TYPE_CHECKING:
-    from fcu.mavlink.boot_beacon import BootBeacon
+    from fcu.mavlink.transport.boot_beacon import BootBeacon
     from sim.preparation import Progress
     from sim.vehicle_port import VehicleSetup
 
@@ -268,9 +268,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
 
     # bind and say we are booting (MAV_STATE_BOOT) before the autopilot loads
-    from fcu.mavlink.boot_beacon import BootBeacon
-    from fcu.mavlink.codec import Codec
-    from fcu.mavlink.udp import UdpLink
+    from fcu.mavlink.transport.boot_beacon import BootBeacon
+    from fcu.mavlink.transport.codec import Codec
+    from fcu.mavlink.transport.udp import UdpLink
     from sim.instances import instance_addresses
 
     default_bind, default_outs = instance_addresses(args.instance)

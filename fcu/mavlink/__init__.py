@@ -1,6 +1,15 @@
 """The autopilot's MAVLink endpoint (ArduCopter dialect, MAVLink 2).
 
-Modules, one job each:
+Grouped by job:
+
+- :mod:`~fcu.mavlink.transport`: bytes on the wire and the link (dialect and packing, the
+  UDP link, signing, the boot HEARTBEAT).
+- :mod:`~fcu.mavlink.protocols`: the MAVLink services the vehicle answers (commands,
+  mission, parameters, FTP, sticks, a lead's position, the GCS failsafe).
+- :mod:`~fcu.mavlink.telemetry`: what the vehicle streams (messages built from a snapshot,
+  their scheduling, the records relayed, the autopilot's snapshot and extended telemetry).
+
+Here, what ties them together:
 
 - :mod:`~fcu.mavlink.port`: what the endpoint needs from the vehicle (``VehiclePort``,
   ``FailureInjector``, ``ParamProvider``) in SI units and NED;
@@ -9,23 +18,14 @@ Modules, one job each:
 - :mod:`~fcu.mavlink.enums`: the MAVLink numbers it speaks in (``MavState``, ``Severity``,
   ``FailureUnit``, ``FailureType``); flight modes are the navigator's
   (:class:`fcu.navigation.modes.Mode`, ArduCopter's numbers).
-- :mod:`~fcu.mavlink.codec`: the dialect choice, packing and per-datagram parsing.
-- :mod:`~fcu.mavlink.geo`: local NED <-> latitude/longitude/altitude.
-- :mod:`~fcu.mavlink.messages`: telemetry and reply messages from a snapshot (unit edge).
-- :mod:`~fcu.mavlink.streams`: telemetry scheduling (simulated time, wall-clock heartbeat).
-- :mod:`~fcu.mavlink.params`: parameter table and protocol.
-- :mod:`~fcu.mavlink.mission`: mission protocol (ArduPilot flavour);
-  :mod:`~fcu.mavlink.mission_items`: its items, their checks and conversions.
-- :mod:`~fcu.mavlink.commands`: COMMAND_LONG/INT, SET_MODE, GUIDED set-points.
-- :mod:`~fcu.mavlink.failsafe`: GCS heartbeat-loss failsafe.
-- :mod:`~fcu.mavlink.manual_input`: MANUAL_CONTROL and RC_CHANNELS_OVERRIDE as sticks, and
-  the RC failsafe.
-- :mod:`~fcu.mavlink.ftp`: MAVLink FTP answered at once (no file server).
-- :mod:`~fcu.mavlink.signing`: MAVLink 2 signing (SETUP_SIGNING, signed output, checks of
-  what arrives, the SIGN_REJ count).
-- :mod:`~fcu.mavlink.link`, :mod:`~fcu.mavlink.udp`: transport.
+- :mod:`~fcu.mavlink.geo`: local NED <-> latitude/longitude/altitude (for telemetry,
+  commands and mission items alike).
 - :mod:`~fcu.mavlink.endpoint`: ``MavlinkEndpoint``, what a composition root drives, with
-  its :mod:`~fcu.mavlink.endpoint_config`.
+  its :mod:`~fcu.mavlink.endpoint_config`, its receiving side
+  (:mod:`~fcu.mavlink.message_handlers`: each message to its handler) and its outbox
+  (:mod:`~fcu.mavlink.link_outbox`: packing, sending, STATUSTEXT chunks).
+- :mod:`~fcu.mavlink.autopilot_port`: the port implemented over an autopilot, with its
+  parameter table :mod:`~fcu.mavlink.autopilot_params`.
 
-Each name is imported from the module that defines it; the package re-exports nothing.
+Each name is imported from the module that defines it; no package re-exports anything.
 """

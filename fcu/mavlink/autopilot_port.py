@@ -25,10 +25,7 @@ import numpy as np
 from fcu.autopilot import Autopilot, AutopilotConfig, AutopilotEvent
 from fcu.hal import SensorSampleLike
 from fcu.mavlink.autopilot_params import AUTOPILOT_PARAMS, find_param
-from fcu.mavlink.autopilot_snapshot import LazySnapshot
-from fcu.mavlink.autopilot_telemetry import AutopilotHost, AutopilotTelemetry
 from fcu.mavlink.enums import MavState, Severity
-from fcu.mavlink.follow_target import LeadReport
 from fcu.mavlink.port_records import (
     CommandResult,
     GeoPoint,
@@ -42,6 +39,9 @@ from fcu.mavlink.port_records import (
     VehicleEvent,
     VehicleSnapshot,
 )
+from fcu.mavlink.protocols.follow_target import LeadReport
+from fcu.mavlink.telemetry.autopilot_snapshot import LazySnapshot
+from fcu.mavlink.telemetry.autopilot_telemetry import AutopilotHost, AutopilotTelemetry
 from fcu.navigation.fence import FenceAreas
 from fcu.navigation.navigator import CommandResult as NavResult
 from fcu.navigation.navigator import Mode, mode_name
@@ -308,7 +308,7 @@ class AutopilotPort:
         return self._nav("Failsafe clear", self.host.autopilot.navigator.clear_failsafe(source))
 
     def follow_target(self, report: LeadReport) -> None:
-        """A possible lead's report, to FOLLOW (:mod:`fcu.mavlink.follow_target`)."""
+        """A possible lead's report, to FOLLOW (:mod:`fcu.mavlink.protocols.follow_target`)."""
         nav = self.host.autopilot.navigator
         pos = report.pos_ned(self.origin, nav.home_pos_ned, nav.config.follow.alt_type)
         vel = None if report.vel_ned_m_s is None else np.array(report.vel_ned_m_s)

@@ -29,13 +29,13 @@ packets, unknown message ids and handler errors are counted in :attr:`MavlinkEnd
 (SYS_STATUS.errors_comm reports the malformed count).
 
 Signing: MAVLink 2 signing (SETUP_SIGNING, ``EndpointConfig.signing_key``) is
-:mod:`fcu.mavlink.signing`; with a key, packets that fail its check are dropped before any
+:mod:`fcu.mavlink.transport.signing`; with a key, packets that fail its check are dropped before any
 handling.
 
-Clocks: telemetry rates and message time fields use simulated time (see streams.py);
-HEARTBEAT has a wall-clock floor; the GCS and RC failsafes and mission time-outs use the wall
-clock. MANUAL_CONTROL and RC_CHANNELS_OVERRIDE fly the pilot modes
-(:mod:`fcu.mavlink.manual_input`).
+Clocks: telemetry rates and message time fields use simulated time
+(:mod:`fcu.mavlink.telemetry.streams`); HEARTBEAT has a wall-clock floor; the GCS and RC
+failsafes and mission time-outs use the wall clock. MANUAL_CONTROL and RC_CHANNELS_OVERRIDE
+fly the pilot modes (:mod:`fcu.mavlink.protocols.manual_input`).
 TIMESYNC answers with the simulated time in ns (never decreasing).
 """
 
@@ -47,19 +47,10 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 
-from fcu.mavlink import messages as build
-from fcu.mavlink import streamed
-from fcu.mavlink.codec import Codec, MAVLinkMessage, mavlink2
-from fcu.mavlink.commands import CommandDispatcher
 from fcu.mavlink.endpoint_config import EndpointConfig, EndpointStats
 from fcu.mavlink.enums import MavState, Severity
-from fcu.mavlink.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
-from fcu.mavlink.link import Address, Link
 from fcu.mavlink.link_outbox import LinkOutbox
-from fcu.mavlink.manual_input import ManualInput
 from fcu.mavlink.message_handlers import MessageHandlers
-from fcu.mavlink.mission import MissionProtocol
-from fcu.mavlink.params import ParamEntry, ParamService, ParamTable, entries_from
 from fcu.mavlink.port import FailureInjector, ParamProvider, VehiclePort
 from fcu.mavlink.port_records import (
     CommandResult,
@@ -69,9 +60,18 @@ from fcu.mavlink.port_records import (
     StatusText,
     VehicleSnapshot,
 )
-from fcu.mavlink.record_relay import RecordRelay
-from fcu.mavlink.signing import MessageSigning
-from fcu.mavlink.streams import StreamScheduler
+from fcu.mavlink.protocols.commands import CommandDispatcher
+from fcu.mavlink.protocols.failsafe import FailsafeAction, GcsFailsafe, GcsFailsafeConfig
+from fcu.mavlink.protocols.manual_input import ManualInput
+from fcu.mavlink.protocols.mission import MissionProtocol
+from fcu.mavlink.protocols.params import ParamEntry, ParamService, ParamTable, entries_from
+from fcu.mavlink.telemetry import messages as build
+from fcu.mavlink.telemetry import streamed
+from fcu.mavlink.telemetry.record_relay import RecordRelay
+from fcu.mavlink.telemetry.streams import StreamScheduler
+from fcu.mavlink.transport.codec import Codec, MAVLinkMessage, mavlink2
+from fcu.mavlink.transport.link import Address, Link
+from fcu.mavlink.transport.signing import MessageSigning
 from fcu.navigation.modes import Mode
 
 __all__ = ["MavlinkEndpoint"]
@@ -92,7 +92,7 @@ class MavlinkEndpoint(MessageHandlers):
     port : VehiclePort
         The vehicle.
     link : Link
-        Datagram transport (e.g. :class:`fcu.mavlink.udp.UdpLink`).
+        Datagram transport (e.g. :class:`fcu.mavlink.transport.udp.UdpLink`).
     config : EndpointConfig
     injector : FailureInjector or None
         Fault-injection port for MAV_CMD_INJECT_FAILURE (None: UNSUPPORTED).
@@ -101,8 +101,9 @@ class MavlinkEndpoint(MessageHandlers):
     clock : callable
         Wall clock for the receive budget, s (``time.perf_counter``; injectable for tests).
     codec : Codec or None
-        The packer to carry on with (the boot beacon's, :mod:`fcu.mavlink.boot_beacon`: its
-        sequence numbers go on); None: a new one for ``config``'s ids.
+        The packer to carry on with (the boot beacon's,
+        :mod:`fcu.mavlink.transport.boot_beacon`: its sequence numbers go on); None: a new one
+        for ``config``'s ids.
     """
 
     def __init__(self, port: VehiclePort, link: Link, *,

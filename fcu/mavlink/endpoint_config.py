@@ -6,11 +6,11 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from fcu.mavlink.command_request import CommandLimits
-from fcu.mavlink.failsafe import FailsafeAction
-from fcu.mavlink.mission_items import MissionConfig
-from fcu.mavlink.signing import check_key
-from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from fcu.mavlink.protocols.command_request import CommandLimits
+from fcu.mavlink.protocols.failsafe import FailsafeAction
+from fcu.mavlink.protocols.mission_items import MissionConfig
+from fcu.mavlink.telemetry.streams import DEFAULT_RATES_HZ
+from fcu.mavlink.transport.signing import check_key
 
 __all__ = ["EndpointConfig", "EndpointStats"]
 

@@ -1,19 +1,20 @@
 """The endpoint's outbox: packs messages and sends them on the link, chunking STATUSTEXT.
 
 Every protocol part of the endpoint (parameters, mission, signing, commands, telemetry) sends
-through one :class:`LinkOutbox` (the :class:`fcu.mavlink.link.Outbox` it is given); a message
-that cannot be packed is counted in the endpoint's statistics and logged, never raised.
+through one :class:`LinkOutbox` (the :class:`fcu.mavlink.transport.link.Outbox` it is given); a
+message that cannot be packed is counted in the endpoint's statistics and logged, never
+raised.
 """
 
 from __future__ import annotations
 
 import logging
 
-from fcu.mavlink import messages as build
-from fcu.mavlink.codec import Codec, MAVLinkMessage
 from fcu.mavlink.endpoint_config import EndpointStats
-from fcu.mavlink.link import Address, Link
-from fcu.mavlink.messages import Fields
+from fcu.mavlink.telemetry import messages as build
+from fcu.mavlink.telemetry.messages import Fields
+from fcu.mavlink.transport.codec import Codec, MAVLinkMessage
+from fcu.mavlink.transport.link import Address, Link
 
 __all__ = ["LinkOutbox"]
 
@@ -41,7 +42,7 @@ class LinkOutbox:
     def send_fields(self, cls: type[MAVLinkMessage], fields: Fields,
                     to: Address | None = None) -> None:
         """:meth:`send` of ``cls(*fields)``, packed without the message object: what the
-        builders of :mod:`fcu.mavlink.messages` return (the telemetry streams are most of
+        builders of :mod:`fcu.mavlink.telemetry.messages` return (the telemetry streams are most of
         what is sent)."""
         try:
             data = self._codec.pack_fields(cls, fields)

@@ -10,25 +10,25 @@ from __future__ import annotations
 
 import logging
 
-from fcu.mavlink import messages as build
-from fcu.mavlink import streamed
-from fcu.mavlink.codec import Codec, MAVLinkMessage, mavlink2
-from fcu.mavlink.command_request import CommandOutcome, CommandRequest
-from fcu.mavlink.commands import CommandDispatcher
 from fcu.mavlink.endpoint_config import EndpointStats
 from fcu.mavlink.enums import Severity
-from fcu.mavlink.failsafe import GcsFailsafe, GcsFailsafeConfig
-from fcu.mavlink.follow_target import lead_report
-from fcu.mavlink.ftp import ftp_reply
-from fcu.mavlink.link import Address, Link
 from fcu.mavlink.link_outbox import LinkOutbox
-from fcu.mavlink.manual_input import ManualInput
-from fcu.mavlink.mission import MissionProtocol
-from fcu.mavlink.mission_items import set_current_refusal
-from fcu.mavlink.params import ParamService
 from fcu.mavlink.port import VehiclePort
-from fcu.mavlink.signing import MessageSigning
-from fcu.mavlink.streams import StreamScheduler
+from fcu.mavlink.protocols.command_request import CommandOutcome, CommandRequest
+from fcu.mavlink.protocols.commands import CommandDispatcher
+from fcu.mavlink.protocols.failsafe import GcsFailsafe, GcsFailsafeConfig
+from fcu.mavlink.protocols.follow_target import lead_report
+from fcu.mavlink.protocols.ftp import ftp_reply
+from fcu.mavlink.protocols.manual_input import ManualInput
+from fcu.mavlink.protocols.mission import MissionProtocol
+from fcu.mavlink.protocols.mission_items import set_current_refusal
+from fcu.mavlink.protocols.params import ParamService
+from fcu.mavlink.telemetry import messages as build
+from fcu.mavlink.telemetry import streamed
+from fcu.mavlink.telemetry.streams import StreamScheduler
+from fcu.mavlink.transport.codec import Codec, MAVLinkMessage, mavlink2
+from fcu.mavlink.transport.link import Address, Link
+from fcu.mavlink.transport.signing import MessageSigning
 
 __all__ = ["MessageHandlers"]
 
@@ -208,7 +208,8 @@ class MessageHandlers:
         self.signing.handle_setup(msg)
 
     def _ftp(self, msg: MAVLinkMessage, src: tuple[int, int], addr: Address) -> None:
-        """MAVLink FTP: no file server here, said at once (:func:`fcu.mavlink.ftp.ftp_reply`)."""
+        """MAVLink FTP: no file server here, said at once
+        (:func:`fcu.mavlink.protocols.ftp.ftp_reply`)."""
         reply = ftp_reply(msg, src)
         if reply is not None:
             self._outbox.send(reply, addr)

@@ -61,7 +61,7 @@ from fcu.navigation.fence import FenceAreas
 from fcu.navigation.sticks import Sticks
 
 if TYPE_CHECKING:
-    from fcu.mavlink.follow_target import LeadReport
+    from fcu.mavlink.protocols.follow_target import LeadReport
 
 __all__ = ["FailureInjector", "ParamProvider", "VehiclePort"]
 
@@ -187,7 +187,7 @@ class VehiclePort(ParamProvider, Protocol):
 
     def set_sticks(self, sticks: Sticks | None) -> CommandResult:
         """The pilot's latest stick input (MANUAL_CONTROL, RC_CHANNELS_OVERRIDE), normalised;
-        None releases the sticks (:mod:`fcu.mavlink.manual_input`)."""
+        None releases the sticks (:mod:`fcu.mavlink.protocols.manual_input`)."""
         ...
 
     def trigger_failsafe(self, source: str, action: str) -> CommandResult:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from fcu.mavlink.enums import MavState
-from fcu.mavlink.extended import ExtendedTelemetry
+from fcu.mavlink.telemetry.extended import ExtendedTelemetry
 from fcu.navigation.navigator import LandedState, MissionState  # one definition of each enum
 from flightdata.records import Record
 
@@ -284,7 +284,7 @@ class VehicleSnapshot:
     extended : ExtendedTelemetry or None
         Computes the extended telemetry (IMU, pressure, vibration, EKF status, AHRS2,
         navigation output) when one of those messages is built
-        (:mod:`fcu.mavlink.extended`); None: those messages are not sent.
+        (:mod:`fcu.mavlink.telemetry.extended`); None: those messages are not sent.
     """
 
     time_s: float
@@ -354,7 +354,7 @@ class MissionItem:
 @dataclass(frozen=True, kw_only=True)
 class ParamSpec:
     """Definition of one parameter exposed over MAVLink (C_CAST encoding; typed REAL32, or
-    INT8/INT16/INT32 when ``integer``: :func:`fcu.mavlink.params.wire_type`).
+    INT8/INT16/INT32 when ``integer``: :func:`fcu.mavlink.protocols.params.wire_type`).
 
     Attributes
     ----------
@@ -405,7 +405,7 @@ class MissionItemReached:
 @dataclass(frozen=True, slots=True)
 class RecordEvent:
     """A fault, detection or outcome record (DEBUG_FLOAT_ARRAY ``FTC_REC``,
-    :mod:`fcu.mavlink.record_relay`)."""
+    :mod:`fcu.mavlink.telemetry.record_relay`)."""
 
     record: Record
 

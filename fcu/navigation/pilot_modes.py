@@ -19,7 +19,7 @@ the stopping point), so a vehicle flown by a ground station alone never meets a 
   test). Landed, the vehicle disarms as after any landing unless the throttle is raised
   again.
 
-When sticks time out the endpoint's RC failsafe (:mod:`fcu.mavlink.manual_input`) releases
+When sticks time out the endpoint's RC failsafe (:mod:`fcu.mavlink.protocols.manual_input`) releases
 them and triggers the failsafe action; the navigator itself never reads a clock for them.
 """
 

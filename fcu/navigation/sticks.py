@@ -1,8 +1,8 @@
 """Pilot sticks: one normalised input record and ArduCopter's laws for what the sticks ask.
 
 A stick input (:class:`Sticks`) reaches the navigator from MANUAL_CONTROL or
-RC_CHANNELS_OVERRIDE (:mod:`fcu.mavlink.manual_input` converts them, as ArduCopter converts
-both into RC channel values). Its axes follow ArduCopter's channel conventions
+RC_CHANNELS_OVERRIDE (:mod:`fcu.mavlink.protocols.manual_input` converts them, as ArduCopter
+converts both into RC channel values). Its axes follow ArduCopter's channel conventions
 (``channel_roll->norm_input()`` ...)::
 
     roll      -1 full left .. +1 full right         (right: right wing down, go right)

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from fcu.mavlink.record_relay import record_message
+from fcu.mavlink.telemetry.record_relay import record_message
 from flightdata.geometry import euler_from_quat
 from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord, Record
 from gcs.alignment import metres_per_degree, velocity_aided

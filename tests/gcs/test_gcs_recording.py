@@ -19,7 +19,7 @@ import pytest
 import rerun as rr
 from test_gcs_analysis import Stream, north_of, vn_of
 
-from fcu.mavlink.record_relay import record_message
+from fcu.mavlink.telemetry.record_relay import record_message
 from flightdata.figures import figure_kinds, make_figures, position_series, save_figures
 from flightdata.recording import (
     SIM_TIMELINE,

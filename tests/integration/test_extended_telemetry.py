@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from vehicle_harness import Gcs, M
 
-from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from fcu.mavlink.telemetry.streams import DEFAULT_RATES_HZ
 from sim.world.dryden import dryden_sigmas_m_s
 
 GUIDED, LAND = 4, 9

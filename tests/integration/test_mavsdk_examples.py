@@ -418,8 +418,8 @@ def test_highres_imu_example_native(start_vehicle, gcs: Gcs) -> None:
 # Python API exposes. Nothing reaches the wire (seen with a proxy between the two). A vehicle
 # that said MAV_AUTOPILOT_PX4 would have its ArduCopter custom modes decoded as PX4's, so
 # this one stays ArduPilot and the example cannot pass. The vehicle answers
-# PREFLIGHT_CALIBRATION itself (tests/fcu/mavlink/test_calibration.py, and below through
-# pymavlink), so QGroundControl's calibration screens can be exercised.
+# PREFLIGHT_CALIBRATION itself (tests/fcu/mavlink/protocols/test_calibration.py, and below
+# through pymavlink), so QGroundControl's calibration screens can be exercised.
 def test_calibration_example_grpc_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
         with pytest.raises(GrpcCalibrationError) as refused:

@@ -10,7 +10,7 @@ import socket
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from fcu.mavlink.streams import DEFAULT_RATES_HZ
+from fcu.mavlink.telemetry.streams import DEFAULT_RATES_HZ
 from sim.instances import MAX_INSTANCE, instance_addresses
 from sim.scenario import load_scenario
 from sim.vehicle import VehicleOptions, VehicleProcess

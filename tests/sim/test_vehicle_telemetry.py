@@ -13,9 +13,9 @@ import pytest
 
 from fcu.autopilot import AutopilotConfig
 from fcu.mavlink.autopilot_port import vehicle_autopilot_config
-from fcu.mavlink.autopilot_telemetry import AutopilotTelemetry
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.port_records import GeoPoint
+from fcu.mavlink.telemetry.autopilot_telemetry import AutopilotTelemetry
+from fcu.mavlink.transport.codec import mavlink2
 from flightdata.atmosphere import isa_pressure_pa
 from sim.vehicle_port import SimVehicle, VehicleSetup
 from sim.world import WorldConfig

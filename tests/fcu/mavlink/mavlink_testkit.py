@@ -18,11 +18,9 @@ from typing import Any
 import numpy as np
 from pymavlink import mavutil
 
-from fcu.mavlink.codec import mavlink2
 from fcu.mavlink.endpoint import MavlinkEndpoint
 from fcu.mavlink.endpoint_config import EndpointConfig
 from fcu.mavlink.enums import MavState, Severity
-from fcu.mavlink.follow_target import LeadReport
 from fcu.mavlink.port_records import (
     AttitudeTarget,
     CommandResult,
@@ -38,7 +36,9 @@ from fcu.mavlink.port_records import (
     VehicleEvent,
     VehicleSnapshot,
 )
-from fcu.mavlink.udp import UdpLink
+from fcu.mavlink.protocols.follow_target import LeadReport
+from fcu.mavlink.transport.codec import mavlink2
+from fcu.mavlink.transport.udp import UdpLink
 from fcu.navigation.modes import Mode
 
 M = mavlink2

@@ -15,8 +15,8 @@ import pytest
 from mavlink_testkit import WAIT_S, Gcs, VehicleThread, memory_endpoint, started
 from pymavlink import mavutil
 
-from fcu.mavlink.codec import mavlink2
-from fcu.mavlink.udp import UdpLink
+from fcu.mavlink.transport.codec import mavlink2
+from fcu.mavlink.transport.udp import UdpLink
 
 M = mavlink2
 SLOWEST_S_PER_SIM_S = 4.0  # s wall per simulated s: a vehicle at 20x on a loaded machine, bound
