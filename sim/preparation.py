@@ -195,13 +195,30 @@ def _load_telemetry_kernels() -> None:
     VibrationMonitor().update(np.zeros(1), np.zeros((1, 3)))
 
 
+def _load_fault_kernels() -> None:
+    """The fault rules as the fault engine calls them from Python (a step the world takes in
+    Python while a fault acts, :meth:`FaultEngine.true_loe`): each kernel with the argument
+    types the engine gives it, whichever faults a flight has and whenever they start."""
+    from sim.world.fault_types import ActuatorFault, SensorFault
+    from sim.world.faults import FaultEngine
+
+    engine = FaultEngine(np.random.default_rng(0), 0.05, 1.0)
+    engine.schedule(ActuatorFault(motor=1, kind="loe", loe=0.2, profile="random"))
+    engine.schedule(SensorFault(sensor="baro", kind="loss_of_accuracy", magnitude=50.0))
+    engine.actuator_inputs(0.0, np.zeros(4))
+    engine.true_loe_values(0.0)
+    engine.corrupt("baro", 0.0, np.zeros(1), 0.01)
+
+
 def prepare_vehicle(world: Any, autopilot: Any, seed: int) -> None:
     """Load (or compile) the kernels one vehicle flies: a throwaway copy of it flies a few
-    ticks with an actuator and a sensor fault (:func:`sim.stack.warm_up`), then the telemetry
-    filters load. Nothing of the real vehicle is touched."""
+    ticks with an actuator and a sensor fault (:func:`sim.stack.warm_up`), then the fault
+    rules as the engine calls them from Python and the telemetry filters load. Nothing of the
+    real vehicle is touched."""
     from sim.stack import warm_up
 
     warm_up(world, autopilot, seed)
+    _load_fault_kernels()
     _load_telemetry_kernels()
     gc.collect()
 

@@ -1,10 +1,11 @@
 """The fault engine's three arrays and the Python operations that reshape them.
 
 :class:`FaultArrays` owns the ``state``, ``table`` and ``pool`` arrays laid out in
-:mod:`sim.world.fault_kernels` (read there for what each holds). Both the engine's Python rules
-(:class:`sim.world.faults.FaultEngine`) and the compiled ones read and change the values in
-place; only the methods here change the layout: a new table when faults start, end or are
-cleared, a new pool when draws are added.
+:mod:`sim.world.fault_kernels` (read there for what each holds). The compiled rules read and
+change the values in place; only the methods here change the layout: a new table when faults
+start, end or are cleared, a new pool when draws are added. A row's kind and profile codes
+come from :class:`sim.world.fault_types.FaultKind` and
+:class:`~sim.world.fault_types.FaultProfile`.
 """
 
 from __future__ import annotations
@@ -14,17 +15,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sim.world.fault_kernels import (
-    ENGINE_STATE,
-    FAULT_ROW,
-    KIND_CALIBRATION,
-    KIND_CODES,
-    KIND_LOE,
-    KIND_LOSS_OF_ACCURACY,
-    PROFILE_CODES,
-    PROFILE_RANDOM,
+from sim.world.fault_kernels import ENGINE_STATE, FAULT_ROW
+from sim.world.fault_types import (
+    DRAWING_KINDS,
+    SENSOR_NAMES,
+    ActuatorFault,
+    Fault,
+    FaultKind,
+    FaultProfile,
+    SensorFault,
 )
-from sim.world.fault_types import SENSOR_NAMES, ActuatorFault, Fault, SensorFault
 
 RANDOM_BLOCK = 64  # random-profile gammas drawn at a time
 SEQUENTIAL_BLOCK = 256  # loss-of-accuracy normals or calibration readings drawn at a time
@@ -35,12 +35,12 @@ def new_row(fault_id: int, fault: Fault, t0_s: float) -> np.ndarray:
     no draws yet)."""
     row = np.zeros((), dtype=FAULT_ROW)
     row["fault_id"] = fault_id
-    row["kind"] = KIND_CODES[getattr(fault, "kind", "")]
+    row["kind"] = FaultKind.of(getattr(fault, "kind", ""))
     row["t0_s"] = t0_s
     row["axis"] = -1
     if isinstance(fault, ActuatorFault):
         row["target"] = fault.motor - 1
-        row["profile"] = PROFILE_CODES[fault.profile]
+        row["profile"] = FaultProfile.of(fault.profile)
         for name in ("loe", "period_s", "pulse_width_s", "hold_s"):
             row[name] = getattr(fault, name)
     elif isinstance(fault, SensorFault):
@@ -55,12 +55,12 @@ def new_row(fault_id: int, fault: Fault, t0_s: float) -> np.ndarray:
 
 def keeps_all_draws(row: np.void) -> bool:
     """A random profile indexes its draws from the start; other rows consume them in order."""
-    return bool(row["kind"] == KIND_LOE and row["profile"] == PROFILE_RANDOM)
+    return bool(row["kind"] == FaultKind.LOE and row["profile"] == FaultProfile.RANDOM)
 
 
 def _draws(row: np.void) -> bool:
     """The row owns a segment of the pool."""
-    return keeps_all_draws(row) or row["kind"] in (KIND_LOSS_OF_ACCURACY, KIND_CALIBRATION)
+    return keeps_all_draws(row) or int(row["kind"]) in DRAWING_KINDS
 
 
 class FaultArrays:
@@ -119,10 +119,6 @@ class FaultArrays:
         self._last[sensor, :value.shape[0]] = value
         self._has_last[sensor] = 1
 
-    def last_reading(self, sensor: int, n: int) -> np.ndarray | None:
-        """The last reading reported by ``sensor`` (its ``n`` elements), None before any."""
-        return self._last[sensor, :n] if self._has_last[sensor] else None
-
     # ---- layout --------------------------------------------------------------------------
     def lay_out(self, rows: Sequence[int | np.ndarray], act_start: Sequence[int],
                 sens_start: Sequence[int], mass_kg: float) -> None:
@@ -158,17 +154,6 @@ class FaultArrays:
         row = self.table[r]
         return int(row["draw_end"] - row["draw_next"])
 
-    def draw(self, r: int, k: int) -> float:
-        """The ``k``-th draw of row ``r`` from its start (it must be there)."""
-        return float(self.pool[int(self.table[r]["draw_start"]) + k])
-
-    def take(self, r: int, count: int) -> np.ndarray:
-        """The next ``count`` unused draws of row ``r`` (they must be there), consumed."""
-        row = self.table[r]
-        i = int(row["draw_next"])
-        row["draw_next"] = i + count
-        return self.pool[i:i + count]
-
     def ensure_gammas(self, r: int, count: int, rng: np.random.Generator,
                       fault: ActuatorFault) -> None:
         """Give random-profile row ``r`` at least ``count`` gammas: uniform in [low, loe],
@@ -181,18 +166,13 @@ class FaultArrays:
 
     def ensure_unused(self, r: int, count: int, rng: np.random.Generator,
                       fault: SensorFault) -> None:
-        """Give loss-of-accuracy or calibration row ``r`` at least ``count`` unused draws:
-        standard normals, or readings uniform in the fault's range, drawn from its ``rng`` in
-        blocks of SEQUENTIAL_BLOCK."""
+        """Give loss-of-accuracy or calibration row ``r`` at least ``count`` unused draws
+        (:meth:`SensorFault.draws`), drawn from the fault's ``rng`` in blocks of
+        SEQUENTIAL_BLOCK."""
         left = self.unused(r)
         if left < count:
             size = (count - left + SEQUENTIAL_BLOCK - 1) // SEQUENTIAL_BLOCK * SEQUENTIAL_BLOCK
-            if fault.kind == "loss_of_accuracy":
-                new = rng.standard_normal(size)
-            else:
-                low, high = fault.garbage_range
-                new = rng.uniform(low, high, size=size)
-            self._repack({r: new})
+            self._repack({r: fault.draws(rng, size)})
 
     def _repack(self, new_draws: dict[int, np.ndarray]) -> None:
         """Rebuild the pool from the rows' draws still needed (a random profile's all, the

@@ -1,12 +1,15 @@
-"""The fault engine's arrays and its rules compiled: actuator effects and sensor corruption.
+"""The fault rules, compiled: actuator effects and sensor corruption on the engine's arrays.
 
+These kernels are the one implementation of the rules of :mod:`sim.world.fault_types`.
 :class:`sim.world.faults.FaultEngine` keeps the state of its active faults in the three arrays
-below (:class:`sim.world.fault_arrays.FaultArrays`) and applies the rules of
-:mod:`sim.world.fault_types` in Python (:mod:`sim.world.fault_rules`, the reference); the
-numba functions here apply the same rules to the same arrays, with the same floating-point
-operations in the same order, for the world's compiled stepping (:mod:`sim.world.stepping`).
-Because both read and write the same arrays, the world can take one step in Python and the
-next compiled. ``tests/sim/world/test_world_stepping.py`` pins the two together bit for bit.
+below (:class:`sim.world.fault_arrays.FaultArrays`) and calls these kernels on them from
+Python (when the world steps in Python, or anyone calls the engine directly); the world's
+compiled stepping (:mod:`sim.world.stepping`) calls them inside its steps. Both read and write
+the same arrays, so the world can take one step in Python and the next compiled. Kinds and
+profiles are compared with the members of :class:`~sim.world.fault_types.FaultKind` and
+:class:`~sim.world.fault_types.FaultProfile` (constants once compiled).
+``tests/sim/world/test_world_stepping.py`` pins these kernels bit for bit to an independent
+Python reference of the rules kept with the tests.
 
 Arrays
 ------
@@ -28,12 +31,12 @@ apply them (rebuilt whenever a fault starts, ends or is cleared)::
     rows of sensor i: state.sens_start[i] <= row < state.sens_start[i + 1]  (i = 0..4)
 
 ``pool``: pre-drawn random numbers. A row that draws (random LOE profile, loss of accuracy,
-calibration error) owns ``pool[draw_start:draw_end]``, drawn from the fault's own generator in
-the order the Python rules would draw them: gamma per hold interval (``draw_start + k``) for
-the random profile, one value per corrupted element (consumed from ``draw_next``) for the
-others. When a kernel finds a segment too short it takes no step and records the row and the
-count it needs in ``state`` (:func:`request_draws`); :meth:`FaultEngine.refill_draws` draws
-more from the same generator, so the numbers are the ones Python would have drawn.
+calibration error) owns ``pool[draw_start:draw_end]``, drawn from the fault's own generator:
+gamma per hold interval (``draw_start + k``) for the random profile, one value per corrupted
+element (consumed from ``draw_next``) for the others. When a kernel finds a segment too short
+it takes no step and records the row and the count it needs in ``state``
+(:func:`request_draws`); :meth:`FaultEngine.refill_draws` draws more from the same generator,
+so the numbers do not depend on when, or by which path, they were asked for.
 """
 
 from __future__ import annotations
@@ -43,16 +46,11 @@ import math
 import numpy as np
 from numba import njit
 
-# ---- kinds and profiles (FAULT_ROW.kind, FAULT_ROW.profile) ------------------------------
-KIND_LOE, KIND_TOTAL_LOSS, KIND_LOCK, KIND_FLOAT, KIND_HARDOVER = 0, 1, 2, 3, 4
-KIND_BIAS, KIND_DRIFT, KIND_LOSS_OF_ACCURACY, KIND_FREEZE, KIND_CALIBRATION = 5, 6, 7, 8, 9
-KIND_CODES = {"loe": KIND_LOE, "total_loss": KIND_TOTAL_LOSS, "lock": KIND_LOCK,
-              "float": KIND_FLOAT, "hardover": KIND_HARDOVER, "bias": KIND_BIAS,
-              "drift": KIND_DRIFT, "loss_of_accuracy": KIND_LOSS_OF_ACCURACY,
-              "freeze": KIND_FREEZE, "calibration": KIND_CALIBRATION}
-PROFILE_STEP, PROFILE_SINUSOID, PROFILE_RANDOM, PROFILE_PULSE = 0, 1, 2, 3
-PROFILE_CODES = {"step": PROFILE_STEP, "sinusoid": PROFILE_SINUSOID,
-                 "random": PROFILE_RANDOM, "pulse": PROFILE_PULSE}
+from jitsupport.cache import drop_stale_kernels
+from sim.world.fault_types import FaultKind, FaultProfile
+
+drop_stale_kernels(__file__)  # the kernels compile in fault_types' kind and profile codes
+
 N_SENSORS = 5  # gyro, accel, mocap_pos, mocap_att, baro (fault_types.SENSOR_NAMES)
 
 ENGINE_STATE = np.dtype([
@@ -71,10 +69,10 @@ ENGINE_STATE = np.dtype([
 
 FAULT_ROW = np.dtype([
     ("fault_id", np.int64),  # -, id given by FaultEngine.schedule
-    ("kind", np.int64),  # -, KIND_*
+    ("kind", np.int64),  # -, FaultKind
     ("target", np.int64),  # -, motor index 0..3 or sensor index 0..4
     ("axis", np.int64),  # -, sensor axis 0..2, -1 for all axes
-    ("profile", np.int64),  # -, PROFILE_* (kind loe)
+    ("profile", np.int64),  # -, FaultProfile (kind loe)
     ("loe", np.float64),  # -, gamma (eq. 4.10) or the profile's peak
     ("period_s", np.float64),  # s, sinusoid and pulse period
     ("pulse_width_s", np.float64),  # s, pulse width
@@ -115,7 +113,7 @@ def actuator_draws_ready(state: np.ndarray, table: np.ndarray, time_s: float) ->
     s = state[0]
     for r in range(s.act_start[0], s.act_start[4]):
         row = table[r]
-        if row.kind == KIND_LOE and row.profile == PROFILE_RANDOM:
+        if row.kind == FaultKind.LOE and row.profile == FaultProfile.RANDOM:
             k = _random_index(table, r, time_s)
             if row.draw_start + k >= row.draw_end:
                 request_draws(state, r, k + 1)
@@ -130,7 +128,7 @@ def sensor_draws_ready(state: np.ndarray, table: np.ndarray, sensor: int, n_axes
     s = state[0]
     for r in range(s.sens_start[sensor], s.sens_start[sensor + 1]):
         row = table[r]
-        if row.kind == KIND_LOSS_OF_ACCURACY or row.kind == KIND_CALIBRATION:
+        if row.kind == FaultKind.LOSS_OF_ACCURACY or row.kind == FaultKind.CALIBRATION:
             need = n_axes if row.axis < 0 else 1
             if row.draw_next + need > row.draw_end:
                 request_draws(state, r, need)
@@ -144,16 +142,16 @@ def _gamma(table: np.ndarray, r: int, pool: np.ndarray, time_s: float) -> float:
     """gamma of the effectiveness fault in row ``r`` at ``time_s`` (its draws must be in the
     pool)."""
     row = table[r]
-    if row.kind != KIND_LOE:
+    if row.kind != FaultKind.LOE:
         return 1.0  # total_loss
     profile = row.profile
-    if profile == PROFILE_STEP:
+    if profile == FaultProfile.STEP:
         return row.loe
     tau = time_s - row.t0_s
-    if profile == PROFILE_SINUSOID:
+    if profile == FaultProfile.SINUSOID:
         # gamma = loe (1 - cos(2 pi tau / T)) / 2, in [0, loe], 0 at the start
         return row.loe * 0.5 * (1.0 - math.cos(2.0 * math.pi * tau / row.period_s))
-    if profile == PROFILE_PULSE:
+    if profile == FaultProfile.PULSE:
         # gamma = loe during the first pulse_width_s of every period_s
         return row.loe if tau % row.period_s < row.pulse_width_s else 0.0
     # random: the k-th drawn gamma, k = floor(tau / hold_s)
@@ -182,18 +180,48 @@ def apply_actuator_faults(state: np.ndarray, table: np.ndarray, pool: np.ndarray
         for r in range(first, stop):
             row = table[r]
             kind = row.kind
-            if kind == KIND_LOCK:
+            if kind == FaultKind.LOCK:
                 if not row.has_held:  # the command at onset
                     row.held[0] = pwm_cmd[m]
                     row.has_held = True
                 base = row.held[0]  # overrides come by start: the last one wins
-            elif kind == KIND_FLOAT:
+            elif kind == FaultKind.FLOAT:
                 base = 0.0
-            elif kind == KIND_HARDOVER:
+            elif kind == FaultKind.HARDOVER:
                 base = s.pwm_max
             else:
                 eff *= 1.0 - _gamma(table, r, pool, time_s)  # eq. 4.10, effectivenesses multiply
         out[m] = base * eff
+
+
+@njit(cache=True)
+def true_loe_into(state: np.ndarray, table: np.ndarray, pool: np.ndarray, time_s: float,
+                  out: np.ndarray) -> None:
+    """Injected loss of effectiveness of each motor at ``time_s`` into ``out``
+    (:meth:`FaultEngine.true_loe`): with an override, 1 when the one that decides is a float
+    (no thrust at any command), else NaN (lock, hardover: no gamma describes them); without,
+    the gamma of a single effectiveness fault, ``1 - prod_i (1 - gamma_i)`` of several, 0 of
+    none. Random-profile draws must be in the pool (:func:`actuator_draws_ready`)."""
+    s = state[0]
+    for m in range(4):
+        last = -1  # kind of the override that started last (they come first, by start)
+        n = 0
+        gamma = 0.0
+        eff = 1.0
+        for r in range(s.act_start[m], s.act_start[m + 1]):
+            kind = table[r].kind
+            if kind == FaultKind.LOCK or kind == FaultKind.FLOAT or kind == FaultKind.HARDOVER:
+                last = kind
+            elif last < 0:
+                gamma = _gamma(table, r, pool, time_s)
+                eff *= 1.0 - gamma
+                n += 1
+        if last >= 0:
+            out[m] = 1.0 if last == FaultKind.FLOAT else math.nan
+        elif n > 1:
+            out[m] = 1.0 - eff
+        else:
+            out[m] = gamma  # one fault's gamma exactly (0.0 without any)
 
 
 # ---- sensor faults -----------------------------------------------------------------------
@@ -217,18 +245,18 @@ def corrupt_reading(state: np.ndarray, table: np.ndarray, pool: np.ndarray, sens
         kind = row.kind
         lo = 0 if row.axis < 0 else row.axis
         hi = n if row.axis < 0 else row.axis + 1
-        if kind == KIND_BIAS:
+        if kind == FaultKind.BIAS:
             for a in range(lo, hi):
                 value[a] += row.magnitude
-        elif kind == KIND_DRIFT:
+        elif kind == FaultKind.DRIFT:
             for a in range(lo, hi):
                 value[a] += row.magnitude + row.rate * (time_s - row.t0_s)
-        elif kind == KIND_LOSS_OF_ACCURACY:
+        elif kind == FaultKind.LOSS_OF_ACCURACY:
             # total sigma s (1 + m/100) = sqrt(s^2 + (g s)^2)
             for a in range(lo, hi):
                 value[a] += row.noise_gain * sigma * pool[row.draw_next]
                 row.draw_next += 1
-        elif kind == KIND_CALIBRATION:
+        elif kind == FaultKind.CALIBRATION:
             for a in range(lo, hi):  # uniform in [low, high], drawn as such
                 value[a] = pool[row.draw_next]
                 row.draw_next += 1

@@ -67,17 +67,27 @@ error holds the last garbage value).
 A structural fault removes ``mass_loss_kg`` from the airframe at ``start_s`` (thesis: a 300 g
 battery at t = 22 s; mass only, inertia unchanged). It lasts until cleared.
 
-The engine that applies them is :class:`sim.world.faults.FaultEngine`; the compiled form of
-the same rules is in :mod:`sim.world.fault_kernels`.
+Kinds and profiles by number
+----------------------------
+:class:`FaultKind` and :class:`FaultProfile` are the one table from a kind's or a profile's
+name (the names above, those of scenarios, records and MAVLink: :mod:`flightdata.vocabulary`)
+to the code the compiled rules read; :data:`OVERRIDE_KINDS`, :data:`ADDITIVE_KINDS` and
+:data:`DRAWING_KINDS` say how a kind composes and whether it draws random numbers.
+
+The engine that applies the faults is :class:`sim.world.faults.FaultEngine`; the rules
+themselves, one implementation each, are the compiled kernels of :mod:`sim.world.fault_kernels`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Literal, NamedTuple, get_args
+
+import numpy as np
 
 from flightdata.config import ConfigError, finite, from_mapping, require
 from flightdata.records import FaultRecord
@@ -87,6 +97,52 @@ LoeProfile = Literal["step", "sinusoid", "random", "pulse"]
 SensorName = Literal["gyro", "accel", "mocap_pos", "mocap_att", "baro"]
 SensorKind = Literal["bias", "loss_of_accuracy", "drift", "freeze", "calibration"]
 EventKind = Literal["injected", "cleared", "started", "ended"]
+
+
+class FaultKind(enum.IntEnum):
+    """Actuator and sensor fault kinds by number: a member is the kind's name upper-cased
+    (``FaultKind["LOSS_OF_ACCURACY"]``, :meth:`of`), its value the code in a compiled table
+    row (``FAULT_ROW.kind``); the kernels compare with the members themselves."""
+
+    LOE = 0  # actuator: scales the command
+    TOTAL_LOSS = 1  # actuator: scales the command
+    LOCK = 2  # actuator: replaces the command (OVERRIDE_KINDS)
+    FLOAT = 3  # actuator: replaces the command
+    HARDOVER = 4  # actuator: replaces the command
+    BIAS = 5  # sensor: adds to the reading (ADDITIVE_KINDS)
+    DRIFT = 6  # sensor: adds to the reading
+    LOSS_OF_ACCURACY = 7  # sensor: adds to the reading, draws (DRAWING_KINDS)
+    FREEZE = 8  # sensor: replaces the reading
+    CALIBRATION = 9  # sensor: replaces the reading, draws
+
+    @classmethod
+    def of(cls, name: str) -> FaultKind:
+        """The member of a kind's name (``"loe"`` -> ``FaultKind.LOE``)."""
+        return cls[name.upper()]
+
+
+class FaultProfile(enum.IntEnum):
+    """Time profiles of a loss of effectiveness by number (``FAULT_ROW.profile``), as
+    :class:`FaultKind`: ``FaultProfile.of("random")`` is ``FaultProfile.RANDOM``."""
+
+    STEP = 0
+    SINUSOID = 1
+    RANDOM = 2
+    PULSE = 3
+
+    @classmethod
+    def of(cls, name: str) -> FaultProfile:
+        """The member of a profile's name."""
+        return cls[name.upper()]
+
+
+OVERRIDE_KINDS = frozenset({FaultKind.LOCK, FaultKind.FLOAT, FaultKind.HARDOVER})
+"""Actuator kinds that replace the command (the last started wins); the others scale it."""
+ADDITIVE_KINDS = frozenset({FaultKind.BIAS, FaultKind.DRIFT, FaultKind.LOSS_OF_ACCURACY})
+"""Sensor kinds that add to the reading; the others replace it (in the order they started)."""
+DRAWING_KINDS = frozenset({FaultKind.LOSS_OF_ACCURACY, FaultKind.CALIBRATION})
+"""Sensor kinds that take one random draw per element they corrupt
+(:meth:`SensorFault.draws`)."""
 
 MOTORS = (1, 2, 3, 4)
 """Motor numbers of thesis eq. 3.2 (docs/design.md)."""
@@ -248,6 +304,15 @@ class SensorFault:
                    "freeze": ("magnitude", "rate", "low", "high"),
                    "calibration": ("magnitude", "rate")}[self.kind]
         _require_defaults(self, ignored, f"kind {self.kind!r}")
+
+    def draws(self, rng: np.random.Generator, size: int) -> np.ndarray:
+        """``size`` random numbers of a kind of :data:`DRAWING_KINDS`, from its ``rng``:
+        standard normals (loss of accuracy) or readings uniform in :attr:`garbage_range`
+        (calibration)."""
+        if self.kind == "loss_of_accuracy":
+            return rng.standard_normal(size)
+        low, high = self.garbage_range
+        return rng.uniform(low, high, size=size)
 
     @property
     def garbage_range(self) -> tuple[float, float]:

@@ -10,22 +10,25 @@ Here ``t0`` is the simulated time at which a fault starts acting: the first engi
 at or after ``start_s``; it equals ``start_s`` when that lies on the step grid). A fault acts
 for ``t0 <= t < end_s``.
 
-Two implementations, one state
--------------------------------
+The rules, compiled
+-------------------
 :meth:`FaultEngine.actuator_inputs`, :meth:`FaultEngine.corrupt` and
-:meth:`FaultEngine.mass_kg` apply the rules in Python: the reference, used when the world
-steps in Python and by anyone calling the engine directly. :mod:`sim.world.fault_kernels`
-applies the same rules compiled, inside the world's compiled steps. Both keep the state of
-the active faults (a lock's held command, a freeze's held reading, the random draws, the
-last reading of each sensor, the clock) in the engine's arrays, :attr:`FaultEngine.arrays`
-(:mod:`sim.world.fault_arrays`), so the world may switch between them at any step. Starts,
-ends, scheduling and clearing only happen here, in Python.
+:meth:`FaultEngine.true_loe` apply the rules with the compiled kernels of
+:mod:`sim.world.fault_kernels`, the one implementation of each (used when the world steps in
+Python and by anyone calling the engine directly); the world's compiled steps call the same
+kernels inside their steps. The state of the active faults (a lock's held command, a freeze's
+held reading, the random draws, the last reading of each sensor, the clock) is kept in the
+engine's arrays, :attr:`FaultEngine.arrays` (:mod:`sim.world.fault_arrays`), so the world may
+switch between the two at any step. Starts, ends, scheduling, clearing and the random draws
+only happen here, in Python.
 
 Cost
 ----
-The Python methods compare the time with a cached next-change time and return cached
-results, so a step without faults costs one comparison; the active set is rebuilt only when a
-fault starts, ends, is scheduled or is cleared.
+The methods compare the time with a cached next-change time, so a step without faults costs
+one comparison (and no kernel call); the active set is rebuilt only when a fault starts, ends,
+is scheduled or is cleared. Each kernel is called through a :class:`jitsupport.calls.KernelCall`
+with arguments of fixed types (float64 arrays of the engine's own, a float time), the types
+that the precompile flights compile (:mod:`sim.preparation`).
 
 The engine is not thread-safe: a MAVLink endpoint on another thread should queue injections
 for the simulation loop, which applies them between steps (:meth:`FaultEngine.apply_now`,
@@ -41,25 +44,58 @@ from typing import Any
 import numpy as np
 
 from flightdata.config import finite, require
-from sim.world import fault_rules
-from sim.world.fault_arrays import FaultArrays, keeps_all_draws, new_row
-from sim.world.fault_rules import ACTIVE, PENDING, FaultRecord, MotorGroup, SensorGroup
+from jitsupport.calls import KernelCall
+from sim.world.fault_arrays import FaultArrays, new_row
+from sim.world.fault_kernels import (
+    actuator_draws_ready,
+    apply_actuator_faults,
+    corrupt_reading,
+    sensor_draws_ready,
+    true_loe_into,
+)
 from sim.world.fault_types import (
+    ADDITIVE_KINDS,
     MOTORS,
+    OVERRIDE_KINDS,
     SENSOR_AXES,
     SENSOR_NAMES,
     ActuatorFault,
     EventKind,
     Fault,
     FaultEvent,
+    FaultKind,
     ScheduledFault,
     SensorFault,
     StructuralFault,
 )
 
-_OVERRIDE_KINDS = ("lock", "float", "hardover")
-_ADDITIVE_KINDS = ("bias", "drift", "loss_of_accuracy")
 _SENSOR_INDEX = {name: i for i, name in enumerate(SENSOR_NAMES)}
+_FLOAT64 = np.dtype(np.float64)
+# the kernels' calls from Python (module docstring: Cost)
+_actuator_draws_ready = KernelCall(actuator_draws_ready)
+_apply_actuator_faults = KernelCall(apply_actuator_faults)
+_true_loe_into = KernelCall(true_loe_into)
+_sensor_draws_ready = KernelCall(sensor_draws_ready)
+_corrupt_reading = KernelCall(corrupt_reading)
+
+PENDING, ACTIVE = 0, 1  # FaultRecord.state
+
+
+class FaultRecord:
+    """The engine's bookkeeping of one scheduled fault (what changes while it acts is in the
+    arrays, at ``row``)."""
+
+    __slots__ = ("fault_id", "fault", "kind", "rng", "state", "t0", "row")
+
+    def __init__(self, fault_id: int, fault: Fault, rng: np.random.Generator) -> None:
+        self.fault_id = fault_id
+        self.fault = fault
+        kind = getattr(fault, "kind", None)  # (a structural fault has none)
+        self.kind: FaultKind | None = None if kind is None else FaultKind.of(kind)
+        self.rng = rng  # the fault's own generator (random profile, noise, garbage)
+        self.state = PENDING
+        self.t0 = math.nan  # s, time at which it started acting
+        self.row = -1  # its row in the arrays' table while active (actuator, sensor faults)
 
 
 class FaultEngine:
@@ -314,27 +350,21 @@ class FaultEngine:
         values = self._true_loe_static
         if values is not None:
             return values
-        out = [0.0, 0.0, 0.0, 0.0]
-        for idx, overrides, scalers in self._act_groups:
-            if overrides and overrides[-1].kind != "float":
-                out[idx] = math.nan
-            elif overrides:
-                out[idx] = 1.0
-            elif len(scalers) == 1:
-                out[idx] = fault_rules.gamma(scalers[0], time_s, self.arrays)  # exactly
-            else:
-                eff = 1.0
-                for rec in scalers:
-                    eff *= 1.0 - fault_rules.gamma(rec, time_s, self.arrays)
-                out[idx] = 1.0 - eff
-        values = (out[0], out[1], out[2], out[3])
+        if self._act_mode == 0:
+            values = (0.0, 0.0, 0.0, 0.0)
+        else:
+            a = self._actuator_arrays(time_s)
+            out = np.empty(4)
+            _true_loe_into.call(a.state, a.table, a.pool, float(time_s), out)
+            values = (out.item(0), out.item(1), out.item(2), out.item(3))
         if self._act_mode != 2:  # no fault, or only steps and total losses: constant
             self._true_loe_static = values
         return values
 
-    # ------------------------------------------------------------------ the Python rules
+    # ------------------------------------------------------------------ the rules
     def actuator_inputs(self, time_s: float, pwm_cmd: np.ndarray) -> np.ndarray:
-        """PWM the motors see at ``time_s`` given the commanded ``pwm_cmd``.
+        """PWM the motors see at ``time_s`` given the commanded ``pwm_cmd``
+        (:func:`sim.world.fault_kernels.apply_actuator_faults`).
 
         Parameters
         ----------
@@ -348,21 +378,29 @@ class FaultEngine:
         numpy.ndarray, shape (4,)
             Effective PWM. Without an active actuator fault this is ``pwm_cmd`` itself (not a
             copy); otherwise a new array. Not saturated.
+
+        Raises
+        ------
+        ValueError
+            ``pwm_cmd`` is not of shape (4,) (checked when an actuator fault is active).
         """
         self._clock_s = time_s
         if time_s >= self._next_change_s:
             self._advance(time_s)
-        mode = self._act_mode
-        if mode == 0:
+        if self._act_mode == 0:
             return pwm_cmd
-        if mode == 1:
-            return pwm_cmd * self._act_gain
-        return fault_rules.actuators(self._act_groups, time_s, pwm_cmd, self._pwm_max,
-                                     self.arrays)
+        cmd = np.array(pwm_cmd, dtype=_FLOAT64)  # (a new C array: the kernel's argument type)
+        if cmd.shape != (4,):
+            raise ValueError(f"pwm_cmd shape {cmd.shape}: want (4,), motors 1..4")
+        a = self._actuator_arrays(time_s)
+        out = np.empty(4)
+        _apply_actuator_faults.call(a.state, a.table, a.pool, float(time_s), cmd, out)
+        return out
 
     def corrupt(self, sensor: str, time_s: float, value: np.ndarray,
-                nominal_sigma: np.ndarray) -> np.ndarray:
-        """Apply the active faults of ``sensor`` to a noisy reading.
+                nominal_sigma: float) -> np.ndarray:
+        """Apply the active faults of ``sensor`` to a noisy reading
+        (:func:`sim.world.fault_kernels.corrupt_reading`).
 
         Parameters
         ----------
@@ -372,9 +410,9 @@ class FaultEngine:
             Simulated time of the reading, s (non-decreasing).
         value : numpy.ndarray, shape (n,)
             Reading with its nominal noise already added (sensor unit). Not modified.
-        nominal_sigma : numpy.ndarray, shape (n,) or scalar
-            Standard deviation of the noise already in ``value`` (sensor unit), the base of
-            loss-of-accuracy faults.
+        nominal_sigma : float
+            Standard deviation of the noise already in each element of ``value`` (sensor
+            unit), the base of loss-of-accuracy faults.
 
         Returns
         -------
@@ -385,28 +423,41 @@ class FaultEngine:
         self._clock_s = time_s
         if time_s >= self._next_change_s:
             self._advance(time_s)
-        faults = self._sensor_groups.get(sensor)
-        out = value if faults is None else fault_rules.corrupt(
-            faults, _SENSOR_INDEX[sensor], time_s, value, nominal_sigma, self.arrays)
-        self.arrays.remember(_SENSOR_INDEX[sensor], out)
+        i = _SENSOR_INDEX[sensor]
+        if not self._sensor_faulty[i]:
+            self.arrays.remember(i, value)
+            return value
+        out = np.array(value, dtype=_FLOAT64)  # (a new C array: the kernel's argument type)
+        n = out.shape[0]
+        a = self.arrays
+        while not _sensor_draws_ready.call(a.state, a.table, i, n):
+            self.refill_draws()
+        _corrupt_reading.call(a.state, a.table, a.pool, i, float(time_s), out,
+                              float(nominal_sigma))  # (and remembers it)
         return out
 
     # ------------------------------------------------------------------ draws
     def refill_draws(self) -> None:
-        """Draw what a compiled kernel found missing (the arrays' refill request).
-
-        The draws come from the fault's own generator in the order the Python rules take
-        them, so a run draws the same numbers whichever path asked first.
-        """
+        """Draw what a kernel found missing (the arrays' refill request), from the fault's
+        own generator: a run draws the same numbers whichever path asked, and whenever."""
         request = self.arrays.refill_request()
         if request is None:
             return
         r, count = request
         rec = self._row_records[r]
-        if keeps_all_draws(self.arrays.table[r]):
-            fault_rules.ensure_gammas(rec, count, self.arrays)
+        f = rec.fault
+        if isinstance(f, ActuatorFault):  # a random profile's gammas
+            self.arrays.ensure_gammas(r, count, rec.rng, f)
         else:
-            fault_rules.ensure_unused(rec, count, self.arrays)
+            assert isinstance(f, SensorFault)
+            self.arrays.ensure_unused(r, count, rec.rng, f)
+
+    def _actuator_arrays(self, time_s: float) -> FaultArrays:
+        """The arrays, with every random profile's gamma for ``time_s`` drawn."""
+        a = self.arrays
+        while not _actuator_draws_ready.call(a.state, a.table, float(time_s)):
+            self.refill_draws()
+        return a
 
     # ------------------------------------------------------------------ internals
     def _emit(self, time_s: float, kind: EventKind, fault_id: int, fault: Fault) -> None:
@@ -443,8 +494,8 @@ class FaultEngine:
         self._rebuild()
 
     def _rebuild(self) -> None:
-        """Group the active faults by motor and sensor, cache the mass and static gains, and
-        lay out the table in the order the rules apply them (fault_kernels docstring)."""
+        """Group the active faults by motor and sensor, cache the mass, and lay out the table
+        in the order the rules apply them (fault_kernels docstring)."""
         by_motor: dict[int, list[FaultRecord]] = {}
         by_sensor: dict[str, list[FaultRecord]] = {}
         mass = self._base_mass_kg
@@ -463,50 +514,32 @@ class FaultEngine:
         def started(r: FaultRecord) -> tuple[float, int]:
             return (r.t0, r.fault_id)
 
-        groups = []
-        gain = np.ones(4)
-        static = True
+        static = True  # no override, every effectiveness fault a step or a total loss
         order: list[FaultRecord] = []
         act_start = []
         for idx in range(4):
             act_start.append(len(order))
             recs = by_motor.get(idx, [])
-            if not recs:
-                continue
-            overrides = tuple(sorted((r for r in recs if r.kind in _OVERRIDE_KINDS),
-                                     key=started))
-            scalers = tuple(r for r in recs if r.kind not in _OVERRIDE_KINDS)
-            groups.append((idx, overrides, scalers))
+            overrides = sorted((r for r in recs if r.kind in OVERRIDE_KINDS), key=started)
+            scalers = [r for r in recs if r.kind not in OVERRIDE_KINDS]
             order += [*overrides, *scalers]
-            for r in scalers:
-                f = r.fault
-                assert isinstance(f, ActuatorFault)
-                if f.kind == "total_loss":
-                    gain[idx] *= 0.0
-                elif f.profile == "step":
-                    gain[idx] *= 1.0 - f.loe
-                else:
-                    static = False
-            if overrides:
-                static = False
-        self._act_groups: list[MotorGroup] = groups
-        self._act_gain = gain
-        self._act_mode = 0 if not groups else (1 if static else 2)
+            static = static and not overrides and all(
+                r.kind == FaultKind.TOTAL_LOSS or getattr(r.fault, "profile", "") == "step"
+                for r in scalers)
+        # 0: no actuator fault (the command passes as it is), 1: true_loe constant, 2: varies
+        self._act_mode = 0 if not order else (1 if static else 2)
         self._true_loe_static = None  # true_loe_values's, while it cannot change
 
-        self._sensor_groups: dict[str, SensorGroup] = {}
         sens_start = []
         for name in SENSOR_NAMES:
             sens_start.append(len(order))
             recs = by_sensor.get(name, [])
-            if not recs:
-                continue
-            additive = tuple(r for r in recs if r.kind in _ADDITIVE_KINDS)
-            replacing = tuple(sorted((r for r in recs if r.kind not in _ADDITIVE_KINDS),
-                                     key=started))
-            self._sensor_groups[name] = (additive, replacing)
+            additive = [r for r in recs if r.kind in ADDITIVE_KINDS]
+            replacing = sorted((r for r in recs if r.kind not in ADDITIVE_KINDS), key=started)
             order += [*additive, *replacing]
         sens_start.append(len(order))
+        self._sensor_faulty = [sens_start[i] < sens_start[i + 1]
+                               for i in range(len(SENSOR_NAMES))]
         self._lay_out(order, act_start + [sens_start[0]], sens_start)
 
     def _lay_out(self, order: list[FaultRecord], act_start: list[int],

@@ -211,7 +211,6 @@ class SensorSuite:
             self._due = ((-1,),)
         scale = config.noise_scale
         self._sigma = tuple(config.sigma(name) * scale for name in SENSOR_NAMES)
-        self._sigma_vec = tuple(np.full(n, s) for n, s in zip(_AXES, self._sigma, strict=True))
         self._seeds = tuple(int(s) for s in rng.integers(0, 2**63 - 1, size=len(SENSOR_NAMES)))
         self.kernel_state = np.zeros(1, dtype=SENSOR_STATE)
         self._s = self.kernel_state[0]  # a view: writes go to the array
@@ -304,7 +303,7 @@ class SensorSuite:
             else:
                 reading = np.array((-xs[2] + r[0],))  # altitude = -z_ned
             name = SENSOR_NAMES[i]
-            value = self._faults.corrupt(name, time_s, reading, self._sigma_vec[i])
+            value = self._faults.corrupt(name, time_s, reading, self._sigma[i])
             samples.append(SensorSample(name, time_s, value))
         return tuple(samples)
 

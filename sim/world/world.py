@@ -19,7 +19,9 @@ compiled in both ways of stepping).
 
 Two ways to take a step, one state
 ----------------------------------
-That loop, written with the parts' Python methods, is the reference (``World._step_python``).
+That loop, written with the parts' Python methods, is the reference (``World._step_python``;
+the fault engine's methods apply the compiled fault rules of :mod:`sim.world.fault_kernels`,
+the one implementation of each).
 :func:`sim.world.stepping.world_steps` runs the same loop compiled, on the parts' state
 records (``kernel_state`` of the plant, the wind, the sensors and the fault engine, plus the
 world's own :data:`sim.world.stepping.WORLD_STATE`): the same operations in the same order,

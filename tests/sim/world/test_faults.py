@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from typing import get_args
 
 import numpy as np
 import pytest
@@ -12,10 +13,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flightdata.config import ConfigError, from_mapping
+from flightdata.vocabulary import ACTUATOR_FAULT_KINDS, LOE_PROFILES, SENSOR_FAULT_KINDS
 from sim.world.fault_types import (
+    ADDITIVE_KINDS,
     DEFAULT_GARBAGE_RANGE,
+    DRAWING_KINDS,
+    OVERRIDE_KINDS,
     ActuatorFault,
+    ActuatorKind,
+    FaultKind,
+    FaultProfile,
+    LoeProfile,
     SensorFault,
+    SensorKind,
     StructuralFault,
     fault_from_mapping,
 )
@@ -292,7 +302,7 @@ def test_drain_events_returns_only_new_events() -> None:
     assert [e.kind for e in first] == ["injected"]
     assert first[0].description == "gyro: bias 0.1"
     assert eng.drain_events() == []
-    eng.corrupt("gyro", 1.0, np.zeros(3), np.zeros(3))
+    eng.corrupt("gyro", 1.0, np.zeros(3), 0.0)
     assert [(e.kind, e.time_s) for e in eng.drain_events()] == [("started", 1.0)]
     assert len(eng.events) == 2  # history kept
 
@@ -312,10 +322,10 @@ def test_bias_changes_only_the_targeted_sensor_and_axis() -> None:
     eng = make_engine()
     eng.schedule(SensorFault(sensor="gyro", kind="bias", axis=1, magnitude=0.1, start_s=1.0))
     v = np.array([0.01, -0.02, 0.03])
-    assert eng.corrupt("gyro", 0.996, v, np.full(3, 0.003)) is v
-    out = eng.corrupt("gyro", 1.0, v, np.full(3, 0.003))
+    assert eng.corrupt("gyro", 0.996, v, 0.003) is v
+    out = eng.corrupt("gyro", 1.0, v, 0.003)
     np.testing.assert_array_equal(out, [0.01, -0.02 + 0.1, 0.03])
-    assert eng.corrupt("accel", 1.0, v, np.full(3, 0.03)) is v
+    assert eng.corrupt("accel", 1.0, v, 0.03) is v
     assert eng.actuator_inputs(1.0, U) is U
 
 
@@ -324,9 +334,9 @@ def test_drift_is_a_ramp_from_its_start() -> None:
     eng.schedule(SensorFault(sensor="baro", kind="drift", magnitude=1e-3, rate=2e-3,
                              start_s=10.0))
     alt = np.array([0.6])
-    assert eng.corrupt("baro", 10.0, alt, np.array([0.02]))[0] == 0.6 + 1e-3
+    assert eng.corrupt("baro", 10.0, alt, 0.02)[0] == 0.6 + 1e-3
     # offset = magnitude + rate (t - t0); 1e-15 absorbs the sum's rounding
-    assert eng.corrupt("baro", 15.0, alt, np.array([0.02]))[0] == pytest.approx(
+    assert eng.corrupt("baro", 15.0, alt, 0.02)[0] == pytest.approx(
         0.6 + 1e-3 + 2e-3 * 5.0, abs=1e-15)
 
 
@@ -337,11 +347,11 @@ def test_freeze_holds_the_last_reading_before_it_started() -> None:
     last = None
     for t in grid(0.0, 1.0)[::5]:  # 100 Hz readings
         last = rng.normal(size=3)
-        eng.corrupt("mocap_pos", float(t), last, np.full(3, 5e-4))
+        eng.corrupt("mocap_pos", float(t), last, 5e-4)
     assert last is not None
     for t in grid(1.0, 2.0)[::5]:
         v = rng.normal(size=3)
-        out = eng.corrupt("mocap_pos", float(t), v, np.full(3, 5e-4))
+        out = eng.corrupt("mocap_pos", float(t), v, 5e-4)
         assert out[2] == last[2]
         np.testing.assert_array_equal(out[:2], v[:2])
 
@@ -349,8 +359,8 @@ def test_freeze_holds_the_last_reading_before_it_started() -> None:
 def test_freeze_from_the_start_holds_the_first_reading() -> None:
     eng = make_engine()
     eng.schedule(SensorFault(sensor="baro", kind="freeze"))
-    first = eng.corrupt("baro", 0.0, np.array([0.1]), np.array([0.02]))
-    assert eng.corrupt("baro", 0.02, np.array([0.7]), np.array([0.02]))[0] == first[0] == 0.1
+    first = eng.corrupt("baro", 0.0, np.array([0.1]), 0.02)
+    assert eng.corrupt("baro", 0.02, np.array([0.7]), 0.02)[0] == first[0] == 0.1
 
 
 def test_loss_of_accuracy_scales_the_noise() -> None:
@@ -360,7 +370,7 @@ def test_loss_of_accuracy_scales_the_noise() -> None:
     eng = make_engine()
     eng.schedule(SensorFault(sensor="gyro", kind="loss_of_accuracy", axis=0, magnitude=200.0))
     readings = sigma * rng.standard_normal((n, 3))
-    out = np.array([eng.corrupt("gyro", k * 0.004, r, np.full(3, sigma))
+    out = np.array([eng.corrupt("gyro", k * 0.004, r, sigma)
                     for k, r in enumerate(readings)])
     # 200 % more noise -> 3 sigma; the std of 40 000 samples is within 0.4 %, allow 10 %
     assert out[:, 0].std() / readings[:, 0].std() == pytest.approx(3.0, rel=0.1)
@@ -374,7 +384,7 @@ def test_calibration_error_is_uncorrelated_and_bounded() -> None:
     eng.schedule(SensorFault(sensor="accel", kind="calibration", axis=2, low=-20.0, high=5.0))
     eng.schedule(SensorFault(sensor="mocap_att", kind="calibration"))
     truth = np.stack([np.zeros(n), np.zeros(n), -9.81 + np.sin(np.arange(n) * 0.01)], axis=1)
-    out = np.array([eng.corrupt("accel", k * 0.004, v, np.full(3, 0.03))
+    out = np.array([eng.corrupt("accel", k * 0.004, v, 0.03)
                     for k, v in enumerate(truth)])
     z = out[:, 2]
     assert z.min() >= -20.0
@@ -384,7 +394,7 @@ def test_calibration_error_is_uncorrelated_and_bounded() -> None:
     assert z.std() == pytest.approx(25.0 / math.sqrt(12.0), rel=0.05)  # uniform; s.e. 0.5 %
     np.testing.assert_array_equal(out[:, :2], truth[:, :2])
     low, high = DEFAULT_GARBAGE_RANGE["mocap_att"]
-    att = np.array([eng.corrupt("mocap_att", k * 0.01, np.zeros(3), np.full(3, 0.002))
+    att = np.array([eng.corrupt("mocap_att", k * 0.01, np.zeros(3), 0.002)
                     for k in range(2000)])
     assert att.min() >= low
     assert att.max() <= high
@@ -409,6 +419,9 @@ def test_calibration_error_is_uncorrelated_and_bounded() -> None:
      "pulse_width_s = 12.0: must be within (0, period_s = 10.0] s"),
     (lambda: SensorFault(sensor="lidar", kind="bias"),  # type: ignore[arg-type]
      "sensor = 'lidar': must be one of 'gyro', 'accel', 'mocap_pos', 'mocap_att', 'baro'"),
+    (lambda: SensorFault(sensor="gyro", kind="spike"),  # type: ignore[arg-type]
+     "kind = 'spike': must be one of 'bias', 'loss_of_accuracy', 'drift', 'freeze', "
+     "'calibration'"),
     (lambda: SensorFault(sensor="gyro", kind="bias", axis=3),
      "axis = 3: must be 0 to 2 for sensor 'gyro'"),
     (lambda: SensorFault(sensor="baro", kind="bias", axis=1),
@@ -454,3 +467,22 @@ def test_faults_load_from_toml_tables() -> None:
         fault_from_mapping({"sensor": "lidar", "kind": "bias"})
     with pytest.raises(ConfigError, match="needs a 'motor'"):
         fault_from_mapping({"kind": "bias"})
+    with pytest.raises(ConfigError, match=re.escape(
+            "kind = 'jam': must be one of 'loe', 'lock', 'float', 'hardover', 'total_loss'")):
+        fault_from_mapping({"motor": 1, "kind": "jam"})
+
+
+def test_fault_kinds_and_profiles_are_one_table() -> None:
+    """The numbered kinds and profiles the kernels read are the vocabulary's names, those a
+    fault accepts; each kind composes one way (fault_types docstring)."""
+    actuator, sensor = set(get_args(ActuatorKind)), set(get_args(SensorKind))
+    assert actuator == set(ACTUATOR_FAULT_KINDS) and sensor == set(SENSOR_FAULT_KINDS)
+    assert {k.name.lower() for k in FaultKind} == actuator | sensor
+    assert all(FaultKind.of(k.name.lower()) is k for k in FaultKind)
+    assert [p.name.lower() for p in FaultProfile] == list(LOE_PROFILES) == \
+        list(get_args(LoeProfile))
+    assert all(FaultProfile.of(p.name.lower()) is p for p in FaultProfile)
+    assert {k.name.lower() for k in OVERRIDE_KINDS} < actuator
+    assert {k.name.lower() for k in ADDITIVE_KINDS | DRAWING_KINDS} < sensor
+    with pytest.raises(KeyError):
+        FaultKind.of("mass_loss")  # structural faults have no row in the compiled table

@@ -8,6 +8,10 @@ contact, lift-off, touchdown and crash; turbulence on and off and wind changes; 
 faults of every kind and LOE profile; sensor faults of every kind on one axis and on all;
 a structural mass loss; faults starting, ending, injected and cleared between and inside
 calls of uneven length.
+
+The fault engine applies its rules with the compiled kernels of :mod:`sim.world.fault_kernels`
+in both ways of stepping, so the Python world here applies the independent Python reference
+of the rules instead (``fault_rules_reference.py``): a wrong kernel shows as a difference.
 """
 
 from __future__ import annotations
@@ -20,16 +24,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from fault_rules_reference import use_reference_rules
 
 from jitsupport.calls import KernelCall
 from sim.world import Truth, World, WorldConfig
 from sim.world import world as world_module
-from sim.world.fault_kernels import (
-    actuator_draws_ready,
-    apply_actuator_faults,
-    corrupt_reading,
-    sensor_draws_ready,
-)
 from sim.world.fault_types import ActuatorFault, SensorFault, StructuralFault
 from sim.world.faults import FaultEngine
 from sim.world.samples import SampleBatch, SensorSample
@@ -212,6 +211,14 @@ def _compiled(config: WorldConfig, seed: int) -> World:
 
 
 def _python(config: WorldConfig, seed: int) -> World:
+    """The Python steps, the faults applied by the Python reference rules."""
+    world = World(config, seed, stepping="python")
+    use_reference_rules(world.faults)  # (the sensors call the same engine object)
+    return world
+
+
+def _python_kernels(config: WorldConfig, seed: int) -> World:
+    """The Python steps, the faults applied by the engine itself (its kernels from Python)."""
     return World(config, seed, stepping="python")
 
 
@@ -247,6 +254,13 @@ def test_compiled_steps_equal_python_steps_bit_for_bit(name: str,
     assert compiled_steps > 0.7 * total
 
 
+def test_python_steps_with_the_engines_kernels_equal_the_compiled_steps() -> None:
+    """``World(stepping="python")`` as the product has it: the engine calls its kernels from
+    Python (their draws, held values and last readings kept across the two paths)."""
+    flight = _thesis_like_flight()
+    assert fly(flight, _python_kernels) == fly(flight, _compiled)
+
+
 def test_the_thesis_like_flight_reaches_every_branch(count_stops: Counter[int]) -> None:
     events = [e for call in fly(_thesis_like_flight(), _compiled)[2:-1:3] for e in call]
     plant = Counter(e[2].split(" at ")[0] for e in events if e[1] == "PlantEvent")
@@ -269,39 +283,40 @@ def _engine_pair() -> tuple[FaultEngine, FaultEngine]:
         eng.schedule(ActuatorFault(motor=2, kind="lock", start_s=0.05))
         eng.schedule(ActuatorFault(motor=2, kind="loe", loe=0.3, profile="sinusoid",
                                    period_s=0.3))
+        eng.schedule(ActuatorFault(motor=3, kind="loe", loe=0.2, profile="pulse", period_s=0.1,
+                                   pulse_width_s=0.03))
+        eng.schedule(ActuatorFault(motor=3, kind="loe", loe=0.1, start_s=0.2))
+        eng.schedule(ActuatorFault(motor=3, kind="hardover", start_s=0.4, end_s=0.5))
+        eng.schedule(ActuatorFault(motor=4, kind="float", start_s=0.1, end_s=0.3))
+        eng.schedule(ActuatorFault(motor=4, kind="total_loss", start_s=0.2))
         eng.schedule(SensorFault(sensor="gyro", kind="loss_of_accuracy", magnitude=150.0))
         eng.schedule(SensorFault(sensor="gyro", kind="calibration", axis=1, start_s=0.1))
+        eng.schedule(SensorFault(sensor="gyro", kind="freeze", start_s=0.3, end_s=0.35))
         eng.schedule(SensorFault(sensor="baro", kind="drift", magnitude=0.1, rate=0.2))
+        eng.schedule(SensorFault(sensor="baro", kind="bias", magnitude=0.05, start_s=0.6))
+        eng.schedule(SensorFault(sensor="baro", kind="freeze", start_s=0.7))
     return a, b
 
 
-def test_fault_kernels_equal_the_python_rules() -> None:
-    """The engine's Python rules on one engine, the compiled ones on a twin (faults started
-    by the Python side, which alone starts and ends them), call by call."""
-    py, nb = _engine_pair()
+def test_fault_kernels_equal_the_python_reference_rules() -> None:
+    """The Python reference rules on one engine, the engine's own (its compiled kernels) on a
+    twin, call by call: every actuator and sensor fault kind and LOE profile, overrides over
+    effectiveness faults, draws running out and refilled."""
+    ref, eng = _engine_pair()
+    use_reference_rules(ref)
     rng = np.random.default_rng(0)
     sigma = 0.003
     for k in range(400):
         t = k / 500.0
         u = rng.uniform(0.0, 0.05, 4)
-        expected = py.actuator_inputs(t, u)
-        nb.mass_kg(t)  # let the twin start its faults at the same time
-        nb.refill_draws()
-        for _ in range(3):  # draws run short now and then: the engine refills, as the world
-            a = nb.arrays
-            if actuator_draws_ready(a.state, a.table, t) and \
-                    sensor_draws_ready(a.state, a.table, 0, 3):
-                break
-            nb.refill_draws()
-        got = np.empty(4)
-        a = nb.arrays
-        apply_actuator_faults(a.state, a.table, a.pool, t, u, got)
-        assert _bits(got) == _bits(expected)
+        assert _bits(eng.actuator_inputs(t, u)) == _bits(ref.actuator_inputs(t, u)), t
+        assert _bits(eng.true_loe_values(t)) == _bits(ref.true_loe_values(t)), t
         reading = rng.normal(0.0, sigma, 3)
-        expected = py.corrupt("gyro", t, reading, np.full(3, sigma))
-        got = reading.copy()
-        corrupt_reading(a.state, a.table, a.pool, 0, t, got, sigma)
-        assert _bits(got) == _bits(expected)
+        assert _bits(eng.corrupt("gyro", t, reading, sigma)) == \
+            _bits(ref.corrupt("gyro", t, reading, sigma)), t
+        alt = rng.normal(1.0, 0.02, 1)
+        assert _bits(eng.corrupt("baro", t, alt, 0.02)) == _bits(ref.corrupt("baro", t, alt, 0.02))
+    np.testing.assert_array_equal(eng.arrays.pool, ref.arrays.pool)  # the same draws
 
 
 # ---- the sample batch ---------------------------------------------------------------------
