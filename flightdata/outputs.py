@@ -73,25 +73,10 @@ def check_file_output(option: str, path: str | Path) -> Path:
 
 
 def check_folder_output(option: str, path: str | Path) -> Path:
-    """Check that files can be written in the folder ``path`` (created later if missing).
-
-    Parameters
-    ----------
-    option : str
-        The command-line option, for the message (e.g. ``"--figures"``).
-    path : str or Path
-        The folder.
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    OutputError
-        ``"<option> <path>: <why>"``: a file, a folder that cannot be created or written.
-    """
+    """:func:`check_file_output` for a folder given with ``option`` (e.g. ``"--figures"``):
+    files can be written in ``path`` (created later if missing); returns ``path``, or raises
+    OutputError ``"<option> <path>: <why>"`` (a file, a folder that cannot be created or
+    written)."""
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise OutputError(f"{option} {p}: is a file, not a folder")

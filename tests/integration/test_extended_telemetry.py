@@ -163,10 +163,7 @@ def test_in_flight_pressure_battery_estimators_and_guidance(start_vehicle, gcs: 
     v_ground = statistics.fmean(m.voltages[0] for m in ground
                                 if m.get_type() == "BATTERY_STATUS")
     no_idle_disarm(gcs)
-    assert gcs.set_mode(GUIDED).result == ACCEPTED
-    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
-    assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.5).result == ACCEPTED
-    gcs.wait("GLOBAL_POSITION_INT", lambda m: m.relative_alt > 1450, timeout_s=60.0)
+    gcs.take_off(1.5)
     sim_window(gcs, 5.0)  # settle
     hover = sim_window(gcs, 20.0)
     p_air = statistics.fmean(m.press_abs for m in hover if m.get_type() == "SCALED_PRESSURE")

@@ -46,10 +46,7 @@ def test_esc_report_in_a_hover_and_a_lost_rotor(start_vehicle, gcs: Gcs) -> None
     no_idle_disarm(gcs)
     assert gcs.command(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_ESC_TELEMETRY_1_TO_4,
                        100_000).result == ACCEPTED
-    assert gcs.set_mode(GUIDED).result == ACCEPTED
-    assert gcs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == ACCEPTED
-    assert gcs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 1.5).result == ACCEPTED
-    gcs.wait("GLOBAL_POSITION_INT", lambda m: m.relative_alt > 1450, timeout_s=60.0)
+    gcs.take_off(1.5)
     sim_window(gcs, 3.0)  # settle
     hover = sim_window(gcs, 5.0)
     escs = [m for m in hover if m.get_type() == "ESC_TELEMETRY_1_TO_4"]

@@ -373,6 +373,18 @@ class Gcs:
         return self.command(M.MAV_CMD_DO_SET_MODE, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                             custom_mode)
 
+    def take_off(self, alt_m: float, timeout_s: float = 60.0) -> Message:
+        """GUIDED, arm, NAV_TAKEOFF to ``alt_m`` (each ACCEPTED); returns the first
+        GLOBAL_POSITION_INT within 5 cm of that height."""
+        guided = 4  # ArduCopter's GUIDED
+        for what, ack in (("GUIDED", self.set_mode(guided)),
+                          ("arming", self.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1)),
+                          ("take-off", self.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0,
+                                                    alt_m))):
+            assert ack.result == M.MAV_RESULT_ACCEPTED, f"{what}: result {ack.result}"
+        return self.wait("GLOBAL_POSITION_INT",
+                         lambda m: m.relative_alt > 1000.0 * alt_m - 50.0, timeout_s)
+
     def wait_mode(self, custom_mode: int, timeout_s: float = ANSWER_S) -> Message:
         """The first HEARTBEAT showing ``custom_mode``."""
         return self.wait("HEARTBEAT", lambda m: m.get_srcComponent() == self.target[1]
