@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -103,3 +105,28 @@ def test_the_chain_output_holds_the_crash_measures_in_crash_check_order() -> Non
         "alt_m", "vel_down_m_s", "speed_m_s", "lean_rad", "att_error_rad", "collective"]
     assert (crash_check.ALT, crash_check.VEL_DOWN, crash_check.SPEED, crash_check.LEAN,
             crash_check.ATTITUDE_ERROR, crash_check.COLLECTIVE) == tuple(range(6))
+
+
+DESIGN = Path(__file__).resolve().parents[2] / "docs" / "design.md"
+
+
+@pytest.mark.parametrize("label, layout", [("`ekf.WORK`", ekf.WORK), ("`ekf.BUFFER`", ekf.BUFFER),
+                                           ("`tskf_kernel.WORK`", tskf_kernel.WORK),
+                                           ("`tskf_kernel.BUFFER`", tskf_kernel.BUFFER)])
+def test_design_doc_lists_each_state_layout_as_the_code_declares_it(label: str,
+                                                                    layout: Layout) -> None:
+    row = next(line for line in DESIGN.read_text().splitlines() if line.startswith(f"| {label}"))
+    listed = row.split("|")[3]
+    for f in layout.fields:
+        assert f"{f.name} {f.size}" in listed, f"{label}: {f.name} {f.size} not in {listed!r}"
+
+
+def test_design_doc_lists_every_field_of_the_control_tick_output() -> None:
+    text = DESIGN.read_text()
+    section = text[text.index("The control tick's output record"):]
+    documented = {line.split("|")[1].strip() for line in section.splitlines()
+                  if line.startswith("| `")}
+    from fcu.monitoring import crash_check
+    measures = [f.name for f in chain.OUT.fields][7:7 + crash_check.MEASURES_SIZE]
+    expected = {f"`{f.name}`" for f in chain.OUT.fields if f.name not in measures}
+    assert expected | {f"`{measures[0]}` ... `{measures[-1]}`"} == documented
