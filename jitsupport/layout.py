@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["LANES", "Field", "Layout", "aligned_zeros"]
+__all__ = ["LANES", "Field", "Layout", "aligned_zeros", "hold"]
 
 LANES = 8  # doubles in one 64-byte cache line (and one AVX-512 vector)
 
@@ -98,3 +98,12 @@ def aligned_zeros(n: int) -> npt.NDArray[np.float64]:
     raw = np.zeros(n + LANES)
     start = (-(raw.ctypes.data // 8)) % LANES  # entries to the next boundary
     return raw[start:start + n]
+
+
+def hold(view: npt.NDArray[np.float64], values: npt.NDArray[np.float64]
+         ) -> npt.NDArray[np.float64]:
+    """``view`` with ``values`` copied in: what a part rebinds a state array to when it is
+    asked to keep that state in another array (a compiled chain's workspace), so that its
+    own methods and the compiled call work on the same numbers."""
+    view[:] = values.reshape(-1)
+    return view

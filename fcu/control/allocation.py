@@ -41,6 +41,7 @@ shows first. With every ``e_i = 1`` this is exactly the nominal allocation, to t
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,6 +51,7 @@ import fcu.floats
 from fcu.floats import clip, floats, py_max, py_min
 from fcu.model import VehicleModel
 from jitsupport.cache import drop_stale_kernels
+from jitsupport.layout import hold
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernels compile in fcu.floats' helpers
 
@@ -183,6 +185,21 @@ class Allocator:
         self._mixer_c = np.ascontiguousarray(self._mixer, dtype=float)
         self._effectiveness = np.ones(4)  # e_i = 1 - gamma_i believed (active FTC)
         self._nominal = True  # every e_i set to 1 by set_effectiveness(None)
+
+    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
+    def kernel_params(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick reads: the allocation's gains and PWM range
+        (``PAR_SIZE``), then the mixer (4 x 4)."""
+        return (self._par, self._mixer_c)
+
+    def kernel_states(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick updates: the believed per-motor effectiveness (4)."""
+        return (self._effectiveness,)
+
+    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
+        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
+        (view,) = views
+        self._effectiveness = hold(view, self._effectiveness)
 
     @property
     def effectiveness(self) -> np.ndarray:

@@ -48,7 +48,7 @@ any other law through its ``step``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numba import njit
@@ -56,6 +56,7 @@ from numba import njit
 from fcu.control.motor_lead import PAR_SIZE as LEAD_PAR_SIZE
 from fcu.control.motor_lead import MotorLead
 from fcu.model import VehicleModel
+from jitsupport.layout import hold
 
 
 def wrap_angle(angle_rad: np.ndarray | float) -> np.ndarray:
@@ -139,6 +140,23 @@ class LeadFilteredLaw:
         self._lead_state = self.lead.state if self.lead is not None else np.zeros(3)
         self._par = np.zeros(0)
         self._state = np.zeros(0)
+
+    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
+    def kernel_params(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick reads: the law's gains, then the motor lead's coefficients."""
+        return (self._par, self._lead_par)
+
+    def kernel_states(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick updates: the law's integrators (may be empty), then the
+        lead's state (3)."""
+        return (self._state, self._lead_state)
+
+    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
+        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
+        self._state, self._lead_state = (hold(v, s) for v, s in zip(
+            views, self.kernel_states(), strict=True))
+        if self.lead is not None:  # the lead's own step works on the same state
+            self.lead.state = self._lead_state
 
     def reset(self) -> None:
         """Zero the law's integrators and the lead filter."""

@@ -18,6 +18,7 @@ from fcu.control.attitude import check_period
 from fcu.floats import floats, wrap_pi
 from flightdata.design_cache import cached_design
 from jitsupport.cache import drop_stale_kernels
+from jitsupport.layout import hold
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernel compiles in fcu.floats' wrap_pi
 
@@ -136,6 +137,20 @@ class AttitudeReferenceFilter:
         self._par = np.array([self._a[0, 0], self._a[0, 1], self._a[1, 0], self._a[1, 1],
                               self._b[0], self._b[1], wf, zf])
         self._state = np.zeros(STATE_SIZE)  # not started: starts on the next input
+
+    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
+    def kernel_params(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick reads: the filter's coefficients (``PAR_SIZE``)."""
+        return (self._par,)
+
+    def kernel_states(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick updates: the filter state (``STATE_SIZE``)."""
+        return (self._state,)
+
+    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
+        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
+        (view,) = views
+        self._state = hold(view, self._state)
 
     def reset(self, euler_rad: np.ndarray | None = None) -> None:
         """Forget the state; start at rest on ``euler_rad`` (else on the next input)."""

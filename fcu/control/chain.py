@@ -28,6 +28,8 @@ Parts other than the registered ones (a law, observer or allocator added through
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 from numba import njit
@@ -236,17 +238,34 @@ def _dob_kind(dob: DisturbanceObserver) -> int:
     return DOB_OTHER
 
 
+class CompiledPart(Protocol):
+    """A part the chain steps inside its compiled call: the arrays its kernel reads and
+    updates, and where it keeps its state."""
+
+    def kernel_params(self) -> tuple[np.ndarray, ...]:
+        """The arrays the kernel reads (copied into the chain's workspace)."""
+        ...
+
+    def kernel_states(self) -> tuple[np.ndarray, ...]:
+        """The 1-D arrays the kernel updates."""
+        ...
+
+    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
+        """Keep the states in ``views`` (views of the workspace, same sizes) from now on, so
+        that the part's own ``step`` and ``reset`` and the compiled call share them."""
+        ...
+
+
 class _Workspace:
-    """Builds a chain's workspace: the parts' parameters copied in, their states adopted
-    (the part's array replaced by a view of the workspace holding the same values, so the
-    part's own ``step`` and ``reset`` go on reading and writing it)."""
+    """Builds a chain's workspace: the parts' parameters copied in, their states appended
+    and, once built, handed back to each part as views (:meth:`CompiledPart.hold_states_in`)."""
 
     def __init__(self) -> None:
         self.blocks: list[np.ndarray] = []
-        self.adopted: list[tuple[object, str, int]] = []
+        self.holders: list[tuple[CompiledPart, list[tuple[int, int]]]] = []
         self.size = 0
 
-    def put(self, values: np.ndarray) -> int:
+    def _put(self, values: np.ndarray) -> int:
         """Append a copy of ``values`` (flattened, row-major); returns its offset."""
         start = self.size
         flat = np.ascontiguousarray(values, dtype=float).reshape(-1)
@@ -254,16 +273,21 @@ class _Workspace:
         self.size += flat.size
         return start
 
-    def adopt(self, owner: object, name: str) -> int:
-        """Append ``owner.name`` (a 1-D state array) and adopt it when :meth:`build` runs."""
-        start = self.put(getattr(owner, name))
-        self.adopted.append((owner, name, start))
-        return start
+    def params(self, part: CompiledPart) -> list[int]:
+        """Append ``part``'s kernel parameters; returns their offsets."""
+        return [self._put(values) for values in part.kernel_params()]
+
+    def states(self, part: CompiledPart) -> list[int]:
+        """Append ``part``'s kernel states, which it keeps in the workspace once built;
+        returns their offsets."""
+        spans = [(self._put(state), state.size) for state in part.kernel_states()]
+        self.holders.append((part, spans))
+        return [start for start, _ in spans]
 
     def build(self) -> np.ndarray:
         ws = np.concatenate(self.blocks) if self.blocks else np.zeros(0)
-        for owner, name, start in self.adopted:
-            setattr(owner, name, ws[start:start + getattr(owner, name).size])
+        for part, spans in self.holders:
+            part.hold_states_in([ws[start:start + size] for start, size in spans])
         return ws
 
 
@@ -318,35 +342,24 @@ class ControlChain:
         assert isinstance(law, (AttitudeLQR, AttitudePD)) and isinstance(allocator, Allocator)
         w, idx = _Workspace(), self._idx
         idx[I_LAW_KIND], idx[I_DOB_KIND] = law_kind, dob_kind
-        idx[I_POS_PAR] = w.put(position._par)
-        idx[I_POS_INTEGRAL] = w.adopt(position, "_integral")
-        idx[I_REF_PAR] = w.put(reference_filter._par)
-        idx[I_REF_STATE] = w.adopt(reference_filter, "_state")
-        idx[I_LAW_PAR] = w.put(law._par)
-        idx[I_LAW_PAR_END] = w.size
-        idx[I_LAW_STATE] = w.adopt(law, "_state")
-        idx[I_LAW_STATE_END] = w.size
-        idx[I_LEAD_PAR] = w.put(law._lead_par)
-        if law.lead is not None:  # the lead's state is the law's lead state
-            idx[I_LEAD_STATE] = w.adopt(law.lead, "state")
-            w.adopted.append((law, "_lead_state", int(idx[I_LEAD_STATE])))
-        else:
-            idx[I_LEAD_STATE] = w.adopt(law, "_lead_state")
-        idx[I_ALLOC_PAR] = w.put(allocator._par)
-        idx[I_EFFECTIVENESS] = w.adopt(allocator, "_effectiveness")
-        idx[I_MIXER] = w.put(allocator._mixer_c)
+        idx[I_POS_PAR], = w.params(position)
+        idx[I_POS_INTEGRAL], = w.states(position)
+        idx[I_REF_PAR], = w.params(reference_filter)
+        idx[I_REF_STATE], = w.states(reference_filter)
+        idx[I_LAW_PAR], idx[I_LEAD_PAR] = w.params(law)
+        idx[I_LAW_PAR_END] = idx[I_LAW_PAR] + law.kernel_params()[0].size
+        idx[I_LAW_STATE], idx[I_LEAD_STATE] = w.states(law)
+        idx[I_LAW_STATE_END] = idx[I_LAW_STATE] + law.kernel_states()[0].size
+        idx[I_ALLOC_PAR], idx[I_MIXER] = w.params(allocator)
+        idx[I_EFFECTIVENESS], = w.states(allocator)
         if isinstance(dob, _DiscreteDob):
-            idx[I_N_XM], idx[I_N_XT] = dob._xm.size, dob._xt.size
-            for i, matrix in zip((I_AM, I_BM, I_AT, I_BT, I_CM, I_DM, I_CT),
-                                 (dob._k_am, dob._k_bm, dob._k_at, dob._k_bt, dob._k_cm,
-                                  dob._k_dm, dob._k_ct), strict=True):
-                idx[i] = w.put(matrix)
-            idx[I_XM] = w.adopt(dob, "_xm")
-            idx[I_XT] = w.adopt(dob, "_xt")
-            idx[I_PREV_MEAS] = w.adopt(dob, "_prev_meas")
+            idx[[I_AM, I_BM, I_AT, I_BT, I_CM, I_DM, I_CT]] = w.params(dob)
+            idx[I_XM], idx[I_XT], idx[I_PREV_MEAS] = w.states(dob)
+            xm, xt, _ = dob.kernel_states()
+            idx[I_N_XM], idx[I_N_XT] = xm.size, xt.size
         if crash_check is not None:
-            idx[I_CRASH_PAR] = w.put(crash_check._par)
-            idx[I_CRASH_STATE] = w.adopt(crash_check, "_state")
+            idx[I_CRASH_PAR], = w.params(crash_check)
+            idx[I_CRASH_STATE], = w.states(crash_check)
         self._ws = w.build()
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,

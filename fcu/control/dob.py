@@ -54,6 +54,7 @@ with the real lag is checked in tests/fcu/control/test_disturbance_observer.py f
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -64,6 +65,7 @@ from fcu.floats import floats, wrap_pi
 from fcu.model import VehicleModel
 from flightdata.design_cache import cached_design
 from jitsupport.cache import drop_stale_kernels
+from jitsupport.layout import hold
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # dob_tick compiles in fcu.floats' wrap_pi
 
@@ -255,6 +257,23 @@ class _DiscreteDob:
         import control
 
         return control.ss(self._at, self._bt, self._ct, self._d_torque, self.dt_s)
+
+    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
+    def kernel_params(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick reads: the measurement and torque filters' matrices
+        A_m, B_m, A_t, B_t, C_m, D_m, C_t."""
+        return (self._k_am, self._k_bm, self._k_at, self._k_bt, self._k_cm, self._k_dm,
+                self._k_ct)
+
+    def kernel_states(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick updates: the two filters' states and the previous
+        measurement (3)."""
+        return (self._xm, self._xt, self._prev_meas)
+
+    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
+        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
+        self._xm, self._xt, self._prev_meas = (hold(v, s) for v, s in zip(
+            views, self.kernel_states(), strict=True))
 
     def reset(self) -> None:
         """Forget the filter state; the next step re-initialises at rest on its measurement."""

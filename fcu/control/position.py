@@ -51,6 +51,7 @@ limit (conditional integration).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,6 +61,7 @@ import fcu.floats
 from fcu.floats import clip, floats, py_max, py_min
 from fcu.model import VehicleModel
 from jitsupport.cache import drop_stale_kernels
+from jitsupport.layout import hold
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernels compile in fcu.floats' helpers
 
@@ -272,6 +274,20 @@ class PositionController:
     def reset(self) -> None:
         """Zero the integrator."""
         self._integral[:] = 0.0
+
+    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
+    def kernel_params(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick reads: the gains and limits (``PAR_SIZE``)."""
+        return (self._par,)
+
+    def kernel_states(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick updates: the position integral (3)."""
+        return (self._integral,)
+
+    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
+        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
+        (view,) = views
+        self._integral = hold(view, self._integral)
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, ref_pos: np.ndarray,
              ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float) -> PositionCommand:

@@ -23,7 +23,7 @@ of ``n`` samples. The accelerometer's x and y axes (drag only) are not used.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -49,7 +49,7 @@ from fcu.estimation.estimator import (
     TickEstimator,
 )
 from fcu.estimation.kalman_update import UPDATE_SCRATCH, kalman_update_into
-from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray
+from fcu.estimation.state import STATE_DIM, YAW_INDEX, FloatArray, GroupedSamples
 from fcu.floats import wrap_pi
 from fcu.model import VehicleModel
 from jitsupport import views as kernel_views
@@ -440,6 +440,23 @@ class ExtendedKalmanEstimator(TickEstimator):
             cs.layout, u, meas, excluded, self._dt_to(time_s), time_s, reject,
             self._on_ground)
         self._kept(time_s, cs, out, on_ground, last)
+
+    def pair_inputs(self, time_s: float, grouped: GroupedSamples, excluded: Collection[str]
+                    ) -> tuple[FloatArray, np.ndarray, int, float, bool]:
+        """The EKF's part of :func:`fcu.estimation.pair.pair_tick`'s arguments for a tick at
+        ``time_s`` (s): its buffer, the channels' integer tables for ``grouped``, the
+        ``excluded`` sensors as channel bits, the prediction step (s; ValueError when
+        ``time_s`` is earlier than the latest tick) and the ground flag."""
+        cs = self._set
+        return (self._buf, cs.kernel_ints(grouped),
+                cs.exclusion_bits(excluded) if excluded else 0, self._dt_to(time_s),
+                self._on_ground)
+
+    def keep_pair_tick(self, time_s: float, out: FloatArray, on_ground: bool,
+                       last: int) -> None:
+        """What the pair's compiled tick at ``time_s`` returned for the EKF and wrote into
+        ``out`` (its estimate, then its screening), kept as :meth:`step_grouped` keeps it."""
+        self._kept(time_s, self._set, out, on_ground, last)
 
     def _dt_to(self, time_s: float) -> float:
         """Time from the latest tick to ``time_s``, s (ValueError when ``time_s`` is

@@ -279,6 +279,11 @@ class TickEstimator:
             self._set = self._sets[self._height_source]
 
     @property
+    def channel_set(self) -> ChannelSet:
+        """The channels of the current height source, stacked (what a tick updates)."""
+        return self._set
+
+    @property
     def _channels(self) -> tuple[Channel, ...]:
         """The channels updated now, in update order."""
         return self._set.channels

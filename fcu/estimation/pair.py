@@ -160,17 +160,11 @@ def pair_arguments(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, tim
     filters are checked (ValueError) before either moves. The fifth is the tick's output
     array, fresh."""
     u = pwm_array(pwm_applied)
-    n_steps = tskf._steps_to(time_s)
-    dt = ekf._dt_to(time_s)
-    e_cs, t_cs = ekf._set, tskf._set
+    t_inputs = tskf.pair_inputs(time_s, grouped, excluded)  # checks the time first
+    e_inputs = ekf.pair_inputs(time_s, grouped, excluded)
     # the estimates' own array (each a part), the screenings' and the new gamma_hat's
-    out = np.empty(e_cs.tick_size + t_cs.tick_size + N_MOTORS)
-    t_excluded = t_cs.exclusion_bits(excluded) if excluded else 0
-    e_excluded = e_cs.exclusion_bits(excluded) if excluded else 0
-    return (grouped.flat, u, time_s, bool(reject), out,
-            tskf._buf, t_cs.kernel_ints(grouped), t_excluded, tskf.gamma_raw, n_steps,
-            tskf.on_ground, tskf._accel_power,
-            ekf._buf, e_cs.kernel_ints(grouped), e_excluded, dt, ekf._on_ground)
+    out = np.empty(ekf.channel_set.tick_size + tskf.channel_set.tick_size + N_MOTORS)
+    return (grouped.flat, u, time_s, bool(reject), out, *t_inputs, *e_inputs)
 
 
 def pair_kept(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: float,
@@ -178,10 +172,9 @@ def pair_kept(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter, time_s: 
     """What :func:`pair_tick` at ``time_s`` (s) returned (``result``) and wrote into ``out``,
     kept by each filter; returns the EKF's estimate."""
     t_on_ground, accel_power, m, e_on_ground, last = result
-    e_cs = ekf._set
-    e_size = e_cs.tick_size
-    tskf._kept(time_s, tskf._set, out[e_size:], out[-N_MOTORS:], t_on_ground, accel_power, m)
-    ekf._kept(time_s, e_cs, out, e_on_ground, last)
+    e_size = ekf.channel_set.tick_size
+    tskf.keep_pair_tick(time_s, out[e_size:], out[-N_MOTORS:], t_on_ground, accel_power, m)
+    ekf.keep_pair_tick(time_s, out, e_on_ground, last)
     return ekf.estimate
 
 

@@ -31,7 +31,7 @@ algebraically the Kalman filter on the 20-state model [x; gamma] (Hsieh and Chen
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -47,7 +47,7 @@ from fcu.estimation.estimator import (
     TickEstimator,
 )
 from fcu.estimation.small_matrix import nonzero_columns
-from fcu.estimation.state import FloatArray
+from fcu.estimation.state import FloatArray, GroupedSamples
 from fcu.estimation.tskf_algebra import (
     tskf_output,
 )
@@ -279,6 +279,26 @@ class TwoStageKalmanFilter(TickEstimator):
             excluded, self._steps_to(time_s), time_s, reject, self.on_ground,
             self._accel_power)
         self._kept(time_s, cs, out, gamma, on_ground, accel_power, m)
+
+    def pair_inputs(self, time_s: float, grouped: GroupedSamples, excluded: Collection[str]
+                    ) -> tuple[FloatArray, np.ndarray, int, FloatArray, int, bool, float]:
+        """The TSKF's part of :func:`fcu.estimation.pair.pair_tick`'s arguments for a tick
+        at ``time_s`` (s): its buffer, the channels' integer tables for ``grouped``, the
+        ``excluded`` sensors as channel bits, gamma_hat, the time updates to ``time_s``
+        (ValueError off the filter's period), the ground flag and the accelerometer's
+        innovation power."""
+        cs = self._set
+        n_steps = self._steps_to(time_s)
+        return (self._buf, cs.kernel_ints(grouped),
+                cs.exclusion_bits(excluded) if excluded else 0, self.gamma_raw, n_steps,
+                self.on_ground, self._accel_power)
+
+    def keep_pair_tick(self, time_s: float, out: FloatArray, gamma: FloatArray,
+                       on_ground: bool, accel_power: float, m: int) -> None:
+        """What the pair's compiled tick at ``time_s`` returned for the TSKF and wrote
+        (``gamma``, fresh; into ``out`` its estimate, then its screening), kept as
+        :meth:`step_grouped` keeps it."""
+        self._kept(time_s, self._set, out, gamma, on_ground, accel_power, m)
 
     def _steps_to(self, time_s: float) -> int:
         """Time updates from the latest tick to ``time_s`` (s): a whole number of ``dt_s``

@@ -29,6 +29,7 @@ collective command, 0..1).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +37,7 @@ from numba import njit
 
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
+from jitsupport.layout import hold
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -158,6 +160,20 @@ class CrashCheck:
                               cfg.thrust_loss_time_s, self._thrust_loss_error_rad])
         self._state = np.empty(STATE_SIZE)
         self.reset()
+
+    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
+    def kernel_params(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick reads: the checks' thresholds (``PAR_SIZE``)."""
+        return (self._par,)
+
+    def kernel_states(self) -> tuple[np.ndarray, ...]:
+        """What the compiled tick updates: the checks' timers (``STATE_SIZE``)."""
+        return (self._state,)
+
+    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
+        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
+        (view,) = views
+        self._state = hold(view, self._state)
 
     def reset(self) -> None:
         """A new flight: timers and the once-per-flight warning restart."""

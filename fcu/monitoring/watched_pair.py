@@ -77,6 +77,7 @@ def step_pair_watched(ekf: ExtendedKalmanEstimator, tskf: TwoStageKalmanFilter,
     time_s = float(time_s)
     arguments = pair_arguments(ekf, tskf, time_s, pwm_applied, grouped, excluded, reject)
     result, n_events, rejected = _pair_watch_tick.call(
-        *(*arguments, ekf._set.tick_size, *health.kernel_arguments(grouped, ekf._set, noise)))
+        *(*arguments, ekf.channel_set.tick_size,
+          *health.kernel_arguments(grouped, ekf.channel_set, noise)))
     estimate = pair_kept(ekf, tskf, time_s, arguments[4], result)
     return estimate, health.watched(time_s, n_events, rejected)
