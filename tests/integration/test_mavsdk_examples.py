@@ -15,69 +15,29 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import importlib
 import json
 import math
 import socket
 from collections.abc import AsyncIterator, Awaitable, Callable
+from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
 import pytest
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
-from mavsdk.asyncio.plugins.action import ActionAsync, OrbitYawBehavior
-from mavsdk.asyncio.plugins.calibration import (
-    CalibrationAsync,
-    CalibrationError,
-    CalibrationResult,
-)
-from mavsdk.asyncio.plugins.failure import FailureAsync, FailureType, FailureUnit
-from mavsdk.asyncio.plugins.follow_me import (
-    Config,
-    FollowMeAsync,
-    FollowMeError,
-    FollowMeResult,
-    TargetLocation,
-)
-from mavsdk.asyncio.plugins.geofence import (
-    Circle,
-    FenceType,
-    GeofenceAsync,
-    GeofenceData,
-    GeofenceError,
-    GeofenceResult,
-    Point,
-    Polygon,
-)
+from mavsdk.asyncio.plugins.action import ActionAsync
+from mavsdk.asyncio.plugins.calibration import CalibrationAsync
+from mavsdk.asyncio.plugins.failure import FailureAsync
+from mavsdk.asyncio.plugins.follow_me import FollowMeAsync
+from mavsdk.asyncio.plugins.geofence import GeofenceAsync
 from mavsdk.asyncio.plugins.manual_control import ManualControlAsync
-from mavsdk.asyncio.plugins.mission import (
-    MissionAsync,
-    MissionError,
-    MissionItem,
-    MissionPlan,
-)
-from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem
+from mavsdk.asyncio.plugins.mission import MissionAsync
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
 from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 from mavsdk_grpc import System
-from mavsdk_grpc import mission as grpc_mission
-from mavsdk_grpc import mission_raw as grpc_mission_raw
-from mavsdk_grpc.action import OrbitYawBehavior as GrpcOrbitYawBehavior
-from mavsdk_grpc.calibration import CalibrationError as GrpcCalibrationError
-from mavsdk_grpc.calibration import CalibrationResult as GrpcCalibrationResult
-from mavsdk_grpc.failure import FailureType as GrpcFailureType
-from mavsdk_grpc.failure import FailureUnit as GrpcFailureUnit
-from mavsdk_grpc.follow_me import Config as GrpcConfig
-from mavsdk_grpc.follow_me import FollowMeError as GrpcFollowMeError
-from mavsdk_grpc.follow_me import FollowMeResult as GrpcFollowMeResult
-from mavsdk_grpc.follow_me import TargetLocation as GrpcTargetLocation
-from mavsdk_grpc.geofence import Circle as GrpcCircle
-from mavsdk_grpc.geofence import FenceType as GrpcFenceType
-from mavsdk_grpc.geofence import GeofenceData as GrpcGeofenceData
-from mavsdk_grpc.geofence import GeofenceError as GrpcGeofenceError
-from mavsdk_grpc.geofence import GeofenceResult as GrpcGeofenceResult
-from mavsdk_grpc.geofence import Point as GrpcPoint
-from mavsdk_grpc.geofence import Polygon as GrpcPolygon
 from mavsdk_grpc.server_utility import StatusTextType
 from mavsdk_grpc.telemetry import LandedState as GrpcLandedState
 from mavsdk_grpc.tune import SongElement, TuneDescription
@@ -103,11 +63,13 @@ def start_example_vehicle(start_vehicle: Callable[..., Any], gcs: Gcs,
 
 @contextlib.asynccontextmanager
 async def grpc_drone(api_port: int) -> AsyncIterator[Any]:
-    """``System().connect(...)`` as the examples do, on free ports; the server is stopped
-    at the end (mavsdk_grpc only stops it when the object is collected)."""
+    """``System().connect(...)`` as the examples do, on free ports, then their wait for the
+    connection; the server is stopped at the end (mavsdk_grpc only stops it when the object
+    is collected)."""
     drone = System(port=free_port(socket.SOCK_STREAM))
     try:
         await bounded(drone.connect(system_address=f"udpin://127.0.0.1:{api_port}"))
+        await grpc_connected(drone)
         yield drone
     finally:
         server = drone._server_process
@@ -119,18 +81,6 @@ async def grpc_drone(api_port: int) -> AsyncIterator[Any]:
 async def grpc_connected(drone: Any) -> None:
     """The examples' first loop: wait for ``connection_state().is_connected``."""
     await first(drone.core.connection_state(), lambda state: state.is_connected)
-
-
-def run_grpc(start_vehicle: Callable[..., Any], gcs: Gcs,
-             steps: Callable[[Any], Awaitable[None]], speedup: int = SPEEDUP) -> None:
-    api_port = start_example_vehicle(start_vehicle, gcs, speedup)
-
-    async def scenario() -> None:
-        async with grpc_drone(api_port) as drone:
-            await grpc_connected(drone)
-            await steps(drone)
-
-    asyncio.run(asyncio.wait_for(scenario(), FLIGHT_S))
 
 
 class NativeDrone:
@@ -170,15 +120,72 @@ async def native_drone(api_port: int) -> AsyncIterator[NativeDrone]:
         mavsdk.destroy()
 
 
-def run_native(start_vehicle: Callable[..., Any], gcs: Gcs,
-               steps: Callable[[Any], Awaitable[None]], speedup: int = SPEEDUP) -> None:
+def run_example(drone_on: Callable[[int], contextlib.AbstractAsyncContextManager[Any]],
+                start_vehicle: Callable[..., Any], gcs: Gcs,
+                steps: Callable[[Any], Awaitable[None]], speedup: int = SPEEDUP) -> None:
+    """An example's vehicle, then ``steps`` on the drone ``drone_on`` connects to it."""
     api_port = start_example_vehicle(start_vehicle, gcs, speedup)
 
     async def scenario() -> None:
-        async with native_drone(api_port) as drone:
+        async with drone_on(api_port) as drone:
             await steps(drone)
 
     asyncio.run(asyncio.wait_for(scenario(), FLIGHT_S))
+
+
+def run_grpc(start_vehicle: Callable[..., Any], gcs: Gcs,
+             steps: Callable[[Any], Awaitable[None]], speedup: int = SPEEDUP) -> None:
+    run_example(grpc_drone, start_vehicle, gcs, steps, speedup)
+
+
+def run_native(start_vehicle: Callable[..., Any], gcs: Gcs,
+               steps: Callable[[Any], Awaitable[None]], speedup: int = SPEEDUP) -> None:
+    run_example(native_drone, start_vehicle, gcs, steps, speedup)
+
+
+@dataclass(frozen=True)
+class Flavour:
+    """What differs between the two packages in the examples' calls: the runner, where the
+    plugins' classes are, the stream names (``health()`` / ``subscribe_health()``), ``home``
+    (a stream / an awaitable) and how a refusal's result is read."""
+
+    name: str  # the test id
+    package: str  # the plugins' modules: ``<package>.<plugin>``
+    native: bool
+
+    def run(self, start_vehicle: Callable[..., Any], gcs: Gcs,
+            steps: Callable[[Any], Awaitable[None]]) -> None:
+        (run_native if self.native else run_grpc)(start_vehicle, gcs, steps)
+
+    def plugin(self, name: str) -> ModuleType:
+        """Plugin ``name``'s module: its classes, errors and results."""
+        return importlib.import_module(f"{self.package}.{name}")
+
+    def stream(self, plugin: Any, name: str) -> AsyncIterator[Any]:
+        return getattr(plugin, f"subscribe_{name}" if self.native else name)()
+
+    async def healthy(self, drone: Any) -> None:
+        """The examples' wait for ``is_global_position_ok`` and ``is_home_position_ok``."""
+        await first(self.stream(drone.telemetry, "health"),
+                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+
+    async def home(self, drone: Any) -> Any:
+        if self.native:
+            return await bounded(drone.telemetry.home())
+        return await first(drone.telemetry.home(), lambda h: True)
+
+    def results(self, result: type) -> Any:
+        """The enum of a plugin's results (``MissionResult`` -> ``DENIED``, ...)."""
+        return result if self.native else result.Result  # type: ignore[attr-defined]
+
+    def result_of(self, error: BaseException) -> Any:
+        """The result a plugin's error was raised with."""
+        return error.result if self.native else error._result.result  # type: ignore[attr-defined]
+
+
+GRPC = Flavour("grpc", "mavsdk_grpc", native=False)
+NATIVE = Flavour("native", "mavsdk.asyncio.plugins", native=True)
+BOTH = pytest.mark.parametrize("api", [GRPC, NATIVE], ids=lambda flavour: flavour.name)
 
 
 def horizontal_m(lat_deg: float, lon_deg: float, to_lat: float, to_lon: float) -> float:
@@ -202,35 +209,20 @@ def on_the_way(pos: Any) -> bool:
         pos.latitude_deg, pos.longitude_deg, GOTO_LAT, GOTO_LON) < GOTO_START_M - 2.0)
 
 
-def test_goto_example_grpc(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_goto_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        home = await first(drone.telemetry.home(), lambda h: True)
+        await api.healthy(drone)
+        home = await api.home(drone)
         await bounded(drone.action.arm())
         await bounded(drone.action.takeoff())
-        await first(drone.telemetry.in_air(), bool)  # (the example sleeps 1 s)
+        await first(api.stream(drone.telemetry, "in_air"), bool)  # (the example sleeps 1 s)
         flying_alt = home.absolute_altitude_m + 20.0
         await bounded(drone.action.goto_location(GOTO_LAT, GOTO_LON, flying_alt, 0))
         # (the example then waits forever): on its way up and west
-        await first(drone.telemetry.position(), on_the_way, FLIGHT_S)
+        await first(api.stream(drone.telemetry, "position"), on_the_way, FLIGHT_S)
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_goto_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        await first(drone.telemetry.subscribe_health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        home = await bounded(drone.telemetry.home())
-        await bounded(drone.action.arm())
-        await bounded(drone.action.takeoff())
-        await first(drone.telemetry.subscribe_in_air(), bool)
-        flying_alt = home.absolute_altitude_m + 20.0
-        await bounded(drone.action.goto_location(GOTO_LAT, GOTO_LON, flying_alt, 0))
-        await first(drone.telemetry.subscribe_position(), on_the_way, FLIGHT_S)
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ mission_raw.py
@@ -252,23 +244,16 @@ def check_raw_download(items: list[Any]) -> None:
     assert items[1].z == pytest.approx(30.0)
 
 
-def test_mission_raw_example_grpc(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_mission_raw_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
+    item = api.plugin("mission_raw").MissionItem
+
     async def steps(drone: Any) -> None:
-        items = [grpc_mission_raw.MissionItem(*raw_fields(seq, *point))
-                 for seq, point in enumerate(RAW_POINTS)]
+        items = [item(*raw_fields(seq, *point)) for seq, point in enumerate(RAW_POINTS)]
         await bounded(drone.mission_raw.upload_mission(items))
         check_raw_download(list(await bounded(drone.mission_raw.download_mission())))
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_mission_raw_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        items = [RawItem(*raw_fields(seq, *point)) for seq, point in enumerate(RAW_POINTS)]
-        await bounded(drone.mission_raw.upload_mission(items))
-        check_raw_download(list(await bounded(drone.mission_raw.download_mission())))
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ mission.py
@@ -287,97 +272,57 @@ def mission_args(lat: float, lon: float, none_camera: Any, none_vehicle: Any) ->
 TAKEOFF_REFUSAL = "must be NAV_TAKEOFF"  # ArduCopter: "Auto: Missing Takeoff Cmd"
 
 
-def test_mission_example_grpc(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_mission_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
     """Upload (with the RTL item MAVSDK adds, param1 NaN) and arming pass; starting is
     refused as ArduCopter refuses it: MAVSDK's Mission plugin puts no NAV_TAKEOFF first,
     and ArduCopter does not take off into a waypoint from the ground."""
-    item = grpc_mission.MissionItem
+    mission = api.plugin("mission")
+    item = mission.MissionItem
 
     async def steps(drone: Any) -> None:
         items = [item(*mission_args(lat, lon, item.CameraAction.NONE, item.VehicleAction.NONE))
                  for lat, lon in MISSION_POINTS]
         await bounded(drone.mission.set_return_to_launch_after_mission(True))
         since = gcs.mark()
-        await bounded(drone.mission.upload_mission(grpc_mission.MissionPlan(items)))
+        await bounded(drone.mission.upload_mission(mission.MissionPlan(items)))
         gcs.wait_text("mission of", since)
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await api.healthy(drone)
         await bounded(drone.action.arm())
         since = gcs.mark()
-        with pytest.raises(grpc_mission.MissionError) as refused:
+        with pytest.raises(mission.MissionError) as refused:
             await bounded(drone.mission.start_mission())
-        assert refused.value._result.result == grpc_mission.MissionResult.Result.DENIED
+        assert api.result_of(refused.value) == api.results(mission.MissionResult).DENIED
         gcs.wait_text(TAKEOFF_REFUSAL, since)
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_mission_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        items = [MissionItem(*mission_args(lat, lon, MissionItem.CameraAction.NONE,
-                                           MissionItem.VehicleAction.NONE))
-                 for lat, lon in MISSION_POINTS]
-        await bounded(drone.mission.set_return_to_launch_after_mission(True))
-        since = gcs.mark()
-        await bounded(drone.mission.upload_mission(MissionPlan(items)))
-        gcs.wait_text("mission of", since)
-        await first(drone.telemetry.subscribe_health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        await bounded(drone.action.arm())
-        since = gcs.mark()
-        with pytest.raises(MissionError):
-            await bounded(drone.mission.start_mission())
-        gcs.wait_text(TAKEOFF_REFUSAL, since)
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ failure_injection.py
-def test_failure_injection_example_grpc(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_failure_injection_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
+    failure = api.plugin("failure")
+
     async def steps(drone: Any) -> None:
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await api.healthy(drone)
         await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 1))
         await bounded(drone.action.arm())
         await bounded(drone.action.takeoff())
-        await first(drone.telemetry.in_air(), bool)  # (the example sleeps 5 s)
-        position = await first(drone.telemetry.position(),
+        await first(api.stream(drone.telemetry, "in_air"), bool)  # (the example sleeps 5 s)
+        position = await first(api.stream(drone.telemetry, "position"),
                                lambda p: p.latitude_deg and p.longitude_deg)
         flying_alt = position.absolute_altitude_m + 20.0
         await bounded(drone.action.goto_location(position.latitude_deg,
                                                  position.longitude_deg, flying_alt, 0))
-        await first(drone.telemetry.position(),  # (the example sleeps 5 s)
+        await first(api.stream(drone.telemetry, "position"),  # (the example sleeps 5 s)
                     lambda p: p.relative_altitude_m > position.relative_altitude_m + 1.0)
         since = gcs.mark()
-        await bounded(drone.failure.inject(GrpcFailureUnit.SENSOR_GPS, GrpcFailureType.OFF,
-                                           instance=0))
+        await bounded(drone.failure.inject(failure.FailureUnit.SENSOR_GPS,
+                                           failure.FailureType.OFF, instance=0))
         gcs.wait_text("injected", since)  # the vehicle says what it injected
         await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 0))
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_failure_injection_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        await first(drone.telemetry.subscribe_health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 1))
-        await bounded(drone.action.arm())
-        await bounded(drone.action.takeoff())
-        await first(drone.telemetry.subscribe_in_air(), bool)
-        position = await first(drone.telemetry.subscribe_position(),
-                               lambda p: p.latitude_deg and p.longitude_deg)
-        flying_alt = position.absolute_altitude_m + 20.0
-        await bounded(drone.action.goto_location(position.latitude_deg,
-                                                 position.longitude_deg, flying_alt, 0))
-        await first(drone.telemetry.subscribe_position(),
-                    lambda p: p.relative_altitude_m > position.relative_altitude_m + 1.0)
-        since = gcs.mark()
-        await bounded(drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0))
-        gcs.wait_text("injected", since)
-        await bounded(drone.param.set_param_int("SYS_FAILURE_EN", 0))
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ highres_imu.py
@@ -388,22 +333,14 @@ def check_imu(imu: Any) -> None:
     assert imu.timestamp_us > 0 and math.isfinite(imu.temperature_degc)
 
 
-def test_highres_imu_example_grpc(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_highres_imu_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
         telemetry = drone.telemetry
         await bounded(telemetry.set_rate_imu(200.0))  # (one per autopilot tick at most)
-        check_imu(await first(telemetry.imu(), lambda imu: True))
+        check_imu(await first(api.stream(telemetry, "imu"), lambda imu: True))
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_highres_imu_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        telemetry = drone.telemetry
-        await bounded(telemetry.set_rate_imu(200.0))
-        check_imu(await first(telemetry.subscribe_imu(), lambda imu: True))
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ calibration.py
@@ -420,27 +357,21 @@ def test_highres_imu_example_native(start_vehicle, gcs: Gcs) -> None:
 # this one stays ArduPilot and the example cannot pass. The vehicle answers
 # PREFLIGHT_CALIBRATION itself (tests/fcu/mavlink/protocols/test_calibration.py, and below
 # through pymavlink), so QGroundControl's calibration screens can be exercised.
-def test_calibration_example_grpc_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_calibration_example_is_refused_by_mavsdk(api: Flavour, start_vehicle, gcs: Gcs) -> None:
+    calibration = api.plugin("calibration")
+
     async def steps(drone: Any) -> None:
-        with pytest.raises(GrpcCalibrationError) as refused:
+        with pytest.raises(calibration.CalibrationError) as refused:
             async for _ in drone.calibration.calibrate_gyro():
                 pass
-        assert refused.value._result.result == GrpcCalibrationResult.Result.UNSUPPORTED
+        unsupported = api.results(calibration.CalibrationResult).UNSUPPORTED
+        assert api.result_of(refused.value) == unsupported
         ack = gcs.command(M.MAV_CMD_PREFLIGHT_CALIBRATION, 1, 0, 0, 0, 0, 0, 0)
         assert ack.result == M.MAV_RESULT_ACCEPTED
         gcs.wait_text("[cal] calibration done: gyro", 0)
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_calibration_example_native_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        with pytest.raises(CalibrationError) as refused:
-            async for _ in drone.calibration.calibrate_gyro():
-                pass
-        assert refused.value.result == CalibrationResult.UNSUPPORTED
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ do_orbit.py
@@ -448,47 +379,29 @@ ORBIT_LAT, ORBIT_LON = 47.398036222362471, 8.5450146439425509  # the example's c
 CIRCLE = 7  # ArduCopter's CIRCLE mode, which flies DO_ORBIT
 
 
-async def orbit_then_rtl(drone: Any, gcs: Gcs, in_air: AsyncIterator[bool],
-                         orbit_height: float, behaviour: Any) -> None:
-    """The example from the take-off on: orbit 10 m about its centre at 2 m/s, 10 m up
-    (its 60 s pause becomes: until the vehicle circles), then RTL."""
-    await first(in_air, bool)  # (the example sleeps 10 s)
-    since = gcs.mark()
-    await bounded(drone.action.do_orbit(radius_m=10, velocity_ms=2, yaw_behavior=behaviour,
-                                        latitude_deg=ORBIT_LAT, longitude_deg=ORBIT_LON,
-                                        absolute_altitude_m=orbit_height))
-    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == CIRCLE, since=since)
-    gcs.wait_text("circling", since, timeout_s=FLIGHT_S / 2)
-    await bounded(drone.action.return_to_launch())
-    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == 6, since=since)  # RTL
+@BOTH
+def test_do_orbit_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
+    """From the take-off on: orbit 10 m about the example's centre at 2 m/s, 10 m up (its
+    60 s pause becomes: until the vehicle circles), then RTL."""
+    hold_front = api.plugin("action").OrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER
 
-
-def test_do_orbit_example_grpc(start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        position = await first(drone.telemetry.position(), lambda p: True)
+        await api.healthy(drone)
+        position = await first(api.stream(drone.telemetry, "position"), lambda p: True)
         orbit_height = position.absolute_altitude_m + 10
         await bounded(drone.action.arm())
         await bounded(drone.action.takeoff())
-        await orbit_then_rtl(drone, gcs, drone.telemetry.in_air(), orbit_height,
-                             GrpcOrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER)
+        await first(api.stream(drone.telemetry, "in_air"), bool)  # (the example sleeps 10 s)
+        since = gcs.mark()
+        await bounded(drone.action.do_orbit(
+            radius_m=10, velocity_ms=2, yaw_behavior=hold_front, latitude_deg=ORBIT_LAT,
+            longitude_deg=ORBIT_LON, absolute_altitude_m=orbit_height))
+        gcs.wait("HEARTBEAT", lambda m: m.custom_mode == CIRCLE, since=since)
+        gcs.wait_text("circling", since, timeout_s=FLIGHT_S / 2)
+        await bounded(drone.action.return_to_launch())
+        gcs.wait("HEARTBEAT", lambda m: m.custom_mode == 6, since=since)  # RTL
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_do_orbit_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        await first(drone.telemetry.subscribe_health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        position = await first(drone.telemetry.subscribe_position(), lambda p: True)
-        orbit_height = position.absolute_altitude_m + 10
-        await bounded(drone.action.arm())
-        await bounded(drone.action.takeoff())
-        await orbit_then_rtl(drone, gcs, drone.telemetry.subscribe_in_air(), orbit_height,
-                             OrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER)
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ geofence.py
@@ -526,37 +439,27 @@ def check_fence(items: list[Any], points: list[tuple[float, float]]) -> None:
     assert all(m.param1 == 4 for m in items)  # the vertex count
 
 
-def test_geofence_example_grpc(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_geofence_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
+    geofence = api.plugin("geofence")
+    inclusion = geofence.FenceType.INCLUSION
+
     async def steps(drone: Any) -> None:
-        home = await first(drone.telemetry.home(), lambda h: True)
+        home = await first(api.stream(drone.telemetry, "home"), lambda h: True)
         points = fence_points(home.latitude_deg, home.longitude_deg)
-        polygon = GrpcPolygon([GrpcPoint(a, b) for a, b in points],
-                              GrpcFenceType.INCLUSION)
-        circle = GrpcCircle(GrpcPoint(0, 0), 0, GrpcFenceType.INCLUSION)
-        with pytest.raises(GrpcGeofenceError) as refused:
-            await bounded(drone.geofence.upload_geofence(GrpcGeofenceData([polygon], [circle])))
-        assert refused.value._result.result == GrpcGeofenceResult.Result.INVALID_ARGUMENT
-        await bounded(drone.geofence.upload_geofence(GrpcGeofenceData([polygon], [])))
-        check_fence(download_fence(gcs), points)
-
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_geofence_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        home = await first(drone.telemetry.subscribe_home(), lambda h: True)
-        points = fence_points(home.latitude_deg, home.longitude_deg)
-        polygon = Polygon([Point(a, b) for a, b in points], FenceType.INCLUSION)
-        circle = Circle(Point(0, 0), 0, FenceType.INCLUSION)
-        with pytest.raises(GeofenceError) as refused:
-            await bounded(drone.geofence.upload_geofence(GeofenceData([polygon], [circle])))
-        assert refused.value.result == GeofenceResult.INVALID_ARGUMENT
-        await bounded(drone.geofence.upload_geofence(GeofenceData([polygon], [])))
+        polygon = geofence.Polygon([geofence.Point(a, b) for a, b in points], inclusion)
+        circle = geofence.Circle(geofence.Point(0, 0), 0, inclusion)
+        with pytest.raises(geofence.GeofenceError) as refused:
+            await bounded(drone.geofence.upload_geofence(geofence.GeofenceData([polygon],
+                                                                               [circle])))
+        invalid = api.results(geofence.GeofenceResult).INVALID_ARGUMENT
+        assert api.result_of(refused.value) == invalid
+        await bounded(drone.geofence.upload_geofence(geofence.GeofenceData([polygon], [])))
         check_fence(download_fence(gcs), points)
         await bounded(drone.geofence.clear_geofence())
         assert download_fence(gcs) == []
 
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ mission_import.py
@@ -589,7 +492,8 @@ def check_import(mission_items: list[Any], rally_items: list[Any]) -> None:
     assert {m.mission_type for m in rally_items} == {M.MAV_MISSION_TYPE_RALLY}
 
 
-def test_mission_import_example_grpc(start_vehicle, gcs: Gcs, tmp_path: Path) -> None:
+@BOTH
+def test_mission_import_example(api: Flavour, start_vehicle, gcs: Gcs, tmp_path: Path) -> None:
     plan = write_plan(tmp_path / "example-mission.plan")
 
     async def steps(drone: Any) -> None:
@@ -599,19 +503,7 @@ def test_mission_import_example_grpc(start_vehicle, gcs: Gcs, tmp_path: Path) ->
         await bounded(drone.mission_raw.upload_rally_points(out.rally_items))
         assert len(await bounded(drone.mission_raw.download_mission())) == 5
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_mission_import_example_native(start_vehicle, gcs: Gcs, tmp_path: Path) -> None:
-    plan = write_plan(tmp_path / "example-mission.plan")
-
-    async def steps(drone: Any) -> None:
-        out = await bounded(drone.mission_raw.import_qgroundcontrol_mission(str(plan)))
-        check_import(out.mission_items, out.rally_items)
-        await bounded(drone.mission_raw.upload_mission(out.mission_items))
-        await bounded(drone.mission_raw.upload_rally_points(out.rally_items))
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ follow_me_example.py
@@ -642,47 +534,46 @@ def follow_me_config(cls: Any) -> Any:
     10 m/s, angle 0."""
     return cls(8.0, 2.0, 0.02, cls.FollowAltitudeMode.TARGET_GPS, 10, 0)
 
+@BOTH
+def test_follow_me_example_is_refused_by_mavsdk(api: Flavour, start_vehicle, gcs: Gcs) -> None:
+    follow_me = api.plugin("follow_me")
+    results = api.results(follow_me.FollowMeResult)
 
-async def follow_me_after_set_config(drone: Any, gcs: Gcs, position: AsyncIterator[Any],
-                                     target: Any, error: type[Exception],
-                                     result_of: Callable[[Exception], Any],
-                                     not_active: Any) -> None:
-    """The example from its take-off on (after set_config failed)."""
-    assert gcs.param_set("FOLL_ENABLE", 1).param_value == 1  # (not in the example)
-    await bounded(drone.action.takeoff())
-    # (the example sleeps 8 s): up at the take-off altitude
-    await first(position, lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
-    since = gcs.mark()
-    await bounded(drone.follow_me.start())
-    gcs.wait("HEARTBEAT", lambda m: m.custom_mode == FOLLOW, since=since)
-    gcs.wait_text("follow: waiting for the lead's position", since)
-    for latitude, longitude in FAKE_LOCATIONS:
-        target.latitude_deg, target.longitude_deg = latitude, longitude
-        target.absolute_altitude_m = 480.0
-        target.velocity_x_m_s = target.velocity_y_m_s = target.velocity_z_m_s = 0
-        with pytest.raises(error) as refused:
-            await bounded(drone.follow_me.set_target_location(target))
-        assert result_of(refused.value) == not_active
-    # no FOLLOW_TARGET reached the vehicle: it never heard of a lead
-    assert not [t for t in gcs.texts(since) if "follow: lead is system" in t]
-    await bounded(drone.follow_me.stop())
-    gcs.wait("HEARTBEAT", lambda m: m.custom_mode in HOLD, since=since)
-    await bounded(drone.action.land())
-
-
-def test_follow_me_example_grpc_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await api.healthy(drone)
         assert gcs.param_set("DISARM_DELAY", 0).param_value == 0  # (not in the example)
         await bounded(drone.action.arm())
-        with pytest.raises(GrpcFollowMeError) as refused:
-            await bounded(drone.follow_me.set_config(follow_me_config(GrpcConfig)), FLIGHT_S)
-        assert refused.value._result.result == GrpcFollowMeResult.Result.SET_CONFIG_FAILED
-        await follow_me_after_set_config(
-            drone, gcs, drone.telemetry.position(), GrpcTargetLocation(0, 0, 0, 0, 0, 0),
-            GrpcFollowMeError, lambda e: e._result.result,  # type: ignore[attr-defined]
-            GrpcFollowMeResult.Result.NOT_ACTIVE)
+        with pytest.raises(follow_me.FollowMeError) as refused:
+            await bounded(drone.follow_me.set_config(follow_me_config(follow_me.Config)),
+                          FLIGHT_S)
+        assert api.result_of(refused.value) == results.SET_CONFIG_FAILED
+        # the example from its take-off on
+        assert gcs.param_set("FOLL_ENABLE", 1).param_value == 1  # (not in the example)
+        await bounded(drone.action.takeoff())
+        # (the example sleeps 8 s): up at the take-off altitude
+        await first(api.stream(drone.telemetry, "position"),
+                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
+        since = gcs.mark()
+        await bounded(drone.follow_me.start())
+        gcs.wait("HEARTBEAT", lambda m: m.custom_mode == FOLLOW, since=since)
+        gcs.wait_text("follow: waiting for the lead's position", since)
+        target = follow_me.TargetLocation(0, 0, 0, 0, 0, 0)
+        for latitude, longitude in FAKE_LOCATIONS:
+            target.latitude_deg, target.longitude_deg = latitude, longitude
+            target.absolute_altitude_m = 480.0
+            target.velocity_x_m_s = target.velocity_y_m_s = target.velocity_z_m_s = 0
+            with pytest.raises(follow_me.FollowMeError) as refused:
+                await bounded(drone.follow_me.set_target_location(target))
+            assert api.result_of(refused.value) == results.NOT_ACTIVE
+        # no FOLLOW_TARGET reached the vehicle: it never heard of a lead
+        assert not [t for t in gcs.texts(since) if "follow: lead is system" in t]
+        await bounded(drone.follow_me.stop())
+        gcs.wait("HEARTBEAT", lambda m: m.custom_mode in HOLD, since=since)
+        await bounded(drone.action.land())
+
+    api.run(start_vehicle, gcs, steps)
+
+
 # ------------------------------------------------------------------ manual_control.py
 # The example's test set, [roll, pitch, throttle, yaw] (it sends pitch as x, roll as y).
 MANUAL_INPUTS = ((0, 0, 0.5, 0), (-1, 0, 0.5, 0), (1, 0, 0.5, 0), (0, -1, 0.5, 0),
@@ -777,48 +668,18 @@ async def manual_control_loop(drone: Any, gcs: Gcs) -> None:
     gcs.wait("HEARTBEAT", lambda m: m.custom_mode == LAND, since=since)
 
 
-def test_manual_control_example_grpc(start_vehicle, gcs: Gcs) -> None:
+@BOTH
+def test_manual_control_example(api: Flavour, start_vehicle, gcs: Gcs) -> None:
     async def steps(drone: Any) -> None:
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
+        await api.healthy(drone)
         await drone.manual_control.set_manual_control_input(0.0, 0.0, 0.5, 0.0)
         await bounded(drone.action.arm())
         await bounded(drone.action.takeoff())
-        await first(drone.telemetry.position(),  # (the example sleeps 5 s)
+        await first(api.stream(drone.telemetry, "position"),  # (the example sleeps 5 s)
                     lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
         await manual_control_loop(drone, gcs)
 
-    run_grpc(start_vehicle, gcs, steps)
-
-
-def test_follow_me_example_native_is_refused_by_mavsdk(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        await first(drone.telemetry.subscribe_health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        assert gcs.param_set("DISARM_DELAY", 0).param_value == 0  # (not in the example)
-        await bounded(drone.action.arm())
-        with pytest.raises(FollowMeError) as refused:
-            await bounded(drone.follow_me.set_config(follow_me_config(Config)), FLIGHT_S)
-        assert refused.value.result == FollowMeResult.SET_CONFIG_FAILED
-        await follow_me_after_set_config(
-            drone, gcs, drone.telemetry.subscribe_position(),
-            TargetLocation(0, 0, 0, 0, 0, 0),
-            FollowMeError, lambda e: e.result,  # type: ignore[attr-defined]
-            FollowMeResult.NOT_ACTIVE)
-
-
-def test_manual_control_example_native(start_vehicle, gcs: Gcs) -> None:
-    async def steps(drone: Any) -> None:
-        await first(drone.telemetry.subscribe_health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        await drone.manual_control.set_manual_control_input(0.0, 0.0, 0.5, 0.0)
-        await bounded(drone.action.arm())
-        await bounded(drone.action.takeoff())
-        await first(drone.telemetry.subscribe_position(),
-                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
-        await manual_control_loop(drone, gcs)
-
-    run_native(start_vehicle, gcs, steps)
+    api.run(start_vehicle, gcs, steps)
 
 
 # ------------------------------------------------------------------ examples that ran before
@@ -844,6 +705,20 @@ def test_all_params_example_grpc(start_vehicle, gcs: Gcs) -> None:
     run_grpc(start_vehicle, gcs, steps)
 
 
+async def grpc_take_off_and_land(drone: Any) -> None:
+    """The take-off and landing of takeoff_and_land.py and telemetry_takeoff_and_land.py:
+    health, arm, take-off, up at the take-off altitude (the examples sleep 10 s, 5 s), land,
+    on the ground."""
+    await GRPC.healthy(drone)
+    await bounded(drone.action.arm())
+    await bounded(drone.action.takeoff())
+    await first(drone.telemetry.position(),
+                lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
+    await bounded(drone.action.land())
+    await first(drone.telemetry.landed_state(),
+                lambda s: s == GrpcLandedState.ON_GROUND, FLIGHT_S)
+
+
 def test_takeoff_and_land_example_grpc_with_status_text(start_vehicle, gcs: Gcs) -> None:
     """takeoff_and_land.py (and telemetry_status_text.py: the texts it prints)."""
     async def steps(drone: Any) -> None:
@@ -854,15 +729,7 @@ def test_takeoff_and_land_example_grpc_with_status_text(start_vehicle, gcs: Gcs)
                 texts.append(status_text.text)
 
         status_text_task = asyncio.ensure_future(print_status_text())
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        await bounded(drone.action.arm())
-        await bounded(drone.action.takeoff())
-        await first(drone.telemetry.position(),  # (the example sleeps 10 s)
-                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
-        await bounded(drone.action.land())
-        await first(drone.telemetry.landed_state(),
-                    lambda s: s == GrpcLandedState.ON_GROUND, FLIGHT_S)
+        await grpc_take_off_and_land(drone)
         status_text_task.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await status_text_task
@@ -916,15 +783,7 @@ def test_telemetry_examples_grpc(start_vehicle, gcs: Gcs) -> None:
                  asyncio.ensure_future(watch("in_air", drone.telemetry.in_air())),
                  asyncio.ensure_future(watch("alt", (round(p.relative_altitude_m)
                                                      async for p in drone.telemetry.position())))]
-        await first(drone.telemetry.health(),
-                    lambda h: h.is_global_position_ok and h.is_home_position_ok)
-        await bounded(drone.action.arm())
-        await bounded(drone.action.takeoff())
-        await first(drone.telemetry.position(),  # (the example sleeps 5 s)
-                    lambda p: p.relative_altitude_m > TAKEOFF_UP_M, FLIGHT_S)
-        await bounded(drone.action.land())
-        await first(drone.telemetry.landed_state(),
-                    lambda s: s == GrpcLandedState.ON_GROUND, FLIGHT_S)
+        await grpc_take_off_and_land(drone)
         await first(drone.telemetry.armed(), lambda armed: not armed, FLIGHT_S)  # auto-disarm
         for task in tasks:
             task.cancel()
