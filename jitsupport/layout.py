@@ -19,12 +19,13 @@ of :mod:`fcu.estimation.small_matrix` load whole vectors of :data:`LANES` double
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["LANES", "Field", "Layout", "aligned_zeros", "hold"]
+__all__ = ["LANES", "Field", "Layout", "OneStatePart", "aligned_zeros", "hold"]
 
 LANES = 8  # doubles in one 64-byte cache line (and one AVX-512 vector)
 
@@ -107,3 +108,25 @@ def hold(view: npt.NDArray[np.float64], values: npt.NDArray[np.float64]
     own methods and the compiled call work on the same numbers."""
     view[:] = values.reshape(-1)
     return view
+
+
+class OneStatePart:
+    """A compiled part whose kernel reads one parameter vector, :attr:`par`, and updates one
+    state vector, :attr:`state` (what a compiled caller such as the control chain asks of a
+    part: :meth:`kernel_params`, :meth:`kernel_states`, :meth:`hold_states_in`)."""
+
+    par: npt.NDArray[np.float64]
+    state: npt.NDArray[np.float64]
+
+    def kernel_params(self) -> tuple[npt.NDArray[np.float64], ...]:
+        """What the kernel reads: :attr:`par`."""
+        return (self.par,)
+
+    def kernel_states(self) -> tuple[npt.NDArray[np.float64], ...]:
+        """What the kernel updates: :attr:`state`."""
+        return (self.state,)
+
+    def hold_states_in(self, views: Sequence[npt.NDArray[np.float64]]) -> None:
+        """Keep :attr:`state` in ``views[0]`` (same size) from now on."""
+        (view,) = views
+        self.state = hold(view, self.state)

@@ -18,7 +18,7 @@ from fcu.control.attitude import check_period
 from fcu.floats import floats, wrap_pi
 from flightdata.design_cache import cached_design
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.layout import hold
+from jitsupport.layout import OneStatePart
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernel compiles in fcu.floats' wrap_pi
 
@@ -93,7 +93,7 @@ def reference_filter_tick(par: np.ndarray, state: np.ndarray, raw_roll: float,
         state[_RATE + i] = a10 * th + a11 * th_dot + b1 * (th + offset)
 
 
-class AttitudeReferenceFilter:
+class AttitudeReferenceFilter(OneStatePart):
     """Second-order state-variable filter giving a reference with consistent derivatives.
 
     Per axis ``theta_f'' = w_f^2 (theta_r - theta_f) - 2 zeta w_f theta_f'``, i.e.
@@ -134,36 +134,22 @@ class AttitudeReferenceFilter:
         # states [theta_f, theta_f'], input theta_r - (wrapped offset handled in step)
         self._a, b = _reference_filter_design(self.dt_s, wf, zf)
         self._b = b[:, 0]
-        self._par = np.array([self._a[0, 0], self._a[0, 1], self._a[1, 0], self._a[1, 1],
-                              self._b[0], self._b[1], wf, zf])
-        self._state = np.zeros(STATE_SIZE)  # not started: starts on the next input
-
-    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
-    def kernel_params(self) -> tuple[np.ndarray, ...]:
-        """What the compiled tick reads: the filter's coefficients (``PAR_SIZE``)."""
-        return (self._par,)
-
-    def kernel_states(self) -> tuple[np.ndarray, ...]:
-        """What the compiled tick updates: the filter state (``STATE_SIZE``)."""
-        return (self._state,)
-
-    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
-        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
-        (view,) = views
-        self._state = hold(view, self._state)
+        self.par = np.array([self._a[0, 0], self._a[0, 1], self._a[1, 0], self._a[1, 1],
+                             self._b[0], self._b[1], wf, zf])
+        self.state = np.zeros(STATE_SIZE)  # not started: starts on the next input
 
     def reset(self, euler_rad: np.ndarray | None = None) -> None:
         """Forget the state; start at rest on ``euler_rad`` (else on the next input)."""
-        self._state[:] = 0.0
+        self.state[:] = 0.0
         if euler_rad is not None:
-            self._state[_ANGLE:_ANGLE + 3] = floats(euler_rad, 3)
-            self._state[_STARTED] = 1.0
+            self.state[_ANGLE:_ANGLE + 3] = floats(euler_rad, 3)
+            self.state[_STARTED] = 1.0
 
     def step(self, ref_euler_rad: np.ndarray | Sequence[float]) -> AttitudeReference:
         """Filter one raw reference [roll, pitch, yaw] (rad); see the class docstring."""
         roll, pitch, yaw = floats(ref_euler_rad, 3)
         out = np.empty(OUT_SIZE)
-        reference_filter_tick(self._par, self._state, roll, pitch, yaw, out)
+        reference_filter_tick(self.par, self.state, roll, pitch, yaw, out)
         return reference_of(out)
 
 

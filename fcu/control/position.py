@@ -51,7 +51,6 @@ limit (conditional integration).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,7 +60,7 @@ import fcu.floats
 from fcu.floats import clip, floats, py_max, py_min
 from fcu.model import VehicleModel
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.layout import hold
+from jitsupport.layout import OneStatePart
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernels compile in fcu.floats' helpers
 
@@ -225,7 +224,7 @@ def position_tick(par: np.ndarray, integral: np.ndarray, pos_ned: np.ndarray,
     out[OUT_MU], out[OUT_MU + 1], out[OUT_MU + 2] = mu0, mu1, mu2
 
 
-class PositionController:
+class PositionController(OneStatePart):
     """PID position controller with feed-forward (eq. 5.3) and thrust/tilt inversion (eq. 5.4).
 
     The per-tick arithmetic is the compiled :func:`position_tick` on the parameter vector
@@ -263,31 +262,17 @@ class PositionController:
         par[_MASS], par[_GRAVITY], par[_DT] = m, model.gravity, self.dt_s
         par[_UP_MIN], par[_UP_MAX] = self.thrust_min_n / m, self.thrust_max_n / m
         par[_TAN_TILT_MAX] = float(np.tan(self.gains.tilt_max_rad))
-        self._par = par
-        self._integral = np.zeros(3)  # m*s, int (ref_pos - pos) dt
+        self.par = par
+        self.state = np.zeros(3)  # m*s, int (ref_pos - pos) dt
 
     @property
     def integral(self) -> np.ndarray:
         """Integral of the position error, m*s, NED, shape (3,)."""
-        return self._integral.copy()
+        return self.state.copy()
 
     def reset(self) -> None:
         """Zero the integrator."""
-        self._integral[:] = 0.0
-
-    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
-    def kernel_params(self) -> tuple[np.ndarray, ...]:
-        """What the compiled tick reads: the gains and limits (``PAR_SIZE``)."""
-        return (self._par,)
-
-    def kernel_states(self) -> tuple[np.ndarray, ...]:
-        """What the compiled tick updates: the position integral (3)."""
-        return (self._integral,)
-
-    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
-        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
-        (view,) = views
-        self._integral = hold(view, self._integral)
+        self.state[:] = 0.0
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, ref_pos: np.ndarray,
              ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float) -> PositionCommand:
@@ -303,7 +288,7 @@ class PositionController:
             Yaw reference psi_d, rad (used to resolve the tilt into roll and pitch).
         """
         out = np.empty(OUT_SIZE)
-        position_tick(self._par, self._integral, _vec(pos_ned), _vec(vel_ned), _vec(ref_pos),
+        position_tick(self.par, self.state, _vec(pos_ned), _vec(vel_ned), _vec(ref_pos),
                       _vec(ref_vel), _vec(ref_acc), float(yaw_ref), out)
         return PositionCommand(thrust_n=float(out[OUT_THRUST]),
                                roll_ref_rad=float(out[OUT_ROLL]),
@@ -313,7 +298,7 @@ class PositionController:
     def _limit(self, mu: np.ndarray) -> np.ndarray:
         """Apply the vertical, tilt and total-thrust limits to mu (m/s^2, NED)."""
         mu0, mu1, mu2 = floats(mu, 3)
-        return np.array(limit_accel(self._par, mu0, mu1, mu2))
+        return np.array(limit_accel(self.par, mu0, mu1, mu2))
 
 
 def _vec(value: np.ndarray) -> np.ndarray:

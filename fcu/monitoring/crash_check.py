@@ -29,7 +29,6 @@ collective command, 0..1).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +36,7 @@ from numba import njit
 
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
-from jitsupport.layout import hold
+from jitsupport.layout import OneStatePart
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -146,7 +145,7 @@ def contact_counts(leg: str, ref_alt_m: float, contact_ref_alt_m: float) -> bool
     return leg not in ("takeoff", "land") and ref_alt_m >= contact_ref_alt_m
 
 
-class CrashCheck:
+class CrashCheck(OneStatePart):
     """The checks of the module docstring, fed once per tick."""
 
     def __init__(self, config: CrashCheckConfig) -> None:
@@ -154,35 +153,21 @@ class CrashCheck:
         self._angle_rad = math.radians(config.angle_deg)
         self._thrust_loss_error_rad = math.radians(15.0)
         cfg = config
-        self._par = np.array([self._angle_rad, cfg.angle_time_s, cfg.impact_speed_m_s,
-                              cfg.impact_window_s, cfg.contact_time_s, cfg.ground_alt_m,
-                              cfg.thrust_loss_throttle, cfg.thrust_loss_descent_m_s,
-                              cfg.thrust_loss_time_s, self._thrust_loss_error_rad])
-        self._state = np.empty(STATE_SIZE)
+        self.par = np.array([self._angle_rad, cfg.angle_time_s, cfg.impact_speed_m_s,
+                             cfg.impact_window_s, cfg.contact_time_s, cfg.ground_alt_m,
+                             cfg.thrust_loss_throttle, cfg.thrust_loss_descent_m_s,
+                             cfg.thrust_loss_time_s, self._thrust_loss_error_rad])
+        self.state = np.empty(STATE_SIZE)
         self.reset()
-
-    # ---- the compiled chain's view (fcu.control.chain.CompiledPart) -----------------------
-    def kernel_params(self) -> tuple[np.ndarray, ...]:
-        """What the compiled tick reads: the checks' thresholds (``PAR_SIZE``)."""
-        return (self._par,)
-
-    def kernel_states(self) -> tuple[np.ndarray, ...]:
-        """What the compiled tick updates: the checks' timers (``STATE_SIZE``)."""
-        return (self._state,)
-
-    def hold_states_in(self, views: Sequence[np.ndarray]) -> None:
-        """Keep :meth:`kernel_states` in ``views`` (same sizes) from now on."""
-        (view,) = views
-        self._state = hold(view, self._state)
 
     def reset(self) -> None:
         """A new flight: timers and the once-per-flight warning restart."""
-        self._state[:] = (math.nan, math.nan, -math.inf, math.nan, 0.0, 0.0)
+        self.state[:] = (math.nan, math.nan, -math.inf, math.nan, 0.0, 0.0)
 
     @property
     def crashed(self) -> bool:
         """A crash was detected in this flight."""
-        return bool(self._state[_CRASHED])
+        return bool(self.state[_CRASHED])
 
     def step(self, time_s: float, *, flying: bool, leg: str, ref_alt_m: float, alt_m: float,
              vel_down_m_s: float, speed_m_s: float, lean_rad: float,
@@ -226,7 +211,7 @@ class CrashCheck:
     def tick(self, time_s: float, contact_leg: bool, measures: np.ndarray) -> int:
         """:func:`crash_tick` on this check's parameters and timers (:meth:`check`'s
         arguments); returns its bits."""
-        return crash_tick(self._par, self._state, time_s, contact_leg, measures)
+        return crash_tick(self.par, self.state, time_s, contact_leg, measures)
 
     def records(self, time_s: float, found: int, measures: np.ndarray
                 ) -> list[DetectionRecord]:
