@@ -68,6 +68,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from flightdata.config import finite
 from jitsupport.cache import drop_stale_kernels
+from jitsupport.layout import Layout
 from sim.world.airframe import Airframe
 from sim.world.rotations import rotation_entries, yaw_of
 
@@ -83,26 +84,24 @@ QUAT_WXYZ = slice(6, 10)  # unit quaternion, body FRD -> NED
 RATE_FRD = slice(10, 13)  # rad/s
 THRUST_N = slice(13, 17)  # N, motors 1..4
 
-# ---- packed parameter layout (pack_params) -----------------------------------------------
-P_THRUST_GAIN = 0  # K, N per unit PWM
-P_MOTOR_BANDWIDTH = 1  # w, rad/s
-P_ARM_LENGTH = 2  # L, m
-P_YAW_GAIN = 3  # K_psi, N*m per N
-P_GRAVITY = 4  # g, m/s^2
-P_IXX = 5  # kg*m^2
-P_IYY = 6  # kg*m^2
-P_IZZ = 7  # kg*m^2
-P_DRAG_XY = 8  # N/(m/s)
-P_DRAG_Z = 9  # N/(m/s)
-P_DRAG_QUAD = 10  # N/(m/s)^2
-P_CP_Z = 11  # m, body z of the centre of pressure
-P_PWM_MIN = 12  # PWM duty
-P_PWM_MAX = 13  # PWM duty
-P_CRASH_SPEED = 14  # m/s
-P_DAMP_X = 15  # N*m per rad/s, roll-rate damping
-P_DAMP_Y = 16  # N*m per rad/s, pitch-rate damping
-P_DAMP_Z = 17  # N*m per rad/s, yaw-rate damping
-PARAM_SIZE = 18
+# ---- packed parameter layout (pack_params): each field is the Airframe attribute -------
+PARAMS = Layout("plant parameters (pack_params)")
+P_THRUST_GAIN = PARAMS.field("thrust_gain", 1)  # K, N per unit PWM
+P_MOTOR_BANDWIDTH = PARAMS.field("motor_bandwidth", 1)  # w, rad/s
+P_ARM_LENGTH = PARAMS.field("arm_length", 1)  # L, m
+P_YAW_GAIN = PARAMS.field("yaw_gain", 1)  # K_psi, N*m per N
+P_GRAVITY = PARAMS.field("gravity", 1)  # g, m/s^2
+P_IXX, P_IYY, P_IZZ = range(PARAMS.field("inertia", 3), PARAMS.size)  # kg*m^2
+P_DRAG_XY = PARAMS.field("drag_coeff_xy", 1)  # N/(m/s)
+P_DRAG_Z = PARAMS.field("drag_coeff_z", 1)  # N/(m/s)
+P_DRAG_QUAD = PARAMS.field("drag_quad_coeff", 1)  # N/(m/s)^2
+P_CP_Z = PARAMS.field("cp_offset_z", 1)  # m, body z of the centre of pressure
+P_PWM_MIN = PARAMS.field("pwm_min", 1)  # PWM duty
+P_PWM_MAX = PARAMS.field("pwm_max", 1)  # PWM duty
+P_CRASH_SPEED = PARAMS.field("crash_speed_m_s", 1)  # m/s
+# N*m per rad/s: roll-, pitch- and yaw-rate damping
+P_DAMP_X, P_DAMP_Y, P_DAMP_Z = range(PARAMS.field("rate_damping", 3), PARAMS.size)
+PARAM_SIZE = PARAMS.size
 
 # ---- the stepping state of RigidBodyPlant (one record) -----------------------------------
 PLANT_STATE = np.dtype([
@@ -133,20 +132,8 @@ def pack_params(airframe: Airframe) -> FloatArray:
         in it: it is an input of every call, because structural faults change it in flight.
     """
     p = np.empty(PARAM_SIZE, dtype=np.float64)
-    p[P_THRUST_GAIN] = airframe.thrust_gain
-    p[P_MOTOR_BANDWIDTH] = airframe.motor_bandwidth
-    p[P_ARM_LENGTH] = airframe.arm_length
-    p[P_YAW_GAIN] = airframe.yaw_gain
-    p[P_GRAVITY] = airframe.gravity
-    p[P_IXX], p[P_IYY], p[P_IZZ] = airframe.inertia
-    p[P_DRAG_XY] = airframe.drag_coeff_xy
-    p[P_DRAG_Z] = airframe.drag_coeff_z
-    p[P_DRAG_QUAD] = airframe.drag_quad_coeff
-    p[P_CP_Z] = airframe.cp_offset_z
-    p[P_PWM_MIN] = airframe.pwm_min
-    p[P_PWM_MAX] = airframe.pwm_max
-    p[P_CRASH_SPEED] = airframe.crash_speed_m_s
-    p[P_DAMP_X], p[P_DAMP_Y], p[P_DAMP_Z] = airframe.rate_damping
+    for f in PARAMS.fields:
+        p[f.start:f.stop] = getattr(airframe, f.name)
     return p
 
 
