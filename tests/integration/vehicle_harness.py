@@ -44,13 +44,17 @@ _LISTEN = re.compile(r"listening on udp ([\d.]+):(\d+)")
 Message = Any  # a pymavlink MAVLink_message
 
 
-def _die_with_parent() -> None:
-    """In the child: get SIGTERM when the test process dies (Linux), so no vehicle outlives
-    a killed test run."""
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+# ``python -m sim`` that first asks for SIGTERM when the test process dies (Linux: prctl
+# PR_SET_PDEATHSIG), so no vehicle outlives a killed test run. The vehicle asks it itself,
+# after exec: a preexec_fn would make subprocess fork the test process and run Python in the
+# child, which aborts at random when gRPC's threads are live (the MAVSDK tests: "epoll_wait
+# error: Bad file descriptor", SIGABRT); without one, subprocess spawns with vfork.
+_VEHICLE_MAIN = (
+    "import sys\n"
+    "if sys.platform.startswith('linux'):\n"
+    f"    import ctypes; ctypes.CDLL(None).prctl(1, {int(signal.SIGTERM)})\n"
+    "from sim.vehicle_cli import main\n"
+    "sys.exit(main())\n")
 
 
 def free_port(kind: int = socket.SOCK_DGRAM) -> int:
@@ -77,9 +81,8 @@ class VehicleProcess:
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "sim", *self.args], cwd=ROOT, env=env,
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            preexec_fn=_die_with_parent)
+            [sys.executable, "-c", _VEHICLE_MAIN, *self.args], cwd=ROOT, env=env,
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self.lines: list[str] = []
         self.stderr_text = ""
         self._reader = threading.Thread(target=self._read_stdout, daemon=True)
