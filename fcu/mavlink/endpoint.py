@@ -374,7 +374,8 @@ class MavlinkEndpoint(MessageHandlers):
     def _build_message(self, msg_id: int) -> list[MAVLinkMessage] | None:
         """One-shot messages for REQUEST_MESSAGE (None: cannot be produced)."""
         if msg_id == _M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            return [build.autopilot_version(self._codec.sysid, self._config.flight_sw_version)]
+            return [_M.MAVLink_autopilot_version_message(
+                *build.autopilot_version(self._codec.sysid, self._config.flight_sw_version))]
         if not streamed.can_build(msg_id):
             return None
         return streamed.build_stream(msg_id, self._port.snapshot(), self._context())

@@ -12,13 +12,13 @@ import logging
 
 from fcu.mavlink.endpoint_config import EndpointStats
 from fcu.mavlink.telemetry import messages as build
-from fcu.mavlink.telemetry.messages import Fields
-from fcu.mavlink.transport.codec import Codec, MAVLinkMessage
+from fcu.mavlink.transport.codec import Codec, Fields, MAVLinkMessage, mavlink2
 from fcu.mavlink.transport.link import Address, Link
 
 __all__ = ["LinkOutbox"]
 
 _log = logging.getLogger("fcu.mavlink.endpoint")  # the endpoint's log, as before
+_STATUSTEXT = mavlink2.MAVLink_statustext_message
 
 
 class LinkOutbox:
@@ -42,8 +42,9 @@ class LinkOutbox:
     def send_fields(self, cls: type[MAVLinkMessage], fields: Fields,
                     to: Address | None = None) -> None:
         """:meth:`send` of ``cls(*fields)``, packed without the message object: what the
-        builders of :mod:`fcu.mavlink.telemetry.messages` return (the telemetry streams are most of
-        what is sent)."""
+        builders of :mod:`fcu.mavlink.telemetry.messages` return, records of
+        :func:`~fcu.mavlink.transport.codec.fields_of` ``cls`` (the telemetry streams are most
+        of what is sent)."""
         try:
             data = self._codec.pack_fields(cls, fields)
         except Exception:  # a field out of its wire range is a bug; keep flying
@@ -54,5 +55,5 @@ class LinkOutbox:
 
     def status(self, severity: int, text: str) -> None:
         self._chunk_id = self._chunk_id % 0xFFFF + 1
-        for msg in build.statustext_chunks(severity, text, self._chunk_id):
-            self.send(msg)
+        for fields in build.statustext_chunks(severity, text, self._chunk_id):
+            self.send_fields(_STATUSTEXT, fields)

@@ -117,7 +117,8 @@ class MessageHandlers:
     def _finish_command(self, command: int, outcome: CommandOutcome, src: tuple[int, int],
                         addr: Address) -> None:
         """Exactly one COMMAND_ACK, then the reason and follow-up messages."""
-        self._outbox.send(build.command_ack(command, outcome.result, *src), addr)
+        self._outbox.send_fields(_M.MAVLink_command_ack_message,
+                                 build.command_ack(command, outcome.result, *src), addr)
         if outcome.reason:
             self._outbox.status(Severity.WARNING, outcome.reason)
         for follow in outcome.follow_up:

@@ -3,8 +3,10 @@
 This is the unit-conversion edge: SI/NED inside, MAVLink units on the wire. Every integer
 field is clamped into its wire type (a NaN becomes the field's "unknown" value), so a
 diverged estimate can never make packing fail. A builder returns its message's constructor
-arguments (:data:`Fields`; :data:`BUILDERS` pairs it with the message class), which the
-endpoint packs without making a pymavlink message object.
+arguments (:data:`Fields`; :data:`BUILDERS` pairs it with the message class) as a record of
+:func:`~fcu.mavlink.transport.codec.fields_of` filled by name (``Attitude(time_boot_ms=...,
+roll=..., ...)``: a misspelt or missing field raises), which the endpoint packs without making
+a pymavlink message object.
 
 Conventions worth knowing on the ground-station side
 ----------------------------------------------------
@@ -27,9 +29,9 @@ Conventions worth knowing on the ground-station side
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, TypeAlias
 
 import numpy as np
 
@@ -37,7 +39,13 @@ from fcu.floats import wrap_pi
 from fcu.mavlink.enums import MavState, Severity
 from fcu.mavlink.geo import home_alt_amsl_m, ned_to_geo
 from fcu.mavlink.port_records import LandedState, VehicleSnapshot
-from fcu.mavlink.transport.codec import MAVLinkMessage, heartbeat_fields, mavlink2
+from fcu.mavlink.transport.codec import (
+    Fields,
+    MAVLinkMessage,
+    fields_of,
+    heartbeat_fields,
+    mavlink2,
+)
 from fcu.navigation.modes import Mode
 from flightdata.geometry import euler_from_wxyz, quat_from_euler
 
@@ -79,10 +87,27 @@ AUTOPILOT_CAPABILITIES = (
 )
 """What AUTOPILOT_VERSION advertises (each one implemented by this endpoint)."""
 
-Fields: TypeAlias = tuple[Any, ...]
-"""A message's constructor arguments (``cls.fieldnames`` order), what the builders return:
-the endpoint packs them as they are (:meth:`fcu.mavlink.transport.codec.Codec.pack_fields`),
-without a pymavlink message object."""
+# the record types the builders fill (fields_of: the message's constructor arguments by name)
+SysStatus = fields_of(_M.MAVLink_sys_status_message)
+GpsRawInt = fields_of(_M.MAVLink_gps_raw_int_message)
+Attitude = fields_of(_M.MAVLink_attitude_message)
+AttitudeQuaternion = fields_of(_M.MAVLink_attitude_quaternion_message)
+LocalPositionNed = fields_of(_M.MAVLink_local_position_ned_message)
+GlobalPositionInt = fields_of(_M.MAVLink_global_position_int_message)
+VfrHud = fields_of(_M.MAVLink_vfr_hud_message)
+ServoOutputRaw = fields_of(_M.MAVLink_servo_output_raw_message)
+BatteryStatus = fields_of(_M.MAVLink_battery_status_message)
+HomePosition = fields_of(_M.MAVLink_home_position_message)
+ExtendedSysState = fields_of(_M.MAVLink_extended_sys_state_message)
+MissionCurrent = fields_of(_M.MAVLink_mission_current_message)
+SystemTime = fields_of(_M.MAVLink_system_time_message)
+PositionTargetLocalNed = fields_of(_M.MAVLink_position_target_local_ned_message)
+AttitudeTarget = fields_of(_M.MAVLink_attitude_target_message)
+SimState = fields_of(_M.MAVLink_sim_state_message)
+NamedValueFloat = fields_of(_M.MAVLink_named_value_float_message)
+AutopilotVersion = fields_of(_M.MAVLink_autopilot_version_message)
+CommandAck = fields_of(_M.MAVLink_command_ack_message)
+Statustext = fields_of(_M.MAVLink_statustext_message)
 
 # ArduCopter sets GUIDED_ENABLED for the modes under position control (GCS_Copter::base_mode).
 _GUIDED_MODES = frozenset({Mode.AUTO, Mode.GUIDED, Mode.LOITER, Mode.RTL, Mode.BRAKE})
@@ -245,10 +270,15 @@ def sys_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     present, enabled, health = sensor_bits(snap)
     bat = snap.battery
     current_ca, remaining = _battery_ints(snap)
-    return (
-        present, enabled, health, 0,
-        clamp_int(bat.voltage_v * 1e3, 0, UINT16_MAX - 1, UINT16_MAX), current_ca, remaining,
-        0, clamp_int(ctx.errors_comm, 0, UINT16_MAX, 0), 0, 0, 0, 0, 0, 0, 0)
+    return SysStatus(
+        onboard_control_sensors_present=present, onboard_control_sensors_enabled=enabled,
+        onboard_control_sensors_health=health, load=0,
+        voltage_battery=clamp_int(bat.voltage_v * 1e3, 0, UINT16_MAX - 1, UINT16_MAX),
+        current_battery=current_ca, battery_remaining=remaining, drop_rate_comm=0,
+        errors_comm=clamp_int(ctx.errors_comm, 0, UINT16_MAX, 0), errors_count1=0,
+        errors_count2=0, errors_count3=0, errors_count4=0,
+        onboard_control_sensors_present_extended=0, onboard_control_sensors_enabled_extended=0,
+        onboard_control_sensors_health_extended=0)
 
 
 def gps_raw_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
@@ -257,34 +287,40 @@ def gps_raw_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     vn, ve = float(snap.vel_ned[0]), float(snap.vel_ned[1])
     speed = math.hypot(vn, ve)
     ok = snap.health.gps
-    return (
-        time_usec(snap.time_s), _M.GPS_FIX_TYPE_3D_FIX if ok else _M.GPS_FIX_TYPE_NO_FIX,
-        _e7(lat), _e7(lon), _mm(alt), 100 if ok else UINT16_MAX, 100 if ok else UINT16_MAX,
-        clamp_int(speed * 100.0, 0, UINT16_MAX - 1, UINT16_MAX),
-        cdeg_heading(math.atan2(ve, vn)) if speed > 0.1 else UINT16_MAX,
-        12 if ok else 0, 0, 10, 10, 10, 0, 0)
+    dop = 100 if ok else UINT16_MAX
+    return GpsRawInt(
+        time_usec=time_usec(snap.time_s),
+        fix_type=_M.GPS_FIX_TYPE_3D_FIX if ok else _M.GPS_FIX_TYPE_NO_FIX,
+        lat=_e7(lat), lon=_e7(lon), alt=_mm(alt), eph=dop, epv=dop,
+        vel=clamp_int(speed * 100.0, 0, UINT16_MAX - 1, UINT16_MAX),
+        cog=cdeg_heading(math.atan2(ve, vn)) if speed > 0.1 else UINT16_MAX,
+        satellites_visible=12 if ok else 0, alt_ellipsoid=0, h_acc=10, v_acc=10, vel_acc=10,
+        hdg_acc=0, yaw=0)
 
 
 def attitude(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """ATTITUDE: ZYX Euler angles (yaw wrapped to [-pi, pi)) and body rates."""
     roll, pitch, yaw = _xyz(snap.euler_rad)
     p, q, r = _xyz(snap.rate_frd)
-    return (time_boot_ms(snap.time_s), roll, pitch, wrap_pi(yaw), p, q, r)
+    return Attitude(time_boot_ms=time_boot_ms(snap.time_s), roll=roll, pitch=pitch,
+                    yaw=wrap_pi(yaw), rollspeed=p, pitchspeed=q, yawspeed=r)
 
 
 def attitude_quaternion(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """ATTITUDE_QUATERNION: [w, x, y, z] and body rates."""
     qw, qx, qy, qz = quat_from_euler(snap.euler_rad).tolist()
     p, q, r = _xyz(snap.rate_frd)
-    return (
-        time_boot_ms(snap.time_s), qw, qx, qy, qz, p, q, r, [0.0, 0.0, 0.0, 0.0])
+    return AttitudeQuaternion(
+        time_boot_ms=time_boot_ms(snap.time_s), q1=qw, q2=qx, q3=qy, q4=qz, rollspeed=p,
+        pitchspeed=q, yawspeed=r, repr_offset_q=[0.0, 0.0, 0.0, 0.0])
 
 
 def local_position_ned(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """LOCAL_POSITION_NED about the origin."""
     n, e, d = _xyz(snap.pos_ned)
     vn, ve, vd = _xyz(snap.vel_ned)
-    return (time_boot_ms(snap.time_s), n, e, d, vn, ve, vd)
+    return LocalPositionNed(time_boot_ms=time_boot_ms(snap.time_s), x=n, y=e, z=d, vx=vn,
+                            vy=ve, vz=vd)
 
 
 def relative_alt_m(snap: VehicleSnapshot, alt_amsl_m: float) -> float:
@@ -296,9 +332,10 @@ def global_position_int(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """GLOBAL_POSITION_INT: degE7, AMSL and relative altitude in mm, velocity in cm/s."""
     lat, lon, alt = ned_to_geo(snap.pos_ned, snap.origin)
     vn, ve, vd = _xyz(snap.vel_ned)
-    return (
-        time_boot_ms(snap.time_s), _e7(lat), _e7(lon), _mm(alt), _mm(relative_alt_m(snap, alt)),
-        _cms(vn), _cms(ve), _cms(vd), cdeg_heading(_f(snap.euler_rad[2])))
+    return GlobalPositionInt(
+        time_boot_ms=time_boot_ms(snap.time_s), lat=_e7(lat), lon=_e7(lon), alt=_mm(alt),
+        relative_alt=_mm(relative_alt_m(snap, alt)), vx=_cms(vn), vy=_cms(ve), vz=_cms(vd),
+        hdg=cdeg_heading(_f(snap.euler_rad[2])))
 
 
 def vfr_hud(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
@@ -307,16 +344,22 @@ def vfr_hud(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     speed = math.hypot(_f(snap.vel_ned[0]), _f(snap.vel_ned[1]))
     heading = cdeg_heading(_f(snap.euler_rad[2]))
     throttle = float(np.mean(snap.pwm)) / ctx.pwm_max * 100.0
-    return (
-        speed, speed, 0 if heading == UINT16_MAX else heading // 100,
-        clamp_int(throttle, 0, 100, 0), alt, -_f(snap.vel_ned[2]))
+    return VfrHud(
+        airspeed=speed, groundspeed=speed, heading=0 if heading == UINT16_MAX else heading // 100,
+        throttle=clamp_int(throttle, 0, 100, 0), alt=alt, climb=-_f(snap.vel_ned[2]))
+
+
+# interned names: a call matches keywords by identity first (an f-string's would be 2x slower)
+_UNUSED_SERVOS = {sys.intern(f"servo{k}_raw"): 0 for k in range(5, 17)}
 
 
 def servo_output_raw(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """SERVO_OUTPUT_RAW: motors 1..4 (thesis numbering) on servo1..servo4."""
     us = [pwm_to_us(u, ctx.pwm_max) for u in _floats(snap.pwm[:4])]
-    us += [0] * (16 - len(us))
-    return (time_usec(snap.time_s) & UINT32_MAX, 0, *us)
+    us += [0] * (4 - len(us))
+    return ServoOutputRaw(
+        time_usec=time_usec(snap.time_s) & UINT32_MAX, port=0, servo1_raw=us[0],
+        servo2_raw=us[1], servo3_raw=us[2], servo4_raw=us[3], **_UNUSED_SERVOS)
 
 
 def battery_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
@@ -339,10 +382,12 @@ def battery_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
                                                                INT32_MAX, -1)
     time_left_s = 0 if bat.time_remaining_s is None else clamp_int(bat.time_remaining_s, 0,
                                                                     INT32_MAX, 0)
-    return (
-        0, _M.MAV_BATTERY_FUNCTION_ALL, _M.MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
-        current_ca, consumed_mah, consumed_hj, remaining, time_left_s, charge, [0, 0, 0, 0],
-        0, 0)
+    return BatteryStatus(
+        id=0, battery_function=_M.MAV_BATTERY_FUNCTION_ALL, type=_M.MAV_BATTERY_TYPE_LIPO,
+        temperature=INT16_MAX, voltages=voltages, current_battery=current_ca,
+        current_consumed=consumed_mah, energy_consumed=consumed_hj, battery_remaining=remaining,
+        time_remaining=time_left_s, charge_state=charge, voltages_ext=[0, 0, 0, 0], mode=0,
+        fault_bitmask=0)
 
 
 def home_position(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -351,30 +396,31 @@ def home_position(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None
     if ned is None:
         return None
     lat, lon, alt = ned_to_geo(ned, snap.origin)
-    return (
-        _e7(lat), _e7(lon), _mm(alt), _f(ned[0]), _f(ned[1]), _f(ned[2]),
-        [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, time_usec(snap.time_s))
+    return HomePosition(
+        latitude=_e7(lat), longitude=_e7(lon), altitude=_mm(alt), x=_f(ned[0]), y=_f(ned[1]),
+        z=_f(ned[2]), q=[1.0, 0.0, 0.0, 0.0], approach_x=0.0, approach_y=0.0, approach_z=0.0,
+        time_usec=time_usec(snap.time_s))
 
 
 def extended_sys_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """EXTENDED_SYS_STATE: multicopter, landed state."""
     landed = clamp_int(snap.landed_state, 0, LandedState.LANDING, LandedState.UNDEFINED)
-    return (_M.MAV_VTOL_STATE_MC, landed)
+    return ExtendedSysState(vtol_state=_M.MAV_VTOL_STATE_MC, landed_state=landed)
 
 
 def mission_current(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """MISSION_CURRENT with ``total`` (items without home; UINT16_MAX: no mission) and state."""
     total = ctx.mission_total if ctx.mission_total > 0 else UINT16_MAX
     mode = 1 if snap.custom_mode == Mode.AUTO else 2
-    return (
-        clamp_int(snap.mission_seq, 0, UINT16_MAX, 0), total,
-        clamp_int(snap.mission_state, 0, UINT8_MAX, 0), mode)
+    return MissionCurrent(
+        seq=clamp_int(snap.mission_seq, 0, UINT16_MAX, 0), total=total,
+        mission_state=clamp_int(snap.mission_state, 0, UINT8_MAX, 0), mission_mode=mode)
 
 
 def system_time(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """SYSTEM_TIME: UNIX time (boot time + simulated time; 0 when unknown), time since boot."""
     unix_us = 0 if ctx.boot_unix_time_s is None else time_usec(ctx.boot_unix_time_s + snap.time_s)
-    return (unix_us, time_boot_ms(snap.time_s))
+    return SystemTime(time_unix_usec=unix_us, time_boot_ms=time_boot_ms(snap.time_s))
 
 
 def position_target_local_ned(snap: VehicleSnapshot,
@@ -384,11 +430,11 @@ def position_target_local_ned(snap: VehicleSnapshot,
     if t is None:
         return None
     p, v, a = t.pos_ned, t.vel_ned, t.acc_ned
-    return (
-        time_boot_ms(snap.time_s), _M.MAV_FRAME_LOCAL_NED,
-        _M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
-        _f(p[0]), _f(p[1]), _f(p[2]), _f(v[0]), _f(v[1]), _f(v[2]), _f(a[0]), _f(a[1]),
-        _f(a[2]), wrap_pi(_f(t.yaw_rad)), 0.0)
+    return PositionTargetLocalNed(
+        time_boot_ms=time_boot_ms(snap.time_s), coordinate_frame=_M.MAV_FRAME_LOCAL_NED,
+        type_mask=_M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+        x=_f(p[0]), y=_f(p[1]), z=_f(p[2]), vx=_f(v[0]), vy=_f(v[1]), vz=_f(v[2]),
+        afx=_f(a[0]), afy=_f(a[1]), afz=_f(a[2]), yaw=wrap_pi(_f(t.yaw_rad)), yaw_rate=0.0)
 
 
 def attitude_target(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -397,9 +443,10 @@ def attitude_target(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | No
     if t is None:
         return None
     q, w = quat_from_euler(t.euler_rad), t.rate_frd
-    return (
-        time_boot_ms(snap.time_s), 0, [_f(x) for x in q], _f(w[0]), _f(w[1]), _f(w[2]),
-        _f(t.thrust))
+    return AttitudeTarget(
+        time_boot_ms=time_boot_ms(snap.time_s), type_mask=0, q=[_f(x) for x in q],
+        body_roll_rate=_f(w[0]), body_pitch_rate=_f(w[1]), body_yaw_rate=_f(w[2]),
+        thrust=_f(t.thrust))
 
 
 def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -413,9 +460,11 @@ def sim_state(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     p, q_rate, r = _xyz(t.rate_frd)
     vn, ve, vd = _xyz(t.vel_ned)
     lat, lon, alt = ned_to_geo(t.pos_ned, snap.origin)
-    return (
-        qf[0], qf[1], qf[2], qf[3], roll, pitch, yaw, ax, ay, az, p, q_rate, r,
-        lat, lon, alt, 0.0, 0.0, vn, ve, vd, _e7(lat), _e7(lon))
+    return SimState(
+        q1=qf[0], q2=qf[1], q3=qf[2], q4=qf[3], roll=roll, pitch=pitch, yaw=yaw, xacc=ax,
+        yacc=ay, zacc=az, xgyro=p, ygyro=q_rate, zgyro=r, lat=lat, lon=lon, alt=alt,
+        std_dev_horz=0.0, std_dev_vert=0.0, vn=vn, ve=ve, vd=vd, lat_int=_e7(lat),
+        lon_int=_e7(lon))
 
 
 _LOE_NAMES = (b"LOE1", b"LOE2", b"LOE3", b"LOE4")
@@ -426,13 +475,14 @@ def named_value_floats(snap: VehicleSnapshot, ctx: TelemetryContext) -> list[Fie
     if snap.loe is None:
         return []
     t_ms = time_boot_ms(snap.time_s)
-    return [(t_ms, name, v)
+    return [NamedValueFloat(time_boot_ms=t_ms, name=name, value=v)
             for name, v in zip(_LOE_NAMES, _floats(snap.loe[:4]), strict=False)]
 
 
 Builder = Callable[[VehicleSnapshot, TelemetryContext], Fields | list[Fields] | None]
-"""A message's builder: the constructor arguments of its one message (a tuple), of several
-(a list of tuples; may be empty) or None (nothing to report)."""
+"""A message's builder: the constructor arguments of its one message (a record of
+:func:`~fcu.mavlink.transport.codec.fields_of` its class), of several (a list of records; may
+be empty) or None (nothing to report)."""
 
 BuilderTable = dict[int, tuple[type[MAVLinkMessage], Builder]]
 """Message id -> (its message class, its builder)."""
@@ -469,7 +519,7 @@ BUILDERS = builder_table(
 # replies and events
 
 
-def autopilot_version(sysid: int, version: tuple[int, int, int]) -> MAVLinkMessage:
+def autopilot_version(sysid: int, version: tuple[int, int, int]) -> Fields:
     """AUTOPILOT_VERSION: capabilities and the ArduCopter version we speak like.
 
     Parameters
@@ -481,24 +531,29 @@ def autopilot_version(sysid: int, version: tuple[int, int, int]) -> MAVLinkMessa
     """
     major, minor, patch = version
     sw = (major << 24) | (minor << 16) | (patch << 8) | _M.FIRMWARE_VERSION_TYPE_OFFICIAL
-    return _M.MAVLink_autopilot_version_message(
-        AUTOPILOT_CAPABILITIES, sw, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, sysid, [0] * 18)
+    return AutopilotVersion(
+        capabilities=AUTOPILOT_CAPABILITIES, flight_sw_version=sw, middleware_sw_version=0,
+        os_sw_version=0, board_version=0, flight_custom_version=[0] * 8,
+        middleware_custom_version=[0] * 8, os_custom_version=[0] * 8, vendor_id=0,
+        product_id=0, uid=sysid, uid2=[0] * 18)
 
 
 def command_ack(command: int, result: int, target_system: int,
-                target_component: int) -> MAVLinkMessage:
+                target_component: int) -> Fields:
     """COMMAND_ACK addressed to the sender of the command."""
-    return _M.MAVLink_command_ack_message(
-        clamp_int(command, 0, UINT16_MAX, 0), result, 0, 0,
-        clamp_int(target_system, 0, UINT8_MAX, 0), clamp_int(target_component, 0, UINT8_MAX, 0))
+    return CommandAck(
+        command=clamp_int(command, 0, UINT16_MAX, 0), result=result, progress=0,
+        result_param2=0, target_system=clamp_int(target_system, 0, UINT8_MAX, 0),
+        target_component=clamp_int(target_component, 0, UINT8_MAX, 0))
 
 
 def _ascii(text: str) -> str:
     return "".join(c if 32 <= ord(c) < 127 else "?" for c in text)
 
 
-def statustext_chunks(severity: int, text: str, chunk_id: int) -> list[MAVLinkMessage]:
-    """STATUSTEXT packets for ``text``, split into 50-character chunks.
+def statustext_chunks(severity: int, text: str, chunk_id: int) -> list[Fields]:
+    """STATUSTEXT packets for ``text`` (their constructor arguments), split into 50-character
+    chunks.
 
     A text of at most 50 characters is one packet with ``id`` 0. A longer one is sent as
     chunks sharing ``id = chunk_id`` (1..65535) with ``chunk_seq`` 0, 1, ...; the last chunk
@@ -510,12 +565,12 @@ def statustext_chunks(severity: int, text: str, chunk_id: int) -> list[MAVLinkMe
     clean = _ascii(text)
     n = STATUSTEXT_CHUNK_LEN
     if len(clean) <= n:
-        return [_M.MAVLink_statustext_message(sev, clean.encode("ascii"), 0, 0)]
+        return [Statustext(severity=sev, text=clean.encode("ascii"), id=0, chunk_seq=0)]
     if not 1 <= chunk_id <= UINT16_MAX:
         raise ValueError(f"chunk_id = {chunk_id!r}: must be in 1..65535")
     clean = clean[: n * STATUSTEXT_MAX_CHUNKS - 1]
     parts = [clean[i:i + n] for i in range(0, len(clean), n)]
     if len(parts[-1]) == n:
         parts.append("")
-    return [_M.MAVLink_statustext_message(sev, part.encode("ascii"), chunk_id, seq)
+    return [Statustext(severity=sev, text=part.encode("ascii"), id=chunk_id, chunk_seq=seq)
             for seq, part in enumerate(parts)]

@@ -20,13 +20,15 @@ RC_CHANNELS           no receiver: chancount 0, every channel UINT16_MAX ("unuse
                       UINT8_MAX ("unknown"), as the MAVLink spec defines them
 ====================  =======================================================================
 
-Each builder returns None when there is nothing to report yet (no sample, no second
-estimator, no truth), and the message is then skipped.
+Each builder fills its message's fields by name (records of
+:func:`fcu.mavlink.transport.codec.fields_of`) and returns None when there is nothing to report
+yet (no sample, no second estimator, no truth): the message is then skipped.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 
 from fcu.mavlink.geo import ned_to_geo
 from fcu.mavlink.port_records import VehicleSnapshot
@@ -41,12 +43,22 @@ from fcu.mavlink.telemetry.messages import (
     time_boot_ms,
     time_usec,
 )
-from fcu.mavlink.transport.codec import mavlink2
+from fcu.mavlink.transport.codec import fields_of, mavlink2
 
 __all__ = ["EXTENDED_BUILDERS", "G0_M_S2"]
 
 _M = mavlink2
 G0_M_S2 = 9.80665  # m/s^2, the g of mG
+
+RawImu = fields_of(_M.MAVLink_raw_imu_message)
+ScaledImu = fields_of(_M.MAVLink_scaled_imu_message)
+ScaledPressure = fields_of(_M.MAVLink_scaled_pressure_message)
+Vibration = fields_of(_M.MAVLink_vibration_message)
+EkfStatusReport = fields_of(_M.MAVLink_ekf_status_report_message)
+Ahrs2 = fields_of(_M.MAVLink_ahrs2_message)
+NavControllerOutput = fields_of(_M.MAVLink_nav_controller_output_message)
+Wind = fields_of(_M.MAVLink_wind_message)
+RcChannels = fields_of(_M.MAVLink_rc_channels_message)
 
 
 def _f(value: float) -> float:
@@ -61,15 +73,18 @@ def _cdeg_c(temperature_c: float) -> int:
     return 1 if value == 0 and math.isfinite(temperature_c) else value
 
 
-def _imu_ints(snap: VehicleSnapshot) -> tuple[int, list[int], int] | None:
+def _imu_ints(snap: VehicleSnapshot) -> tuple[int, dict[str, int], int] | None:
+    """(time in us, the IMU fields by name, temperature in cdegC) of the latest IMU sample."""
     reading = snap.extended.imu() if snap.extended is not None else None
     if reading is None:
         return None
-    acc = [clamp_int(1000.0 * float(a) / G0_M_S2, -INT16_MAX, INT16_MAX, 0)
-           for a in reading.accel_frd[:3]]
-    gyro = [clamp_int(1000.0 * float(w), -INT16_MAX, INT16_MAX, 0)
-            for w in reading.gyro_frd[:3]]
-    return time_usec(reading.time_s), acc + gyro + [0, 0, 0], _cdeg_c(reading.temperature_c)
+    ax, ay, az = (clamp_int(1000.0 * float(a) / G0_M_S2, -INT16_MAX, INT16_MAX, 0)
+                  for a in reading.accel_frd[:3])
+    gx, gy, gz = (clamp_int(1000.0 * float(w), -INT16_MAX, INT16_MAX, 0)
+                  for w in reading.gyro_frd[:3])
+    imu = {"xacc": ax, "yacc": ay, "zacc": az, "xgyro": gx, "ygyro": gy, "zgyro": gz,
+           "xmag": 0, "ymag": 0, "zmag": 0}
+    return time_usec(reading.time_s), imu, _cdeg_c(reading.temperature_c)
 
 
 def raw_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -77,8 +92,8 @@ def raw_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     ints = _imu_ints(snap)
     if ints is None:
         return None
-    time_us, values, temperature = ints
-    return (time_us, *values, 0, temperature)
+    time_us, imu, temperature = ints
+    return RawImu(time_usec=time_us, **imu, id=0, temperature=temperature)
 
 
 def scaled_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -86,8 +101,9 @@ def scaled_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     ints = _imu_ints(snap)
     if ints is None:
         return None
-    time_us, values, temperature = ints
-    return ((time_us // 1000) & UINT32_MAX, *values, temperature)
+    time_us, imu, temperature = ints
+    return ScaledImu(time_boot_ms=(time_us // 1000) & UINT32_MAX, **imu,
+                     temperature=temperature)
 
 
 def scaled_pressure(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -95,9 +111,9 @@ def scaled_pressure(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | No
     reading = snap.extended.pressure() if snap.extended is not None else None
     if reading is None:
         return None
-    return (
-        time_boot_ms(reading.time_s), _f(reading.pressure_pa / 100.0), 0.0,
-        _cdeg_c(reading.temperature_c), 0)
+    return ScaledPressure(
+        time_boot_ms=time_boot_ms(reading.time_s), press_abs=_f(reading.pressure_pa / 100.0),
+        press_diff=0.0, temperature=_cdeg_c(reading.temperature_c), temperature_press_diff=0)
 
 
 def vibration(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -106,8 +122,10 @@ def vibration(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     if levels is None:
         return None
     v = levels.vibration_m_s2
-    clips = [clamp_int(float(c), 0, UINT32_MAX, 0) for c in levels.clipping]
-    return (time_usec(levels.time_s), _f(v[0]), _f(v[1]), _f(v[2]), *clips)
+    clip0, clip1, clip2 = (clamp_int(float(c), 0, UINT32_MAX, 0) for c in levels.clipping)
+    return Vibration(
+        time_usec=time_usec(levels.time_s), vibration_x=_f(v[0]), vibration_y=_f(v[1]),
+        vibration_z=_f(v[2]), clipping_0=clip0, clipping_1=clip1, clipping_2=clip2)
 
 
 def ekf_status_report(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -115,10 +133,13 @@ def ekf_status_report(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | 
     report = snap.extended.ekf() if snap.extended is not None else None
     if report is None:
         return None
-    return (
-        clamp_int(report.flags, 0, UINT16_MAX, 0), _f(report.velocity_variance),
-        _f(report.pos_horiz_variance), _f(report.pos_vert_variance),
-        _f(report.compass_variance), _f(report.terrain_alt_variance), 0.0)
+    return EkfStatusReport(
+        flags=clamp_int(report.flags, 0, UINT16_MAX, 0),
+        velocity_variance=_f(report.velocity_variance),
+        pos_horiz_variance=_f(report.pos_horiz_variance),
+        pos_vert_variance=_f(report.pos_vert_variance),
+        compass_variance=_f(report.compass_variance),
+        terrain_alt_variance=_f(report.terrain_alt_variance), airspeed_variance=0.0)
 
 
 def ahrs2(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -129,8 +150,8 @@ def ahrs2(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     e = second.euler_rad
     lat, lon, alt = ned_to_geo(second.pos_ned, snap.origin)
     e7 = 2**31 - 1
-    return (_f(e[0]), _f(e[1]), _f(e[2]), _f(alt), clamp_int(lat * 1e7, -e7, e7, 0),
-            clamp_int(lon * 1e7, -e7, e7, 0))
+    return Ahrs2(roll=_f(e[0]), pitch=_f(e[1]), yaw=_f(e[2]), altitude=_f(alt),
+                 lat=clamp_int(lat * 1e7, -e7, e7, 0), lng=clamp_int(lon * 1e7, -e7, e7, 0))
 
 
 def _deg360(angle_rad: float) -> int:
@@ -145,11 +166,11 @@ def nav_controller_output(snap: VehicleSnapshot, ctx: TelemetryContext) -> Field
     nav = snap.extended.nav_controller() if snap.extended is not None else None
     if nav is None:
         return None
-    return (
-        _f(math.degrees(nav.roll_rad)), _f(math.degrees(nav.pitch_rad)),
-        _deg360(nav.bearing_rad), _deg360(nav.target_bearing_rad),
-        clamp_int(nav.wp_dist_m, 0, UINT16_MAX, 0), _f(nav.alt_error_m), 0.0,
-        _f(nav.xtrack_error_m))
+    return NavControllerOutput(
+        nav_roll=_f(math.degrees(nav.roll_rad)), nav_pitch=_f(math.degrees(nav.pitch_rad)),
+        nav_bearing=_deg360(nav.bearing_rad), target_bearing=_deg360(nav.target_bearing_rad),
+        wp_dist=clamp_int(nav.wp_dist_m, 0, UINT16_MAX, 0), alt_error=_f(nav.alt_error_m),
+        aspd_error=0.0, xtrack_error=_f(nav.xtrack_error_m))
 
 
 def wind(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -161,12 +182,17 @@ def wind(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     speed = math.hypot(wn, we)
     # the air moves towards atan2(we, wn); it comes from the opposite direction
     direction = math.degrees(math.atan2(-we, -wn)) % 360.0 if speed > 0.0 else 0.0
-    return (_f(direction), _f(speed), _f(wd))
+    return Wind(direction=_f(direction), speed=_f(speed), speed_z=_f(wd))
+
+
+# interned names: a call matches keywords by identity first (an f-string's would be 2x slower)
+_UNUSED_CHANNELS = {sys.intern(f"chan{k}_raw"): UINT16_MAX for k in range(1, 19)}
 
 
 def rc_channels(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """RC_CHANNELS: no receiver (module docstring)."""
-    return (time_boot_ms(snap.time_s), 0, *([UINT16_MAX] * 18), 0xFF)
+    return RcChannels(time_boot_ms=time_boot_ms(snap.time_s), chancount=0, **_UNUSED_CHANNELS,
+                      rssi=0xFF)
 
 
 EXTENDED_BUILDERS = builder_table(

@@ -38,7 +38,7 @@ from fcu.mavlink.telemetry.messages import (
     pwm_to_us,
     time_usec,
 )
-from fcu.mavlink.transport.codec import mavlink2
+from fcu.mavlink.transport.codec import fields_of, mavlink2
 from flightdata.geometry import quat_from_euler
 
 __all__ = ["PX4_BUILDERS"]
@@ -50,6 +50,12 @@ HIGHRES_IMU_FIELDS = 0x3F | 0x200 | 0x1000
 HIGHRES_IMU_NO_PRESSURE = HIGHRES_IMU_FIELDS & ~0x200
 _UNKNOWN_COVARIANCE = [math.nan] + [0.0] * 20  # MAVLink: NaN first = unknown
 ESC_REPORT_HZ = 10.0  # Hz, the ESCs' own report rate (ESC_TELEMETRY's packet count)
+
+# the record types the builders fill by name (fcu.mavlink.transport.codec.fields_of)
+HighresImu = fields_of(_M.MAVLink_highres_imu_message)
+Odometry = fields_of(_M.MAVLink_odometry_message)
+ActuatorOutputStatus = fields_of(_M.MAVLink_actuator_output_status_message)
+EscTelemetry1To4 = fields_of(_M.MAVLink_esc_telemetry_1_to_4_message)
 
 
 def _f(value: float) -> float:
@@ -67,8 +73,10 @@ def highres_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
     gx, gy, gz = (_f(w) for w in reading.gyro_frd[:3])
     hpa = _f(pressure.pressure_pa / 100.0) if pressure is not None else 0.0
     fields = HIGHRES_IMU_FIELDS if pressure is not None else HIGHRES_IMU_NO_PRESSURE
-    return (time_usec(reading.time_s), ax, ay, az, gx, gy, gz, 0.0, 0.0, 0.0, hpa, 0.0, 0.0,
-            _f(reading.temperature_c), fields, 0)
+    return HighresImu(
+        time_usec=time_usec(reading.time_s), xacc=ax, yacc=ay, zacc=az, xgyro=gx, ygyro=gy,
+        zgyro=gz, xmag=0.0, ymag=0.0, zmag=0.0, abs_pressure=hpa, diff_pressure=0.0,
+        pressure_alt=0.0, temperature=_f(reading.temperature_c), fields_updated=fields, id=0)
 
 
 def odometry(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
@@ -82,17 +90,22 @@ def odometry(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
     vel_body = rot.T @ np.asarray(snap.vel_ned, dtype=float)
     n, e, d = (_f(v) for v in snap.pos_ned[:3])
+    vx, vy, vz = (_f(v) for v in vel_body)
     p, qr, r = (_f(v) for v in snap.rate_frd[:3])
-    return (time_usec(snap.time_s), _M.MAV_FRAME_LOCAL_NED, _M.MAV_FRAME_BODY_FRD, n, e, d,
-            [w, x, y, z], *(_f(v) for v in vel_body), p, qr, r, _UNKNOWN_COVARIANCE,
-            _UNKNOWN_COVARIANCE, 0, _M.MAV_ESTIMATOR_TYPE_AUTOPILOT, 0)
+    return Odometry(
+        time_usec=time_usec(snap.time_s), frame_id=_M.MAV_FRAME_LOCAL_NED,
+        child_frame_id=_M.MAV_FRAME_BODY_FRD, x=n, y=e, z=d, q=[w, x, y, z], vx=vx, vy=vy,
+        vz=vz, rollspeed=p, pitchspeed=qr, yawspeed=r, pose_covariance=_UNKNOWN_COVARIANCE,
+        velocity_covariance=_UNKNOWN_COVARIANCE, reset_counter=0,
+        estimator_type=_M.MAV_ESTIMATOR_TYPE_AUTOPILOT, quality=0)
 
 
 def actuator_output_status(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields:
     """ACTUATOR_OUTPUT_STATUS: motors 1..4 as PWM (us), the other 28 outputs unused."""
     us = [float(pwm_to_us(float(u), ctx.pwm_max)) for u in snap.pwm[:4]]
     active = (1 << len(us)) - 1
-    return (time_usec(snap.time_s), active, us + [0.0] * (32 - len(us)))
+    return ActuatorOutputStatus(time_usec=time_usec(snap.time_s), active=active,
+                                actuator=us + [0.0] * (32 - len(us)))
 
 
 def esc_telemetry_1_to_4(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
@@ -105,7 +118,8 @@ def esc_telemetry_1_to_4(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields
     current_ca = [clamp_int(100.0 * a, 0, UINT16_MAX, 0) for a in truth.esc_current_a[:4]]
     voltage_cv = [clamp_int(100.0 * volts, 0, UINT16_MAX, 0)] * 4
     count = int(ESC_REPORT_HZ * max(snap.time_s, 0.0)) & UINT16_MAX  # reports so far
-    return ([0] * 4, voltage_cv, current_ca, [0] * 4, rpm, [count] * 4)
+    return EscTelemetry1To4(temperature=[0] * 4, voltage=voltage_cv, current=current_ca,
+                            totalcurrent=[0] * 4, rpm=rpm, count=[count] * 4)
 
 
 PX4_BUILDERS = builder_table(

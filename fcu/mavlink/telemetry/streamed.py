@@ -3,8 +3,9 @@
 The builders of :mod:`fcu.mavlink.telemetry.messages` (the core set), of
 :mod:`fcu.mavlink.telemetry.messages_extended` (ArduPilot SITL's extended telemetry) and of
 :mod:`fcu.mavlink.telemetry.messages_px4` (PX4's, on request), in one table.
-A builder gives its messages' constructor arguments: :func:`stream_fields` hands them to the
-packer as they are (the endpoint's telemetry path, no message object made), and
+A builder gives its messages' constructor arguments, filled by name (records of
+:func:`fcu.mavlink.transport.codec.fields_of` the entry's class): :func:`stream_fields` hands
+them to the packer as they are (the endpoint's telemetry path, no message object made), and
 :func:`build_stream` makes the messages (replies to REQUEST_MESSAGE, tests).
 """
 

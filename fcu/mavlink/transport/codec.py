@@ -21,10 +21,16 @@ trailing zero bytes (at least one byte stays). :meth:`Codec.pack_fields` packs t
 from a message type and its constructor arguments, without the message object (the telemetry
 streams' path: most of what the vehicle sends). tests/fcu/mavlink/transport/test_codec.py
 compares both with pymavlink for every message type of the dialect, signed and unsigned.
+
+The builders fill those arguments by name: :func:`fields_of` gives each message type a record
+type (a named tuple of ``cls.fieldnames``, made once per type), built with keywords, so a
+misspelt or missing field raises at once; the record is a tuple in the constructor's order,
+and :class:`_Layout` maps that order to the wire's once per type.
 """
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import operator
 import struct
@@ -34,9 +40,14 @@ from typing import Any, TypeAlias
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
-__all__ = ["Codec", "ParseResult", "heartbeat_fields", "heartbeat_message", "mavlink2"]
+__all__ = ["Codec", "Fields", "ParseResult", "fields_of", "heartbeat_fields",
+           "heartbeat_message", "mavlink2"]
 
 MAVLinkMessage: TypeAlias = mavlink2.MAVLink_message
+
+Fields: TypeAlias = tuple[Any, ...]
+"""A message's constructor arguments in ``cls.fieldnames`` order, as :meth:`Codec.pack_fields`
+packs them: what the telemetry builders return, as records of :func:`fields_of`."""
 
 _MAGIC = bytes([mavlink2.PROTOCOL_MARKER_V2])  # 0xFD
 _HEADER = struct.Struct("<BBBBBBHB")  # after the magic: len, incompat, compat, seq, sys, comp, id
@@ -122,13 +133,37 @@ def _layout(cls: type[MAVLinkMessage]) -> _Layout:
     return layout
 
 
-def heartbeat_fields(base_mode: int, custom_mode: int,
-                     system_status: int) -> tuple[int, int, int, int, int, int]:
+_RECORDS: dict[type, Callable[..., Fields]] = {}
+
+
+def fields_of(cls: type[MAVLinkMessage]) -> Callable[..., Fields]:
+    """The record type of ``cls``'s constructor arguments, made once per message type: a
+    :func:`collections.namedtuple` named after the message (``Attitude`` for ATTITUDE) whose
+    fields are ``cls.fieldnames`` in order, arrays and character arrays one field each.
+
+    Built with keywords (``fields_of(MAVLink_attitude_message)(time_boot_ms=..., roll=...,
+    ...)``), a misspelt or missing field raises TypeError at once; the record is a tuple in
+    the constructor's order, which :meth:`Codec.pack_fields` packs as it is, and
+    ``cls(**record._asdict())`` is the same message.
+    """
+    record = _RECORDS.get(cls)
+    if record is None:
+        name = "".join(part.capitalize() for part in cls.msgname.split("_"))
+        record = _RECORDS[cls] = collections.namedtuple(
+            name, cls.fieldnames, module=__name__)
+    return record
+
+
+_HEARTBEAT = fields_of(mavlink2.MAVLink_heartbeat_message)
+
+
+def heartbeat_fields(base_mode: int, custom_mode: int, system_status: int) -> Fields:
     """The vehicle's HEARTBEAT as its constructor arguments: an ArduCopter-style quadrotor
     (``MAV_TYPE_QUADROTOR``, ``MAV_AUTOPILOT_ARDUPILOTMEGA``, MAVLink version 3) in
     ``base_mode`` / ``custom_mode`` with ``system_status`` (MAV_STATE)."""
-    return (mavlink2.MAV_TYPE_QUADROTOR, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode,
-            custom_mode, system_status, 3)
+    return _HEARTBEAT(type=mavlink2.MAV_TYPE_QUADROTOR,
+                      autopilot=mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, base_mode=base_mode,
+                      custom_mode=custom_mode, system_status=system_status, mavlink_version=3)
 
 
 def heartbeat_message(base_mode: int, custom_mode: int, system_status: int) -> MAVLinkMessage:
@@ -204,7 +239,7 @@ class Codec:
     def pack_fields(self, cls: type[MAVLinkMessage], fields: Sequence[Any]) -> bytes:
         """:meth:`pack` of ``cls(*fields)``, without making the message object (the
         telemetry streams' path: ``fields`` in ``cls.fieldnames`` order, as the constructor
-        takes them).
+        takes them: a record of :func:`fields_of(cls) <fields_of>`).
 
         Raises
         ------

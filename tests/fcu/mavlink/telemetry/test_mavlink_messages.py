@@ -32,6 +32,11 @@ def wire(msg: Any) -> Any:
     return parsed.messages[0]
 
 
+def statustext(fields: Any) -> Any:
+    """The STATUSTEXT message of a :func:`build.statustext_chunks` record."""
+    return M.MAVLink_statustext_message(**fields._asdict())
+
+
 def snap(**changes: Any) -> VehicleSnapshot:
     vehicle = FakeVehicle()
     vehicle.pos_ned = np.array([3.0, -4.0, -2.0])
@@ -180,14 +185,15 @@ def test_nan_everywhere_still_packs() -> None:
 
 
 def test_statustext_short_is_one_packet() -> None:
-    msgs = [wire(m) for m in build.statustext_chunks(4, "Arm: pre-arm checks failed", 9)]
+    msgs = [wire(statustext(f)) for f in build.statustext_chunks(4, "Arm: pre-arm checks failed",
+                                                                  9)]
     assert [(m.text, m.id, m.chunk_seq) for m in msgs] == [("Arm: pre-arm checks failed", 0, 0)]
 
 
 @pytest.mark.parametrize("length", [51, 100, 149])
 def test_statustext_long_is_chunked_and_reassembles(length: int) -> None:
     text = "".join(chr(ord("a") + i % 26) for i in range(length))
-    msgs = [wire(m) for m in build.statustext_chunks(2, text, 77)]
+    msgs = [wire(statustext(f)) for f in build.statustext_chunks(2, text, 77)]
     assert all(m.id == 77 and m.severity == 2 for m in msgs)
     assert [m.chunk_seq for m in msgs] == list(range(len(msgs)))
     assert all(len(m.text) <= 50 for m in msgs)
@@ -196,12 +202,12 @@ def test_statustext_long_is_chunked_and_reassembles(length: int) -> None:
 
 
 def test_statustext_non_ascii_is_replaced() -> None:
-    (msg,) = [wire(m) for m in build.statustext_chunks(6, "Höhe\n", 1)]
+    (msg,) = [wire(statustext(f)) for f in build.statustext_chunks(6, "Höhe\n", 1)]
     assert msg.text == "H?he?"
 
 
 def test_autopilot_version_capabilities() -> None:
-    msg = wire(build.autopilot_version(1, (4, 5, 0)))
+    msg = wire(M.MAVLink_autopilot_version_message(*build.autopilot_version(1, (4, 5, 0))))
     for cap in (M.MAV_PROTOCOL_CAPABILITY_MAVLINK2, M.MAV_PROTOCOL_CAPABILITY_MISSION_INT,
                 M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT,
                 M.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST,
