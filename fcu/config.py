@@ -19,7 +19,15 @@ from fcu.monitoring.motor_faults import DetectorConfig
 from fcu.monitoring.sensor_health import SensorHealthConfig
 from fcu.navigation.settings import NavigatorConfig
 from flightdata.config import finite, require
-from flightdata.vocabulary import CONFIG_CHOICES
+from flightdata.vocabulary import (
+    CONFIG_CHOICES,
+    AllocatorName,
+    AttitudeLawName,
+    DobName,
+    EstimatorName,
+    FtcMode,
+    HeightSource,
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -30,12 +38,12 @@ class AutopilotConfig:
     of the names :data:`flightdata.vocabulary.CONFIG_CHOICES` lists for them.
     """
 
-    attitude: str = "lqg"  # attitude law: "pd" (eq. 5.6) or "lqg" (LQR + integral, eq. 5.10)
-    estimator: str = "ekf"  # which estimate feeds the controllers: "ekf" or "tskf"
-    dob: str = "none"  # disturbance observer on roll, pitch and yaw: "none", "vbdob", "abdob"
-    height_source: str = "mocap"  # height from motion capture ("mocap") or "baro"
-    allocator: str = "attitude_first"  # control allocation (inverse of eq. 3.2)
-    ftc: str = "passive"  # "passive" (the thesis) or "active": allocation uses the estimates
+    attitude: AttitudeLawName = "lqg"  # "pd" (eq. 5.6) or "lqg" (LQR + integral, eq. 5.10)
+    estimator: EstimatorName = "ekf"  # which estimate feeds the controllers: "ekf" or "tskf"
+    dob: DobName = "none"  # disturbance observer on roll, pitch and yaw: "none", "vbdob", "abdob"
+    height_source: HeightSource = "mocap"  # height from motion capture ("mocap") or "baro"
+    allocator: AllocatorName = "attitude_first"  # control allocation (inverse of eq. 3.2)
+    ftc: FtcMode = "passive"  # "passive" (the thesis) or "active": allocation uses the estimates
     loop_rate_hz: float = 100.0  # Hz, control and estimation tick
     dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
     attitude_ref_bandwidth_rad_s: float = 15.0  # rad/s, attitude reference filter

@@ -14,13 +14,15 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from types import MappingProxyType
+from typing import Literal, get_args
 
 # ---- the airframe -------------------------------------------------------------------------
 MOTORS: tuple[int, ...] = (1, 2, 3, 4)
 """Motor numbers of thesis eq. 3.2: 1 front, 2 back, 3 left, 4 right (docs/design.md)."""
 
 # ---- sensors ------------------------------------------------------------------------------
-SENSORS: tuple[str, ...] = ("gyro", "accel", "mocap_pos", "mocap_att", "baro")
+SensorName = Literal["gyro", "accel", "mocap_pos", "mocap_att", "baro"]
+SENSORS: tuple[str, ...] = get_args(SensorName)
 """Sensor names, as on every sensor sample (fcu/hal.py)."""
 
 BATTERY_SENSOR = "battery"
@@ -32,19 +34,25 @@ SENSOR_AXES: Mapping[str, int] = MappingProxyType(
 """Number of elements of each sensor's value."""
 
 # ---- the autopilot's configuration choices (value of the selecting parameter = index) -------
-ATTITUDE_LAWS: tuple[str, ...] = ("pd", "lqg")
+AttitudeLawName = Literal["pd", "lqg"]
+ATTITUDE_LAWS: tuple[AttitudeLawName, ...] = get_args(AttitudeLawName)
 """Attitude control laws: PD (eq. 5.6), LQR + integral on the estimate (LQG, eq. 5.10)."""
-ESTIMATORS: tuple[str, ...] = ("ekf", "tskf")
+EstimatorName = Literal["ekf", "tskf"]
+ESTIMATORS: tuple[EstimatorName, ...] = get_args(EstimatorName)
 """State estimators whose estimate feeds the controllers."""
-DISTURBANCE_OBSERVERS: tuple[str, ...] = ("none", "vbdob", "abdob")
+DobName = Literal["none", "vbdob", "abdob"]
+DISTURBANCE_OBSERVERS: tuple[DobName, ...] = get_args(DobName)
 """Disturbance observers on the attitude loop (eq. 6.27-6.30)."""
-HEIGHT_SOURCES: tuple[str, ...] = ("mocap", "baro")
+HeightSource = Literal["mocap", "baro"]
+HEIGHT_SOURCES: tuple[HeightSource, ...] = get_args(HeightSource)
 """Where the estimators take height from."""
-ALLOCATORS: tuple[str, ...] = ("attitude_first",)
+AllocatorName = Literal["attitude_first"]
+ALLOCATORS: tuple[AllocatorName, ...] = get_args(AllocatorName)
 """Control allocators: the inverse of eq. 3.2 with attitude-first saturation (no parameter
 selects one yet)."""
 
-FTC_MODES: tuple[str, ...] = ("passive", "active")
+FtcMode = Literal["passive", "active"]
+FTC_MODES: tuple[FtcMode, ...] = get_args(FtcMode)
 """Fault-tolerant control: ``passive`` (the thesis: robust control, the estimates only
 reported) or ``active`` (the allocation uses the estimated effectiveness of each motor)."""
 
@@ -91,13 +99,15 @@ LOE_VALUE_NAMES: tuple[str, ...] = tuple(f"LOE{m}" for m in MOTORS)
 """NAMED_VALUE_FLOAT names of the per-motor effectiveness-loss estimates, motors 1..4."""
 
 # ---- faults -------------------------------------------------------------------------------
-ACTUATOR_FAULT_KINDS: tuple[str, ...] = ("loe", "lock", "float", "hardover", "total_loss")
+ActuatorKind = Literal["loe", "lock", "float", "hardover", "total_loss"]
+ACTUATOR_FAULT_KINDS: tuple[ActuatorKind, ...] = get_args(ActuatorKind)
 """Actuator faults: loss of effectiveness (eq. 4.10), stuck command, no thrust, full
 output, total loss."""
-LOE_PROFILES: tuple[str, ...] = ("step", "sinusoid", "random", "pulse")
+LoeProfile = Literal["step", "sinusoid", "random", "pulse"]
+LOE_PROFILES: tuple[LoeProfile, ...] = get_args(LoeProfile)
 """Time profiles of a loss of effectiveness (Table 6.1)."""
-SENSOR_FAULT_KINDS: tuple[str, ...] = ("bias", "loss_of_accuracy", "drift", "freeze",
-                                       "calibration")
+SensorKind = Literal["bias", "loss_of_accuracy", "drift", "freeze", "calibration"]
+SENSOR_FAULT_KINDS: tuple[SensorKind, ...] = get_args(SensorKind)
 """Sensor faults (chapter 4)."""
 STRUCTURAL_FAULT_KINDS: tuple[str, ...] = ("mass_loss",)
 """Structural faults: part of the airframe's mass leaves it."""

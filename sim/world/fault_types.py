@@ -91,11 +91,8 @@ import numpy as np
 
 from flightdata.config import ConfigError, finite, from_mapping, require
 from flightdata.records import FaultRecord
+from flightdata.vocabulary import ActuatorKind, LoeProfile, SensorKind, SensorName
 
-ActuatorKind = Literal["loe", "lock", "float", "hardover", "total_loss"]
-LoeProfile = Literal["step", "sinusoid", "random", "pulse"]
-SensorName = Literal["gyro", "accel", "mocap_pos", "mocap_att", "baro"]
-SensorKind = Literal["bias", "loss_of_accuracy", "drift", "freeze", "calibration"]
 EventKind = Literal["injected", "cleared", "started", "ended"]
 
 
