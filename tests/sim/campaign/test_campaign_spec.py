@@ -157,6 +157,7 @@ def test_every_shipped_campaign_expands() -> None:
     assert sizes["smoke"] == 12
     assert sizes["loe_envelope"] == 21 * 4 * 3 * 2
     assert sizes["thesis_faults"] == 9 * 3 * 50
+    assert sizes["false_alarms_indoor"] == 1000
 
 
 def test_unknown_campaign_lists_the_shipped_ones() -> None:
