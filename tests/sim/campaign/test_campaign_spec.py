@@ -158,6 +158,7 @@ def test_every_shipped_campaign_expands() -> None:
     assert sizes["loe_envelope"] == 21 * 4 * 3 * 2
     assert sizes["thesis_faults"] == 9 * 3 * 50
     assert sizes["false_alarms_indoor"] == 1000
+    assert sizes["false_alarms_outdoor"] == 300
 
 
 def test_unknown_campaign_lists_the_shipped_ones() -> None:
