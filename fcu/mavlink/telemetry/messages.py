@@ -187,6 +187,12 @@ def _f(value: float) -> float:
     return float(value)
 
 
+def finite_float(value: float) -> float:
+    """A finite float for a float field (NaN and inf become 0)."""
+    value = float(value)
+    return value if math.isfinite(value) else 0.0
+
+
 _F64 = np.dtype(np.float64)
 
 

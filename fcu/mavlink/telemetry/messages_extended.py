@@ -43,6 +43,9 @@ from fcu.mavlink.telemetry.messages import (
     time_boot_ms,
     time_usec,
 )
+from fcu.mavlink.telemetry.messages import (
+    finite_float as _f,
+)
 from fcu.mavlink.transport.codec import fields_of, mavlink2
 
 __all__ = ["EXTENDED_BUILDERS", "G0_M_S2"]
@@ -59,12 +62,6 @@ Ahrs2 = fields_of(_M.MAVLink_ahrs2_message)
 NavControllerOutput = fields_of(_M.MAVLink_nav_controller_output_message)
 Wind = fields_of(_M.MAVLink_wind_message)
 RcChannels = fields_of(_M.MAVLink_rc_channels_message)
-
-
-def _f(value: float) -> float:
-    """A finite float for a float field (NaN and inf become 0)."""
-    value = float(value)
-    return value if math.isfinite(value) else 0.0
 
 
 def _cdeg_c(temperature_c: float) -> int:

@@ -38,6 +38,9 @@ from fcu.mavlink.telemetry.messages import (
     pwm_to_us,
     time_usec,
 )
+from fcu.mavlink.telemetry.messages import (
+    finite_float as _f,
+)
 from fcu.mavlink.transport.codec import fields_of, mavlink2
 from flightdata.geometry import quat_from_euler
 
@@ -56,11 +59,6 @@ HighresImu = fields_of(_M.MAVLink_highres_imu_message)
 Odometry = fields_of(_M.MAVLink_odometry_message)
 ActuatorOutputStatus = fields_of(_M.MAVLink_actuator_output_status_message)
 EscTelemetry1To4 = fields_of(_M.MAVLink_esc_telemetry_1_to_4_message)
-
-
-def _f(value: float) -> float:
-    value = float(value)
-    return value if math.isfinite(value) else 0.0
 
 
 def highres_imu(snap: VehicleSnapshot, ctx: TelemetryContext) -> Fields | None:
