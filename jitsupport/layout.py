@@ -12,9 +12,10 @@ slice ``work[P:P + NN]`` costs what a hand-written offset did)::
     P = WORK.field("P", N * N)  # posterior P (N x N, row-major)
     WORK_SIZE = WORK.size
 
-Python reads a field by name (:meth:`Layout.view`); :func:`aligned_zeros` allocates the
-array on a cache-line boundary, and ``align=`` keeps a field's start on one (the row kernels
-of :mod:`fcu.estimation.small_matrix` load whole vectors of :data:`LANES` doubles).
+Python finds a field by name (``WORK["P"].start``); :func:`aligned_zeros` allocates the
+array on a cache-line boundary (the row kernels of :mod:`fcu.estimation.small_matrix` load
+whole vectors of :data:`LANES` doubles; tests/jitsupport/test_layout.py checks that the
+matrices they update start on a vector boundary).
 """
 
 from __future__ import annotations
@@ -52,14 +53,13 @@ class Layout:
         self._fields: dict[str, Field] = {}
         self.size = 0  # entries of the whole array so far
 
-    def field(self, name: str, size: int, *, align: int = 1) -> int:
-        """Declare the next field, ``size`` entries, starting at a multiple of ``align``
-        entries (padding before it when needed); returns its start."""
+    def field(self, name: str, size: int) -> int:
+        """Declare the next field, ``size`` entries; returns its start."""
         if name in self._fields:
             raise ValueError(f"{self.name}: field {name!r} declared twice")
-        if size < 0 or align < 1:
-            raise ValueError(f"{self.name}: field {name!r} has size {size}, align {align}")
-        start = -(-self.size // align) * align
+        if size < 0:
+            raise ValueError(f"{self.name}: field {name!r} has size {size}")
+        start = self.size
         self._fields[name] = Field(name, start, size)
         self.size = start + size
         return start
@@ -75,18 +75,6 @@ class Layout:
     def fields(self) -> tuple[Field, ...]:
         """Every field, in order."""
         return tuple(self._fields.values())
-
-    def view(self, array: npt.NDArray[np.float64], name: str,
-             shape: tuple[int, ...] | None = None) -> npt.NDArray[np.float64]:
-        """Field ``name`` of ``array`` (this layout's array, or one starting with it), as a
-        view, reshaped to ``shape`` when given."""
-        f = self[name]
-        flat = array[f.start:f.stop]
-        return flat if shape is None else flat.reshape(shape)
-
-    def describe(self) -> str:
-        """One line per field: start, size, name (for docs and error messages)."""
-        return "\n".join(f"{f.start:6d} {f.size:6d}  {f.name}" for f in self._fields.values())
 
 
 def aligned_zeros(n: int) -> npt.NDArray[np.float64]:
