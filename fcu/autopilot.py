@@ -51,6 +51,7 @@ from fcu.hal import SensorSampleLike
 from fcu.monitoring.battery import BatteryMonitor
 from fcu.monitoring.crash_check import CrashCheck, contact_counts
 from fcu.monitoring.motor_faults import MotorFaultDetector
+from fcu.monitoring.rotor_watch import RotorWatch
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.monitoring.watched_pair import step_pair_watched
 from fcu.navigation.modes import MODE_TABLE, Mode
@@ -94,7 +95,7 @@ class AutopilotEvent:
         """The event carrying a detection record (severity from its kind and action)."""
         if record.action == "cleared":
             severity = "notice"
-        elif record.kind in ("loe", "motor_lost", "crash"):
+        elif record.kind in ("loe", "motor_lost", "motor_hard_over", "motor_stuck", "crash"):
             severity = "critical"
         else:
             severity = "warning"
@@ -162,6 +163,7 @@ class Autopilot:
         noise = self.estimator.noise
         self._sensor_noise = {name: float(getattr(noise, name)) for name in SENSORS}
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
+        self.rotor_watch = RotorWatch(model, cfg.rotor_watch, self.dt_s)
         # the hover regime's bounds (detector settings), read twice a tick
         self._valid_yaw_rate_rad_s = cfg.detector.valid_yaw_rate_rad_s
         self._valid_tilt_rad = cfg.detector.valid_tilt_rad
@@ -185,6 +187,7 @@ class Autopilot:
         self._reset_controllers()
         self.sensor_health.reset()
         self.detector.reset()
+        self.rotor_watch.reset()
         self.crash_check.reset()
         self.battery.reset()
         self._pwm = np.zeros(4)
@@ -200,6 +203,7 @@ class Autopilot:
         self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
         # the declared motors the arming blocker was set for (None: not since the reset)
         self._blocker_motors: tuple[int, ...] | None = None
+        self._blocker_watched = False  # the blocker names the wrench residual's motor
         # the latest estimate _hover_regime judged, and its verdict: the estimate of a tick
         # is the next tick's prior, judged again then
         self._regime_of: StateEstimate | None = None
@@ -227,6 +231,7 @@ class Autopilot:
         """One control tick at ``time_s``; returns PWM u1..u4 to hold until the next tick."""
         # one averaging of the tick's samples, shared by both estimators
         batches = group_samples(samples, self._grouped_kinds)
+        gyro, accel = batches.peek_value("gyro"), batches.peek_value("accel")
         self._battery_step(time_s, batches.pop_value(BATTERY_SENSOR))
         health = self.sensor_health
         excluded = health.excluded
@@ -269,6 +274,13 @@ class Autopilot:
                 self._events.append(AutopilotEvent(ev.time_s, ev.kind, ev.text, ev.severity,
                                                    seq=ev.seq))
         flying = nav.reference is not None
+        watch = self.rotor_watch
+        airborne = (flying and nav.landed_state != LandedState.ON_GROUND
+                    and estimate.alt_m > self.config.rotor_watch.min_alt_m)
+        watch_records = watch.step(time_s, gyro, accel, self._pwm, airborne)
+        if watch_records:
+            records += watch_records
+            self._on_rotor_fault(time_s)
         motor_records = self._motor_evidence(time_s, estimate, nav, flying)
         if motor_records:
             records += motor_records
@@ -356,27 +368,45 @@ class Autopilot:
         # (the regime is only asked about in the air: on the ground there is no evidence)
         learn = (flying and landed_state != LandedState.ON_GROUND
                  and self._hover_regime(estimate) and not self.tskf.on_ground
-                 and not self.sensor_health.suspect(time_s))
+                 and not self.sensor_health.suspect(time_s) and self._watch_allows_tskf())
         detector = self.detector
         records = detector.step(time_s, self.tskf.gamma_raw, self._pwm,
                                 evidence=learn and landed_state == LandedState.IN_AIR,
                                 learn=learn)
         active = detector.active
-        # (the detector's tuple of declared motors is a new one whenever they change)
-        if active is not self._blocker_motors:
+        watched = self.rotor_watch.declared
+        # (the detector's tuple of declared motors is a new one whenever they change; the
+        # watch declares once per boot)
+        if active is not self._blocker_motors or (watched is not None
+                                                   and not self._blocker_watched):
             self._blocker_motors = active
-            self.navigator.set_arming_blocker("motors",
-                                              self._motors_blocker if active else None)
+            self._blocker_watched = watched is not None
+            self.navigator.set_arming_blocker(
+                "motors", self._motors_blocker if active or watched is not None else None)
         return records
+
+    def _watch_allows_tskf(self) -> bool:
+        """Whether the TSKF's detector may take evidence and its findings count: not while
+        the wrench residual suspects a motor or has declared one that does not merely
+        lose effectiveness (a hard-over reads to the TSKF as a loss of the opposite
+        motor: :mod:`fcu.monitoring.rotor_watch`)."""
+        watch = self.rotor_watch
+        declared = watch.declared
+        return watch.suspected is None and (declared is None or declared[1] == "loe")
 
     def _motors_blocker(self) -> str:
         """The arming blocker of the declared motors, naming each one's latest estimated LOE
-        in whole per cent (written when read)."""
+        in whole per cent, or what the wrench residual found (written when read)."""
         detector = self.detector
         loe = detector.loe
-        return "; ".join(f"motor {m} detected failed (lost about "
-                         f"{round(100 * loe.item(m - 1))} %): restart the autopilot to clear"
-                         for m in detector.active)
+        reasons = [f"motor {m} detected failed (lost about {round(100 * loe.item(m - 1))} "
+                   "%): restart the autopilot to clear" for m in detector.active]
+        watched = self.rotor_watch.declared
+        if watched is not None and watched[0] not in detector.active:
+            what = watched[1].removeprefix("motor_").replace("_", "-")
+            reasons.append(f"motor {watched[0]} detected failed ({what}): restart the "
+                           "autopilot to clear")
+        return "; ".join(reasons)
 
     def _ftc_effectiveness(self) -> np.ndarray | None:
         """Active FTC: per motor, ``1 - LOE`` of the motors the detector has declared or
@@ -414,13 +444,21 @@ class Autopilot:
         motors: tuple[int, ...] = ()
         if self._motor_lost_told is not None:
             motors = (self._motor_lost_told,)
-        elif self.ftc_active:
+        elif self.ftc_active and self.rotor_watch.lost is not None:
+            motors = (self.rotor_watch.lost,)
+        elif self.ftc_active and self._watch_allows_tskf():
+            # the TSKF's finding (a loss beyond yaw authority), when the IMU's wrench
+            # residual bears it out: a deficit of at least a third of hover thrust on that
+            # motor (fcu.monitoring.rotor_watch)
             motors = self.detector.lost
             suspected = self.detector.suspected
             if (not motors and suspected is not None
                     and float(self.detector.loe[suspected - 1])
                     > self.config.detector.lost_threshold):
                 motors = (suspected,)
+            hover_n = self.model.mass * self.model.gravity / 4.0
+            motors = tuple(m for m in motors
+                           if self.rotor_watch.deficit_n.item(m - 1) > hover_n / 3.0)
         if not motors:
             return None
         if len(motors) > 1:
@@ -435,6 +473,17 @@ class Autopilot:
                 self._cannot_survive(time_s, str(err))
                 return None
         return motor
+
+    def _on_rotor_fault(self, time_s: float) -> None:
+        """Active FTC after the wrench residual declared a motor (:mod:`fcu.monitoring.
+        rotor_watch`): a lost motor is flown around in relaxed hover (:meth:`_lost_motor`);
+        a motor that no longer follows its command (stuck, hard-over) leaves nothing to
+        reconfigure on four rotors, so the vehicle lands where it is, announced."""
+        declared = self.rotor_watch.declared
+        if not self.ftc_active or declared is None or declared[1] not in (
+                "motor_hard_over", "motor_stuck"):
+            return
+        self._cannot_survive(time_s, f"motor {declared[0]} does not follow its command")
 
     def _cannot_survive(self, time_s: float, why: str) -> None:
         """Say once that the loss cannot be flown around, and land (the least bad thing)."""
@@ -458,6 +507,8 @@ class Autopilot:
             # published as they stood at the switch until the next take-off
             self._loe_at_spin = np.array(self.detector.loe, dtype=float)
             reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
+            # hold against the wind from the first tick: the trim the position loop had
+            self.position_spinning.take_trim(self.position.trim_accel)
             eq = reduced.equilibrium
             self._events.append(AutopilotEvent(
                 time_s, "relaxed_hover",
@@ -558,7 +609,15 @@ class Autopilot:
         self._status = _NEW_TUPLE(AutopilotStatus, (
             time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat, self._pwm, loe,
             detector.declared_flags, detector.mass_change_kg, self.sensor_health.excluded,
-            detector.lost))
+            self._motors_lost()))
+
+    def _motors_lost(self) -> tuple[int, ...]:
+        """Motors (1..4) declared lost, by the TSKF's detector or the wrench residual."""
+        lost = self.detector.lost
+        watched = self.rotor_watch.lost
+        if watched is None or watched in lost:
+            return lost
+        return tuple(sorted((*lost, watched)))
 
     # ------------------------------------------------------------------ observation
     @property

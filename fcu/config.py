@@ -16,6 +16,7 @@ from fcu.model import VehicleModel
 from fcu.monitoring.battery import BatteryMonitorConfig
 from fcu.monitoring.crash_check import CrashCheckConfig
 from fcu.monitoring.motor_faults import DetectorConfig
+from fcu.monitoring.rotor_watch import RotorWatchConfig
 from fcu.monitoring.sensor_health import SensorHealthConfig
 from fcu.navigation.settings import NavigatorConfig
 from flightdata.config import finite, require
@@ -56,6 +57,7 @@ class AutopilotConfig:
     lqr: LqrWeights = field(default_factory=LqrWeights)
     navigator: NavigatorConfig = field(default_factory=NavigatorConfig)
     detector: DetectorConfig = field(default_factory=DetectorConfig)
+    rotor_watch: RotorWatchConfig = field(default_factory=RotorWatchConfig)
     sensors: SensorHealthConfig = field(default_factory=SensorHealthConfig)
     crash: CrashCheckConfig = field(default_factory=CrashCheckConfig)
     battery: BatteryMonitorConfig = field(default_factory=BatteryMonitorConfig)

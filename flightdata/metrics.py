@@ -171,7 +171,7 @@ def detection_latency_s(time_s: float, motor: int,
     return time_s - before[-1] if before else None
 
 
-_ACTUATOR_DETECTIONS = ("loe", "motor_lost")
+_ACTUATOR_DETECTIONS = ("loe", "motor_lost", "motor_hard_over", "motor_stuck")
 _SENSOR_DETECTIONS = ("sensor_rejected", "sensor_frozen", "sensor_inconsistent")
 
 

@@ -203,6 +203,10 @@ class DetectionRecord:
                    "sensor_frozen": "frozen", "sensor_inconsistent": "disagrees with the "
                    "other sources"}[self.kind]
             return f"{s} healthy again" if cleared else f"{s} {why}: excluded"
+        if self.kind in ("motor_hard_over", "motor_stuck"):
+            if self.kind == "motor_hard_over":
+                return f"motor {m} hard-over: {_percent(v)} power whatever its command"
+            return f"motor {m} stuck at {_percent(v)} power, not its command"
         if self.kind == "crash":
             return f"crash detected (attitude error {math.degrees(v):.0f} deg): disarming"
         return f"thrust loss (collective {_percent(v)}): check the motors"

@@ -118,7 +118,7 @@ FAULT_KINDS: tuple[str, ...] = (*ACTUATOR_FAULT_KINDS, *SENSOR_FAULT_KINDS,
 # ---- what the autopilot concludes ---------------------------------------------------------
 DETECTION_KINDS: tuple[str, ...] = ("loe", "motor_lost", "mass_change", "sensor_rejected",
                                     "sensor_frozen", "sensor_inconsistent", "crash",
-                                    "thrust_loss")
+                                    "thrust_loss", "motor_hard_over", "motor_stuck")
 """Kinds of detection record (the wire code of a kind is its index here):
 
 - ``loe``: a motor lost part of its effectiveness (magnitude: the estimated loss, 0..1);
@@ -128,7 +128,11 @@ DETECTION_KINDS: tuple[str, ...] = ("loe", "motor_lost", "mass_change", "sensor_
 - ``sensor_frozen``: a sensor repeats the same reading (magnitude: seconds frozen);
 - ``sensor_inconsistent``: two sources disagree (magnitude: the disagreement, sensor unit);
 - ``crash``: the crash check fired (magnitude: attitude error, rad);
-- ``thrust_loss``: the thrust-loss check fired (magnitude: collective command, 0..1).
+- ``thrust_loss``: the thrust-loss check fired (magnitude: collective command, 0..1);
+- ``motor_hard_over``: a motor runs at full power whatever its command (magnitude: the
+  command it follows, fraction of full power);
+- ``motor_stuck``: a motor gives more thrust than commanded, short of full power, as a
+  locked command does (magnitude: the command it follows, fraction of full power).
 """
 
 # ---- how a flight ended (simulator truth) -------------------------------------------------

@@ -274,6 +274,19 @@ class PositionController(OneStatePart):
         """Zero the integrator."""
         self.state[:] = 0.0
 
+    @property
+    def trim_accel(self) -> np.ndarray:
+        """The integral's share of the acceleration command, ``ki z`` (m/s^2, NED): the
+        trim that holds against a steady wind or a thrust deficit."""
+        return self._ki * self.state
+
+    def take_trim(self, trim_accel: np.ndarray) -> None:
+        """Start the integrator at the trim ``trim_accel`` (m/s^2, NED) that another
+        position controller had reached (a bumpless switch; the limits apply)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(self._ki > 0, np.asarray(trim_accel, dtype=float) / self._ki, 0.0)
+        self.state[:] = np.clip(z, -self._z_limit, self._z_limit)
+
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, ref_pos: np.ndarray,
              ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float) -> PositionCommand:
         """One tick of eq. 5.3/5.4.

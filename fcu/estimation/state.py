@@ -351,6 +351,20 @@ class GroupedSamples(BuiltOnRead[SampleBatch]):
                                                 int(rows[at + width - 2]))
         return batches
 
+    def peek_value(self, sensor: str) -> list[float] | None:
+        """``sensor``'s mean value as a list, the batch left in place (None when there is
+        none, or it was popped)."""
+        if sensor in self.popped or sensor not in self.slot_names:
+            return None
+        if self._batches is not None:
+            batch = self._batches.get(sensor)
+            return None if batch is None else batch.value.tolist()
+        s = self.slot_names.index(sensor)
+        at = s * self.width
+        if self.flat.item(at + self.width - 2) <= 0:  # no sample: no batch
+            return None
+        return self.flat[at:at + self.slot_axes[s]].tolist()
+
     def pop_value(self, sensor: str) -> list[float] | None:
         """:meth:`pop` of ``sensor``'s batch returning its mean value only, as a list (None
         when there is no batch)."""

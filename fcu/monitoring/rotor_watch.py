@@ -1,0 +1,245 @@
+"""Large motor faults isolated from the IMU in every phase of flight: the wrench residual.
+
+The TSKF-based detector (:mod:`fcu.monitoring.motor_faults`) reads per-motor effectiveness
+off a hover model: it says nothing while the vehicle climbs, descends or leaves the hover
+regime, and it removes the collective as a mass change, so that a motor running away at full
+thrust looks to it like a loss of the opposite motor (they differ only in the small yaw
+torque). This watch needs no hover model. Every tick it compares the wrench the motors
+should make with the wrench the IMU measures, both in the body frame:
+
+    expected  w_e = B T_e                                    (eq. 3.17; B = thrust mixer)
+    measured  w_m = (-m a_z,  J w' + w x J w + G w)          (eq. 3.15, rate damping G)
+    residual  r   = w_e - w_m - (mu, 0, 0, 0)
+
+with ``T_e`` the thrusts the commanded PWM gives through the motor lag (eq. 3.1, the
+commands held over each tick), ``w'`` the gyro's difference between consecutive ticks
+(their means, so the torque is that at the boundary between them, where ``T_e`` and the two
+ticks' mean specific force ``a_z`` are taken too) and ``mu`` the slowly learned collective
+bias (drag along the body axis in steady flight, a mass change: low-passed over
+``bias_tau_s`` while nothing is suspected). Climb, descent, cruise and turns are all in
+``w_m``: only what the motors fail to deliver stays in ``r``.
+
+A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
+``r = b_j f``, ``b_j`` the column ``j`` of ``B``. Against the per-channel noise ``Sigma``
+(measured, fast attack, slow decay, floored; frozen while anything is suspected) the best
+single-motor fit and its statistic are::
+
+    f_j = b_j' S^-1 r / (b_j' S^-1 b_j),     T_j = f_j^2 b_j' S^-1 b_j
+
+A motor is suspected when ``T_j > significance``, ``|f_j| > min_deficit`` of its expected
+thrust (the watch leaves partial losses to the TSKF detector) and ``b_j f_j`` explains the
+residual (``T_j > consistency x RSS_j``: a gust twists the frame without the collective a
+motor's thrust carries); it is declared after ``persistence_ticks`` consecutive ticks of
+suspicion of the same motor, about 0.05-0.08 s after a total loss (the motor lag spreads the
+deficit over 67 ms). The collective separates a motor's loss from the opposite motor's
+excess, which give the same roll or pitch torque.
+
+The kind comes from the motor's own thrust, ``T_j = T_e,j - f_j``, inverted through the lag
+over the persistence window (the command the motor actually follows, ``u_f``)::
+
+    u_f = (T(t) - T(t - D) e^(-w D)) / ((1 - e^(-w D)) K)
+
+``motor_lost`` (deficit, ``u_f`` under ``1 - lost_fraction`` of the command: a lost
+propeller, a freewheeling or dead motor), ``motor_hard_over`` (excess, ``u_f`` at 85 % of
+full power or more), ``motor_stuck`` (excess short of full power: a command that no longer
+follows) or
+``loe`` (a partial deficit above ``min_deficit``); the magnitude is the fraction of
+effectiveness lost (``motor_lost``, ``loe``) or the stuck command as a fraction of full power.
+One motor is declared per flight (after the first, the residual carries the controller's
+response to it); a second large fault is beyond this watch. The per-motor deficits stay
+up to date after it (:attr:`RotorWatch.deficit_n`): the autopilot checks the TSKF's
+findings against them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fcu.model import VehicleModel
+from flightdata.config import finite, require
+from flightdata.records import DetectionRecord
+
+
+@dataclass(frozen=True, kw_only=True)
+class RotorWatchConfig:
+    """Settings of the wrench-residual watch (module docstring)."""
+
+    significance: float = 60.0  # statistic T_j (chi-square, 1 dof under no fault) to suspect
+    min_deficit: float = 0.5  # |f_j| / expected thrust of motor j needed to suspect
+    consistency: float = 3.0  # T_j must exceed this many times what the fit leaves (RSS_j)
+    persistence_ticks: int = 4  # consecutive ticks suspecting the same motor that declare
+    bias_tau_s: float = 2.0  # s, low-pass of the collective bias mu
+    noise_tau_s: float = 20.0  # s, decay of the measured noise (attack: 1 s)
+    # noise floors, 1 sigma: collective N, roll, pitch, yaw N*m (indoor air, IMU noise)
+    noise_floor: tuple[float, float, float, float] = (0.1, 0.015, 0.015, 0.012)
+    min_alt_m: float = 0.15  # m, estimated altitude above which the watch takes evidence
+    # fraction of a motor's effectiveness lost above which a deficit is declared a lost
+    # motor (``motor_lost``), below it a partial loss (``loe``)
+    lost_fraction: float = 0.75
+
+    def __post_init__(self) -> None:
+        for name in ("significance", "min_deficit", "consistency", "bias_tau_s",
+                     "noise_tau_s", "min_alt_m", "lost_fraction"):
+            value = getattr(self, name)
+            require(finite(value) and value > 0.0, name, value, "must be > 0")
+        require(isinstance(self.persistence_ticks, int) and self.persistence_ticks >= 2,
+                "persistence_ticks", self.persistence_ticks, "must be an integer >= 2")
+        require(len(self.noise_floor) == 4 and all(finite(v) and v > 0
+                                                   for v in self.noise_floor),
+                "noise_floor", self.noise_floor, "must be four numbers > 0")
+
+
+class RotorWatch:
+    """The wrench-residual watch of one vehicle (module docstring).
+
+    Call :meth:`step` every tick with the tick's mean gyro and accelerometer readings and
+    the PWM held over the tick; it returns the records of what it decided.
+    """
+
+    def __init__(self, model: VehicleModel, config: RotorWatchConfig, dt_s: float) -> None:
+        self.config = config
+        self.dt_s = dt_s
+        self._k = model.thrust_gain
+        self._pwm_max = model.pwm_max
+        self._mass = model.mass
+        self._w = model.motor_bandwidth
+        self._lag = math.exp(-model.motor_bandwidth * dt_s)
+        self._inertia = tuple(float(i) for i in model.inertia)
+        self._damping = tuple(float(g) for g in model.rate_damping)
+        columns = model.thrust_mixer().T  # row j: b_j (collective, roll, pitch, yaw per N)
+        self._columns = tuple(tuple(float(v) for v in col) for col in columns)
+        self._attack = 1.0 - math.exp(-dt_s / 1.0)
+        self._decay = 1.0 - math.exp(-dt_s / config.noise_tau_s)
+        self._bias_gain = 1.0 - math.exp(-dt_s / config.bias_tau_s)
+        self._floor_var = tuple(s * s for s in config.noise_floor)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the boot state: motors at rest, nothing learned or declared."""
+        self._thrust = [0.0, 0.0, 0.0, 0.0]  # N, expected thrusts T_e (lag states)
+        self._gyro: list[float] | None = None  # the previous tick's mean gyro, rad/s
+        self._accel_z = 0.0  # m/s^2, the previous tick's mean specific force, body z
+        self._bias_n = 0.0  # N, mu
+        self._var = list(self._floor_var)
+        self._streak = 0
+        self._candidate = -1
+        self._start_thrust = 0.0  # N, the candidate's own thrust when its streak began
+        self.declared: tuple[int, str, float] | None = None  # (motor 1..4, kind, magnitude)
+        self.statistic = 0.0  # the latest best T_j
+        self.deficit_n = np.zeros(4)  # N, the latest f_j per motor
+
+    @property
+    def suspected(self) -> int | None:
+        """The motor (1..4) suspected at the latest tick and not yet declared, if any."""
+        return self._candidate + 1 if self._streak > 0 and self.declared is None else None
+
+    @property
+    def lost(self) -> int | None:
+        """The motor (1..4) declared lost (no thrust), if any."""
+        d = self.declared
+        return d[0] if d is not None and d[1] == "motor_lost" else None
+
+    def step(self, time_s: float, gyro: list[float] | None, accel: list[float] | None,
+             pwm: np.ndarray, airborne: bool) -> list[DetectionRecord]:
+        """One tick: ``gyro`` (rad/s) and ``accel`` (m/s^2) means over the tick (None when
+        the tick had none), ``pwm`` the commands held over it, ``airborne`` whether the
+        vehicle flies clear of the ground (the evidence is taken only then)."""
+        k, lag = self._k, self._lag
+        start = self._thrust
+        u = [min(max(float(v), 0.0), self._pwm_max) for v in pwm.tolist()]
+        self._thrust = [lag * t + (1.0 - lag) * k * ui for t, ui in zip(start, u, strict=False)]
+        prev_gyro, prev_az = self._gyro, self._accel_z
+        if gyro is None or accel is None:
+            self._gyro = None
+            self._streak = 0
+            return []
+        self._gyro, self._accel_z = gyro, accel[2]
+        if prev_gyro is None or not airborne:
+            self._streak = 0
+            return []
+        residual = self._residual(start, gyro, prev_gyro, 0.5 * (accel[2] + prev_az))
+        best, stat, deficit, rss = self._best_fit(residual)
+        self.statistic = stat
+        if self.declared is not None:  # the deficits are kept up to date, no more
+            return []
+        expected = max(start[best], 0.05 * k * self._pwm_max)
+        cfg = self.config
+        suspect = (stat > cfg.significance and abs(deficit) > cfg.min_deficit * expected
+                   and stat > cfg.consistency * rss)
+        if not suspect:
+            self._streak = 0
+            self._learn(residual)
+            return []
+        own = start[best] - deficit  # N, the motor's own thrust
+        if best != self._candidate or self._streak == 0:
+            self._candidate, self._streak, self._start_thrust = best, 0, own
+        self._streak += 1
+        if self._streak < cfg.persistence_ticks:
+            return []
+        return [self._declare(time_s, best, own, u[best])]
+
+    def _residual(self, thrust: list[float], gyro: list[float], prev_gyro: list[float],
+                  accel_z: float) -> tuple[float, float, float, float]:
+        """``r = B T_e - w_m - (mu, 0, 0, 0)`` at the boundary between the two ticks."""
+        dt = self.dt_s
+        jx, jy, jz = self._inertia
+        gx, gy, gz = self._damping
+        p, q, r = ((a + b) * 0.5 for a, b in zip(gyro, prev_gyro, strict=False))
+        dp, dq, dr = ((a - b) / dt for a, b in zip(gyro, prev_gyro, strict=False))
+        # J w' + w x J w + G w (eq. 3.15, rate damping)
+        tau_x = jx * dp + (jz - jy) * q * r + gx * p
+        tau_y = jy * dq + (jx - jz) * p * r + gy * q
+        tau_z = jz * dr + (jy - jx) * p * q + gz * r
+        out = [0.0, 0.0, 0.0, 0.0]
+        for col, t in zip(self._columns, thrust, strict=False):
+            for i in range(4):
+                out[i] += col[i] * t
+        return (out[0] + self._mass * accel_z - self._bias_n, out[1] - tau_x,
+                out[2] - tau_y, out[3] - tau_z)
+
+    def _best_fit(self, r: tuple[float, float, float, float]
+                  ) -> tuple[int, float, float, float]:
+        """The motor whose single fault best explains ``r``: (index, T_j, f_j, RSS_j)."""
+        var = self._var
+        rss0 = sum(ri * ri / v for ri, v in zip(r, var, strict=False))
+        best, best_t, best_f = 0, -1.0, 0.0
+        deficits = self.deficit_n
+        for j, b in enumerate(self._columns):
+            den = sum(bi * bi / v for bi, v in zip(b, var, strict=False))
+            f = sum(bi * ri / v for bi, ri, v in zip(b, r, var, strict=False)) / den
+            deficits[j] = f
+            t = f * f * den
+            if t > best_t:
+                best, best_t, best_f = j, t, f
+        return best, best_t, best_f, max(rss0 - best_t, 0.0)
+
+    def _learn(self, r: tuple[float, float, float, float]) -> None:
+        """Update the collective bias and the measured noise with a tick that suspects
+        nothing."""
+        self._bias_n += self._bias_gain * r[0]
+        for i, (ri, v) in enumerate(zip(r, self._var, strict=False)):
+            e2 = ri * ri
+            v += (self._attack if e2 > v else self._decay) * (e2 - v)
+            self._var[i] = max(v, self._floor_var[i])
+
+    def _declare(self, time_s: float, j: int, own_n: float, command: float
+                 ) -> DetectionRecord:
+        """Motor ``j`` (0..3) declared, its kind from the command it follows (docstring)."""
+        span_s = (self.config.persistence_ticks - 1) * self.dt_s
+        decay = math.exp(-self._w * span_s)
+        followed = (own_n - self._start_thrust * decay) / ((1.0 - decay) * self._k)
+        deficit = self.deficit_n.item(j)
+        if deficit > 0.0:
+            lost = 1.0 - followed / command if command > 0.0 else 1.0
+            kind = "motor_lost" if lost > self.config.lost_fraction else "loe"
+            magnitude = min(max(lost, 0.0), 1.0)
+        else:
+            kind = "motor_hard_over" if followed > 0.85 * self._pwm_max else "motor_stuck"
+            magnitude = min(max(followed / self._pwm_max, 0.0), 1.0)
+        self.declared = (j + 1, kind, magnitude)
+        self._streak = 0
+        return DetectionRecord(time_s=time_s, action="detected", kind=kind, motor=j + 1,
+                               magnitude=magnitude)
