@@ -40,8 +40,7 @@ import numpy as np
 from fcu.config import AutopilotConfig
 from fcu.control import chain as control_chain
 from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
-from fcu.control.position import PositionCommand, PositionController
-from fcu.control.reduced_attitude import SPINNING_POSITION_GAINS, ReducedAttitudeController
+from fcu.control.position import PositionController
 from fcu.control.registry import ALLOCATOR_REGISTRY, ATTITUDE_LAW_REGISTRY, DOB_REGISTRY
 from fcu.estimation.ekf import ExtendedKalmanEstimator
 from fcu.estimation.registry import ESTIMATOR_REGISTRY, StateEstimator
@@ -54,9 +53,9 @@ from fcu.monitoring.motor_faults import MotorFaultDetector
 from fcu.monitoring.rotor_watch import RotorWatch
 from fcu.monitoring.sensor_health import SensorHealth
 from fcu.monitoring.watched_pair import step_pair_watched
-from fcu.navigation.modes import MODE_TABLE, Mode
 from fcu.navigation.navigator import CommandResult, LandedState, Navigator, NavOutput
 from fcu.navigation.reference import Reference
+from fcu.rotor_loss import RotorLossResponse
 from flightdata.records import DetectionRecord
 from flightdata.vocabulary import BATTERY_SENSOR, FTC_MODES, SENSORS
 
@@ -172,10 +171,9 @@ class Autopilot:
         # N, ArduCopter's throttle-at-minimum test: asking for much less than hover thrust
         self._low_thrust_n = 0.75 * model.mass * model.gravity
         self.ftc_active = cfg.ftc == "active"
-        # relaxed hover after the loss of a rotor (fcu.control.reduced_attitude), designed
-        # when first needed, one per lost motor
-        self._reduced: dict[int, ReducedAttitudeController] = {}
-        self.position_spinning = PositionController(model, SPINNING_POSITION_GAINS, self.dt_s)
+        # what active FTC does about a lost or runaway rotor (relaxed hover, fcu.rotor_loss)
+        self.rotor_loss = RotorLossResponse(cfg, self.dt_s, self.detector, self.rotor_watch,
+                                            self.navigator, self._announce_rotor_loss)
         self.battery = BatteryMonitor(cfg.battery)
         self._grouped_kinds = self._sensor_kinds | {BATTERY_SENSOR}
         self.reset()
@@ -196,11 +194,6 @@ class Autopilot:
         self._events: list[AutopilotEvent] = []
         self._status: AutopilotStatus | None = None  # the latest tick's (_keep_status)
         self._flying = False
-        self._motor_lost_told: int | None = None  # a motor the operator declared lost
-        self._spinning: int | None = None  # the lost motor while in relaxed hover
-        self._spinning_since_s = 0.0  # s, when relaxed hover began
-        self._loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
-        self._rotor_loss_landing = False  # a rotor loss's LAND failsafe was triggered
         # the declared motors the arming blocker was set for (None: not since the reset)
         self._blocker_motors: tuple[int, ...] | None = None
         self._blocker_watched = False  # the blocker names the wrench residual's motor
@@ -217,7 +210,7 @@ class Autopilot:
 
     def _reset_controllers(self) -> None:
         self.position.reset()
-        self.position_spinning.reset()
+        self.rotor_loss.reset()
         self.attitude.reset()
         self.attitude_filter.reset()
         self.dob.reset()
@@ -280,15 +273,14 @@ class Autopilot:
         watch_records = watch.step(time_s, gyro, accel, self._pwm, airborne)
         if watch_records:
             records += watch_records
-            self._on_rotor_fault(time_s)
+            self.rotor_loss.on_watch_declared(time_s, self.ftc_active)
         motor_records = self._motor_evidence(time_s, estimate, nav, flying)
         if motor_records:
             records += motor_records
         if not flying:
             if self._flying:
                 self._reset_controllers()
-            self._spinning = None
-            self._rotor_loss_landing = False
+            self.rotor_loss.on_ground()
             self._flying = False
             self._pwm = np.zeros(4)
             self._torque_applied = np.zeros(3)
@@ -299,13 +291,13 @@ class Autopilot:
             self._keep_status(time_s, estimate, nav, None, None, 0.0, _ZERO3, _ZERO3)
             return self._pwm
         if not self._flying:  # take-off: start from the current attitude, forget ground contact
-            self._loe_at_spin = None
+            self.rotor_loss.on_take_off()
             self.attitude_filter.reset(estimate.euler_rad)
             self.dob.reset()
         self._flying = True
         ref = nav.reference
         assert ref is not None
-        lost = self._lost_motor(time_s)
+        lost = self.rotor_loss.lost_motor(time_s, self.ftc_active)
         if lost is None:
             # position, reference filter, attitude law, DOB, allocation, mix, crash check:
             # one compiled call
@@ -324,22 +316,10 @@ class Autopilot:
             if found:
                 records += self._crash_records(time_s, int(found), out)
         else:
-            cmd: PositionCommand = self.position_spinning.step(
-                estimate.pos_ned, estimate.vel_ned, ref.pos_ned, ref.vel_ned, ref.acc_ned,
-                ref.yaw_rad)
-            att_ref = self.attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad,
-                                                 ref.yaw_rad))
             # relaxed hover: yaw given up, the primary axis steered along the thrust the
-            # position loop asks for (fcu.control.reduced_attitude)
-            reduced = self._relaxed_hover(time_s, lost, estimate)
-            if (not self._rotor_loss_landing
-                    and time_s - self._spinning_since_s >= self.config.rotor_loss_hold_s):
-                self._rotor_loss_landing = True
-                # land after the hold unless the pilot chose a mode since (RTL, LAND...)
-                if self.navigator.mode == Mode.BRAKE:
-                    self.navigator.trigger_failsafe("motor", "land")
-            force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
-            spin = reduced.step(estimate.euler_rad, estimate.rate_frd, force)
+            # position loop asks for (fcu.rotor_loss)
+            spin, att_ref = self.rotor_loss.fly(time_s, lost, estimate, ref,
+                                                self.attitude_filter, self.position.trim_accel)
             pwm, thrust_n = spin.pwm, spin.collective_n
             torque_cmd = d_hat = np.zeros(3)
             self.allocator.set_effectiveness(None)
@@ -368,7 +348,8 @@ class Autopilot:
         # (the regime is only asked about in the air: on the ground there is no evidence)
         learn = (flying and landed_state != LandedState.ON_GROUND
                  and self._hover_regime(estimate) and not self.tskf.on_ground
-                 and not self.sensor_health.suspect(time_s) and self._watch_allows_tskf())
+                 and not self.sensor_health.suspect(time_s)
+                 and self.rotor_loss.tskf_trusted())
         detector = self.detector
         records = detector.step(time_s, self.tskf.gamma_raw, self._pwm,
                                 evidence=learn and landed_state == LandedState.IN_AIR,
@@ -384,15 +365,6 @@ class Autopilot:
             self.navigator.set_arming_blocker(
                 "motors", self._motors_blocker if active or watched is not None else None)
         return records
-
-    def _watch_allows_tskf(self) -> bool:
-        """Whether the TSKF's detector may take evidence and its findings count: not while
-        the wrench residual suspects a motor or has declared one that does not merely
-        lose effectiveness (a hard-over reads to the TSKF as a loss of the opposite
-        motor: :mod:`fcu.monitoring.rotor_watch`)."""
-        watch = self.rotor_watch
-        declared = watch.declared
-        return watch.suspected is None and (declared is None or declared[1] == "loe")
 
     def _motors_blocker(self) -> str:
         """The arming blocker of the declared motors, naming each one's latest estimated LOE
@@ -431,107 +403,19 @@ class Autopilot:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
         return e
 
-    def _lost_motor(self, time_s: float) -> int | None:
-        """The motor flown around in relaxed hover, or None: the one the operator declared
-        lost (:meth:`declare_motor_lost`), else in active FTC a motor the detector has
-        declared lost or suspects with an estimated loss above its ``lost_threshold`` (beyond
-        what yaw authority allows: the full-attitude controller cannot hold it). Once in
-        relaxed hover the vehicle stays in it until it lands. Two motors lost, or a vehicle
-        that cannot hover on three rotors, have no relaxed hover: that is announced once and
-        the vehicle descends level under the ordinary controller (failsafe LAND)."""
-        if self._spinning is not None:
-            return self._spinning
-        motors: tuple[int, ...] = ()
-        if self._motor_lost_told is not None:
-            motors = (self._motor_lost_told,)
-        elif self.ftc_active and self.rotor_watch.lost is not None:
-            motors = (self.rotor_watch.lost,)
-        elif self.ftc_active and self._watch_allows_tskf():
-            # the TSKF's finding (a loss beyond yaw authority), when the IMU's wrench
-            # residual bears it out: a deficit of at least a third of hover thrust on that
-            # motor (fcu.monitoring.rotor_watch)
-            motors = self.detector.lost
-            suspected = self.detector.suspected
-            if (not motors and suspected is not None
-                    and float(self.detector.loe[suspected - 1])
-                    > self.config.detector.lost_threshold):
-                motors = (suspected,)
-            hover_n = self.model.mass * self.model.gravity / 4.0
-            motors = tuple(m for m in motors
-                           if self.rotor_watch.deficit_n.item(m - 1) > hover_n / 3.0)
-        if not motors:
-            return None
-        if len(motors) > 1:
-            self._cannot_survive(time_s, f"motors {' and '.join(map(str, motors))} lost: "
-                                 "no relaxed hover with two rotors down")
-            return None
-        motor = motors[0]
-        if motor not in self._reduced:
-            try:
-                self._reduced[motor] = ReducedAttitudeController(self.model, motor, self.dt_s)
-            except ValueError as err:
-                self._cannot_survive(time_s, str(err))
-                return None
-        return motor
-
-    def _on_rotor_fault(self, time_s: float) -> None:
-        """Active FTC after the wrench residual declared a motor (:mod:`fcu.monitoring.
-        rotor_watch`): a lost motor is flown around in relaxed hover (:meth:`_lost_motor`);
-        a motor that no longer follows its command (stuck, hard-over) leaves nothing to
-        reconfigure on four rotors, so the vehicle lands where it is, announced."""
-        declared = self.rotor_watch.declared
-        if not self.ftc_active or declared is None or declared[1] not in (
-                "motor_hard_over", "motor_stuck"):
-            return
-        self._cannot_survive(time_s, f"motor {declared[0]} does not follow its command")
-
-    def _cannot_survive(self, time_s: float, why: str) -> None:
-        """Say once that the loss cannot be flown around, and land (the least bad thing)."""
-        if self._rotor_loss_landing:
-            return
-        self._rotor_loss_landing = True
-        self._events.append(AutopilotEvent(time_s, "relaxed_hover",
-                                           f"{why}; descending level (LAND)", "critical"))
-        self.navigator.trigger_failsafe("motor", "land")
-
-    def _relaxed_hover(self, time_s: float, motor: int, estimate: StateEstimate
-                       ) -> ReducedAttitudeController:
-        """The reduced-attitude controller for ``motor`` lost; on entry it is designed (once
-        per motor), started from the estimated thrusts and announced."""
-        reduced = self._reduced[motor]  # designed by _lost_motor
-        if self._spinning != motor:
-            self._spinning = motor
-            self._spinning_since_s = time_s
-            self._rotor_loss_landing = False
-            # the TSKF's hover model does not hold in a spin: its per-motor estimates are
-            # published as they stood at the switch until the next take-off
-            self._loe_at_spin = np.array(self.detector.loe, dtype=float)
-            reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
-            # hold against the wind from the first tick: the trim the position loop had
-            self.position_spinning.take_trim(self.position.trim_accel)
-            eq = reduced.equilibrium
-            self._events.append(AutopilotEvent(
-                time_s, "relaxed_hover",
-                f"motor {motor} lost: yaw given up, spinning about the thrust axis "
-                f"(relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected); holding "
-                f"{self.config.rotor_loss_hold_s:.0f} s, then LAND", "critical"))
-            # stop where the fault struck (a landing or returning vehicle carries on)
-            if not MODE_TABLE[self.navigator.mode].lands:
-                self.navigator.set_mode(Mode.BRAKE)
-        return reduced
-
     @property
     def relaxed_hover_motor(self) -> int | None:
         """The lost motor while the vehicle flies in relaxed hover, else None."""
-        return self._spinning
+        return self.rotor_loss.spinning_motor
+
+    def _announce_rotor_loss(self, time_s: float, text: str) -> None:
+        self._events.append(AutopilotEvent(time_s, "relaxed_hover", text, "critical"))
 
     def declare_motor_lost(self, motor: int | None) -> None:
         """Tell the autopilot that ``motor`` (1..4) is lost: from the next tick in flight it
         flies in relaxed hover (yaw given up) whatever the FTC mode; None forgets it (a
         vehicle already spinning stays in relaxed hover until it lands)."""
-        if motor is not None and motor not in (1, 2, 3, 4):
-            raise ValueError(f"motor = {motor!r}: must be 1, 2, 3 or 4 (or None)")
-        self._motor_lost_told = motor
+        self.rotor_loss.declare_motor_lost(motor)
 
     def set_ftc(self, mode: str) -> None:
         """Switch fault-tolerant control between ``"passive"`` and ``"active"``, in flight too:
@@ -604,20 +488,13 @@ class Autopilot:
                      thrust_n: float, torque_cmd: np.ndarray, d_hat: np.ndarray) -> None:
         """What the tick computed, as :attr:`status`."""
         detector = self.detector
-        loe = detector.loe if self._loe_at_spin is None else self._loe_at_spin
+        spun = self.rotor_loss.loe_at_spin
+        loe = detector.loe if spun is None else spun
         # AutopilotStatus(...) without its keyword handling: the fields in their order
         self._status = _NEW_TUPLE(AutopilotStatus, (
             time_s, estimate, nav, ref, att_ref, thrust_n, torque_cmd, d_hat, self._pwm, loe,
             detector.declared_flags, detector.mass_change_kg, self.sensor_health.excluded,
-            self._motors_lost()))
-
-    def _motors_lost(self) -> tuple[int, ...]:
-        """Motors (1..4) declared lost, by the TSKF's detector or the wrench residual."""
-        lost = self.detector.lost
-        watched = self.rotor_watch.lost
-        if watched is None or watched in lost:
-            return lost
-        return tuple(sorted((*lost, watched)))
+            self.rotor_loss.motors_lost()))
 
     # ------------------------------------------------------------------ observation
     @property

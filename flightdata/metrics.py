@@ -31,6 +31,7 @@ __all__ = [
     "control_effort",
     "detection_latency_s",
     "error_figure",
+    "fault_response",
     "flying_mask",
     "loe_convergence_times",
     "loe_settled_error",
@@ -285,4 +286,56 @@ def series_metrics(series: FlightSeries, loop_rate_hz: float) -> dict[str, Any]:
             # per motor, the largest error while flying, 3 s after any change of the truth
             "settled_error_max": loe_settled_error(series),
         },
+    }
+
+
+MOTOR_DETECTIONS = ("loe", "motor_lost", "motor_hard_over", "motor_stuck")
+"""Detection kinds that name a motor."""
+
+
+def flight_phase(climb_m_s: float, ground_speed_m_s: float) -> str:
+    """The phase of flight of a vehicle climbing at ``climb_m_s`` (m/s, + up) and moving at
+    ``ground_speed_m_s`` (m/s, horizontal): ``"climb"`` or ``"descent"`` beyond 0.5 m/s
+    vertically, else ``"cruise"`` beyond 1 m/s horizontally, else ``"hover"``."""
+    if climb_m_s > 0.5:
+        return "climb"
+    if climb_m_s < -0.5:
+        return "descent"
+    return "cruise" if ground_speed_m_s > 1.0 else "hover"
+
+
+def fault_response(series: FlightSeries, faults: Sequence[FaultRecord],
+                   detections: Sequence[DetectionRecord]) -> dict[str, Any] | None:
+    """How the vehicle met the first actuator fault that started (None: none started).
+
+    From simulator truth: where and how it flew when the fault struck (altitude m, climb
+    and ground speed m/s, :func:`flight_phase`), the largest horizontal distance from that
+    point afterwards (``excursion_m``) and the horizontal distance from it at the end of the
+    log (``end_from_fault_m``); from the autopilot's records, the motor its first motor
+    detection named and whether any other motor was declared lost.
+    """
+    started = [f for f in faults if f.action == "started" and f.motor is not None]
+    if not started:
+        return None
+    fault = started[0]
+    t = series.time_s
+    i = min(int(np.searchsorted(t, fault.time_s)), len(t) - 1)
+    pos = series.pos_ned
+    j = max(i - 1, 0)
+    dt = float(t[i] - t[j]) if i > j else 1.0
+    vel = (pos[i] - pos[j]) / dt
+    after = np.hypot(pos[i:, 0] - pos[i, 0], pos[i:, 1] - pos[i, 1])
+    named = [d for d in detections
+             if d.action == "detected" and d.kind in MOTOR_DETECTIONS and d.motor is not None
+             and d.time_s >= fault.time_s]
+    return {
+        "motor": fault.motor, "kind": fault.kind, "time_s": fault.time_s,
+        "alt_m": float(-pos[i, 2]), "climb_m_s": float(-vel[2]),
+        "ground_speed_m_s": float(np.hypot(vel[0], vel[1])),
+        "phase": flight_phase(float(-vel[2]), float(np.hypot(vel[0], vel[1]))),
+        "excursion_m": float(after.max()), "end_from_fault_m": float(after[-1]),
+        "named_motor": named[0].motor if named else None,
+        "named_kind": named[0].kind if named else None,
+        "other_motor_lost": any(d.kind == "motor_lost" and d.motor != fault.motor
+                                for d in named),
     }

@@ -26,7 +26,7 @@ import numpy as np
 from fcu.autopilot import Autopilot
 from fcu.navigation.navigator import LandedState
 from flightdata.geometry import eulers_from_quats
-from flightdata.metrics import detection_rows, series_metrics
+from flightdata.metrics import detection_rows, fault_response, series_metrics
 from flightdata.recording import LiveRecorder, RecordingConfig, open_stream
 from flightdata.records import DetectionRecord, FaultRecord, OutcomeRecord
 from flightdata.series import FlightEvent, FlightSeries
@@ -342,6 +342,7 @@ def flight_metrics(result: FlightResult) -> dict[str, Any]:
         "outcome": result.outcome.to_dict(),
         **series_metrics(result.log, result.scenario.autopilot.loop_rate_hz),
         "detections": detection_rows(result.detections, result.faults),
+        "fault_response": fault_response(result.log, result.faults, result.detections),
         "faults": [f.to_dict() for f in result.faults],
         "sim_s": result.sim_s,
         "wall_s": result.wall_s,

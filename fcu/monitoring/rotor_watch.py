@@ -16,13 +16,14 @@ commands held over each tick), ``w'`` the gyro's difference between consecutive 
 (their means, so the torque is that at the boundary between them, where ``T_e`` and the two
 ticks' mean specific force ``a_z`` are taken too) and ``mu`` the slowly learned collective
 bias (drag along the body axis in steady flight, a mass change: low-passed over
-``bias_tau_s`` while nothing is suspected). Climb, descent, cruise and turns are all in
-``w_m``: only what the motors fail to deliver stays in ``r``.
+``bias_tau_s`` while nothing is even a quarter suspected). Climb, descent, cruise and turns
+are all in ``w_m``: only what the motors fail to deliver stays in ``r``.
 
 A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
 ``r = b_j f``, ``b_j`` the column ``j`` of ``B``. Against the per-channel noise ``Sigma``
-(measured, fast attack, slow decay, floored; frozen while anything is suspected) the best
-single-motor fit and its statistic are::
+(measured, attack 2 s, decay ``noise_tau_s``, floored; frozen while the best statistic
+is above a quarter of ``significance``, so that a fault building up is never learned) the
+best single-motor fit and its statistic are::
 
     f_j = b_j' S^-1 r / (b_j' S^-1 b_j),     T_j = f_j^2 b_j' S^-1 b_j
 
@@ -72,7 +73,7 @@ class RotorWatchConfig:
     consistency: float = 3.0  # T_j must exceed this many times what the fit leaves (RSS_j)
     persistence_ticks: int = 4  # consecutive ticks suspecting the same motor that declare
     bias_tau_s: float = 2.0  # s, low-pass of the collective bias mu
-    noise_tau_s: float = 20.0  # s, decay of the measured noise (attack: 1 s)
+    noise_tau_s: float = 20.0  # s, decay of the measured noise (attack: 2 s)
     # noise floors, 1 sigma: collective N, roll, pitch, yaw N*m (indoor air, IMU noise)
     noise_floor: tuple[float, float, float, float] = (0.1, 0.015, 0.015, 0.012)
     min_alt_m: float = 0.15  # m, estimated altitude above which the watch takes evidence
@@ -111,7 +112,7 @@ class RotorWatch:
         self._damping = tuple(float(g) for g in model.rate_damping)
         columns = model.thrust_mixer().T  # row j: b_j (collective, roll, pitch, yaw per N)
         self._columns = tuple(tuple(float(v) for v in col) for col in columns)
-        self._attack = 1.0 - math.exp(-dt_s / 1.0)
+        self._attack = 1.0 - math.exp(-dt_s / 2.0)
         self._decay = 1.0 - math.exp(-dt_s / config.noise_tau_s)
         self._bias_gain = 1.0 - math.exp(-dt_s / config.bias_tau_s)
         self._floor_var = tuple(s * s for s in config.noise_floor)
@@ -171,7 +172,8 @@ class RotorWatch:
                    and stat > cfg.consistency * rss)
         if not suspect:
             self._streak = 0
-            self._learn(residual)
+            if stat < 0.25 * cfg.significance:  # a fault building up is never noise
+                self._learn(residual)
             return []
         own = start[best] - deficit  # N, the motor's own thrust
         if best != self._candidate or self._streak == 0:

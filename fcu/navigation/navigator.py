@@ -39,10 +39,10 @@ from fcu.navigation.fence import FenceAreas
 from fcu.navigation.guidance import Reference
 from fcu.navigation.guided_commands import GuidedCommands
 from fcu.navigation.landing import LandedState
-from fcu.navigation.legs import Leg
+from fcu.navigation.legs import Leg, hold_leg
 from fcu.navigation.mission import MissionProgress, MissionState
 from fcu.navigation.mission_commands import MissionCommands
-from fcu.navigation.modes import ARDUCOPTER_MODE_NAMES, Mode, mode_name
+from fcu.navigation.modes import ARDUCOPTER_MODE_NAMES, MODE_TABLE, Mode, mode_name
 from fcu.navigation.settings import TIME_TOL_S, NavigatorConfig
 
 _new_object = object.__new__
@@ -242,6 +242,16 @@ class Navigator(ArmingCommands, GuidedCommands, MissionCommands):
         self._cruise = self._cruise_from(t, out) if reference is not None and not events \
             else None
         return out
+
+    def hold_at(self, time_s: float, pos_ned: np.ndarray) -> None:
+        """In a hold mode (BRAKE, LOITER, GUIDED without a target), hold ``pos_ned`` (m,
+        NED) from ``time_s`` instead of the stopping point the mode chose: a vehicle that
+        cannot brake as the limits assume (relaxed hover after a rotor loss) goes back to
+        where it was. Does nothing in other modes."""
+        if MODE_TABLE[self._mode].behaviour != "hold" or not self._flying:
+            return
+        _, yaw = self._plan_start(time_s)
+        self._leg = hold_leg(time_s, np.array(pos_ned, dtype=float), yaw)
 
     def _cruise_from(self, t: float, out: NavOutput) -> _Cruise | None:
         """What the ticks after ``t`` (s) may skip while nothing happens (:class:`_Cruise`),

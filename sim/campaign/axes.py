@@ -17,6 +17,9 @@ Each line: the axis's key in a campaign file -> its result column (type): its va
   :data:`sim.scenario.DEFAULT_WIND`) or a MIL-F-8785C intensity ``"none"``, ``"light"``,
   ``"moderate"``, ``"severe"`` (with the base scenario's mean wind); a base scenario's own
   ``[wind]`` with ``w20_m_s`` reads ``"custom"`` in the column;
+- ``mean_wind_m_s`` -> ``mean_wind_m_s`` (float): m/s >= 0, the mean wind's speed
+  (applied after ``wind``; on indoor air it adds a mean wind from the default direction
+  with no turbulence);
 - ``autopilot.attitude``, ``.estimator``, ``.dob``, ``.ftc``, ``.height_source`` ->
   ``attitude``, ``estimator``, ``dob``, ``ftc``, ``height_source`` (str): the names of
   :data:`flightdata.vocabulary.CONFIG_CHOICES`.
@@ -119,6 +122,7 @@ _AXES = (
     Axis("fault.start_s", "fault_start_s", float, low=0.0, unit="s"),
     Axis("fault.profile", "fault_profile", str, LOE_PROFILES),
     Axis("wind", "wind", str, WIND_LEVELS),
+    Axis("mean_wind_m_s", "mean_wind_m_s", float, low=0.0, unit="m/s"),
     Axis("autopilot.attitude", "attitude", str, ATTITUDE_LAWS),
     Axis("autopilot.estimator", "estimator", str, ESTIMATORS),
     Axis("autopilot.dob", "dob", str, DISTURBANCE_OBSERVERS),

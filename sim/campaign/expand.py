@@ -7,6 +7,7 @@ scenario's TOML mapping, the way a person would edit the file:
   ``faults``;
 - ``wind``: ``"indoor"`` removes the ``[wind]`` table (the scenarios' default air); an
   intensity sets ``turbulence`` and drops ``w20_m_s`` (keeping the base's mean wind);
+  ``mean_wind_m_s`` then sets the mean wind's speed;
 - ``autopilot.<key>`` sets ``[autopilot] <key>``;
 - the campaign's ``[fault]`` table, with the ``fault.*`` axes applied, is appended to
   ``[[faults]]`` (``fault.kind = "none"``: nothing is appended). ``fault.magnitude`` sets
@@ -166,6 +167,7 @@ def axis_columns(scenario: Scenario, own_fault: Fault | None) -> dict[str, Any]:
         wind_level = wind.turbulence if wind.w20_m_s is None else "custom"
     ap = scenario.autopilot
     out = {"seed": scenario.seed, **fault_columns(own_fault), "wind": wind_level,
+           "mean_wind_m_s": wind.mean_speed_m_s,
            "attitude": ap.attitude, "estimator": ap.estimator, "dob": ap.dob, "ftc": ap.ftc,
            "height_source": ap.height_source}
     return {c: out[c] for c in AXIS_COLUMNS}
@@ -193,6 +195,10 @@ def _apply(campaign: Campaign, base: Mapping[str, Any],
             scenario.pop("wind", None)
         else:
             scenario["wind"] = wind
+    if "mean_wind_m_s" in level:
+        wind = scenario.get("wind") or {"mean_from_deg": DEFAULT_WIND.mean_from_deg,
+                                        "turbulence": "none"}
+        scenario["wind"] = {**wind, "mean_speed_m_s": level["mean_wind_m_s"]}
     autopilot = {k[len("autopilot."):]: v for k, v in level.items()
                  if k.startswith("autopilot.")}
     if autopilot:

@@ -25,6 +25,13 @@ group           columns (units)
                 at the end, over motors), ``loe_settled_error_max`` and
                 ``loe_settled_error_m1`` .. ``_m4`` (the largest while flying, 3 s after each
                 change: :func:`flightdata.metrics.loe_settled_error`)
+``response``    how the vehicle met the first actuator fault (:func:`flightdata.metrics.
+                fault_response`): ``fault_phase`` (climb | cruise | descent | hover),
+                ``fault_alt_m`` (m), ``fault_climb_m_s``, ``fault_ground_speed_m_s`` (m/s)
+                when it struck; ``excursion_m`` (largest horizontal distance from that point
+                afterwards, m), ``end_from_fault_m`` (m, at the end); ``named_motor`` and
+                ``named_kind`` of the first motor detection, ``other_motor_lost`` (1 when
+                another motor was declared lost, else 0); all None without such a fault
 ``timing``      ``sim_s`` (s simulated), ``wall_s`` (s of wall clock of the flight),
                 ``cpu_s`` (s of CPU time of the run on its worker), ``worker`` (host:pid)
 ==============  ===========================================================================
@@ -43,7 +50,7 @@ from flightdata.thesis import AXES as ERROR_AXES
 from sim.campaign.axes import AXIS_COLUMNS, COLUMN_AXES
 
 METRIC_GROUPS: tuple[str, ...] = ("outcome", "tracking", "effort", "detection", "estimate",
-                                  "timing")
+                                  "response", "timing")
 """The groups of result columns a campaign may keep (``metrics`` in a campaign file)."""
 
 IDENTITY_COLUMNS: tuple[tuple[str, type], ...] = (
@@ -64,8 +71,16 @@ _GROUP_COLUMNS: dict[str, tuple[tuple[str, type], ...]] = {
                   ("fault_latency_s", float)),
     "estimate": (("loe_final_error_max", float), ("loe_settled_error_max", float),
                  *((f"loe_settled_error_m{m}", float) for m in range(1, 5))),
+    "response": (("fault_phase", str), ("fault_alt_m", float), ("fault_climb_m_s", float),
+                 ("fault_ground_speed_m_s", float), ("excursion_m", float),
+                 ("end_from_fault_m", float), ("named_motor", int), ("named_kind", str),
+                 ("other_motor_lost", int)),
     "timing": (("sim_s", float), ("wall_s", float), ("cpu_s", float), ("worker", str)),
 }
+_RESPONSE_KEYS = {"fault_phase": "phase", "fault_alt_m": "alt_m",
+                  "fault_climb_m_s": "climb_m_s", "fault_ground_speed_m_s": "ground_speed_m_s",
+                  "excursion_m": "excursion_m", "end_from_fault_m": "end_from_fault_m",
+                  "named_motor": "named_motor", "named_kind": "named_kind"}
 
 
 def columns(groups: Sequence[str], n_faults: int) -> list[tuple[str, type]]:
@@ -159,6 +174,10 @@ def metric_columns(metrics: Mapping[str, Any], n_faults: int,
     row["loe_settled_error_max"] = _max_or_none(settled)
     for m in range(4):
         row[f"loe_settled_error_m{m + 1}"] = settled[m]
+    response = metrics.get("fault_response")
+    for column, key in _RESPONSE_KEYS.items():
+        row[column] = None if response is None else response[key]
+    row["other_motor_lost"] = None if response is None else int(response["other_motor_lost"])
     row["sim_s"] = metrics["sim_s"]
     row["wall_s"] = metrics["wall_s"]
     return row

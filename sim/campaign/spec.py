@@ -8,7 +8,7 @@ A campaign is a TOML file (the shipped ones live in ``sim/campaigns/``)::
                                       # (a relative path is relative to this file)
     base_faults = "keep"              # "keep" (default) or "drop" the base scenario's faults
     duration_s = 18.0                 # optional: overrides the base's (s, simulated)
-    metrics = ["outcome", "tracking", "effort", "detection", "estimate", "timing"]
+    metrics = ["outcome", "tracking", "effort", "detection", "estimate", "response", "timing"]
                                       # the groups of result columns kept (default: all;
                                       # "outcome" always is), sim.campaign.rows
 

@@ -111,3 +111,6 @@ def test_outdoor_fault_is_isolated_in_every_phase(phase: str, motor: int, kind: 
     assert first["motor"] == motor
     assert first["latency_s"] <= 0.15
     assert {d["motor"] for d in motor_records} == {motor}
+    response = metrics["fault_response"]
+    assert response["phase"] == phase
+    assert response["named_motor"] == motor and not response["other_motor_lost"]

@@ -68,6 +68,20 @@ def test_each_run_is_the_base_scenario_with_its_levels(tmp_path: Path) -> None:
     assert winds["moderate"].mean_speed_m_s == DEFAULT_WIND.mean_speed_m_s
 
 
+def test_mean_wind_axis_sets_the_speed_after_the_turbulence_level(tmp_path: Path) -> None:
+    path = write(tmp_path, BASE + '[grid]\nwind = ["indoor", "severe"]\n'
+                 'mean_wind_m_s = [0.0, 8.0]\n')
+    runs = expand(load_campaign(path))
+    flown = {(r.axes["wind"], r.axes["mean_wind_m_s"]):
+             scenario_from_mapping(r.scenario).world.wind for r in runs}
+    assert flown[("severe", 8.0)].mean_speed_m_s == 8.0
+    assert flown[("severe", 8.0)].turbulence == "severe"
+    # on indoor air the mean wind comes without turbulence
+    assert flown[("none", 8.0)].turbulence == "none"
+    assert flown[("none", 0.0)].mean_speed_m_s == 0.0
+    assert {r.axes["mean_wind_m_s"] for r in runs} == {0.0, 8.0}
+
+
 def test_grid_forms_and_seeded_samples(tmp_path: Path) -> None:
     text = (BASE + '[fault]\nmotor = 1\nkind = "loe"\n[grid]\nseed = {range = [3, 9, 3]}\n'
             'fault.magnitude = {linspace = [0.0, 1.0, 21]}\n'

@@ -1,0 +1,222 @@
+"""Active FTC's answer to a rotor that no longer does what it is told.
+
+Two monitors find such a rotor: the wrench residual (:mod:`fcu.monitoring.rotor_watch`, from
+the IMU, in every phase of flight) and the TSKF's detector (:mod:`fcu.monitoring.motor_faults`,
+from the hover model). This module decides what the vehicle does about it:
+
+- a motor *lost* (no thrust, or more lost than yaw authority allows) is flown around in
+  relaxed hover (:mod:`fcu.control.reduced_attitude`): yaw is given up, the vehicle brakes
+  and holds where the fault struck for ``rotor_loss_hold_s`` while the spin builds up, then
+  lands (failsafe LAND) unless the pilot chose a mode since;
+- a motor *stuck* or *hard-over* leaves nothing to reconfigure on four rotors (its thrust
+  is not what the allocator asks for): it is announced and the vehicle lands where it is;
+- two motors lost, or a vehicle that cannot hover on three rotors: announced once, and a
+  level descent under the ordinary controller (failsafe LAND).
+
+The TSKF's finding of a lost motor counts only when the wrench residual bears it out (a
+deficit of at least a third of hover thrust on that motor), and the TSKF takes no evidence
+while the residual suspects a motor or has found one that does not merely lose
+effectiveness: a motor running away at full thrust reads to the TSKF's hover model as a loss
+of the opposite motor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from fcu.config import AutopilotConfig
+from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
+from fcu.control.position import PositionController
+from fcu.control.reduced_attitude import (
+    SPINNING_POSITION_GAINS,
+    ReducedAttitudeCommand,
+    ReducedAttitudeController,
+)
+from fcu.estimation.state import StateEstimate
+from fcu.monitoring.motor_faults import MotorFaultDetector
+from fcu.monitoring.rotor_watch import RotorWatch
+from fcu.navigation.modes import MODE_TABLE, Mode
+from fcu.navigation.navigator import Navigator
+from fcu.navigation.reference import Reference
+
+Announce = Callable[[float, str], None]  # (time_s, critical text)
+
+
+class RotorLossResponse:
+    """Which motor to fly around in relaxed hover, and the relaxed hover's flight
+    (module docstring).
+
+    Parameters
+    ----------
+    config : AutopilotConfig
+        The model, the detector's ``lost_threshold`` and ``rotor_loss_hold_s``.
+    dt_s : float
+        Control period, s.
+    detector, watch, navigator
+        The autopilot's TSKF detector, wrench-residual watch and navigator.
+    announce : callable
+        ``announce(time_s, text)`` publishes a critical event.
+    """
+
+    def __init__(self, config: AutopilotConfig, dt_s: float, detector: MotorFaultDetector,
+                 watch: RotorWatch, navigator: Navigator, announce: Announce) -> None:
+        self.config = config
+        self.model = config.model
+        self.dt_s = dt_s
+        self.detector = detector
+        self.watch = watch
+        self.navigator = navigator
+        self._announce = announce
+        # designed when first needed, one per lost motor
+        self._reduced: dict[int, ReducedAttitudeController] = {}
+        self.position = PositionController(self.model, SPINNING_POSITION_GAINS, dt_s)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the boot state: no motor told lost, not spinning."""
+        self.position.reset()
+        self._motor_told: int | None = None  # a motor the operator declared lost
+        self._spinning: int | None = None  # the lost motor while in relaxed hover
+        self._spinning_since_s = 0.0  # s, when relaxed hover began
+        self.loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
+        self._landing = False  # the LAND failsafe of this loss was triggered
+
+    @property
+    def spinning_motor(self) -> int | None:
+        """The lost motor while the vehicle flies in relaxed hover, else None."""
+        return self._spinning
+
+    def declare_motor_lost(self, motor: int | None) -> None:
+        """The operator says ``motor`` (1..4) is lost (None forgets it)."""
+        if motor is not None and motor not in (1, 2, 3, 4):
+            raise ValueError(f"motor = {motor!r}: must be 1, 2, 3 or 4 (or None)")
+        self._motor_told = motor
+
+    def on_ground(self) -> None:
+        """The vehicle is not flying: relaxed hover ends."""
+        self._spinning = None
+        self._landing = False
+
+    def on_take_off(self) -> None:
+        """A new flight: the per-motor estimates are published live again."""
+        self.loe_at_spin = None
+
+    # ------------------------------------------------------------------ deciding
+    def tskf_trusted(self) -> bool:
+        """Whether the TSKF's detector may take evidence and its findings count (module
+        docstring)."""
+        declared = self.watch.declared
+        return self.watch.suspected is None and (declared is None or declared[1] == "loe")
+
+    def on_watch_declared(self, time_s: float, ftc_active: bool) -> None:
+        """The wrench residual declared a motor: a stuck or hard-over one lands the vehicle
+        (active FTC); a lost one is flown around (:meth:`lost_motor`)."""
+        declared = self.watch.declared
+        if ftc_active and declared is not None and declared[1] in ("motor_hard_over",
+                                                                   "motor_stuck"):
+            self.cannot_survive(time_s, f"motor {declared[0]} does not follow its command")
+
+    def lost_motor(self, time_s: float, ftc_active: bool) -> int | None:
+        """The motor to fly around in relaxed hover, or None: the one the operator declared
+        lost, else in active FTC the one the wrench residual found lost, else the TSKF's
+        (declared or suspected beyond ``lost_threshold``) when the residual bears it out.
+        Once in relaxed hover the vehicle stays in it until it lands."""
+        if self._spinning is not None:
+            return self._spinning
+        motors: tuple[int, ...] = ()
+        watch = self.watch
+        if self._motor_told is not None:
+            motors = (self._motor_told,)
+        elif ftc_active and watch.lost is not None:
+            motors = (watch.lost,)
+        elif ftc_active and self.tskf_trusted():
+            detector = self.detector
+            motors = detector.lost
+            suspected = detector.suspected
+            if (not motors and suspected is not None
+                    and float(detector.loe[suspected - 1])
+                    > self.config.detector.lost_threshold):
+                motors = (suspected,)
+            hover_n = self.model.mass * self.model.gravity / 4.0
+            motors = tuple(m for m in motors if watch.deficit_n.item(m - 1) > hover_n / 3.0)
+        if not motors:
+            return None
+        if len(motors) > 1:
+            self.cannot_survive(time_s, f"motors {' and '.join(map(str, motors))} lost: "
+                                "no relaxed hover with two rotors down")
+            return None
+        motor = motors[0]
+        if motor not in self._reduced:
+            try:
+                self._reduced[motor] = ReducedAttitudeController(self.model, motor, self.dt_s)
+            except ValueError as err:
+                self.cannot_survive(time_s, str(err))
+                return None
+        return motor
+
+    def cannot_survive(self, time_s: float, why: str) -> None:
+        """Say once that the fault cannot be flown around, and land (the least bad thing)."""
+        if self._landing:
+            return
+        self._landing = True
+        self._announce(time_s, f"{why}; descending level (LAND)")
+        self.navigator.trigger_failsafe("motor", "land")
+
+    def motors_lost(self) -> tuple[int, ...]:
+        """Motors (1..4) declared lost, by the TSKF's detector or the wrench residual."""
+        lost = self.detector.lost
+        watched = self.watch.lost
+        if watched is None or watched in lost:
+            return lost
+        return tuple(sorted((*lost, watched)))
+
+    # ------------------------------------------------------------------ flying
+    def fly(self, time_s: float, motor: int, estimate: StateEstimate, ref: Reference,
+            attitude_filter: AttitudeReferenceFilter, trim_accel: np.ndarray
+            ) -> tuple[ReducedAttitudeCommand, AttitudeReference]:
+        """One tick of relaxed hover around lost ``motor``: the position loop's thrust
+        direction, the primary axis steered along it (:mod:`fcu.control.reduced_attitude`);
+        on entry (``trim_accel``: the ordinary position loop's trim, m/s^2) the hold where
+        the fault struck, after ``rotor_loss_hold_s`` the LAND failsafe."""
+        reduced = self._enter(time_s, motor, estimate, trim_accel)
+        cmd = self.position.step(estimate.pos_ned, estimate.vel_ned, ref.pos_ned, ref.vel_ned,
+                                 ref.acc_ned, ref.yaw_rad)
+        att_ref = attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad))
+        if not self._landing and time_s - self._spinning_since_s >= self.config.rotor_loss_hold_s:
+            self._landing = True
+            # land after the hold unless the pilot chose a mode since (RTL, LAND...)
+            if self.navigator.mode == Mode.BRAKE:
+                self.navigator.trigger_failsafe("motor", "land")
+        force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
+        return reduced.step(estimate.euler_rad, estimate.rate_frd, force), att_ref
+
+    def _enter(self, time_s: float, motor: int, estimate: StateEstimate,
+               trim_accel: np.ndarray) -> ReducedAttitudeController:
+        """The reduced-attitude controller for ``motor``; on entry it is started from the
+        estimated thrusts, the position loop from ``trim_accel``, and announced."""
+        reduced = self._reduced[motor]  # designed by lost_motor
+        if self._spinning == motor:
+            return reduced
+        self._spinning = motor
+        self._spinning_since_s = time_s
+        self._landing = False
+        # the TSKF's hover model does not hold in a spin: its per-motor estimates are
+        # published as they stood at the switch until the next take-off
+        self.loe_at_spin = np.array(self.detector.loe, dtype=float)
+        reduced.reset(np.asarray(estimate.thrust_n, dtype=float))
+        # hold against the wind from the first tick: the trim the position loop had
+        self.position.take_trim(trim_accel)
+        eq = reduced.equilibrium
+        self._announce(time_s, f"motor {motor} lost: yaw given up, spinning about the thrust "
+                       f"axis (relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected); "
+                       f"holding {self.config.rotor_loss_hold_s:.0f} s, then LAND")
+        # stop where the fault struck (a landing or returning vehicle carries on): the
+        # spinning vehicle brakes on at most SPINNING_POSITION_GAINS' tilt, past the
+        # stopping point the speed limits assume
+        nav = self.navigator
+        if not MODE_TABLE[nav.mode].lands:
+            nav.set_mode(Mode.BRAKE)
+            nav.hold_at(time_s, estimate.pos_ned)
+        return reduced
