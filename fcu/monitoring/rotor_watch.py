@@ -60,6 +60,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from fcu.model import VehicleModel
+from fcu.monitoring.rotor_watch_kernel import (
+    S_DEFICIT,
+    S_START,
+    S_STAT,
+    STATE_SIZE,
+    pack_params,
+    reset_state,
+    watch_tick,
+)
 from flightdata.config import finite, require
 from flightdata.records import DetectionRecord
 
@@ -97,7 +106,9 @@ class RotorWatch:
     """The wrench-residual watch of one vehicle (module docstring).
 
     Call :meth:`step` every tick with the tick's mean gyro and accelerometer readings and
-    the PWM held over the tick; it returns the records of what it decided.
+    the PWM held over the tick; it returns the records of what it decided. The arithmetic is
+    the compiled :func:`fcu.monitoring.rotor_watch_kernel.watch_tick`; the decisions are
+    here.
     """
 
     def __init__(self, model: VehicleModel, config: RotorWatchConfig, dt_s: float) -> None:
@@ -105,32 +116,27 @@ class RotorWatch:
         self.dt_s = dt_s
         self._k = model.thrust_gain
         self._pwm_max = model.pwm_max
-        self._mass = model.mass
         self._w = model.motor_bandwidth
-        self._lag = math.exp(-model.motor_bandwidth * dt_s)
-        self._inertia = tuple(float(i) for i in model.inertia)
-        self._damping = tuple(float(g) for g in model.rate_damping)
-        columns = model.thrust_mixer().T  # row j: b_j (collective, roll, pitch, yaw per N)
-        self._columns = tuple(tuple(float(v) for v in col) for col in columns)
-        self._attack = 1.0 - math.exp(-dt_s / 2.0)
-        self._decay = 1.0 - math.exp(-dt_s / config.noise_tau_s)
-        self._bias_gain = 1.0 - math.exp(-dt_s / config.bias_tau_s)
-        self._floor_var = tuple(s * s for s in config.noise_floor)
+        self._par = pack_params(model, dt_s, config.noise_tau_s, config.bias_tau_s,
+                                config.noise_floor, config.significance, config.min_deficit,
+                                config.consistency)
+        self._state = np.zeros(STATE_SIZE)
+        # N, the latest single-motor fit f_j per motor (a view of the kernel's state)
+        self.deficit_n = self._state[S_DEFICIT:S_DEFICIT + 4]
         self.reset()
 
     def reset(self) -> None:
         """Back to the boot state: motors at rest, nothing learned or declared."""
-        self._thrust = [0.0, 0.0, 0.0, 0.0]  # N, expected thrusts T_e (lag states)
-        self._gyro: list[float] | None = None  # the previous tick's mean gyro, rad/s
-        self._accel_z = 0.0  # m/s^2, the previous tick's mean specific force, body z
-        self._bias_n = 0.0  # N, mu
-        self._var = list(self._floor_var)
+        reset_state(self._par, self._state)
         self._streak = 0
         self._candidate = -1
         self._start_thrust = 0.0  # N, the candidate's own thrust when its streak began
         self.declared: tuple[int, str, float] | None = None  # (motor 1..4, kind, magnitude)
-        self.statistic = 0.0  # the latest best T_j
-        self.deficit_n = np.zeros(4)  # N, the latest f_j per motor
+
+    @property
+    def statistic(self) -> float:
+        """The latest best single-motor statistic T_j."""
+        return self._state.item(S_STAT)
 
     @property
     def suspected(self) -> int | None:
@@ -148,84 +154,24 @@ class RotorWatch:
         """One tick: ``gyro`` (rad/s) and ``accel`` (m/s^2) means over the tick (None when
         the tick had none), ``pwm`` the commands held over it, ``airborne`` whether the
         vehicle flies clear of the ground (the evidence is taken only then)."""
-        k, lag = self._k, self._lag
-        start = self._thrust
-        u = [min(max(float(v), 0.0), self._pwm_max) for v in pwm.tolist()]
-        self._thrust = [lag * t + (1.0 - lag) * k * ui for t, ui in zip(start, u, strict=False)]
-        prev_gyro, prev_az = self._gyro, self._accel_z
         if gyro is None or accel is None:
-            self._gyro = None
+            best, suspect = watch_tick(self._par, self._state, 0.0, 0.0, 0.0, 0.0, False,
+                                       pwm, airborne, False)
+        else:
+            best, suspect = watch_tick(self._par, self._state, gyro[0], gyro[1], gyro[2],
+                                       accel[2], True, pwm, airborne, self.declared is None)
+        if best < 0 or not suspect or self.declared is not None:
             self._streak = 0
             return []
-        self._gyro, self._accel_z = gyro, accel[2]
-        if prev_gyro is None or not airborne:
-            self._streak = 0
-            return []
-        residual = self._residual(start, gyro, prev_gyro, 0.5 * (accel[2] + prev_az))
-        best, stat, deficit, rss = self._best_fit(residual)
-        self.statistic = stat
-        if self.declared is not None:  # the deficits are kept up to date, no more
-            return []
-        expected = max(start[best], 0.05 * k * self._pwm_max)
-        cfg = self.config
-        suspect = (stat > cfg.significance and abs(deficit) > cfg.min_deficit * expected
-                   and stat > cfg.consistency * rss)
-        if not suspect:
-            self._streak = 0
-            if stat < 0.25 * cfg.significance:  # a fault building up is never noise
-                self._learn(residual)
-            return []
-        own = start[best] - deficit  # N, the motor's own thrust
+        state = self._state
+        own = state.item(S_START + best) - state.item(S_DEFICIT + best)  # N, its own thrust
         if best != self._candidate or self._streak == 0:
             self._candidate, self._streak, self._start_thrust = best, 0, own
         self._streak += 1
-        if self._streak < cfg.persistence_ticks:
+        if self._streak < self.config.persistence_ticks:
             return []
-        return [self._declare(time_s, best, own, u[best])]
-
-    def _residual(self, thrust: list[float], gyro: list[float], prev_gyro: list[float],
-                  accel_z: float) -> tuple[float, float, float, float]:
-        """``r = B T_e - w_m - (mu, 0, 0, 0)`` at the boundary between the two ticks."""
-        dt = self.dt_s
-        jx, jy, jz = self._inertia
-        gx, gy, gz = self._damping
-        p, q, r = ((a + b) * 0.5 for a, b in zip(gyro, prev_gyro, strict=False))
-        dp, dq, dr = ((a - b) / dt for a, b in zip(gyro, prev_gyro, strict=False))
-        # J w' + w x J w + G w (eq. 3.15, rate damping)
-        tau_x = jx * dp + (jz - jy) * q * r + gx * p
-        tau_y = jy * dq + (jx - jz) * p * r + gy * q
-        tau_z = jz * dr + (jy - jx) * p * q + gz * r
-        out = [0.0, 0.0, 0.0, 0.0]
-        for col, t in zip(self._columns, thrust, strict=False):
-            for i in range(4):
-                out[i] += col[i] * t
-        return (out[0] + self._mass * accel_z - self._bias_n, out[1] - tau_x,
-                out[2] - tau_y, out[3] - tau_z)
-
-    def _best_fit(self, r: tuple[float, float, float, float]
-                  ) -> tuple[int, float, float, float]:
-        """The motor whose single fault best explains ``r``: (index, T_j, f_j, RSS_j)."""
-        var = self._var
-        rss0 = sum(ri * ri / v for ri, v in zip(r, var, strict=False))
-        best, best_t, best_f = 0, -1.0, 0.0
-        deficits = self.deficit_n
-        for j, b in enumerate(self._columns):
-            den = sum(bi * bi / v for bi, v in zip(b, var, strict=False))
-            f = sum(bi * ri / v for bi, ri, v in zip(b, r, var, strict=False)) / den
-            deficits[j] = f
-            t = f * f * den
-            if t > best_t:
-                best, best_t, best_f = j, t, f
-        return best, best_t, best_f, max(rss0 - best_t, 0.0)
-
-    def _learn(self, r: tuple[float, float, float, float]) -> None:
-        """Update the collective bias and the measured noise with a tick that suspects
-        nothing."""
-        self._bias_n += self._bias_gain * r[0]
-        for i, (ri, v) in enumerate(zip(r, self._var, strict=False)):
-            e2 = ri * ri
-            v += (self._attack if e2 > v else self._decay) * (e2 - v)
-            self._var[i] = max(v, self._floor_var[i])
+        command = min(max(float(pwm[best]), 0.0), self._pwm_max)
+        return [self._declare(time_s, best, own, command)]
 
     def _declare(self, time_s: float, j: int, own_n: float, command: float
                  ) -> DetectionRecord:

@@ -144,6 +144,16 @@ def _box_figure(labels: Sequence[str], data: Sequence[Sequence[float]], x_label:
     return fig
 
 
+def excursion_figure(labelled: Sequence[tuple[str, Sequence[Row]]]) -> Figure | None:
+    """Largest horizontal distance from the fault point after the fault (m), per group of
+    runs (a label and its rows)."""
+    return _box_figure([label for label, _ in labelled],
+                       [[r["excursion_m"] for r in ok_rows(rows)
+                         if r.get("excursion_m") is not None] for _, rows in labelled],
+                       "largest horizontal distance from where the fault struck (m)",
+                       "excursion after the fault")
+
+
 def latency_figure(groups: Sequence[Group], n_faults: int) -> Figure | None:
     """Detection latency of every detected fault, per configuration (s)."""
     return _box_figure([g.label for g in groups],

@@ -10,8 +10,11 @@ the campaign's rows allow it:
    and for each the largest magnitude every run survived;
 4. detection latency and false alarms per configuration;
 5. the settled error of the effectiveness estimate per configuration;
-6. active against passive FTC over the runs flown both ways;
-7. the runs that raised, with their error.
+6. the response to the fault (``response`` metrics): survival, soft landings, excursion from
+   the fault point and the motor named, by phase of flight and kind, by attitude law and
+   estimator, by wind;
+7. active against passive FTC over the runs flown both ways;
+8. the runs that raised, with their error.
 """
 
 from __future__ import annotations
@@ -190,6 +193,59 @@ def _estimate(page: _Page, manifest: Mapping[str, Any], groups: Sequence[Group])
                 "estimate error per configuration")
 
 
+SOFT_TOUCHDOWN_M_S = 1.0  # m/s, the most a soft landing may touch down at
+SOFT_TILT_DEG = 30.0  # deg, the most a soft landing may be tilted at touchdown
+
+
+def soft_landing(row: Row) -> bool:
+    """Landed at under 1 m/s and 30 deg of tilt."""
+    return (row.get("outcome") == "landed"
+            and (row.get("impact_speed_m_s") or 0.0) < SOFT_TOUCHDOWN_M_S
+            and (row.get("tilt_deg") or 0.0) < SOFT_TILT_DEG)
+
+
+def _response_cells(rows: Sequence[Row]) -> list[str]:
+    ok = ok_rows(rows)
+    excursion = spread(r.get("excursion_m") for r in ok)
+    end = spread(r.get("end_from_fault_m") for r in ok if survived(r))
+    named = share(ok, lambda r: r.get("named_motor") == r.get("fault_motor"))
+    other = sum(1 for r in ok if r.get("other_motor_lost"))
+    return [str(len(rows)), _pct(share(rows, survived)), _pct(share(ok, soft_landing)),
+            fmt(excursion.median, 1), fmt(excursion.max, 1), fmt(end.median, 1),
+            _pct(named), str(other)]
+
+
+_RESPONSE_HEADER = ("runs", "survived", "landed soft", "excursion median (m)",
+                    "excursion max (m)", "end from fault, survivors, median (m)",
+                    "right motor named first", "another motor declared lost")
+
+
+def _response(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row]) -> None:
+    faulted = [r for r in rows if r.get("fault_phase") is not None]
+    if "response" not in manifest["metrics"] or not faulted:
+        return
+    page.section("Response to the fault",
+                 "Phase of flight when the fault struck (from simulator truth: climb or descent "
+                 "beyond 0.5 m/s vertically, else cruise beyond 1 m/s horizontally, else hover). "
+                 f"*Landed soft*: touchdown under {SOFT_TOUCHDOWN_M_S:g} m/s and "
+                 f"{SOFT_TILT_DEG:g} deg of tilt. *Excursion*: the largest horizontal distance "
+                 "from where the fault struck, afterwards; *end from fault*: that distance at "
+                 "the end of the run. *Right motor named first*: the first motor detection "
+                 "after the fault names the faulted motor.")
+    for title, columns in (("phase, kind", ("fault_phase", "fault_kind")),
+                           ("attitude law, estimator", ("attitude", "estimator")),
+                           ("wind", ("wind", "mean_wind_m_s"))):
+        groups = configurations(faulted, columns)
+        if len(groups) < 2 and title != "phase, kind":
+            continue
+        page.add(f"By {title}:", "")
+        page.table((title, *_RESPONSE_HEADER), [[g.label, *_response_cells(g.rows)]
+                                                 for g in groups], "l" + "r" * 8)
+    by_phase = configurations(faulted, ("fault_phase",))
+    page.figure(figures.excursion_figure([(g.label, g.rows) for g in by_phase]), "excursion",
+                "excursion after the fault, by phase of flight")
+
+
 def _active_passive(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row]) -> None:
     paired = pairs(rows, "ftc", "passive", "active", AXIS_COLUMNS)
     if not paired:
@@ -243,6 +299,7 @@ def render(out_dir: Path) -> str:
     _envelope(page, manifest, rows, groups)
     _detection(page, manifest, groups)
     _estimate(page, manifest, groups)
+    _response(page, manifest, rows)
     _active_passive(page, manifest, rows)
     _errors(page, manifest, rows)
     return "\n".join(page.lines)

@@ -8,7 +8,7 @@ import pytest
 
 from fcu.control import chain
 from fcu.estimation import ekf, tskf_kernel
-from fcu.monitoring import sensor_health
+from fcu.monitoring import rotor_watch_kernel, sensor_health
 from jitsupport.layout import LANES, Layout, aligned_zeros
 
 
@@ -55,7 +55,8 @@ def test_aligned_zeros_start_on_a_cache_line() -> None:
 @pytest.mark.parametrize("layout", [ekf.WORK, ekf.SCRATCH, ekf.CONSTANTS, ekf.BUFFER,
                                     tskf_kernel.WORK, tskf_kernel.SCRATCH, tskf_kernel.MODEL,
                                     tskf_kernel.BUFFER, chain.OUT, chain.SCRATCH,
-                                    sensor_health.ROW], ids=lambda lay: lay.name)
+                                    sensor_health.ROW, rotor_watch_kernel.STATE,
+                                    rotor_watch_kernel.PARAMS], ids=lambda lay: lay.name)
 def test_product_layouts_tile_their_array_without_gap_or_overlap(layout: Layout) -> None:
     end = 0
     for f in layout.fields:

@@ -161,6 +161,30 @@ def test_report_tables_envelope_and_active_against_passive(tmp_path: Path) -> No
         assert f"(figures/{name}.png)" in text
 
 
+def test_report_response_by_phase_and_kind(tmp_path: Path) -> None:
+    rows = []
+    for phase, kind, outcome, speed, excursion, named in (
+            ("climb", "total_loss", "landed", 0.3, 1.0, 1),
+            ("climb", "total_loss", "landed", 1.4, 3.0, 1),  # too hard: not soft
+            ("cruise", "total_loss", "flyaway", None, 40.0, 1),
+            ("cruise", "hardover", "crashed", 6.0, 5.0, 2)):
+        rows.append(_row(len(rows), fault_kind=kind, fault_phase=phase, outcome=outcome,
+                         impact_speed_m_s=speed, tilt_deg=10.0, excursion_m=excursion,
+                         end_from_fault_m=0.5 * excursion, named_motor=named,
+                         other_motor_lost=int(named != 1)))
+    _manifest(tmp_path, rows, ["fault.kind", "fault.start_s"])
+    with ResultStore(tmp_path, columns(METRIC_GROUPS, 1)) as store:
+        for row in rows:
+            store.add(row)
+    lines = write_report(tmp_path).read_text().splitlines()
+    assert "## Response to the fault" in lines
+    assert ("| fault_phase = climb, fault_kind = total_loss | 2 | 100 % | 50 % | 2.0 | 3.0 "
+            "| 1.0 | 100 % | 0 |") in lines
+    assert ("| fault_phase = cruise, fault_kind = hardover | 1 | 0 % | 0 % | 5.0 | 5.0 | - "
+            "| 0 % | 1 |") in lines
+    assert (tmp_path / "figures" / "excursion.png").stat().st_size > 1000
+
+
 def test_report_of_a_directory_without_a_campaign_is_one_line(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="holds no campaign"):
         write_report(tmp_path)

@@ -1,0 +1,153 @@
+"""The wrench-residual watch's tick, compiled: its state and parameter layouts and
+:func:`watch_tick`, the arithmetic of :class:`fcu.monitoring.rotor_watch.RotorWatch` (whose
+module docstring gives the method: the expected and measured wrench, the single-motor fit,
+the measured noise and the collective bias). The watch's decisions (persistence, kind,
+records) stay in Python.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from fcu.model import VehicleModel
+from jitsupport.layout import Layout
+
+STATE = Layout("rotor watch state")
+S_THRUST = STATE.field("thrust_n", 4)  # N, expected thrusts T_e at the end of the tick
+S_START = STATE.field("start_thrust_n", 4)  # N, T_e at the tick's start (the residual's)
+S_GYRO = STATE.field("prev_gyro", 3)  # rad/s, the previous tick's mean gyro
+S_ACCEL_Z = STATE.field("prev_accel_z", 1)  # m/s^2, its mean specific force, body z
+S_HAVE_PREV = STATE.field("have_prev", 1)  # 1 when the previous tick had both readings
+S_BIAS = STATE.field("bias_n", 1)  # N, the collective bias mu
+S_VAR = STATE.field("var", 4)  # measured noise variance: collective N^2, torques (N*m)^2
+S_DEFICIT = STATE.field("deficit_n", 4)  # N, the latest single-motor fit f_j per motor
+S_STAT = STATE.field("statistic", 1)  # the latest best T_j
+STATE_SIZE = STATE.size
+
+PARAMS = Layout("rotor watch parameters")
+P_K = PARAMS.field("thrust_gain", 1)  # N per unit PWM
+P_PWM_MAX = PARAMS.field("pwm_max", 1)
+P_MASS = PARAMS.field("mass", 1)  # kg
+P_LAG = PARAMS.field("lag", 1)  # exp(-w dt), the motor lag over a tick
+P_DT = PARAMS.field("dt_s", 1)  # s
+P_INERTIA = PARAMS.field("inertia", 3)  # kg*m^2
+P_DAMPING = PARAMS.field("rate_damping", 3)  # N*m per rad/s
+P_COLUMNS = PARAMS.field("columns", 16)  # b_j, motor by motor: collective, roll, pitch, yaw
+P_ATTACK = PARAMS.field("attack", 1)  # noise gain per tick while rising
+P_DECAY = PARAMS.field("decay", 1)  # noise gain per tick while falling
+P_BIAS_GAIN = PARAMS.field("bias_gain", 1)  # mu's gain per tick
+P_FLOOR = PARAMS.field("floor_var", 4)  # the noise floor, variances
+P_SIGNIFICANCE = PARAMS.field("significance", 1)
+P_MIN_DEFICIT = PARAMS.field("min_deficit", 1)
+P_CONSISTENCY = PARAMS.field("consistency", 1)
+PARAMS_SIZE = PARAMS.size
+
+_ATTACK_S = 2.0  # s, time constant of the noise estimate's rise
+
+
+def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s: float,
+                noise_floor: tuple[float, ...], significance: float, min_deficit: float,
+                consistency: float) -> np.ndarray:
+    """The parameter vector of :func:`watch_tick`."""
+    par = np.zeros(PARAMS_SIZE)
+    par[P_K], par[P_PWM_MAX], par[P_MASS] = model.thrust_gain, model.pwm_max, model.mass
+    par[P_LAG] = math.exp(-model.motor_bandwidth * dt_s)
+    par[P_DT] = dt_s
+    par[P_INERTIA:P_INERTIA + 3] = model.inertia
+    par[P_DAMPING:P_DAMPING + 3] = model.rate_damping
+    par[P_COLUMNS:P_COLUMNS + 16] = model.thrust_mixer().T.ravel()  # eq. 3.17
+    par[P_ATTACK] = 1.0 - math.exp(-dt_s / _ATTACK_S)
+    par[P_DECAY] = 1.0 - math.exp(-dt_s / noise_tau_s)
+    par[P_BIAS_GAIN] = 1.0 - math.exp(-dt_s / bias_tau_s)
+    par[P_FLOOR:P_FLOOR + 4] = np.square(noise_floor)
+    par[P_SIGNIFICANCE], par[P_MIN_DEFICIT] = significance, min_deficit
+    par[P_CONSISTENCY] = consistency
+    return par
+
+
+def reset_state(par: np.ndarray, state: np.ndarray) -> None:
+    """The boot state: motors at rest, nothing learned, no previous reading."""
+    state[:] = 0.0
+    state[S_VAR:S_VAR + 4] = par[P_FLOOR:P_FLOOR + 4]
+
+
+@njit(cache=True, error_model="numpy")
+def watch_tick(par: np.ndarray, state: np.ndarray, gx: float, gy: float, gz: float,
+               accel_z: float, have_imu: bool, pwm: np.ndarray, airborne: bool,
+               learn: bool) -> tuple[int, bool]:
+    """One tick (module docstring of :mod:`fcu.monitoring.rotor_watch`): the motor lag
+    advanced under ``pwm``, then, with this tick's and the previous tick's mean readings
+    (gyro ``gx, gy, gz`` rad/s, specific force ``accel_z`` m/s^2) and ``airborne``, the
+    residual and the best single-motor fit; the noise and the bias are learned when
+    ``learn`` and the fit suspects nothing (best statistic under a quarter of the
+    significance).
+
+    Returns the best motor (0..3; -1 when no residual was formed) and whether it is
+    suspected (statistic, deficit and consistency tests).
+    """
+    k, pwm_max, lag = par[P_K], par[P_PWM_MAX], par[P_LAG]
+    for i in range(4):
+        u = min(max(pwm[i], 0.0), pwm_max)
+        state[S_START + i] = state[S_THRUST + i]
+        state[S_THRUST + i] = lag * state[S_THRUST + i] + (1.0 - lag) * k * u
+    have_prev = state[S_HAVE_PREV] > 0.5
+    px, py, pz = state[S_GYRO], state[S_GYRO + 1], state[S_GYRO + 2]
+    prev_az = state[S_ACCEL_Z]
+    state[S_HAVE_PREV] = 1.0 if have_imu else 0.0
+    if not have_imu:
+        return -1, False
+    state[S_GYRO], state[S_GYRO + 1], state[S_GYRO + 2] = gx, gy, gz
+    state[S_ACCEL_Z] = accel_z
+    if not (have_prev and airborne):
+        return -1, False
+    dt = par[P_DT]
+    jx, jy, jz = par[P_INERTIA], par[P_INERTIA + 1], par[P_INERTIA + 2]
+    p, q, r = 0.5 * (gx + px), 0.5 * (gy + py), 0.5 * (gz + pz)
+    # J w' + w x J w + G w (eq. 3.15, rate damping), at the boundary between the ticks
+    tau_x = jx * (gx - px) / dt + (jz - jy) * q * r + par[P_DAMPING] * p
+    tau_y = jy * (gy - py) / dt + (jx - jz) * p * r + par[P_DAMPING + 1] * q
+    tau_z = jz * (gz - pz) / dt + (jy - jx) * p * q + par[P_DAMPING + 2] * r
+    # r = B T_e - w_m - (mu, 0, 0, 0)
+    res = np.zeros(4)
+    for j in range(4):
+        t = state[S_START + j]
+        for i in range(4):
+            res[i] += par[P_COLUMNS + 4 * j + i] * t
+    res[0] += par[P_MASS] * 0.5 * (accel_z + prev_az) - state[S_BIAS]
+    res[1] -= tau_x
+    res[2] -= tau_y
+    res[3] -= tau_z
+    # the best single-motor fit against the measured noise
+    rss0 = 0.0
+    for i in range(4):
+        rss0 += res[i] * res[i] / state[S_VAR + i]
+    best, best_t, best_f = 0, -1.0, 0.0
+    for j in range(4):
+        den = 0.0
+        num = 0.0
+        for i in range(4):
+            b = par[P_COLUMNS + 4 * j + i]
+            den += b * b / state[S_VAR + i]
+            num += b * res[i] / state[S_VAR + i]
+        f = num / den
+        state[S_DEFICIT + j] = f
+        t = f * f * den
+        if t > best_t:
+            best, best_t, best_f = j, t, f
+    state[S_STAT] = best_t
+    rss = max(rss0 - best_t, 0.0)
+    expected = max(state[S_START + best], 0.05 * k * pwm_max)
+    suspect = (best_t > par[P_SIGNIFICANCE] and abs(best_f) > par[P_MIN_DEFICIT] * expected
+               and best_t > par[P_CONSISTENCY] * rss)
+    if learn and not suspect and best_t < 0.25 * par[P_SIGNIFICANCE]:
+        # a fault building up is never learned as noise
+        state[S_BIAS] += par[P_BIAS_GAIN] * res[0]
+        for i in range(4):
+            v = state[S_VAR + i]
+            e2 = res[i] * res[i]
+            v += (par[P_ATTACK] if e2 > v else par[P_DECAY]) * (e2 - v)
+            state[S_VAR + i] = max(v, par[P_FLOOR + i])
+    return best, suspect
