@@ -254,6 +254,15 @@ class ReducedAttitudeController:
         """
         eq = self.equilibrium
         f = np.asarray(force_ned, dtype=float)
+        if not (np.isfinite(f).all() and np.isfinite(euler_rad).all()
+                and np.isfinite(rate_frd).all()):
+            # a failed estimate (a tumbling vehicle): the equilibrium's thrusts, open loop,
+            # until the estimate is finite again (the autopilot judges it unhealthy)
+            thrust = np.array(eq.thrust_n, dtype=float)
+            self._thrust_model = thrust + self._decay * (self._thrust_model - thrust)
+            return ReducedAttitudeCommand(thrust_n=thrust, pwm=thrust / self.model.thrust_gain,
+                                          collective_n=float(np.sum(thrust)),
+                                          axis_error=math.nan)
         f_norm = float(np.linalg.norm(f))
         direction = f / f_norm if f_norm > 0.0 else np.array([0.0, 0.0, -1.0])
         n = rotation_zyx(euler_rad).T @ direction  # the body vector that must point along d

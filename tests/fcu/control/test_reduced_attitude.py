@@ -72,3 +72,18 @@ def test_rotation_zyx_matches_the_simulator() -> None:
     euler = (0.3, -0.2, 2.5)
     assert np.allclose(rotation_zyx(np.array(euler)), quat_to_rotation(euler_to_quat(*euler)),
                        atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", ["rate", "euler", "force"])
+def test_a_failed_estimate_gives_the_equilibrium_thrusts_not_an_error(bad: str) -> None:
+    """A tumbling vehicle's estimator may diverge: the controller keeps commanding finite
+    thrusts (the equilibrium's) instead of raising."""
+    ctrl = ReducedAttitudeController(MODEL, 1, DT)
+    euler, rate, force = np.zeros(3), np.array([0.0, 0.0, -5.0]), np.array([0.0, 0.0, -9.81])
+    {"rate": rate, "euler": euler, "force": force}[bad][0] = np.nan
+    cmd = ctrl.step(euler, rate, force)
+    assert np.isfinite(cmd.pwm).all()
+    np.testing.assert_allclose(cmd.thrust_n, ctrl.equilibrium.thrust_n)
+    # and it carries on once the estimate is finite again
+    cmd = ctrl.step(np.zeros(3), np.array([0.0, 0.0, -5.0]), np.array([0.0, 0.0, -9.81]))
+    assert np.isfinite(cmd.pwm).all()
