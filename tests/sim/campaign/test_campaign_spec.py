@@ -173,6 +173,8 @@ def test_every_shipped_campaign_expands() -> None:
     assert sizes["thesis_faults"] == 9 * 3 * 50
     assert sizes["false_alarms_indoor"] == 1000
     assert sizes["false_alarms_outdoor"] == 300
+    # kinds x phases x motors x (turbulence x mean wind) x attitude laws x estimators
+    assert sizes["rotor_loss_envelope"] == 5 * 3 * 4 * 4 * 2 * 2
 
 
 def test_unknown_campaign_lists_the_shipped_ones() -> None:
