@@ -16,14 +16,14 @@ commands held over each tick), ``w'`` the gyro's difference between consecutive 
 (their means, so the torque is that at the boundary between them, where ``T_e`` and the two
 ticks' mean specific force ``a_z`` are taken too) and ``mu`` the slowly learned collective
 bias (drag along the body axis in steady flight, a mass change: low-passed over
-``bias_tau_s`` while nothing is even a quarter suspected). Climb, descent, cruise and turns
+``bias_tau_s`` while nothing is even half suspected). Climb, descent, cruise and turns
 are all in ``w_m``: only what the motors fail to deliver stays in ``r``.
 
 A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
 ``r = b_j f``, ``b_j`` the column ``j`` of ``B``. Against the per-channel noise ``Sigma``
-(measured, attack 2 s, decay ``noise_tau_s``, floored; frozen while the best statistic
-is above a quarter of ``significance``, so that a fault building up is never learned) the
-best single-motor fit and its statistic are::
+(measured, attack 1 s, decay ``noise_tau_s``, floored; frozen while the best statistic
+is above half of ``significance``, so that a fault building up is never learned) the best
+single-motor fit and its statistic are::
 
     f_j = b_j' S^-1 r / (b_j' S^-1 b_j),     T_j = f_j^2 b_j' S^-1 b_j
 
@@ -82,7 +82,7 @@ class RotorWatchConfig:
     consistency: float = 3.0  # T_j must exceed this many times what the fit leaves (RSS_j)
     persistence_ticks: int = 4  # consecutive ticks suspecting the same motor that declare
     bias_tau_s: float = 2.0  # s, low-pass of the collective bias mu
-    noise_tau_s: float = 20.0  # s, decay of the measured noise (attack: 2 s)
+    noise_tau_s: float = 20.0  # s, decay of the measured noise (attack: 1 s)
     # noise floors, 1 sigma: collective N, roll, pitch, yaw N*m (indoor air, IMU noise)
     noise_floor: tuple[float, float, float, float] = (0.1, 0.015, 0.015, 0.012)
     min_alt_m: float = 0.15  # m, estimated altitude above which the watch takes evidence

@@ -45,7 +45,7 @@ P_MIN_DEFICIT = PARAMS.field("min_deficit", 1)
 P_CONSISTENCY = PARAMS.field("consistency", 1)
 PARAMS_SIZE = PARAMS.size
 
-_ATTACK_S = 2.0  # s, time constant of the noise estimate's rise
+_ATTACK_S = 1.0  # s, time constant of the noise estimate's rise
 
 
 def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s: float,
@@ -82,8 +82,7 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gx: float, gy: float, gz: flo
     advanced under ``pwm``, then, with this tick's and the previous tick's mean readings
     (gyro ``gx, gy, gz`` rad/s, specific force ``accel_z`` m/s^2) and ``airborne``, the
     residual and the best single-motor fit; the noise and the bias are learned when
-    ``learn`` and the fit suspects nothing (best statistic under a quarter of the
-    significance).
+    ``learn`` and the fit suspects nothing (best statistic under half the significance).
 
     Returns the best motor (0..3; -1 when no residual was formed) and whether it is
     suspected (statistic, deficit and consistency tests).
@@ -142,7 +141,7 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gx: float, gy: float, gz: flo
     expected = max(state[S_START + best], 0.05 * k * pwm_max)
     suspect = (best_t > par[P_SIGNIFICANCE] and abs(best_f) > par[P_MIN_DEFICIT] * expected
                and best_t > par[P_CONSISTENCY] * rss)
-    if learn and not suspect and best_t < 0.25 * par[P_SIGNIFICANCE]:
+    if learn and not suspect and best_t < 0.5 * par[P_SIGNIFICANCE]:
         # a fault building up is never learned as noise
         state[S_BIAS] += par[P_BIAS_GAIN] * res[0]
         for i in range(4):
