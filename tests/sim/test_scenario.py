@@ -51,7 +51,7 @@ def write(tmp_path: Path, text: str) -> Path:
     ('name = "x"\nspeed = 3\n', "unknown key speed"),
     ('name = "x"\n[autopilot]\nattitude = "mpc"\n', "attitude = 'mpc'"),
     ('name = "x"\n[autopilot]\nloop_rate_hz = -5.0\n', "loop_rate_hz = -5.0"),
-    ('name = "x"\n[wind]\nmean_speed_m_s = -1.0\n', "mean_wind_m_s = -1.0"),
+    ('name = "x"\n[wind]\nmean_speed_m_s = -1.0\n', "wind.mean_speed_m_s = -1.0"),
     ('name = "x"\nduration_s = 0.0\n', "duration_s = 0.0"),
     ('name = "x"\n[[faults]]\nmotor = 5\nkind = "loe"\nloe = 0.3\n', "motor = 5"),
     ('name = "x"\n[[faults]]\nmotor = 1\nkind = "loe"\nloe = 1.3\n', "loe = 1.3"),
