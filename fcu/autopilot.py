@@ -65,6 +65,8 @@ __all__ = ["Autopilot", "AutopilotConfig", "AutopilotEvent", "AutopilotStatus"]
 
 _ZERO3 = np.zeros(3)  # the torques of a tick that does not fly (shared: read-only)
 _ZERO3.setflags(write=False)
+_NOMINAL4 = np.ones(4)  # every motor's effectiveness when no partial loss is known
+_NOMINAL4.setflags(write=False)
 # the parts of a flying tick's output (fcu.control.chain's OUT_* layout)
 _OUT_PWM = slice(control_chain.OUT_PWM, control_chain.OUT_PWM + 4)
 _OUT_TORQUE_CMD = slice(control_chain.OUT_TORQUE_CMD, control_chain.OUT_TORQUE_CMD + 3)
@@ -270,7 +272,8 @@ class Autopilot:
         watch = self.rotor_watch
         airborne = (flying and nav.landed_state != LandedState.ON_GROUND
                     and estimate.alt_m > self.config.rotor_watch.min_alt_m)
-        watch_records = watch.step(time_s, gyro, accel, self._pwm, airborne)
+        watch_records = watch.step(time_s, gyro, accel, self._pwm, airborne,
+                                   self._known_effectiveness())
         if watch_records:
             records += watch_records
             self.rotor_loss.on_watch_declared(time_s, self.ftc_active)
@@ -400,6 +403,19 @@ class Autopilot:
         if detector.suspected is not None:
             motors.add(detector.suspected)
         for motor in motors:
+            e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
+        return e
+
+    def _known_effectiveness(self) -> np.ndarray:
+        """Per motor, what it is known to deliver of its command: ``1 - LOE`` of the motors
+        the TSKF's detector has declared (its estimate, mass change removed), 1 for the
+        others."""
+        detector = self.detector
+        if not detector.active:
+            return _NOMINAL4
+        e = np.ones(4)
+        loe = detector.loe
+        for motor in detector.active:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
         return e
 

@@ -7,6 +7,7 @@ study wants a model mismatch.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +30,10 @@ class VehicleModel:
     # moving hubs (d_z L^2 / 2 in roll and pitch, d_xy L^2 in yaw); it sets the spin rate
     # after the loss of a rotor (fcu.control.relaxed_hover)
     rate_damping: tuple[float, float, float] = (0.007, 0.007, 0.010)  # N*m per rad/s, x y z
+    # body z of the centre of pressure (FRD: negative = above the centre of gravity): the
+    # in-plane drag, which the accelerometer's x and y read, turns the body about it
+    # (fcu.monitoring.rotor_watch)
+    cp_offset_z: float = -0.05  # m
 
     def __post_init__(self) -> None:
         for name in ("thrust_gain", "motor_bandwidth", "arm_length", "yaw_gain", "mass",
@@ -41,6 +46,8 @@ class VehicleModel:
         if len(self.rate_damping) != 3 or not all(g >= 0 for g in self.rate_damping):
             raise ValueError(f"rate_damping = {self.rate_damping!r}: must be three numbers "
                              ">= 0 (N*m per rad/s)")
+        if not (math.isfinite(self.cp_offset_z) and abs(self.cp_offset_z) <= 1.0):
+            raise ValueError(f"cp_offset_z = {self.cp_offset_z!r}: must lie in [-1, 1] m")
         if not self.pwm_max > self.pwm_min:
             raise ValueError(f"pwm_max = {self.pwm_max!r}: must be > pwm_min ({self.pwm_min})")
 

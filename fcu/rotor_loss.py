@@ -108,7 +108,7 @@ class RotorLossResponse:
         """Whether the TSKF's detector may take evidence and its findings count (module
         docstring)."""
         declared = self.watch.declared
-        return self.watch.suspected is None and (declared is None or declared[1] == "loe")
+        return not self.watch.alarming and (declared is None or declared[1] == "loe")
 
     def on_watch_declared(self, time_s: float, ftc_active: bool) -> None:
         """The wrench residual declared a motor: a stuck or hard-over one lands the vehicle

@@ -173,7 +173,8 @@ def nominal_model(airframe: Airframe) -> VehicleModel:
                         arm_length=airframe.arm_length, yaw_gain=airframe.yaw_gain,
                         mass=airframe.mass, gravity=airframe.gravity,
                         inertia=airframe.inertia, pwm_min=airframe.pwm_min,
-                        pwm_max=airframe.pwm_max, rate_damping=airframe.rate_damping)
+                        pwm_max=airframe.pwm_max, rate_damping=airframe.rate_damping,
+                        cp_offset_z=airframe.cp_offset_z)
 
 
 def shipped_names() -> list[str]:

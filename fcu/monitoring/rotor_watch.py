@@ -8,32 +8,44 @@ torque). This watch needs no hover model. Every tick it compares the wrench the 
 should make with the wrench the IMU measures, both in the body frame:
 
     expected  w_e = B T_e                                    (eq. 3.17; B = thrust mixer)
-    measured  w_m = (-m a_z,  J w' + w x J w + G w)          (eq. 3.15, rate damping G)
+    measured  w_m = (-m a_z,  J w' + w x J w + G w - r_cp x m a_xy)
+                                          (eq. 3.15, rate damping G, in-plane drag moment)
     residual  r   = w_e - w_m - (mu, 0, 0, 0)
 
 with ``T_e`` the thrusts the commanded PWM gives through the motor lag (eq. 3.1, the
-commands held over each tick), ``w'`` the gyro's difference between consecutive ticks
-(their means, so the torque is that at the boundary between them, where ``T_e`` and the two
-ticks' mean specific force ``a_z`` are taken too) and ``mu`` the slowly learned collective
-bias (drag along the body axis in steady flight, a mass change: low-passed over
-``bias_tau_s`` while nothing is even half suspected). Climb, descent, cruise and turns
-are all in ``w_m``: only what the motors fail to deliver stays in ``r``.
+commands held over each tick, times the effectiveness already known of the motors the TSKF's
+detector has declared partially lost), ``w'`` the gyro's difference between consecutive
+ticks (their means, so the torque is that at the boundary between them, where ``T_e`` and
+the two ticks' mean specific force ``a`` are taken too), ``r_cp x m a_xy`` the moment of the
+in-plane drag about the centre of gravity (the thrust has no in-plane part, so the
+accelerometer's x and y read the drag alone; the centre of pressure sits ``cp_offset_z``
+above the centre of gravity: in moderate turbulence this takes the torque channels' noise
+from about 0.07 to 0.02 N*m) and ``mu`` the collective bias (drag along the body axis in
+steady flight, a mass change: low-passed over ``bias_tau_s`` unless a large fault is
+building up). Climb, descent, cruise and turns are all in ``w_m``: only what the motors
+fail to deliver stays in ``r``.
 
 A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
 ``r = b_j f``, ``b_j`` the column ``j`` of ``B``. Against the per-channel noise ``Sigma``
-(measured, attack 1 s, decay ``noise_tau_s``, floored; frozen while the best statistic
-is above half of ``significance``, so that a fault building up is never learned) the best
-single-motor fit and its statistic are::
+(measured, attack 1 s, decay ``noise_tau_s``, floored; frozen while a motor is suspected or
+the best statistic is above half of ``significance``, so that a fault building up is never
+learned) the best single-motor fit and its statistic are::
 
     f_j = b_j' S^-1 r / (b_j' S^-1 b_j),     T_j = f_j^2 b_j' S^-1 b_j
 
 A motor is suspected when ``T_j > significance``, ``|f_j| > min_deficit`` of its expected
-thrust (the watch leaves partial losses to the TSKF detector) and ``b_j f_j`` explains the
-residual (``T_j > consistency x RSS_j``: a gust twists the frame without the collective a
-motor's thrust carries); it is declared after ``persistence_ticks`` consecutive ticks of
-suspicion of the same motor, about 0.05-0.08 s after a total loss (the motor lag spreads the
-deficit over 67 ms). The collective separates a motor's loss from the opposite motor's
-excess, which give the same roll or pitch torque.
+thrust and ``b_j f_j`` explains the residual (``T_j > consistency x RSS_j``: a gust twists
+the frame without the collective a motor's thrust carries). A suspicion is *alarming* when
+the command the motor follows (below) says lost or hard-over, or the fault exceeds
+``declare_deficit`` of the thrust: the bias is then held, and the TSKF's detector takes no
+evidence (its hover model misreads such a fault, :mod:`fcu.rotor_loss`). A lost or hard-over
+motor is declared after ``persistence_ticks`` consecutive ticks of suspicion of the same
+motor, about 0.05 s after a total loss (the motor lag spreads the deficit over 67 ms); a
+partial loss or a stuck motor after ``slow_persistence_ticks`` and only beyond
+``declare_deficit`` (partial losses are the TSKF detector's; a change of mass that the bias
+has not yet followed reads for a while as the excess of the motor opposite a weakened one).
+The collective separates a motor's loss from the opposite motor's excess, which give the
+same roll or pitch torque.
 
 The kind comes from the motor's own thrust, ``T_j = T_e,j - f_j``, inverted through the lag
 over the persistence window (the command the motor actually follows, ``u_f``)::
@@ -43,8 +55,7 @@ over the persistence window (the command the motor actually follows, ``u_f``)::
 ``motor_lost`` (deficit, ``u_f`` under ``1 - lost_fraction`` of the command: a lost
 propeller, a freewheeling or dead motor), ``motor_hard_over`` (excess, ``u_f`` at 85 % of
 full power or more), ``motor_stuck`` (excess short of full power: a command that no longer
-follows) or
-``loe`` (a partial deficit above ``min_deficit``); the magnitude is the fraction of
+follows) or ``loe`` (a partial deficit); the magnitude is the fraction of
 effectiveness lost (``motor_lost``, ``loe``) or the stuck command as a fraction of full power.
 One motor is declared per flight (after the first, the residual carries the controller's
 response to it); a second large fault is beyond this watch. The per-motor deficits stay
@@ -78,10 +89,15 @@ class RotorWatchConfig:
     """Settings of the wrench-residual watch (module docstring)."""
 
     significance: float = 60.0  # statistic T_j (chi-square, 1 dof under no fault) to suspect
-    min_deficit: float = 0.5  # |f_j| / expected thrust of motor j needed to suspect
+    min_deficit: float = 0.25  # |f_j| / expected thrust of motor j needed to suspect
+    # |f_j| / expected thrust needed to declare a partial loss or a stuck motor (a lost or
+    # hard-over motor is declared once its streak has lasted persistence_ticks)
+    declare_deficit: float = 0.5
     consistency: float = 3.0  # T_j must exceed this many times what the fit leaves (RSS_j)
-    persistence_ticks: int = 4  # consecutive ticks suspecting the same motor that declare
-    bias_tau_s: float = 2.0  # s, low-pass of the collective bias mu
+    persistence_ticks: int = 3  # consecutive ticks suspecting the same motor that declare
+    # a lost or hard-over motor; a partial loss or a stuck motor needs this many
+    slow_persistence_ticks: int = 25
+    bias_tau_s: float = 0.5  # s, low-pass of the collective bias mu
     noise_tau_s: float = 20.0  # s, decay of the measured noise (attack: 1 s)
     # noise floors, 1 sigma: collective N, roll, pitch, yaw N*m (indoor air, IMU noise)
     noise_floor: tuple[float, float, float, float] = (0.1, 0.015, 0.015, 0.012)
@@ -91,15 +107,25 @@ class RotorWatchConfig:
     lost_fraction: float = 0.75
 
     def __post_init__(self) -> None:
-        for name in ("significance", "min_deficit", "consistency", "bias_tau_s",
+        for name in ("significance", "min_deficit", "declare_deficit", "consistency",
+                     "bias_tau_s",
                      "noise_tau_s", "min_alt_m", "lost_fraction"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
         require(isinstance(self.persistence_ticks, int) and self.persistence_ticks >= 2,
                 "persistence_ticks", self.persistence_ticks, "must be an integer >= 2")
+        require(isinstance(self.slow_persistence_ticks, int)
+                and self.slow_persistence_ticks >= self.persistence_ticks,
+                "slow_persistence_ticks", self.slow_persistence_ticks,
+                "must be an integer >= persistence_ticks")
         require(len(self.noise_floor) == 4 and all(finite(v) and v > 0
                                                    for v in self.noise_floor),
                 "noise_floor", self.noise_floor, "must be four numbers > 0")
+
+
+_NO_READING = np.zeros(3)  # the kernel's reading arguments on a tick without the IMU
+_NOMINAL = np.ones(4)  # every motor delivering what it is told
+_NOMINAL.setflags(write=False)
 
 
 class RotorWatch:
@@ -132,6 +158,10 @@ class RotorWatch:
         self._candidate = -1
         self._start_thrust = 0.0  # N, the candidate's own thrust when its streak began
         self.declared: tuple[int, str, float] | None = None  # (motor 1..4, kind, magnitude)
+        # a motor is suspected of more than a partial loss at the latest tick: lost, stuck
+        # or hard-over by the command it follows, or short of half its thrust (the TSKF's
+        # hover model misreads such a fault, fcu.rotor_loss)
+        self.alarming = False
 
     @property
     def statistic(self) -> float:
@@ -150,16 +180,23 @@ class RotorWatch:
         return d[0] if d is not None and d[1] == "motor_lost" else None
 
     def step(self, time_s: float, gyro: list[float] | None, accel: list[float] | None,
-             pwm: np.ndarray, airborne: bool) -> list[DetectionRecord]:
+             pwm: np.ndarray, airborne: bool, effectiveness: np.ndarray = _NOMINAL
+             ) -> list[DetectionRecord]:
         """One tick: ``gyro`` (rad/s) and ``accel`` (m/s^2) means over the tick (None when
         the tick had none), ``pwm`` the commands held over it, ``airborne`` whether the
-        vehicle flies clear of the ground (the evidence is taken only then)."""
+        vehicle flies clear of the ground (the evidence is taken only then),
+        ``effectiveness`` what each motor is known to deliver of its command (1 - the LOE
+        of the partial losses already declared, shape (4,)): the watch looks for what is
+        new."""
         if gyro is None or accel is None:
-            best, suspect = watch_tick(self._par, self._state, 0.0, 0.0, 0.0, 0.0, False,
-                                       pwm, airborne, False)
+            best, suspect = watch_tick(self._par, self._state, _NO_READING, _NO_READING,
+                                       False, pwm, effectiveness, airborne, False, True)
         else:
-            best, suspect = watch_tick(self._par, self._state, gyro[0], gyro[1], gyro[2],
-                                       accel[2], True, pwm, airborne, self.declared is None)
+            best, suspect = watch_tick(self._par, self._state, np.asarray(gyro, dtype=float),
+                                       np.asarray(accel, dtype=float), True, pwm,
+                                       effectiveness, airborne, self.declared is None,
+                                       self.alarming)
+        self.alarming = False
         if best < 0 or not suspect or self.declared is not None:
             self._streak = 0
             return []
@@ -168,26 +205,37 @@ class RotorWatch:
         if best != self._candidate or self._streak == 0:
             self._candidate, self._streak, self._start_thrust = best, 0, own
         self._streak += 1
-        if self._streak < self.config.persistence_ticks:
+        expected = state.item(S_START + best)  # N, what the motor should make
+        large = abs(state.item(S_DEFICIT + best)) >= self.config.declare_deficit * expected
+        if self._streak == 1:
+            self.alarming = large
             return []
         command = min(max(float(pwm[best]), 0.0), self._pwm_max)
-        return [self._declare(time_s, best, own, command)]
+        kind, magnitude = self._kind(best, own, command)
+        self.alarming = kind in ("motor_lost", "motor_hard_over") or large
+        if self._streak < self.config.persistence_ticks:
+            return []
+        if kind in ("loe", "motor_stuck") and (
+                self._streak < self.config.slow_persistence_ticks
+                or abs(state.item(S_DEFICIT + best)) < self.config.declare_deficit * expected):
+            # a partial fault, or a motor stuck near its command: no hurry, and a change of
+            # mass that the bias has not yet followed reads as one for a while
+            return []
+        self.declared = (best + 1, kind, magnitude)
+        self._streak = 0
+        return [DetectionRecord(time_s=time_s, action="detected", kind=kind, motor=best + 1,
+                                magnitude=magnitude)]
 
-    def _declare(self, time_s: float, j: int, own_n: float, command: float
-                 ) -> DetectionRecord:
-        """Motor ``j`` (0..3) declared, its kind from the command it follows (docstring)."""
-        span_s = (self.config.persistence_ticks - 1) * self.dt_s
+    def _kind(self, j: int, own_n: float, command: float) -> tuple[str, float]:
+        """The kind and magnitude of motor ``j``'s (0..3) fault, from the command it follows
+        over the streak (module docstring); ``own_n`` its thrust now (N), ``command`` the
+        command it was given."""
+        span_s = (self._streak - 1) * self.dt_s
         decay = math.exp(-self._w * span_s)
         followed = (own_n - self._start_thrust * decay) / ((1.0 - decay) * self._k)
-        deficit = self.deficit_n.item(j)
-        if deficit > 0.0:
+        if self.deficit_n.item(j) > 0.0:
             lost = 1.0 - followed / command if command > 0.0 else 1.0
             kind = "motor_lost" if lost > self.config.lost_fraction else "loe"
-            magnitude = min(max(lost, 0.0), 1.0)
-        else:
-            kind = "motor_hard_over" if followed > 0.85 * self._pwm_max else "motor_stuck"
-            magnitude = min(max(followed / self._pwm_max, 0.0), 1.0)
-        self.declared = (j + 1, kind, magnitude)
-        self._streak = 0
-        return DetectionRecord(time_s=time_s, action="detected", kind=kind, motor=j + 1,
-                               magnitude=magnitude)
+            return kind, min(max(lost, 0.0), 1.0)
+        kind = "motor_hard_over" if followed > 0.85 * self._pwm_max else "motor_stuck"
+        return kind, min(max(followed / self._pwm_max, 0.0), 1.0)

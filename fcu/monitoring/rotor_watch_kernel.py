@@ -19,7 +19,7 @@ STATE = Layout("rotor watch state")
 S_THRUST = STATE.field("thrust_n", 4)  # N, expected thrusts T_e at the end of the tick
 S_START = STATE.field("start_thrust_n", 4)  # N, T_e at the tick's start (the residual's)
 S_GYRO = STATE.field("prev_gyro", 3)  # rad/s, the previous tick's mean gyro
-S_ACCEL_Z = STATE.field("prev_accel_z", 1)  # m/s^2, its mean specific force, body z
+S_ACCEL = STATE.field("prev_accel", 3)  # m/s^2, its mean specific force, body FRD
 S_HAVE_PREV = STATE.field("have_prev", 1)  # 1 when the previous tick had both readings
 S_BIAS = STATE.field("bias_n", 1)  # N, the collective bias mu
 S_VAR = STATE.field("var", 4)  # measured noise variance: collective N^2, torques (N*m)^2
@@ -35,6 +35,7 @@ P_LAG = PARAMS.field("lag", 1)  # exp(-w dt), the motor lag over a tick
 P_DT = PARAMS.field("dt_s", 1)  # s
 P_INERTIA = PARAMS.field("inertia", 3)  # kg*m^2
 P_DAMPING = PARAMS.field("rate_damping", 3)  # N*m per rad/s
+P_CP_Z = PARAMS.field("cp_offset_z", 1)  # m, body z of the centre of pressure (FRD)
 P_COLUMNS = PARAMS.field("columns", 16)  # b_j, motor by motor: collective, roll, pitch, yaw
 P_ATTACK = PARAMS.field("attack", 1)  # noise gain per tick while rising
 P_DECAY = PARAMS.field("decay", 1)  # noise gain per tick while falling
@@ -58,6 +59,7 @@ def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s
     par[P_DT] = dt_s
     par[P_INERTIA:P_INERTIA + 3] = model.inertia
     par[P_DAMPING:P_DAMPING + 3] = model.rate_damping
+    par[P_CP_Z] = model.cp_offset_z
     par[P_COLUMNS:P_COLUMNS + 16] = model.thrust_mixer().T.ravel()  # eq. 3.17
     par[P_ATTACK] = 1.0 - math.exp(-dt_s / _ATTACK_S)
     par[P_DECAY] = 1.0 - math.exp(-dt_s / noise_tau_s)
@@ -75,14 +77,17 @@ def reset_state(par: np.ndarray, state: np.ndarray) -> None:
 
 
 @njit(cache=True, error_model="numpy")
-def watch_tick(par: np.ndarray, state: np.ndarray, gx: float, gy: float, gz: float,
-               accel_z: float, have_imu: bool, pwm: np.ndarray, airborne: bool,
-               learn: bool) -> tuple[int, bool]:
+def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.ndarray,
+               have_imu: bool, pwm: np.ndarray, effectiveness: np.ndarray, airborne: bool,
+               learn: bool, hold_bias: bool) -> tuple[int, bool]:
     """One tick (module docstring of :mod:`fcu.monitoring.rotor_watch`): the motor lag
-    advanced under ``pwm``, then, with this tick's and the previous tick's mean readings
-    (gyro ``gx, gy, gz`` rad/s, specific force ``accel_z`` m/s^2) and ``airborne``, the
-    residual and the best single-motor fit; the noise and the bias are learned when
-    ``learn`` and the fit suspects nothing (best statistic under half the significance).
+    advanced under ``pwm`` times the known ``effectiveness`` of each motor (shape (4,), 1
+    but for the partial losses already declared), then, with this tick's and the previous
+    tick's mean readings (``gyro`` rad/s and specific force ``accel`` m/s^2, body FRD,
+    shape (3,)) and
+    ``airborne``, the residual and the best single-motor fit; the noise and the bias are
+    learned when ``learn``: the bias unless ``hold_bias`` (a large fault is building up),
+    the noise while the fit suspects nothing (best statistic under half the significance).
 
     Returns the best motor (0..3; -1 when no residual was formed) and whether it is
     suspected (statistic, deficit and consistency tests).
@@ -91,31 +96,42 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gx: float, gy: float, gz: flo
     for i in range(4):
         u = min(max(pwm[i], 0.0), pwm_max)
         state[S_START + i] = state[S_THRUST + i]
-        state[S_THRUST + i] = lag * state[S_THRUST + i] + (1.0 - lag) * k * u
+        state[S_THRUST + i] = (lag * state[S_THRUST + i]
+                               + (1.0 - lag) * k * u * effectiveness[i])
     have_prev = state[S_HAVE_PREV] > 0.5
-    px, py, pz = state[S_GYRO], state[S_GYRO + 1], state[S_GYRO + 2]
-    prev_az = state[S_ACCEL_Z]
     state[S_HAVE_PREV] = 1.0 if have_imu else 0.0
     if not have_imu:
         return -1, False
-    state[S_GYRO], state[S_GYRO + 1], state[S_GYRO + 2] = gx, gy, gz
-    state[S_ACCEL_Z] = accel_z
+    # the boundary between the two ticks: mean rates and specific force there, and the
+    # previous tick's readings replaced by this one's
+    dt = par[P_DT]
+    w = np.empty(3)
+    dw = np.empty(3)
+    a = np.empty(3)
+    for i in range(3):
+        w[i] = 0.5 * (gyro[i] + state[S_GYRO + i])
+        dw[i] = (gyro[i] - state[S_GYRO + i]) / dt
+        a[i] = 0.5 * (accel[i] + state[S_ACCEL + i])
+        state[S_GYRO + i] = gyro[i]
+        state[S_ACCEL + i] = accel[i]
     if not (have_prev and airborne):
         return -1, False
-    dt = par[P_DT]
     jx, jy, jz = par[P_INERTIA], par[P_INERTIA + 1], par[P_INERTIA + 2]
-    p, q, r = 0.5 * (gx + px), 0.5 * (gy + py), 0.5 * (gz + pz)
-    # J w' + w x J w + G w (eq. 3.15, rate damping), at the boundary between the ticks
-    tau_x = jx * (gx - px) / dt + (jz - jy) * q * r + par[P_DAMPING] * p
-    tau_y = jy * (gy - py) / dt + (jx - jz) * p * r + par[P_DAMPING + 1] * q
-    tau_z = jz * (gz - pz) / dt + (jy - jx) * p * q + par[P_DAMPING + 2] * r
+    p, q, r = w[0], w[1], w[2]
+    m, z_cp = par[P_MASS], par[P_CP_Z]
+    # the motors' torque: J w' + w x J w + G w (eq. 3.15, rate damping) less the moment of
+    # the in-plane drag about the centre of gravity, r_cp x F with F = m a (the thrust
+    # has no in-plane part, so the accelerometer's x and y read the drag alone)
+    tau_x = jx * dw[0] + (jz - jy) * q * r + par[P_DAMPING] * p + z_cp * m * a[1]
+    tau_y = jy * dw[1] + (jx - jz) * p * r + par[P_DAMPING + 1] * q - z_cp * m * a[0]
+    tau_z = jz * dw[2] + (jy - jx) * p * q + par[P_DAMPING + 2] * r
     # r = B T_e - w_m - (mu, 0, 0, 0)
     res = np.zeros(4)
     for j in range(4):
         t = state[S_START + j]
         for i in range(4):
             res[i] += par[P_COLUMNS + 4 * j + i] * t
-    res[0] += par[P_MASS] * 0.5 * (accel_z + prev_az) - state[S_BIAS]
+    res[0] += m * a[2] - state[S_BIAS]
     res[1] -= tau_x
     res[2] -= tau_y
     res[3] -= tau_z
@@ -141,9 +157,15 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gx: float, gy: float, gz: flo
     expected = max(state[S_START + best], 0.05 * k * pwm_max)
     suspect = (best_t > par[P_SIGNIFICANCE] and abs(best_f) > par[P_MIN_DEFICIT] * expected
                and best_t > par[P_CONSISTENCY] * rss)
-    if learn and not suspect and best_t < 0.5 * par[P_SIGNIFICANCE]:
-        # a fault building up is never learned as noise
+    if not learn:
+        return best, suspect
+    if not hold_bias:
+        # the collective follows a change of mass or of the axial drag whatever the
+        # statistic: a lighter vehicle reads as excess thrust on every motor at once, and
+        # beside a partial loss of one motor as a smaller excess of the opposite one
         state[S_BIAS] += par[P_BIAS_GAIN] * res[0]
+    if not suspect and best_t < 0.5 * par[P_SIGNIFICANCE]:
+        # a fault building up is never learned as noise
         for i in range(4):
             v = state[S_VAR + i]
             e2 = res[i] * res[i]
