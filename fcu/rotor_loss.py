@@ -43,6 +43,14 @@ from fcu.navigation.reference import Reference
 
 Announce = Callable[[float, str], None]  # (time_s, critical text)
 
+# of the weight, the most a spinning vehicle lands with below the landing detector's height:
+# under the autopilot's throttle-at-minimum test (0.75), so the landing is detected and the
+# motors stop instead of lifting the vehicle off again once the ground has stopped its spin
+TOUCHDOWN_THRUST_FRACTION = 0.7
+# of the relaxed hover's spin: below it, low over the ground while landing, the vehicle sits
+# on the ground (its friction stops the spin within a tenth of a second)
+TOUCHDOWN_SPIN_FRACTION = 0.3
+
 
 class RotorLossResponse:
     """Which motor to fly around in relaxed hover, and the relaxed hover's flight
@@ -190,7 +198,15 @@ class RotorLossResponse:
             if self.navigator.mode == Mode.BRAKE:
                 self.navigator.trigger_failsafe("motor", "land")
         force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
-        return reduced.step(estimate.euler_rad, estimate.rate_frd, force), att_ref
+        cap = None
+        if (self.navigator.leg_kind == "land"
+                and estimate.alt_m < self.navigator.config.land_detect_alt_m
+                and abs(estimate.rate_frd.item(2))
+                < TOUCHDOWN_SPIN_FRACTION * abs(reduced.equilibrium.yaw_rate_rad_s)):
+            # touched down (the ground has stopped the spin): less than the weight, so that
+            # the ground holds the vehicle and the landing is detected at low thrust
+            cap = TOUCHDOWN_THRUST_FRACTION * self.model.mass * self.model.gravity
+        return reduced.step(estimate.euler_rad, estimate.rate_frd, force, cap), att_ref
 
     def _enter(self, time_s: float, motor: int, estimate: StateEstimate,
                trim_accel: np.ndarray) -> ReducedAttitudeController:

@@ -38,7 +38,7 @@ Limits, in the order applied (vertical before horizontal: altitude is the safety
 axis near the ground):
 
 1. the vertical specific force ``-f_z = g - mu_z`` is clamped to the thrust range
-   [thrust_min, thrust_max] / m;
+   [thrust_min, thrust_max cos(horizontal_reserve)] / m (no reserve by default);
 2. the horizontal part of ``f`` is scaled down so the tilt ``atan(|f_xy| / -f_z)`` stays at
    most ``tilt_max_rad``, and further so that ``m |f| <= thrust_max``;
 ``accel_cmd_ned`` reports the ``mu`` actually commanded after these limits.
@@ -101,6 +101,9 @@ class PositionGains:
     tilt_max_rad: float = float(np.radians(30.0))  # rad, max angle of thrust from vertical
     thrust_min_fraction: float = 0.05  # of 4 K pwm_max (N), lowest U1 commanded
     thrust_max_fraction: float = 0.90  # of 4 K pwm_max (N), highest U1 commanded
+    # rad, tilt the horizontal axes keep at full vertical demand: the vertical specific force
+    # stops at cos(reserve) of the top, so that a falling vehicle still steers
+    horizontal_reserve_rad: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("kp", "kd", "ki", "integral_limit"):
@@ -109,6 +112,9 @@ class PositionGains:
                 raise ValueError(f"{name} = {value!r}: must be three finite numbers >= 0")
         if not 0.0 < self.tilt_max_rad < np.pi / 2:
             raise ValueError(f"tilt_max_rad = {self.tilt_max_rad!r}: must be in (0, pi/2)")
+        if not 0.0 <= self.horizontal_reserve_rad <= self.tilt_max_rad:
+            raise ValueError(f"horizontal_reserve_rad = {self.horizontal_reserve_rad!r}: must "
+                             "be in [0, tilt_max_rad]")
         if not 0.0 <= self.thrust_min_fraction < self.thrust_max_fraction <= 1.0:
             raise ValueError(
                 f"thrust_min_fraction, thrust_max_fraction = {self.thrust_min_fraction!r}, "
@@ -165,7 +171,8 @@ def _attitude_from_force(f0: float, f1: float, f2: float, yaw_rad: float
 # PositionController's parameter vector (``_par``), as the kernels read it
 _KP, _KD, _KI, _Z_LIMIT = 0, 3, 6, 9  # three each, per NED axis
 _MASS, _GRAVITY, _DT, _UP_MIN, _UP_MAX, _TAN_TILT_MAX = 12, 13, 14, 15, 16, 17
-PAR_SIZE = 18
+_UP_HOLD = 18  # the vertical clamp, thrust_max cos(horizontal_reserve) / m
+PAR_SIZE = 19
 # the kernel's output vector: U1 (N), roll_d, pitch_d (rad), mu after the limits (m/s^2, NED)
 OUT_THRUST, OUT_ROLL, OUT_PITCH, OUT_MU = 0, 1, 2, 3
 OUT_SIZE = 6
@@ -177,9 +184,10 @@ def limit_accel(par: np.ndarray, mu0: float, mu1: float, mu2: float
     """Apply the vertical, tilt and total-thrust limits to mu (m/s^2, NED) (module
     docstring, "Limits")."""
     up_max = par[_UP_MAX]
-    # 1. vertical specific force (up) -f_z = g - mu_z within the thrust range
+    # 1. vertical specific force (up) -f_z = g - mu_z within the thrust range (short of its
+    # top by the horizontal reserve)
     g = par[_GRAVITY]
-    up = clip(g - mu2, par[_UP_MIN], up_max)
+    up = clip(g - mu2, par[_UP_MIN], par[_UP_HOLD])
     out2 = g - up
     # 2. horizontal: tilt limit, then the remaining thrust budget
     horiz = np.hypot(mu0, mu1)
@@ -262,6 +270,7 @@ class PositionController(OneStatePart):
         par[_MASS], par[_GRAVITY], par[_DT] = m, model.gravity, self.dt_s
         par[_UP_MIN], par[_UP_MAX] = self.thrust_min_n / m, self.thrust_max_n / m
         par[_TAN_TILT_MAX] = float(np.tan(self.gains.tilt_max_rad))
+        par[_UP_HOLD] = par[_UP_MAX] * math.cos(self.gains.horizontal_reserve_rad)
         self.par = par
         self.state = np.zeros(3)  # m*s, int (ref_pos - pos) dt
 

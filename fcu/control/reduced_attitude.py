@@ -30,10 +30,15 @@ from ``control.dlqr`` at construction (weights :class:`ReducedAttitudeWeights`).
 state is the autopilot's own model of its motors: each motor's thrust follows its command
 through the 15 rad/s lag (eq. 3.1), the lost motor's is taken as zero.
 
-Collective thrust: the mean force along n is ``U1 (-n_z)``, so ``U1 = m |f| / (-n_bar_z)`` for
-a requested specific force ``f`` (m/s^2). With (U1, tau_x, tau_y) the three remaining motors'
-thrusts follow from eq. 3.17 restricted to them (a 3 x 3 inverse); the yaw torque is what it
-is, and the spin follows from it.
+Collective thrust: the mean force along n is ``U1 (-n_z)``, so ``U1 = m (f . n_s) / (-n_s,z)``
+for a requested specific force ``f`` (m/s^2) and the primary axis ``n_s`` the schedule has
+reached (body z before the spin, ``n_bar`` at the equilibrium spin): only the part of ``f``
+along the axis is asked for, so that an axis tipped far from where it should point does not
+push the vehicle harder the wrong way. With (U1, tau_x, tau_y) the three remaining motors'
+thrusts follow from eq. 3.17 restricted to them, torques first when they saturate (the
+opposite motor alone makes the torque about the lost pair's axis; the pair on the other axis
+makes the other torque, then shares the collective); the yaw torque is what it is, and the
+spin follows from it.
 """
 
 from __future__ import annotations
@@ -57,7 +62,8 @@ SCHEDULE = np.linspace(0.0, 1.0, 11)  # fractions of the equilibrium spin with a
 
 SPINNING_POSITION_GAINS = PositionGains(
     kp=(2.0, 2.0, 9.0), kd=(2.5, 2.5, 5.5), ki=(0.3, 0.3, 3.0),
-    tilt_max_rad=math.radians(15.0))
+    tilt_max_rad=math.radians(15.0), thrust_max_fraction=0.6,
+    horizontal_reserve_rad=math.radians(10.0))
 """Position loop gains in relaxed hover: the vertical axis as in normal flight (thrust acts
 directly), the horizontal ones about four times softer (``s^3 + 2.5 s^2 + 2 s + 0.3``: poles
 near -1.2 +/- 0.6j and -0.2 rad/s) because the primary axis answers through the spin (a
@@ -196,11 +202,13 @@ class ReducedAttitudeController:
         self.gains = np.array(gains)  # (len(SCHEDULE), 2, 8)
         self.gain = self.gains[-1]
         self._torque = torque_matrix(model)  # (3, 4), N*m per N
-        alive = [i for i in range(4) if i != lost_motor - 1]
-        self._alive = alive
-        # (U1, tau_x, tau_y) of the three remaining motors, and its inverse
-        mix = np.vstack([np.ones(3), self._torque[0, alive], self._torque[1, alive]])
-        self._unmix = np.linalg.inv(mix)
+        # the motor opposite the lost one makes the torque about their common axis (row 0:
+        # roll, motors 3 and 4; row 1: pitch, motors 1 and 2); the pair on the other axis
+        # makes the other torque (eq. 3.2)
+        lost = lost_motor - 1
+        self._opposite = (1, 0, 3, 2)[lost]
+        self._lost_row = 1 if lost in (0, 1) else 0
+        self._pair = (2, 3) if lost in (0, 1) else (0, 1)
         self._decay = math.exp(-model.motor_bandwidth * self.dt_s)
         self._max_thrust_n = model.thrust_gain * model.pwm_max
         self.reset()
@@ -215,31 +223,28 @@ class ReducedAttitudeController:
     def _allocate(self, collective: float, tau_x: float, tau_y: float) -> np.ndarray:
         """Thrusts (N, shape (4,)) of the three remaining motors for U1 and (tau_x, tau_y).
 
-        Exact when it fits the range [0, K pwm_max]. Otherwise the collective comes first
-        (height is what keeps the vehicle off the ground): the motor furthest out of range
-        is held at its bound, the other two share the rest of U1 and the one torque they can
-        still make (the other torque is given up), then clipped."""
-        alive = self._unmix @ np.array([collective, tau_x, tau_y])
+        Exact when it fits the range [0, K pwm_max]. Otherwise the torques come first, as in
+        the full allocator (a primary axis that points the wrong way turns the collective
+        into a sideways push): the opposite motor alone makes the torque about the lost
+        pair's axis (clipped to what it can make), the pair on the other axis makes the
+        other torque (clipped to the largest difference two motors can make) and then
+        shares what it can of the collective."""
         top = self._max_thrust_n
+        torques = (tau_x, tau_y)
         thrust = np.zeros(4)
-        excess = np.maximum(alive - top, 0.0) + np.maximum(-alive, 0.0)
-        if np.max(excess) > 0.0:
-            j = int(np.argmax(excess))
-            fixed = min(max(float(alive[j]), 0.0), top)
-            others = [k for k in range(3) if k != j]
-            motors = [self._alive[k] for k in others]
-            # the torque row that separates the other two motors (their arms differ there)
-            row = 0 if abs(self._torque[0, motors[0]] - self._torque[0, motors[1]]) > 1e-9 else 1
-            tau = (tau_x, tau_y)[row] - self._torque[row, self._alive[j]] * fixed
-            a, b = _two_motor_split(collective - fixed, tau, self._torque[row, motors[0]],
-                                    self._torque[row, motors[1]])
-            alive = np.empty(3)
-            alive[j], alive[others[0]], alive[others[1]] = fixed, a, b
-        thrust[self._alive] = np.clip(alive, 0.0, top)
+        o, row = self._opposite, self._lost_row
+        thrust[o] = min(max(torques[row] / self._torque[row, o], 0.0), top)
+        a, b = self._pair
+        other = 1 - row
+        # tau = arm_a (T_a - T_b): the pair's arms are opposite
+        delta = min(max(torques[other] / self._torque[other, a], -top), top)
+        share = min(max(collective - thrust[o], abs(delta)), 2.0 * top - abs(delta))
+        thrust[a] = 0.5 * (share + delta)
+        thrust[b] = 0.5 * (share - delta)
         return thrust
 
-    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, force_ned: np.ndarray
-             ) -> ReducedAttitudeCommand:
+    def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, force_ned: np.ndarray,
+             max_collective_n: float | None = None) -> ReducedAttitudeCommand:
         """One tick.
 
         Parameters
@@ -251,6 +256,8 @@ class ReducedAttitudeController:
         force_ned : numpy.ndarray
             Specific force the mean thrust must give, ``mu - g e3`` (m/s^2, NED), shape (3,):
             what the position loop asks for.
+        max_collective_n : float, optional
+            The most U1 may be, N (touching down).
         """
         eq = self.equilibrium
         f = np.asarray(force_ned, dtype=float)
@@ -285,7 +292,12 @@ class ReducedAttitudeController:
         x = np.concatenate([np.asarray(rate_frd, dtype=float)[:2] - omega[:2], dn,
                             tau_model - tau_ff, self._integral])
         tau_cmd = tau_ff - gain @ x
-        collective = self.model.mass * f_norm / -float(eq.axis_frd[2])
+        # the part of the requested force along the primary axis: a vehicle whose axis is
+        # far from where it should point does not push harder the wrong way
+        along = max(float(n @ axis), 0.0)
+        collective = self.model.mass * f_norm * along / -float(axis[2])
+        if max_collective_n is not None:
+            collective = min(collective, max_collective_n)
         thrust = self._allocate(collective, float(tau_cmd[0]), float(tau_cmd[1]))
         # the motors' lag (eq. 3.1), exact over the period
         self._thrust_model = thrust + self._decay * (self._thrust_model - thrust)
@@ -306,13 +318,6 @@ def _discrete_lqr_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarra
     sysd = control.c2d(control.ss(a, b, np.eye(n), np.zeros((n, m))), dt_s, "zoh")
     gain, _, _ = control.dlqr(sysd.A, sysd.B, q, r)
     return (np.asarray(gain),)
-
-
-def _two_motor_split(total: float, torque: float, arm_a: float, arm_b: float
-                     ) -> tuple[float, float]:
-    """Thrusts (a, b), N, with a + b = total and arm_a a + arm_b b = torque (arms differ)."""
-    b = (torque - arm_a * total) / (arm_b - arm_a)
-    return total - b, b
 
 
 def rotation_zyx(euler_rad: np.ndarray) -> np.ndarray:
