@@ -273,7 +273,7 @@ class Autopilot:
         airborne = (flying and nav.landed_state != LandedState.ON_GROUND
                     and estimate.alt_m > self.config.rotor_watch.min_alt_m)
         watch_records = watch.step(time_s, gyro, accel, self._pwm, airborne,
-                                   self._known_effectiveness())
+                                   self._watch_effectiveness())
         if watch_records:
             records += watch_records
             self.rotor_loss.on_watch_declared(time_s, self.ftc_active)
@@ -406,10 +406,14 @@ class Autopilot:
             e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
         return e
 
-    def _known_effectiveness(self) -> np.ndarray:
-        """Per motor, what it is known to deliver of its command: ``1 - LOE`` of the motors
-        the TSKF's detector has declared (its estimate, mass change removed), 1 for the
-        others."""
+    def _watch_effectiveness(self) -> np.ndarray:
+        """Per motor, what the wrench residual is to expect it to deliver of its command: in
+        active FTC what the allocator reckons with (:meth:`_ftc_effectiveness`: its
+        compensation moves a weakened motor's command, not its thrust), else ``1 - LOE`` of
+        the motors the TSKF's detector has declared."""
+        if self.ftc_active:
+            e = self._ftc_effectiveness()
+            return _NOMINAL4 if e is None else e
         detector = self.detector
         if not detector.active:
             return _NOMINAL4

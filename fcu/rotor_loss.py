@@ -8,8 +8,16 @@ from the hover model). This module decides what the vehicle does about it:
   relaxed hover (:mod:`fcu.control.reduced_attitude`): yaw is given up, the vehicle brakes
   and holds where the fault struck for ``rotor_loss_hold_s`` while the spin builds up, then
   lands (failsafe LAND) unless the pilot chose a mode since;
-- a motor *stuck* or *hard-over* leaves nothing to reconfigure on four rotors (its thrust
-  is not what the allocator asks for): it is announced and the vehicle lands where it is;
+- a motor *stuck* (its thrust no longer follows its command) is flown around the same way,
+  as a motor of fixed thrust (:func:`fcu.control.relaxed_hover.failed_motor_equilibrium`:
+  near a quarter of the weight the opposite motor matches it and the vehicle hardly spins),
+  as long as the other three can still steer: up to :attr:`RotorLossResponse.
+  max_flyable_stuck_n` (a side motor keeps 1 N);
+- a motor *hard-over* at full power, or stuck above that, makes 63 % of the weight by
+  itself: holding altitude would leave the other three 5 N together and no margin to steer
+  the spinning axis (tried: the vehicle held its place but climbed at 10 m/s), so the flight
+  is terminated, announced, motors off; the vehicle comes down where the fault struck
+  rather than climbing away (a crash, reported as one);
 - two motors lost, or a vehicle that cannot hover on three rotors: announced once, and a
   level descent under the ordinary controller (failsafe LAND).
 
@@ -30,6 +38,7 @@ from fcu.config import AutopilotConfig
 from fcu.control.attitude_reference import AttitudeReference, AttitudeReferenceFilter
 from fcu.control.position import PositionController
 from fcu.control.reduced_attitude import (
+    MIN_SCHEDULE_SPIN_RAD_S,
     SPINNING_POSITION_GAINS,
     ReducedAttitudeCommand,
     ReducedAttitudeController,
@@ -78,7 +87,8 @@ class RotorLossResponse:
         self.navigator = navigator
         self._announce = announce
         # designed when first needed, one per lost motor
-        self._reduced: dict[int, ReducedAttitudeController] = {}
+        # (motor, the thrust it makes, N) -> its controller
+        self._reduced: dict[tuple[int, float], ReducedAttitudeController] = {}
         self.position = PositionController(self.model, SPINNING_POSITION_GAINS, dt_s)
         self.reset()
 
@@ -86,10 +96,12 @@ class RotorLossResponse:
         """Back to the boot state: no motor told lost, not spinning."""
         self.position.reset()
         self._motor_told: int | None = None  # a motor the operator declared lost
-        self._spinning: int | None = None  # the lost motor while in relaxed hover
+        self._spinning: int | None = None  # the failed motor while in relaxed hover
+        self._fixed_n = 0.0  # N, what the failed motor makes whatever it is told
         self._spinning_since_s = 0.0  # s, when relaxed hover began
         self.loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
         self._landing = False  # the LAND failsafe of this loss was triggered
+        self._terminated = False  # the motors were stopped (terminate)
 
     @property
     def spinning_motor(self) -> int | None:
@@ -119,12 +131,8 @@ class RotorLossResponse:
         return not self.watch.alarming and (declared is None or declared[1] == "loe")
 
     def on_watch_declared(self, time_s: float, ftc_active: bool) -> None:
-        """The wrench residual declared a motor: a stuck or hard-over one lands the vehicle
-        (active FTC); a lost one is flown around (:meth:`lost_motor`)."""
-        declared = self.watch.declared
-        if ftc_active and declared is not None and declared[1] in ("motor_hard_over",
-                                                                   "motor_stuck"):
-            self.cannot_survive(time_s, f"motor {declared[0]} does not follow its command")
+        """The wrench residual declared a motor: a lost, stuck or hard-over one is flown
+        around in relaxed hover (:meth:`lost_motor`)."""
 
     def lost_motor(self, time_s: float, ftc_active: bool) -> int | None:
         """The motor to fly around in relaxed hover, or None: the one the operator declared
@@ -134,11 +142,23 @@ class RotorLossResponse:
         if self._spinning is not None:
             return self._spinning
         motors: tuple[int, ...] = ()
+        fixed_n = 0.0
         watch = self.watch
+        declared = watch.declared
         if self._motor_told is not None:
             motors = (self._motor_told,)
         elif ftc_active and watch.lost is not None:
             motors = (watch.lost,)
+        elif ftc_active and declared is not None and declared[1] in ("motor_hard_over",
+                                                                     "motor_stuck"):
+            # it makes what it was stuck at: flown around as a motor of fixed thrust, as long
+            # as the other three can still steer (module docstring)
+            fixed_n = declared[2] * self.model.thrust_gain * self.model.pwm_max
+            if fixed_n > self.max_flyable_stuck_n:
+                self.terminate(time_s, f"motor {declared[0]} stuck at {fixed_n:.1f} N "
+                               f"({100 * declared[2]:.0f} % of full power)")
+                return None
+            motors = (declared[0],)
         elif ftc_active and self.tskf_trusted():
             detector = self.detector
             motors = detector.lost
@@ -149,6 +169,7 @@ class RotorLossResponse:
                 motors = (suspected,)
             hover_n = self.model.mass * self.model.gravity / 4.0
             motors = tuple(m for m in motors if watch.deficit_n.item(m - 1) > hover_n / 3.0)
+
         if not motors:
             return None
         if len(motors) > 1:
@@ -156,13 +177,33 @@ class RotorLossResponse:
                                 "no relaxed hover with two rotors down")
             return None
         motor = motors[0]
-        if motor not in self._reduced:
+        key = (motor, round(fixed_n, 2))
+        if key not in self._reduced:
             try:
-                self._reduced[motor] = ReducedAttitudeController(self.model, motor, self.dt_s)
+                self._reduced[key] = ReducedAttitudeController(self.model, motor, self.dt_s,
+                                                               fixed_thrust_n=key[1])
             except ValueError as err:
                 self.cannot_survive(time_s, str(err))
                 return None
+        self._fixed_n = key[1]
         return motor
+
+    @property
+    def max_flyable_stuck_n(self) -> float:
+        """N, the most a stuck motor may make for the vehicle to fly around it: what leaves
+        each side motor 1 N with the opposite motor matching it (the level equilibrium of
+        :func:`fcu.control.relaxed_hover.failed_motor_equilibrium`)."""
+        return self.model.mass * self.model.gravity / 2.0 - 1.0
+
+    def terminate(self, time_s: float, why: str) -> None:
+        """Say once that the fault cannot be flown at all, and stop the motors (the least
+        bad thing: the vehicle comes down where the fault struck instead of climbing away)."""
+        if self._terminated:
+            return
+        self._terminated = True
+        self._announce(time_s, f"{why}: the other motors cannot hold the vehicle down; "
+                       "flight terminated, motors off")
+        self.navigator.crash(f"{why}: flight terminated")
 
     def cannot_survive(self, time_s: float, why: str) -> None:
         """Say once that the fault cannot be flown around, and land (the least bad thing)."""
@@ -199,20 +240,30 @@ class RotorLossResponse:
                 self.navigator.trigger_failsafe("motor", "land")
         force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
         cap = None
-        if (self.navigator.leg_kind == "land"
-                and estimate.alt_m < self.navigator.config.land_detect_alt_m
-                and abs(estimate.rate_frd.item(2))
-                < TOUCHDOWN_SPIN_FRACTION * abs(reduced.equilibrium.yaw_rate_rad_s)):
-            # touched down (the ground has stopped the spin): less than the weight, so that
-            # the ground holds the vehicle and the landing is detected at low thrust
+        if self.navigator.leg_kind == "land" and self._touched_down(estimate, reduced):
+            # less than the weight, so that the ground holds the vehicle and the landing is
+            # detected at low thrust
             cap = TOUCHDOWN_THRUST_FRACTION * self.model.mass * self.model.gravity
         return reduced.step(estimate.euler_rad, estimate.rate_frd, force, cap), att_ref
+
+    def _touched_down(self, estimate: StateEstimate, reduced: ReducedAttitudeController
+                      ) -> bool:
+        """Low over the ground (under the landing detector's height) and stopped there: the
+        ground has stopped the spin (its friction does within a tenth of a second), or, for
+        an equilibrium that hardly spins, the vertical speed is the landing detector's."""
+        config = self.navigator.config
+        if estimate.alt_m >= config.land_detect_alt_m:
+            return False
+        spin = abs(reduced.equilibrium.yaw_rate_rad_s)
+        if spin >= MIN_SCHEDULE_SPIN_RAD_S:
+            return abs(estimate.rate_frd.item(2)) < TOUCHDOWN_SPIN_FRACTION * spin
+        return abs(estimate.vel_ned.item(2)) < config.land_detect_speed_m_s
 
     def _enter(self, time_s: float, motor: int, estimate: StateEstimate,
                trim_accel: np.ndarray) -> ReducedAttitudeController:
         """The reduced-attitude controller for ``motor``; on entry it is started from the
         estimated thrusts, the position loop from ``trim_accel``, and announced."""
-        reduced = self._reduced[motor]  # designed by lost_motor
+        reduced = self._reduced[(motor, self._fixed_n)]  # designed by lost_motor
         if self._spinning == motor:
             return reduced
         self._spinning = motor
@@ -225,7 +276,9 @@ class RotorLossResponse:
         # hold against the wind from the first tick: the trim the position loop had
         self.position.take_trim(trim_accel)
         eq = reduced.equilibrium
-        self._announce(time_s, f"motor {motor} lost: yaw given up, spinning about the thrust "
+        what = ("lost" if self._fixed_n == 0.0
+                else f"stuck at {self._fixed_n:.1f} N")
+        self._announce(time_s, f"motor {motor} {what}: yaw given up, spinning about the thrust "
                        f"axis (relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected); "
                        f"holding {self.config.rotor_loss_hold_s:.0f} s, then LAND")
         # stop where the fault struck (a landing or returning vehicle carries on): the

@@ -50,8 +50,8 @@ import numpy as np
 
 from fcu.control.position import PositionGains
 from fcu.control.relaxed_hover import (
-    DEFAULT_OPPOSITE_RATIO,
     RelaxedHoverEquilibrium,
+    failed_motor_equilibrium,
     relaxed_hover,
     torque_matrix,
 )
@@ -59,10 +59,11 @@ from fcu.model import VehicleModel
 from flightdata.design_cache import cached_design
 
 SCHEDULE = np.linspace(0.0, 1.0, 11)  # fractions of the equilibrium spin with a design
+MIN_SCHEDULE_SPIN_RAD_S = 5.0  # rad/s, the least spin the schedule spans
 
 SPINNING_POSITION_GAINS = PositionGains(
-    kp=(2.0, 2.0, 9.0), kd=(2.5, 2.5, 5.5), ki=(0.3, 0.3, 3.0),
-    tilt_max_rad=math.radians(15.0), thrust_max_fraction=0.6,
+    kp=(4.0, 4.0, 9.0), kd=(4.0, 4.0, 5.5), ki=(1.0, 1.0, 3.0),
+    tilt_max_rad=math.radians(20.0), thrust_max_fraction=0.6,
     horizontal_reserve_rad=math.radians(10.0))
 """Position loop gains in relaxed hover: the vertical axis as in normal flight (thrust acts
 directly), the horizontal ones about four times softer (``s^3 + 2.5 s^2 + 2 s + 0.3``: poles
@@ -86,7 +87,9 @@ class ReducedAttitudeWeights:
     q_integral: float = 1.0e4  # 1/(unit*s)^2, on the integrals of dn_x and dn_y
     integral_limit: float = 0.2  # unit*s, |int dn dt| per axis (anti-windup)
     r_torque: float = 25.0  # 1/(N*m)^2, on the commanded torques
-    opposite_ratio: float = DEFAULT_OPPOSITE_RATIO  # rho, fcu.control.relaxed_hover
+    # rho, fcu.control.relaxed_hover; None: chosen by the failed motor's thrust
+    # (failed_motor_equilibrium)
+    opposite_ratio: float | None = None
 
     def __post_init__(self) -> None:
         for name in ("q_axis", "q_rate", "q_torque", "r_torque", "q_integral",
@@ -94,7 +97,7 @@ class ReducedAttitudeWeights:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} = {value!r}: must be a finite number > 0")
-        if not 0.0 <= self.opposite_ratio <= 1.0:
+        if self.opposite_ratio is not None and not 0.0 <= self.opposite_ratio <= 1.0:
             raise ValueError(f"opposite_ratio = {self.opposite_ratio!r}: must lie in [0, 1]")
 
 
@@ -159,11 +162,15 @@ class ReducedAttitudeController:
     model : VehicleModel
         Nominal airframe (with its rate damping).
     lost_motor : int
-        1..4.
+        1..4: the motor that no longer follows its command.
     dt_s : float
         Control period, s.
     weights : ReducedAttitudeWeights, optional
         LQR weights and the thrust split.
+    fixed_thrust_n : float
+        What the failed motor makes whatever it is told, N: 0 when lost (the default), its
+        thrust when stuck, full thrust when hard-over; the equilibrium and the gains are
+        designed for it, and :meth:`step` may be told its latest estimate.
 
     Attributes
     ----------
@@ -175,7 +182,8 @@ class ReducedAttitudeController:
     """
 
     def __init__(self, model: VehicleModel, lost_motor: int, dt_s: float,
-                 weights: ReducedAttitudeWeights | None = None) -> None:
+                 weights: ReducedAttitudeWeights | None = None,
+                 fixed_thrust_n: float = 0.0) -> None:
         if not (math.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s = {dt_s!r}: must be > 0")
         self.model = model
@@ -183,14 +191,22 @@ class ReducedAttitudeController:
         self.dt_s = float(dt_s)
         self.weights = weights if weights is not None else ReducedAttitudeWeights()
         wts = self.weights
-        self.equilibrium = relaxed_hover(model, lost_motor, wts.opposite_ratio)
+        self.fixed_thrust_n = float(fixed_thrust_n)
+        self.equilibrium = (
+            failed_motor_equilibrium(model, lost_motor, self.fixed_thrust_n)
+            if wts.opposite_ratio is None
+            else relaxed_hover(model, lost_motor, wts.opposite_ratio, self.fixed_thrust_n))
         eq = self.equilibrium
+        # the spin the gain schedule spans: the equilibrium's, or at least MIN_SCHEDULE_SPIN
+        # (a motor stuck near a quarter of the weight leaves almost no spin to schedule on)
+        self._schedule_spin = math.copysign(max(abs(eq.spin_rad_s), MIN_SCHEDULE_SPIN_RAD_S),
+                                            eq.spin_rad_s if eq.spin_rad_s != 0.0 else 1.0)
         q = np.diag([wts.q_rate, wts.q_rate, wts.q_axis, wts.q_axis, wts.q_torque,
                      wts.q_torque, wts.q_integral, wts.q_integral])
         gains = []
         for fraction in SCHEDULE:
             axis = scheduled_axis(eq, float(fraction))
-            a6, b6 = linearisation(model, fraction * eq.spin_rad_s * axis, axis)
+            a6, b6 = linearisation(model, fraction * self._schedule_spin * axis, axis)
             # integral action on the axis error: d/dt int dn = dn (removes the steady
             # offset the unmodelled terms leave, e.g. the yaw rate's own deviation)
             a = np.zeros((8, 8))
@@ -217,11 +233,13 @@ class ReducedAttitudeController:
         """Start the motor model at ``thrust_n`` (N, shape (4,); default the equilibrium's)."""
         start = self.equilibrium.thrust_n if thrust_n is None else np.asarray(thrust_n, float)
         self._thrust_model = np.array(start, dtype=float)
-        self._thrust_model[self.lost_motor - 1] = 0.0
+        self._thrust_model[self.lost_motor - 1] = self.fixed_thrust_n
         self._integral = np.zeros(2)  # unit*s, int (n - n_bar)_xy dt
 
-    def _allocate(self, collective: float, tau_x: float, tau_y: float) -> np.ndarray:
-        """Thrusts (N, shape (4,)) of the three remaining motors for U1 and (tau_x, tau_y).
+    def _allocate(self, collective: float, tau_x: float, tau_y: float, fixed_n: float
+                  ) -> np.ndarray:
+        """Thrusts (N, shape (4,)) of the three remaining motors for U1 and (tau_x, tau_y),
+        the failed motor making ``fixed_n`` (N; its entry is that).
 
         Exact when it fits the range [0, K pwm_max]. Otherwise the torques come first, as in
         the full allocator (a primary axis that points the wrong way turns the collective
@@ -232,19 +250,23 @@ class ReducedAttitudeController:
         top = self._max_thrust_n
         torques = (tau_x, tau_y)
         thrust = np.zeros(4)
-        o, row = self._opposite, self._lost_row
-        thrust[o] = min(max(torques[row] / self._torque[row, o], 0.0), top)
+        j, o, row = self.lost_motor - 1, self._opposite, self._lost_row
+        thrust[j] = fixed_n
+        thrust[o] = min(max((torques[row] - self._torque[row, j] * fixed_n)
+                            / self._torque[row, o], 0.0), top)
         a, b = self._pair
         other = 1 - row
         # tau = arm_a (T_a - T_b): the pair's arms are opposite
         delta = min(max(torques[other] / self._torque[other, a], -top), top)
-        share = min(max(collective - thrust[o], abs(delta)), 2.0 * top - abs(delta))
+        share = min(max(collective - thrust[o] - fixed_n, abs(delta)),
+                    2.0 * top - abs(delta))
         thrust[a] = 0.5 * (share + delta)
         thrust[b] = 0.5 * (share - delta)
         return thrust
 
     def step(self, euler_rad: np.ndarray, rate_frd: np.ndarray, force_ned: np.ndarray,
-             max_collective_n: float | None = None) -> ReducedAttitudeCommand:
+             max_collective_n: float | None = None, fixed_thrust_n: float | None = None
+             ) -> ReducedAttitudeCommand:
         """One tick.
 
         Parameters
@@ -258,7 +280,11 @@ class ReducedAttitudeController:
             what the position loop asks for.
         max_collective_n : float, optional
             The most U1 may be, N (touching down).
+        fixed_thrust_n : float, optional
+            The latest estimate of what the failed motor makes, N (default: the thrust the
+            controller was designed for).
         """
+        fixed = self.fixed_thrust_n if fixed_thrust_n is None else float(fixed_thrust_n)
         eq = self.equilibrium
         f = np.asarray(force_ned, dtype=float)
         if not (np.isfinite(f).all() and np.isfinite(euler_rad).all()
@@ -275,9 +301,9 @@ class ReducedAttitudeController:
         n = rotation_zyx(euler_rad).T @ direction  # the body vector that must point along d
         # gain scheduling on the spin reached (module docstring)
         spin = float(rate_frd[2]) / float(eq.axis_frd[2])  # w = r / n_z
-        fraction = min(max(spin / eq.spin_rad_s, 0.0), 1.0)
+        fraction = min(max(spin / self._schedule_spin, 0.0), 1.0)
         axis = scheduled_axis(eq, fraction)
-        omega = fraction * eq.spin_rad_s * axis
+        omega = fraction * self._schedule_spin * axis
         inertia = self.model.inertia_diag
         # the torque that holds omega steady: tau = diag(g) omega + omega x I omega
         tau_ff = (np.asarray(self.model.rate_damping) * omega
@@ -298,10 +324,10 @@ class ReducedAttitudeController:
         collective = self.model.mass * f_norm * along / -float(axis[2])
         if max_collective_n is not None:
             collective = min(collective, max_collective_n)
-        thrust = self._allocate(collective, float(tau_cmd[0]), float(tau_cmd[1]))
-        # the motors' lag (eq. 3.1), exact over the period
+        thrust = self._allocate(collective, float(tau_cmd[0]), float(tau_cmd[1]), fixed)
+        # the motors' lag (eq. 3.1), exact over the period; the failed one makes what it makes
         self._thrust_model = thrust + self._decay * (self._thrust_model - thrust)
-        self._thrust_model[self.lost_motor - 1] = 0.0
+        self._thrust_model[self.lost_motor - 1] = fixed
         return ReducedAttitudeCommand(thrust_n=thrust, pwm=thrust / self.model.thrust_gain,
                                       collective_n=float(np.sum(thrust)),
                                       axis_error=float(np.linalg.norm(n - axis)))

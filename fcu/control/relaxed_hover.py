@@ -62,6 +62,7 @@ equilibrium: their torques are three orders of magnitude below the terms above.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,10 +131,11 @@ class RelaxedHoverEquilibrium:
         return float(np.sum(self.thrust_n))
 
 
-def _residual(unknowns: np.ndarray, model: VehicleModel, lost: int, rho: float) -> np.ndarray:
+def _residual(unknowns: np.ndarray, model: VehicleModel, lost: int, rho: float,
+              fixed_n: float) -> np.ndarray:
     """The five equations of the module docstring for (T_s, n_x, n_y, n_z, w)."""
     t_side, nx, ny, nz, w = unknowns
-    thrust = _thrusts(lost, rho, float(t_side))
+    thrust = _thrusts(lost, rho, float(t_side), fixed_n)
     n = np.array([nx, ny, nz])
     inertia = np.diag(model.inertia_diag)
     omega = w * n
@@ -144,16 +146,43 @@ def _residual(unknowns: np.ndarray, model: VehicleModel, lost: int, rho: float) 
     return np.array([*moment, weight, n @ n - 1.0])
 
 
-def _thrusts(lost: int, rho: float, t_side: float) -> np.ndarray:
-    """Motor thrusts (N): 0 for ``lost``, ``rho t_side`` opposite, ``t_side`` beside it."""
+def _thrusts(lost: int, rho: float, t_side: float, fixed_n: float) -> np.ndarray:
+    """Motor thrusts (N): ``fixed_n`` for ``lost`` (0 when lost, what it is stuck at),
+    ``fixed_n + rho (t_side - fixed_n)`` opposite, ``t_side`` beside it."""
     thrust = np.full(4, t_side)
-    thrust[lost - 1] = 0.0
-    thrust[OPPOSITE_MOTOR[lost] - 1] = rho * t_side
+    thrust[lost - 1] = fixed_n
+    thrust[OPPOSITE_MOTOR[lost] - 1] = fixed_n + rho * (t_side - fixed_n)
     return thrust
 
 
+MAX_TILT_RAD = math.radians(25.0)
+"""The most a flyable equilibrium tilts its primary axis from the thrust axis: beyond it the
+body wobbles so far about the axis that the mean thrust holds little of the weight."""
+MAX_THRUST_FRACTION = 0.9
+"""Of full thrust, the most a flyable equilibrium asks of a working motor: the rest steers."""
+
+
+def _level_spin(model: VehicleModel, lost_motor: int, fixed_n: float
+                 ) -> RelaxedHoverEquilibrium:
+    """The equilibrium with the opposite motor at the failed one's thrust (rho = 0): no torque
+    about their axis, so the primary axis is the thrust axis (n = (0, 0, -1)), the other
+    pair holds the rest of the weight and the yaw torque, whatever it is, sets the spin
+    (zero for a motor stuck at a quarter of the weight)."""
+    side = (model.mass * model.gravity - 2.0 * fixed_n) / 2.0
+    thrust = _thrusts(lost_motor, 0.0, side, fixed_n)
+    if side < 0.0 or side > model.thrust_gain * model.pwm_max:
+        raise ValueError(f"relaxed hover with motor {lost_motor} at {fixed_n:.2f} N needs "
+                         f"{side:.2f} N on each side motor: the vehicle cannot hover")
+    yaw_rate = float(torque_matrix(model)[2] @ thrust) / model.rate_damping[2]
+    n = np.array([0.0, 0.0, -1.0])
+    return RelaxedHoverEquilibrium(lost_motor=lost_motor, opposite_ratio=0.0, thrust_n=thrust,
+                                   axis_frd=n, rate_frd=np.array([0.0, 0.0, yaw_rate]),
+                                   spin_rad_s=-yaw_rate)
+
+
 def relaxed_hover(model: VehicleModel, lost_motor: int,
-                  opposite_ratio: float = DEFAULT_OPPOSITE_RATIO) -> RelaxedHoverEquilibrium:
+                  opposite_ratio: float = DEFAULT_OPPOSITE_RATIO,
+                  fixed_thrust_n: float = 0.0) -> RelaxedHoverEquilibrium:
     """Solve the relaxed-hover equilibrium of ``model`` with ``lost_motor`` (1..4) lost.
 
     Parameters
@@ -181,24 +210,31 @@ def relaxed_hover(model: VehicleModel, lost_motor: int,
         raise ValueError(f"rate_damping = {model.rate_damping!r}: the yaw damping must be > 0 "
                          "for a relaxed hover (else the spin grows without bound)")
     rho = float(opposite_ratio)
+    fixed = float(fixed_thrust_n)
     weight = model.mass * model.gravity
-    t_side = weight / (2.0 + rho)
+    max_thrust = model.thrust_gain * model.pwm_max
+    if not 0.0 <= fixed <= max_thrust:
+        raise ValueError(f"fixed_thrust_n = {fixed_thrust_n!r}: must lie in [0, {max_thrust}] N")
+    if rho == 0.0:
+        return _level_spin(model, lost_motor, fixed)
+    # level guess: U1 = weight
+    t_side = (weight - (2.0 - rho) * fixed) / (2.0 + rho)
     # yaw torque of the level guess: the lost rotor's reaction is missing
-    yaw_torque = float(torque_matrix(model)[2] @ _thrusts(lost_motor, rho, t_side))
+    yaw_torque = float(torque_matrix(model)[2] @ _thrusts(lost_motor, rho, t_side, fixed))
     w0 = yaw_torque / (g_z * -1.0)  # omega_z = w n_z = yaw_torque / g_z with n_z = -1
     guess = np.array([t_side, 0.0, 0.0, -1.0, w0])
     from scipy.optimize import fsolve  # only once a rotor is lost: not at start-up
 
-    solution, _, status, message = fsolve(_residual, guess, args=(model, lost_motor, rho),
+    solution, _, status, message = fsolve(_residual, guess,
+                                          args=(model, lost_motor, rho, fixed),
                                           full_output=True, xtol=1e-12)
-    residual = _residual(solution, model, lost_motor, rho)
+    residual = _residual(solution, model, lost_motor, rho, fixed)
     if status != 1 or not np.all(np.abs(residual) < 1e-9):
         raise ValueError(f"relaxed hover with motor {lost_motor} lost did not converge: "
                          f"{message}")
     t_side, nx, ny, nz, w = (float(v) for v in solution)
-    thrust = _thrusts(lost_motor, rho, t_side)
-    max_thrust = model.thrust_gain * model.pwm_max
-    if nz >= 0.0 or np.max(thrust) > max_thrust:
+    thrust = _thrusts(lost_motor, rho, t_side, fixed)
+    if nz >= 0.0 or np.max(thrust) > max_thrust or np.min(thrust) < 0.0:
         raise ValueError(f"relaxed hover with motor {lost_motor} lost needs {np.max(thrust):.2f} N "
                          f"per motor (at most {max_thrust:.2f} N): the vehicle cannot hover")
     n = np.array([nx, ny, nz])
@@ -206,5 +242,54 @@ def relaxed_hover(model: VehicleModel, lost_motor: int,
                                    axis_frd=n, rate_frd=w * n, spin_rad_s=w)
 
 
+
+
+
+def failed_motor_equilibrium(model: VehicleModel, motor: int, fixed_thrust_n: float = 0.0
+                             ) -> RelaxedHoverEquilibrium:
+    """The relaxed hover around ``motor`` (1..4), which makes ``fixed_thrust_n`` (N) whatever
+    it is told: 0 when lost, its thrust when stuck, full thrust when hard-over.
+
+    rho is chosen by that thrust: 0.5 for a lost motor (Mueller and D'Andrea's choice: the
+    side motors at two thirds of full thrust, 19 rad/s, 8.5 deg of tilt), and below 2 N
+    (where the level solution would spin at 14-32 rad/s); 0 (level, the opposite motor
+    matching the failed one) for one stuck between 2 N and what leaves the side motors 1 N
+    each; 0.8 above (a hard-over: the side motors keep a margin for the
+    torque they must make). When that rho has no solution, or one tilted more than
+    ``MAX_TILT_RAD`` or asking more than ``MAX_THRUST_FRACTION`` of full thrust of a working
+    motor, the next of 0.5, 0.8, 0.3, 1.0 is tried.
+
+    Raises
+    ------
+    ValueError
+        When none has a solution within the motors' range (the vehicle cannot hover).
+    """
+    fixed = float(fixed_thrust_n)
+    if fixed < 2.0:
+        preferred = DEFAULT_OPPOSITE_RATIO
+    elif fixed <= model.mass * model.gravity / 2.0 - 1.0:
+        preferred = 0.0
+    else:
+        preferred = 0.8
+    error: ValueError | None = None
+    for rho in dict.fromkeys((preferred, 0.5, 0.8, 0.3, 1.0)):
+        try:
+            eq = relaxed_hover(model, motor, rho, fixed)
+        except ValueError as err:
+            error = err
+            continue
+        top = MAX_THRUST_FRACTION * model.thrust_gain * model.pwm_max
+        free = [t for i, t in enumerate(eq.thrust_n) if i != motor - 1]
+        if eq.tilt_rad <= MAX_TILT_RAD and max(free) <= top:
+            return eq
+        error = ValueError(f"relaxed hover around motor {motor} at {fixed:.2f} N needs "
+                           f"{max(free):.2f} N of a motor and tilts the primary axis "
+                           f"{math.degrees(eq.tilt_rad):.0f} deg from the thrust axis (at most "
+                           f"{top:.2f} N, {math.degrees(MAX_TILT_RAD):.0f} deg): the vehicle "
+                           "cannot hover")
+    assert error is not None
+    raise error
+
+
 __all__ = ["DEFAULT_OPPOSITE_RATIO", "OPPOSITE_MOTOR", "RelaxedHoverEquilibrium",
-           "motor_positions", "relaxed_hover", "torque_matrix"]
+           "failed_motor_equilibrium", "motor_positions", "relaxed_hover", "torque_matrix"]

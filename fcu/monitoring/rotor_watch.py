@@ -13,10 +13,11 @@ should make with the wrench the IMU measures, both in the body frame:
     residual  r   = w_e - w_m - (mu, 0, 0, 0)
 
 with ``T_e`` the thrusts the commanded PWM gives through the motor lag (eq. 3.1, the
-commands held over each tick, times the effectiveness already known of the motors the TSKF's
-detector has declared partially lost), ``w'`` the gyro's difference between consecutive
-ticks (their means, so the torque is that at the boundary between them, where ``T_e`` and
-the two ticks' mean specific force ``a`` are taken too), ``r_cp x m a_xy`` the moment of the
+commands held over each tick, times the effectiveness each motor is reckoned with: in active
+FTC the allocator's, else that of the motors the TSKF's detector has declared partially
+lost), ``w'`` the gyro's difference between consecutive ticks (their means, so the torque
+is that at the boundary between them, where ``T_e`` and the two ticks' mean specific force
+``a`` are taken too), ``r_cp x m a_xy`` the moment of the
 in-plane drag about the centre of gravity (the thrust has no in-plane part, so the
 accelerometer's x and y read the drag alone; the centre of pressure sits ``cp_offset_z``
 above the centre of gravity: in moderate turbulence this takes the torque channels' noise
@@ -37,15 +38,12 @@ A motor is suspected when ``T_j > significance``, ``|f_j| > min_deficit`` of its
 thrust and ``b_j f_j`` explains the residual (``T_j > consistency x RSS_j``: a gust twists
 the frame without the collective a motor's thrust carries). A suspicion is *alarming* when
 the command the motor follows (below) says lost or hard-over, or the fault exceeds
-``declare_deficit`` of the thrust: the bias is then held, and the TSKF's detector takes no
+``alarm_deficit`` of the thrust: the bias is then held, and the TSKF's detector takes no
 evidence (its hover model misreads such a fault, :mod:`fcu.rotor_loss`). A lost or hard-over
 motor is declared after ``persistence_ticks`` consecutive ticks of suspicion of the same
-motor, about 0.05 s after a total loss (the motor lag spreads the deficit over 67 ms); a
-partial loss or a stuck motor after ``slow_persistence_ticks`` and only beyond
-``declare_deficit`` (partial losses are the TSKF detector's; a change of mass that the bias
-has not yet followed reads for a while as the excess of the motor opposite a weakened one).
-The collective separates a motor's loss from the opposite motor's excess, which give the
-same roll or pitch torque.
+motor, about 0.04 s after a total loss (the motor lag spreads the deficit over 67 ms).
+Partial losses are left to the TSKF's detector. The collective separates a motor's loss
+from the opposite motor's excess, which give the same roll or pitch torque.
 
 The kind comes from the motor's own thrust, ``T_j = T_e,j - f_j``, inverted through the lag
 over the persistence window (the command the motor actually follows, ``u_f``)::
@@ -53,10 +51,23 @@ over the persistence window (the command the motor actually follows, ``u_f``)::
     u_f = (T(t) - T(t - D) e^(-w D)) / ((1 - e^(-w D)) K)
 
 ``motor_lost`` (deficit, ``u_f`` under ``1 - lost_fraction`` of the command: a lost
-propeller, a freewheeling or dead motor), ``motor_hard_over`` (excess, ``u_f`` at 85 % of
-full power or more), ``motor_stuck`` (excess short of full power: a command that no longer
-follows) or ``loe`` (a partial deficit); the magnitude is the fraction of
-effectiveness lost (``motor_lost``, ``loe``) or the stuck command as a fraction of full power.
+propeller, a freewheeling or dead motor) or ``motor_hard_over`` (excess, ``u_f`` at 85 % of
+full power or more); the magnitude is the fraction of effectiveness lost or the command
+followed as a fraction of full power.
+
+Stuck motors
+------------
+A motor locked where it was makes no sudden residual: it shows only as the controller moves
+its command. Its deficit then follows its expected thrust one for one (``f_j = T_e,j -
+T_lock``), where a healthy motor's stays noise and a partial loss's follows at the slope
+``gamma``. Per motor the watch keeps exponentially weighted moments of ``(T_e,j, f_j)``
+(``follow_tau_s``) and declares ``motor_stuck`` (``motor_hard_over`` at 85 % of full power
+or more) for the motor whose deficit correlates with its expected thrust above
+``stuck_correlation``, by ``stuck_margin`` more than any other motor's, at a slope within
+``stuck_slope``, once its expected thrust has spread by ``stuck_spread_n`` (the command
+moved), for ``stuck_ticks`` ticks in a row; the magnitude is its mean own thrust
+``T_e - f`` over the moments, as a fraction of full thrust.
+
 One motor is declared per flight (after the first, the residual carries the controller's
 response to it); a second large fault is beyond this watch. The per-motor deficits stay
 up to date after it (:attr:`RotorWatch.deficit_n`): the autopilot checks the TSKF's
@@ -73,6 +84,8 @@ import numpy as np
 from fcu.model import VehicleModel
 from fcu.monitoring.rotor_watch_kernel import (
     S_DEFICIT,
+    S_FOLLOW,
+    S_SLOW,
     S_START,
     S_STAT,
     STATE_SIZE,
@@ -90,13 +103,11 @@ class RotorWatchConfig:
 
     significance: float = 60.0  # statistic T_j (chi-square, 1 dof under no fault) to suspect
     min_deficit: float = 0.25  # |f_j| / expected thrust of motor j needed to suspect
-    # |f_j| / expected thrust needed to declare a partial loss or a stuck motor (a lost or
-    # hard-over motor is declared once its streak has lasted persistence_ticks)
-    declare_deficit: float = 0.5
+    # |f_j| / expected thrust beyond which a suspicion is alarming whatever its kind
+    alarm_deficit: float = 0.5
     consistency: float = 3.0  # T_j must exceed this many times what the fit leaves (RSS_j)
-    persistence_ticks: int = 3  # consecutive ticks suspecting the same motor that declare
-    # a lost or hard-over motor; a partial loss or a stuck motor needs this many
-    slow_persistence_ticks: int = 25
+    persistence_ticks: int = 2  # consecutive ticks suspecting the same motor that declare
+    # a lost or hard-over motor
     bias_tau_s: float = 0.5  # s, low-pass of the collective bias mu
     noise_tau_s: float = 20.0  # s, decay of the measured noise (attack: 1 s)
     # noise floors, 1 sigma: collective N, roll, pitch, yaw N*m (indoor air, IMU noise)
@@ -105,19 +116,33 @@ class RotorWatchConfig:
     # fraction of a motor's effectiveness lost above which a deficit is declared a lost
     # motor (``motor_lost``), below it a partial loss (``loe``)
     lost_fraction: float = 0.75
+    # a motor stuck where it was (module docstring, "Stuck motors"): the moments' time
+    # constant, the least spread of its expected thrust, the correlation of its deficit with
+    # that thrust and the slope between them, the margin over the next motor's correlation,
+    # and how many ticks in a row it must hold
+    follow_tau_s: float = 0.3  # s
+    follow_split_s: float = 0.25  # s, what is slower is the controller's compensation
+    stuck_spread_n: float = 0.05  # N, standard deviation of the fast part of T_e
+    stuck_correlation: float = 0.9
+    stuck_slope: tuple[float, float] = (0.85, 1.25)
+    stuck_margin: float = 0.05
+    stuck_ticks: int = 12
 
     def __post_init__(self) -> None:
-        for name in ("significance", "min_deficit", "declare_deficit", "consistency",
-                     "bias_tau_s",
-                     "noise_tau_s", "min_alt_m", "lost_fraction"):
+        for name in ("significance", "min_deficit", "alarm_deficit", "consistency",
+                     "follow_tau_s", "follow_split_s", "stuck_spread_n", "stuck_correlation",
+                     "bias_tau_s", "noise_tau_s", "min_alt_m", "lost_fraction"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
         require(isinstance(self.persistence_ticks, int) and self.persistence_ticks >= 2,
                 "persistence_ticks", self.persistence_ticks, "must be an integer >= 2")
-        require(isinstance(self.slow_persistence_ticks, int)
-                and self.slow_persistence_ticks >= self.persistence_ticks,
-                "slow_persistence_ticks", self.slow_persistence_ticks,
-                "must be an integer >= persistence_ticks")
+        require(isinstance(self.stuck_ticks, int) and self.stuck_ticks >= 1, "stuck_ticks",
+                self.stuck_ticks, "must be an integer >= 1")
+        low, high = self.stuck_slope
+        require(0.0 < low < 1.0 < high, "stuck_slope", self.stuck_slope,
+                "must be (low, high) with 0 < low < 1 < high")
+        require(finite(self.stuck_margin) and self.stuck_margin >= 0.0, "stuck_margin",
+                self.stuck_margin, "must be >= 0")
         require(len(self.noise_floor) == 4 and all(finite(v) and v > 0
                                                    for v in self.noise_floor),
                 "noise_floor", self.noise_floor, "must be four numbers > 0")
@@ -145,7 +170,8 @@ class RotorWatch:
         self._w = model.motor_bandwidth
         self._par = pack_params(model, dt_s, config.noise_tau_s, config.bias_tau_s,
                                 config.noise_floor, config.significance, config.min_deficit,
-                                config.consistency)
+                                config.consistency, config.follow_tau_s,
+                                config.follow_split_s)
         self._state = np.zeros(STATE_SIZE)
         # N, the latest single-motor fit f_j per motor (a view of the kernel's state)
         self.deficit_n = self._state[S_DEFICIT:S_DEFICIT + 4]
@@ -156,7 +182,10 @@ class RotorWatch:
         reset_state(self._par, self._state)
         self._streak = 0
         self._candidate = -1
-        self._start_thrust = 0.0  # N, the candidate's own thrust when its streak began
+        # the candidate's own thrust (N) and its command, tick by tick since its streak began
+        self._history: list[tuple[float, float]] = []
+        self._stuck_motor = -1  # the motor the stuck test picks (0..3), and for how long
+        self._stuck_ticks = 0
         self.declared: tuple[int, str, float] | None = None  # (motor 1..4, kind, magnitude)
         # a motor is suspected of more than a partial loss at the latest tick: lost, stuck
         # or hard-over by the command it follows, or short of half its thrust (the TSKF's
@@ -167,6 +196,13 @@ class RotorWatch:
     def statistic(self) -> float:
         """The latest best single-motor statistic T_j."""
         return self._state.item(S_STAT)
+
+    def own_thrust_n(self, motor: int) -> float:
+        """N, what ``motor`` (1..4) makes by the residual: the thrust its command asks for
+        less its deficit, both low-passed over ``follow_split_s`` (at full effectiveness:
+        what the stuck test needs, which runs on motors reckoned whole)."""
+        at = S_SLOW + 2 * (motor - 1)
+        return self._state.item(at) - self._state.item(at + 1)
 
     @property
     def suspected(self) -> int | None:
@@ -197,45 +233,75 @@ class RotorWatch:
                                        effectiveness, airborne, self.declared is None,
                                        self.alarming)
         self.alarming = False
+        if best >= 0 and self.declared is None:
+            stuck = self._stuck(time_s)
+            if stuck:
+                return stuck
         if best < 0 or not suspect or self.declared is not None:
             self._streak = 0
             return []
         state = self._state
         own = state.item(S_START + best) - state.item(S_DEFICIT + best)  # N, its own thrust
+        command = min(max(float(pwm[best]), 0.0), self._pwm_max)
         if best != self._candidate or self._streak == 0:
-            self._candidate, self._streak, self._start_thrust = best, 0, own
+            self._candidate, self._streak = best, 0
+            self._history.clear()
         self._streak += 1
+        self._history.append((own, command))
         expected = state.item(S_START + best)  # N, what the motor should make
-        large = abs(state.item(S_DEFICIT + best)) >= self.config.declare_deficit * expected
+        large = abs(state.item(S_DEFICIT + best)) >= self.config.alarm_deficit * expected
         if self._streak == 1:
             self.alarming = large
             return []
-        command = min(max(float(pwm[best]), 0.0), self._pwm_max)
-        kind, magnitude = self._kind(best, own, command)
-        self.alarming = kind in ("motor_lost", "motor_hard_over") or large
-        if self._streak < self.config.persistence_ticks:
-            return []
-        if kind in ("loe", "motor_stuck") and (
-                self._streak < self.config.slow_persistence_ticks
-                or abs(state.item(S_DEFICIT + best)) < self.config.declare_deficit * expected):
-            # a partial fault, or a motor stuck near its command: no hurry, and a change of
-            # mass that the bias has not yet followed reads as one for a while
+        kind, magnitude = self._kind(best)
+        if kind not in ("motor_lost", "motor_hard_over"):
+            # a partial loss is the TSKF detector's; a stuck motor the stuck test's
             return []
         self.declared = (best + 1, kind, magnitude)
         self._streak = 0
         return [DetectionRecord(time_s=time_s, action="detected", kind=kind, motor=best + 1,
                                 magnitude=magnitude)]
 
-    def _kind(self, j: int, own_n: float, command: float) -> tuple[str, float]:
+    def _stuck(self, time_s: float) -> list[DetectionRecord]:
+        """The test for a motor stuck where it was (module docstring, "Stuck motors"): the
+        motor whose deficit follows its expected thrust one for one, clearly better than any
+        other, for ``stuck_ticks`` ticks in a row."""
+        cfg = self.config
+        m = self._state[S_FOLLOW:S_FOLLOW + 12].reshape(4, 3)
+        var_x, cov, var_y = m[:, 0], m[:, 1], m[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            corr = np.where((var_x > 0) & (var_y > 0), cov / np.sqrt(var_x * var_y), 0.0)
+            slope = np.where(var_x > 0, cov / var_x, 0.0)
+        order = np.argsort(corr)
+        j, runner_up = int(order[-1]), float(corr[order[-2]])
+        low, high = cfg.stuck_slope
+        if (corr[j] > cfg.stuck_correlation
+                and corr[j] - runner_up > cfg.stuck_margin
+                and low <= slope[j] <= high and var_x[j] > cfg.stuck_spread_n ** 2):
+            self._stuck_ticks = self._stuck_ticks + 1 if self._stuck_motor == j else 1
+            self._stuck_motor = j
+        else:
+            self._stuck_ticks, self._stuck_motor = 0, -1
+        if self._stuck_ticks < cfg.stuck_ticks:
+            return []
+        own_n = self.own_thrust_n(j + 1)
+        magnitude = min(max(own_n / (self._k * self._pwm_max), 0.0), 1.0)
+        kind = "motor_hard_over" if magnitude > 0.85 else "motor_stuck"
+        self.declared = (j + 1, kind, magnitude)
+        self._streak = 0
+        return [DetectionRecord(time_s=time_s, action="detected", kind=kind, motor=j + 1,
+                                magnitude=magnitude)]
+
+    def _kind(self, j: int) -> tuple[str, float]:
         """The kind and magnitude of motor ``j``'s (0..3) fault, from the command it follows
-        over the streak (module docstring); ``own_n`` its thrust now (N), ``command`` the
-        command it was given."""
-        span_s = (self._streak - 1) * self.dt_s
-        decay = math.exp(-self._w * span_s)
-        followed = (own_n - self._start_thrust * decay) / ((1.0 - decay) * self._k)
-        if self.deficit_n.item(j) > 0.0:
-            lost = 1.0 - followed / command if command > 0.0 else 1.0
-            kind = "motor_lost" if lost > self.config.lost_fraction else "loe"
-            return kind, min(max(lost, 0.0), 1.0)
-        kind = "motor_hard_over" if followed > 0.85 * self._pwm_max else "motor_stuck"
-        return kind, min(max(followed / self._pwm_max, 0.0), 1.0)
+        over the streak (module docstring)."""
+        decay = math.exp(-self._w * (len(self._history) - 1) * self.dt_s)
+        own_first, own_last = self._history[0][0], self._history[-1][0]
+        followed = (own_last - own_first * decay) / ((1.0 - decay) * self._k)
+        command = self._history[-1][1]
+        if self.deficit_n.item(j) <= 0.0:
+            kind = "motor_hard_over" if followed > 0.85 * self._pwm_max else "motor_stuck"
+            return kind, min(max(followed / self._pwm_max, 0.0), 1.0)
+        lost = 1.0 - followed / command if command > 0.0 else 1.0
+        kind = "motor_lost" if lost > self.config.lost_fraction else "loe"
+        return kind, min(max(lost, 0.0), 1.0)

@@ -25,6 +25,16 @@ S_BIAS = STATE.field("bias_n", 1)  # N, the collective bias mu
 S_VAR = STATE.field("var", 4)  # measured noise variance: collective N^2, torques (N*m)^2
 S_DEFICIT = STATE.field("deficit_n", 4)  # N, the latest single-motor fit f_j per motor
 S_STAT = STATE.field("statistic", 1)  # the latest best T_j
+# per motor, the thrust its command asks for (K u through the lag, at full effectiveness)
+# and its deficit over the effectiveness reckoned with (f_j / e_j), low-passed over
+# follow_split_s (their slow parts: what the controller's compensation of a fault does),
+# then exponentially weighted moments of the fast parts (what the motor's own thrust does
+# when its command moves: a stuck motor's deficit follows its command one for one): variance
+# of the command's, covariance, variance of the deficit's
+S_CMD = STATE.field("command_thrust_n", 4)  # N, K u through the lag, at full effectiveness
+S_CMD_START = STATE.field("start_command_thrust_n", 4)  # N, the same at the tick's start
+S_SLOW = STATE.field("follow_slow", 8)  # N: slow K u, slow f_j / e, motor by motor
+S_FOLLOW = STATE.field("follow_moments", 12)
 STATE_SIZE = STATE.size
 
 PARAMS = Layout("rotor watch parameters")
@@ -44,6 +54,8 @@ P_FLOOR = PARAMS.field("floor_var", 4)  # the noise floor, variances
 P_SIGNIFICANCE = PARAMS.field("significance", 1)
 P_MIN_DEFICIT = PARAMS.field("min_deficit", 1)
 P_CONSISTENCY = PARAMS.field("consistency", 1)
+P_FOLLOW_GAIN = PARAMS.field("follow_gain", 1)  # the moments' gain per tick
+P_SPLIT_GAIN = PARAMS.field("split_gain", 1)  # the slow parts' low-pass gain per tick
 PARAMS_SIZE = PARAMS.size
 
 _ATTACK_S = 1.0  # s, time constant of the noise estimate's rise
@@ -51,7 +63,8 @@ _ATTACK_S = 1.0  # s, time constant of the noise estimate's rise
 
 def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s: float,
                 noise_floor: tuple[float, ...], significance: float, min_deficit: float,
-                consistency: float) -> np.ndarray:
+                consistency: float, follow_tau_s: float, follow_split_s: float
+                ) -> np.ndarray:
     """The parameter vector of :func:`watch_tick`."""
     par = np.zeros(PARAMS_SIZE)
     par[P_K], par[P_PWM_MAX], par[P_MASS] = model.thrust_gain, model.pwm_max, model.mass
@@ -67,6 +80,8 @@ def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s
     par[P_FLOOR:P_FLOOR + 4] = np.square(noise_floor)
     par[P_SIGNIFICANCE], par[P_MIN_DEFICIT] = significance, min_deficit
     par[P_CONSISTENCY] = consistency
+    par[P_FOLLOW_GAIN] = 1.0 - math.exp(-dt_s / follow_tau_s)
+    par[P_SPLIT_GAIN] = 1.0 - math.exp(-dt_s / follow_split_s)
     return par
 
 
@@ -74,6 +89,23 @@ def reset_state(par: np.ndarray, state: np.ndarray) -> None:
     """The boot state: motors at rest, nothing learned, no previous reading."""
     state[:] = 0.0
     state[S_VAR:S_VAR + 4] = par[P_FLOOR:P_FLOOR + 4]
+
+
+@njit(cache=True, error_model="numpy")
+def _follow(state: np.ndarray, j: int, split: float, gain: float, x: float, y: float
+            ) -> None:
+    """Motor ``j``'s expected thrust ``x`` and deficit ``y`` (N): their slow parts
+    low-passed with ``split``, the moments of their fast parts with ``gain``."""
+    slow = S_SLOW + 2 * j
+    state[slow] += split * (x - state[slow])
+    state[slow + 1] += split * (y - state[slow + 1])
+    dx = x - state[slow]
+    dy = y - state[slow + 1]
+    at = S_FOLLOW + 3 * j
+    keep = 1.0 - gain
+    state[at] = keep * state[at] + gain * dx * dx
+    state[at + 1] = keep * state[at + 1] + gain * dx * dy
+    state[at + 2] = keep * state[at + 2] + gain * dy * dy
 
 
 @njit(cache=True, error_model="numpy")
@@ -98,6 +130,8 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
         state[S_START + i] = state[S_THRUST + i]
         state[S_THRUST + i] = (lag * state[S_THRUST + i]
                                + (1.0 - lag) * k * u * effectiveness[i])
+        state[S_CMD_START + i] = state[S_CMD + i]
+        state[S_CMD + i] = lag * state[S_CMD + i] + (1.0 - lag) * k * u
     have_prev = state[S_HAVE_PREV] > 0.5
     state[S_HAVE_PREV] = 1.0 if have_imu else 0.0
     if not have_imu:
@@ -149,6 +183,11 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
             num += b * res[i] / state[S_VAR + i]
         f = num / den
         state[S_DEFICIT + j] = f
+        # what the command asks of the motor against what it fails to give of it: a change of
+        # the effectiveness reckoned with moves neither
+        e = max(effectiveness[j], 0.05)
+        _follow(state, j, par[P_SPLIT_GAIN], par[P_FOLLOW_GAIN], state[S_CMD_START + j],
+                f / e)
         t = f * f * den
         if t > best_t:
             best, best_t, best_f = j, t, f

@@ -59,13 +59,36 @@ def test_thrust_axis_points_at_the_commanded_direction_once_settled() -> None:
     assert np.linalg.norm(np.mean(positions[-300:], axis=0) - [0.0, 0.0, -1.0]) < 0.01
 
 
-def test_saturation_keeps_the_collective() -> None:
+def test_saturation_keeps_the_collective_when_the_torque_cannot_be_made() -> None:
     ctrl = ReducedAttitudeController(MODEL, 1, DT)
-    # a huge pitch-up request (motor 2 would need negative thrust): collective first
-    thrust = ctrl._allocate(14.0, 0.0, 2.0)
+    # a huge pitch-up request (motor 2 would need negative thrust): it is clipped, and the
+    # pair on the roll axis keeps the collective
+    thrust = ctrl._allocate(14.0, 0.0, 2.0, 0.0)
     assert thrust[0] == 0.0 and thrust[1] == 0.0
     assert np.sum(thrust) == pytest.approx(14.0)
     assert thrust[2] == pytest.approx(thrust[3])  # no roll asked: the roll torque kept at 0
+
+
+def test_saturation_gives_the_torques_priority_over_the_collective() -> None:
+    ctrl = ReducedAttitudeController(MODEL, 1, DT)
+    top = MODEL.thrust_gain * MODEL.pwm_max
+    arm = MODEL.arm_length
+    # a roll torque the pair can make only with one motor at full thrust and the other off,
+    # beside more collective than that leaves: the roll torque is made, the collective not
+    thrust = ctrl._allocate(20.0, arm * top, 0.0, 0.0)
+    assert thrust[2] == pytest.approx(top) and thrust[3] == pytest.approx(0.0)
+    assert arm * (thrust[2] - thrust[3]) == pytest.approx(arm * top)
+    assert np.sum(thrust) < 20.0
+
+
+def test_a_stuck_motor_is_allocated_around() -> None:
+    stuck_n = 3.5  # N, motor 1 stuck near hover thrust
+    ctrl = ReducedAttitudeController(MODEL, 1, DT, fixed_thrust_n=stuck_n)
+    torque = np.array(MODEL.thrust_mixer())[1:3]  # roll and pitch rows, N*m per N
+    thrust = ctrl._allocate(14.0, 0.01, -0.02, stuck_n)
+    assert thrust[0] == stuck_n
+    assert np.sum(thrust) == pytest.approx(14.0)
+    assert torque @ thrust == pytest.approx([0.01, -0.02])
 
 
 def test_rotation_zyx_matches_the_simulator() -> None:
