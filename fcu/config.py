@@ -49,7 +49,8 @@ class AutopilotConfig:
     dob_cutoff_rad_s: float = 5.0  # rad/s, w of the DOB Q filters (section 6.2)
     attitude_ref_bandwidth_rad_s: float = 15.0  # rad/s, attitude reference filter
     # s: after the loss of a rotor (relaxed hover, fcu.control.reduced_attitude) the vehicle
-    # brakes and holds where it is while the spin builds up (Izz / g_z = 4 s), then lands
+    # brakes and holds where it is while the spin builds up (to 90 % in about 3 s at full
+    # yaw torque) and the position settles, then lands
     rotor_loss_hold_s: float = 10.0
     model: VehicleModel = field(default_factory=VehicleModel)
     position: PositionGains = field(default_factory=PositionGains)

@@ -59,6 +59,10 @@ TOUCHDOWN_THRUST_FRACTION = 0.7
 # of the relaxed hover's spin: below it, low over the ground while landing, the vehicle sits
 # on the ground (its friction stops the spin within a tenth of a second)
 TOUCHDOWN_SPIN_FRACTION = 0.3
+LANDING_SPEED_M_S = 0.5  # m/s, the least descent speed of the landing after the hold
+# of the horizontal force the position loop asks for, what the axis is steered by before
+# the spin has built up (all of it once it has)
+SPIN_UP_STEER = 0.3
 
 
 class RotorLossResponse:
@@ -235,10 +239,19 @@ class RotorLossResponse:
         att_ref = attitude_filter.step((cmd.roll_ref_rad, cmd.pitch_ref_rad, ref.yaw_rad))
         if not self._landing and time_s - self._spinning_since_s >= self.config.rotor_loss_hold_s:
             self._landing = True
-            # land after the hold unless the pilot chose a mode since (RTL, LAND...)
+            # land after the hold unless the pilot chose a mode since (RTL, LAND...), at no
+            # less than ArduCopter's LAND_SPEED: the spinning vehicle holds its place worse
+            # than a whole one, so the less time it spends up in the wind the better
             if self.navigator.mode == Mode.BRAKE:
+                if self.navigator.speed_limits.down_m_s < LANDING_SPEED_M_S:
+                    self.navigator.change_speed(LANDING_SPEED_M_S, "descent")
                 self.navigator.trigger_failsafe("motor", "land")
         force = np.asarray(cmd.accel_cmd_ned, dtype=float) - (0.0, 0.0, self.model.gravity)
+        # the axis is steered only as far as the spin reached allows: before the spin the
+        # torques about the lost pair's axis can only go one way, and a tilt asked of it
+        # (braking, holding against the wind) adds to the roll the loss started
+        force[:2] *= (SPIN_UP_STEER
+                      + (1.0 - SPIN_UP_STEER) * reduced.spin_fraction(estimate.rate_frd))
         cap = None
         if self.navigator.leg_kind == "land" and self._touched_down(estimate, reduced):
             # less than the weight, so that the ground holds the vehicle and the landing is

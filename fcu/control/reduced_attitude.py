@@ -63,7 +63,7 @@ MIN_SCHEDULE_SPIN_RAD_S = 5.0  # rad/s, the least spin the schedule spans
 
 SPINNING_POSITION_GAINS = PositionGains(
     kp=(4.0, 4.0, 9.0), kd=(4.0, 4.0, 5.5), ki=(1.0, 1.0, 3.0),
-    tilt_max_rad=math.radians(20.0), thrust_max_fraction=0.6,
+    tilt_max_rad=math.radians(30.0), thrust_max_fraction=0.6,
     horizontal_reserve_rad=math.radians(10.0))
 """Position loop gains in relaxed hover: the vertical axis as in normal flight (thrust acts
 directly), the horizontal ones about four times softer (``s^3 + 2.5 s^2 + 2 s + 0.3``: poles
@@ -236,6 +236,13 @@ class ReducedAttitudeController:
         self._thrust_model[self.lost_motor - 1] = self.fixed_thrust_n
         self._integral = np.zeros(2)  # unit*s, int (n - n_bar)_xy dt
 
+    def spin_fraction(self, rate_frd: np.ndarray) -> float:
+        """The spin reached, ``w = r / n_z``, as a fraction in [0, 1] of the one the schedule
+        spans (the equilibrium's, at least MIN_SCHEDULE_SPIN_RAD_S), from body rates
+        ``rate_frd`` (rad/s)."""
+        spin = float(rate_frd[2]) / float(self.equilibrium.axis_frd[2])
+        return min(max(spin / self._schedule_spin, 0.0), 1.0)
+
     def _allocate(self, collective: float, tau_x: float, tau_y: float, fixed_n: float
                   ) -> np.ndarray:
         """Thrusts (N, shape (4,)) of the three remaining motors for U1 and (tau_x, tau_y),
@@ -300,8 +307,7 @@ class ReducedAttitudeController:
         direction = f / f_norm if f_norm > 0.0 else np.array([0.0, 0.0, -1.0])
         n = rotation_zyx(euler_rad).T @ direction  # the body vector that must point along d
         # gain scheduling on the spin reached (module docstring)
-        spin = float(rate_frd[2]) / float(eq.axis_frd[2])  # w = r / n_z
-        fraction = min(max(spin / self._schedule_spin, 0.0), 1.0)
+        fraction = self.spin_fraction(rate_frd)
         axis = scheduled_axis(eq, fraction)
         omega = fraction * self._schedule_spin * axis
         inertia = self.model.inertia_diag

@@ -35,7 +35,7 @@ WALL_S = 600.0  # s: one thesis-mission flight at 10x on a loaded two-core machi
 
 TRANSIENT_S = 5.0  # s after the fault: the spin-up and the return to the hold point
 SPIN_UP_S = 8.0  # s after the fault: two time constants Izz/g_z of the spin-up
-LANDING_S = 6.0  # s before touchdown: the descent, left out of the hover figures
+LANDING_S = 4.0  # s before touchdown: the descent (0.5 m/s or more), left out of the figures
 
 
 @dataclass(frozen=True)
