@@ -304,15 +304,22 @@ def flight_phase(climb_m_s: float, ground_speed_m_s: float) -> str:
     return "cruise" if ground_speed_m_s > 1.0 else "hover"
 
 
+TRANSIENT_S = 3.0
+"""s after an actuator fault: the transient whose height loss :func:`fault_response` reports
+(the spin of a relaxed hover builds up to 90 % in about that)."""
+
+
 def fault_response(series: FlightSeries, faults: Sequence[FaultRecord],
                    detections: Sequence[DetectionRecord]) -> dict[str, Any] | None:
     """How the vehicle met the first actuator fault that started (None: none started).
 
     From simulator truth: where and how it flew when the fault struck (altitude m, climb
     and ground speed m/s, :func:`flight_phase`), the largest horizontal distance from that
-    point afterwards (``excursion_m``) and the horizontal distance from it at the end of the
-    log (``end_from_fault_m``); from the autopilot's records, the motor its first motor
-    detection named and whether any other motor was declared lost.
+    point afterwards (``excursion_m``), the horizontal distance from it at the end of the
+    log (``end_from_fault_m``) and the height lost within ``TRANSIENT_S`` of it
+    (``alt_lost_m``: the fault's height less the lowest point, m); from the autopilot's
+    records, the motor its first motor detection named and whether any other motor was
+    declared lost.
     """
     started = [f for f in faults if f.action == "started" and f.motor is not None]
     if not started:
@@ -325,6 +332,9 @@ def fault_response(series: FlightSeries, faults: Sequence[FaultRecord],
     dt = float(t[i] - t[j]) if i > j else 1.0
     vel = (pos[i] - pos[j]) / dt
     after = np.hypot(pos[i:, 0] - pos[i, 0], pos[i:, 1] - pos[i, 1])
+    # the height the transient costs: the lowest point within TRANSIENT_S of the fault
+    k = int(np.searchsorted(t, fault.time_s + TRANSIENT_S))
+    alt_lost = float(np.max(pos[i:max(k, i + 1), 2]) - pos[i, 2])
     named = [d for d in detections
              if d.action == "detected" and d.kind in MOTOR_DETECTIONS and d.motor is not None
              and d.time_s >= fault.time_s]
@@ -334,6 +344,7 @@ def fault_response(series: FlightSeries, faults: Sequence[FaultRecord],
         "ground_speed_m_s": float(np.hypot(vel[0], vel[1])),
         "phase": flight_phase(float(-vel[2]), float(np.hypot(vel[0], vel[1]))),
         "excursion_m": float(after.max()), "end_from_fault_m": float(after[-1]),
+        "alt_lost_m": alt_lost,
         "named_motor": named[0].motor if named else None,
         "named_kind": named[0].kind if named else None,
         "other_motor_lost": any(d.kind == "motor_lost" and d.motor != fault.motor

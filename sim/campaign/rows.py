@@ -29,7 +29,8 @@ group           columns (units)
                 fault_response`): ``fault_phase`` (climb | cruise | descent | hover),
                 ``fault_alt_m`` (m), ``fault_climb_m_s``, ``fault_ground_speed_m_s`` (m/s)
                 when it struck; ``excursion_m`` (largest horizontal distance from that point
-                afterwards, m), ``end_from_fault_m`` (m, at the end); ``named_motor`` and
+                afterwards, m), ``end_from_fault_m`` (m, at the end), ``alt_lost_m``
+                (height lost in the 3 s after it, m); ``named_motor`` and
                 ``named_kind`` of the first motor detection, ``other_motor_lost`` (1 when
                 another motor was declared lost, else 0); all None without such a fault
 ``timing``      ``sim_s`` (s simulated), ``wall_s`` (s of wall clock of the flight),
@@ -73,13 +74,14 @@ _GROUP_COLUMNS: dict[str, tuple[tuple[str, type], ...]] = {
                  *((f"loe_settled_error_m{m}", float) for m in range(1, 5))),
     "response": (("fault_phase", str), ("fault_alt_m", float), ("fault_climb_m_s", float),
                  ("fault_ground_speed_m_s", float), ("excursion_m", float),
-                 ("end_from_fault_m", float), ("named_motor", int), ("named_kind", str),
-                 ("other_motor_lost", int)),
+                 ("end_from_fault_m", float), ("alt_lost_m", float), ("named_motor", int),
+                 ("named_kind", str), ("other_motor_lost", int)),
     "timing": (("sim_s", float), ("wall_s", float), ("cpu_s", float), ("worker", str)),
 }
 _RESPONSE_KEYS = {"fault_phase": "phase", "fault_alt_m": "alt_m",
                   "fault_climb_m_s": "climb_m_s", "fault_ground_speed_m_s": "ground_speed_m_s",
                   "excursion_m": "excursion_m", "end_from_fault_m": "end_from_fault_m",
+                  "alt_lost_m": "alt_lost_m",
                   "named_motor": "named_motor", "named_kind": "named_kind"}
 
 

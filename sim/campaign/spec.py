@@ -24,6 +24,8 @@ A campaign is a TOML file (the shipped ones live in ``sim/campaigns/``)::
     autopilot.ftc = ["passive", "active"]
     # autopilot = [{attitude = "pd", dob = "none"}, {attitude = "lqg", dob = "abdob"}]
     #   an array of tables: whole configurations, one level each (instead of autopilot.*)
+    # air = [{wind = "indoor"}, {wind = "moderate", mean_wind_m_s = 4.0}]
+    #   the same for the air: a wind level with its mean wind, one level each
 
     [random]                          # seeded random samples, each crossed with the grid
     samples = 3                       # how many
@@ -179,20 +181,31 @@ def _grid_values(axis: Axis, key: str, spec: Any) -> list[Any]:
     return values
 
 
-def _configurations(key: str, tables: list[Any]) -> tuple[Level, ...]:
-    """``grid.autopilot`` as an array of tables: whole configurations, one level each."""
+# grid keys that take an array of tables, each a whole level of several axes: the key, the
+# prefix of its axes' names, and what its tables hold (for messages)
+_WHOLE_LEVELS = {"autopilot": ("autopilot.", "autopilot keys"),
+                 "air": ("", "wind and mean_wind_m_s")}
+
+
+def _configurations(key: str, tables: list[Any], prefix: str, holds: str
+                    ) -> tuple[Level, ...]:
+    """``grid.autopilot`` or ``grid.air`` as an array of tables: whole configurations (or
+    whole airs), one level each."""
     levels = []
     for i, table in enumerate(tables):
         where = f"{key}[{i}]"
         require(isinstance(table, Mapping) and len(table) > 0, where, table,
-                "must be a non-empty table of autopilot keys")
+                f"must be a non-empty table of {holds}")
         level = {}
         for name, value in table.items():
-            axis = _axis(f"autopilot.{name}", "grid")
+            axis = _axis(f"{prefix}{name}", "grid")
+            air_axis = axis.name in ("wind", "mean_wind_m_s")
+            require(bool(prefix) or air_axis, f"{where}.{name}", value,
+                    f"a table of grid.air holds {holds} only")
             level[axis.name] = _checked(axis, f"{where}.{name}", value)
         levels.append(level)
     require(len({tuple(sorted(lv.items())) for lv in levels}) == len(levels), key, tables,
-            "configurations must be distinct")
+            "levels must be distinct")
     return tuple(levels)
 
 
@@ -200,15 +213,16 @@ def _grid(table: Any) -> tuple[tuple[tuple[Level, ...], ...], set[str]]:
     require(isinstance(table, Mapping), "grid", table, "must be a table of axes")
     factors: list[tuple[Level, ...]] = []
     swept: set[str] = set()
-    configs = table.get("autopilot")
-    if isinstance(configs, list):
-        factors.append(_configurations("grid.autopilot", configs))
-        swept |= {name for level in factors[-1] for name in level}
-        table = {k: v for k, v in table.items() if k != "autopilot"}
+    for whole, (prefix, holds) in _WHOLE_LEVELS.items():
+        levels = table.get(whole)
+        if isinstance(levels, list):
+            factors.append(_configurations(f"grid.{whole}", levels, prefix, holds))
+            swept |= {name for level in factors[-1] for name in level}
+            table = {k: v for k, v in table.items() if k != whole}
     for name, spec in _flatten(table, "", _GRID_FORMS).items():
         axis = _axis(name, "grid")
         require(name not in swept, f"grid.{name}", spec,
-                "is already set by the grid.autopilot configurations")
+                "is already set by the grid's arrays of whole levels (autopilot, air)")
         factors.append(tuple({name: v} for v in _grid_values(axis, f"grid.{name}", spec)))
         swept.add(name)
     return tuple(factors), swept
