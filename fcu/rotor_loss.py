@@ -171,8 +171,13 @@ class RotorLossResponse:
                     and float(detector.loe[suspected - 1])
                     > self.config.detector.lost_threshold):
                 motors = (suspected,)
+            # borne out by the wrench residual: a deficit of a third of hover thrust, and
+            # that motor its best single-motor fit (a motor stuck above its command reads to
+            # the hover model as a loss of the opposite one, whose deficit fits it nearly
+            # as well once the collective's bias has taken in the excess)
             hover_n = self.model.mass * self.model.gravity / 4.0
-            motors = tuple(m for m in motors if watch.deficit_n.item(m - 1) > hover_n / 3.0)
+            motors = tuple(m for m in motors if watch.deficit_n.item(m - 1) > hover_n / 3.0
+                           and watch.best_fit == m)
 
         if not motors:
             return None

@@ -29,8 +29,9 @@ fail to deliver stays in ``r``.
 A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
 ``r = b_j f``, ``b_j`` the column ``j`` of ``B``. Against the per-channel noise ``Sigma``
 (measured, attack 1 s, decay ``noise_tau_s``, floored; frozen while a motor is suspected or
-the best statistic is above half of ``significance``, so that a fault building up is never
-learned) the best single-motor fit and its statistic are::
+the best statistic is above a quarter of ``significance``, so that a fault building up is
+never learned: a motor locked while its command moves away grows slowly) the best
+single-motor fit and its statistic are::
 
     f_j = b_j' S^-1 r / (b_j' S^-1 b_j),     T_j = f_j^2 b_j' S^-1 b_j
 
@@ -184,6 +185,7 @@ class RotorWatch:
         self._candidate = -1
         # the candidate's own thrust (N) and its command, tick by tick since its streak began
         self._history: list[tuple[float, float]] = []
+        self._best = -1  # the best single-motor fit of the latest residual (0..3)
         self._stuck_motor = -1  # the motor the stuck test picks (0..3), and for how long
         self._stuck_ticks = 0
         self.declared: tuple[int, str, float] | None = None  # (motor 1..4, kind, magnitude)
@@ -203,6 +205,12 @@ class RotorWatch:
         what the stuck test needs, which runs on motors reckoned whole)."""
         at = S_SLOW + 2 * (motor - 1)
         return self._state.item(at) - self._state.item(at + 1)
+
+    @property
+    def best_fit(self) -> int | None:
+        """The motor (1..4) whose single-motor fit best explained the latest residual (None
+        before one was formed)."""
+        return self._best + 1 if self._best >= 0 else None
 
     @property
     def suspected(self) -> int | None:
@@ -233,6 +241,8 @@ class RotorWatch:
                                        effectiveness, airborne, self.declared is None,
                                        self.alarming)
         self.alarming = False
+        if best >= 0:
+            self._best = best
         if best >= 0 and self.declared is None:
             stuck = self._stuck(time_s)
             if stuck:
@@ -254,7 +264,12 @@ class RotorWatch:
             self.alarming = large
             return []
         kind, magnitude = self._kind(best)
-        if kind not in ("motor_lost", "motor_hard_over"):
+        # the TSKF's hover model misreads a lost or hard-over motor (fcu.rotor_loss); a large
+        # deficit that the command it follows does not say is lost is a partial loss, the
+        # TSKF's, and a stuck motor the stuck test's
+        self.alarming = large and kind in ("motor_lost", "motor_hard_over")
+        if self._streak < self.config.persistence_ticks or kind not in ("motor_lost",
+                                                                        "motor_hard_over"):
             # a partial loss is the TSKF detector's; a stuck motor the stuck test's
             return []
         self.declared = (best + 1, kind, magnitude)

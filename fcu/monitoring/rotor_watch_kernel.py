@@ -26,14 +26,14 @@ S_VAR = STATE.field("var", 4)  # measured noise variance: collective N^2, torque
 S_DEFICIT = STATE.field("deficit_n", 4)  # N, the latest single-motor fit f_j per motor
 S_STAT = STATE.field("statistic", 1)  # the latest best T_j
 # per motor, the thrust its command asks for (K u through the lag, at full effectiveness)
-# and its deficit over the effectiveness reckoned with (f_j / e_j), low-passed over
+# and how far its own thrust (T_e - f_j) falls short of that, low-passed over
 # follow_split_s (their slow parts: what the controller's compensation of a fault does),
 # then exponentially weighted moments of the fast parts (what the motor's own thrust does
 # when its command moves: a stuck motor's deficit follows its command one for one): variance
 # of the command's, covariance, variance of the deficit's
 S_CMD = STATE.field("command_thrust_n", 4)  # N, K u through the lag, at full effectiveness
 S_CMD_START = STATE.field("start_command_thrust_n", 4)  # N, the same at the tick's start
-S_SLOW = STATE.field("follow_slow", 8)  # N: slow K u, slow f_j / e, motor by motor
+S_SLOW = STATE.field("follow_slow", 8)  # N: slow K u, slow shortfall, motor by motor
 S_FOLLOW = STATE.field("follow_moments", 12)
 STATE_SIZE = STATE.size
 
@@ -59,6 +59,9 @@ P_SPLIT_GAIN = PARAMS.field("split_gain", 1)  # the slow parts' low-pass gain pe
 PARAMS_SIZE = PARAMS.size
 
 _ATTACK_S = 1.0  # s, time constant of the noise estimate's rise
+# of the significance: above this best statistic the noise estimate is frozen (a fault
+# building up, a motor locked while its command moves away, is never learned as noise)
+NOISE_FREEZE = 0.25
 
 
 def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s: float,
@@ -119,7 +122,8 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
     shape (3,)) and
     ``airborne``, the residual and the best single-motor fit; the noise and the bias are
     learned when ``learn``: the bias unless ``hold_bias`` (a large fault is building up),
-    the noise while the fit suspects nothing (best statistic under half the significance).
+    the noise while the fit suspects nothing (best statistic under NOISE_FREEZE of the
+    significance).
 
     Returns the best motor (0..3; -1 when no residual was formed) and whether it is
     suspected (statistic, deficit and consistency tests).
@@ -183,11 +187,11 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
             num += b * res[i] / state[S_VAR + i]
         f = num / den
         state[S_DEFICIT + j] = f
-        # what the command asks of the motor against what it fails to give of it: a change of
-        # the effectiveness reckoned with moves neither
-        e = max(effectiveness[j], 0.05)
-        _follow(state, j, par[P_SPLIT_GAIN], par[P_FOLLOW_GAIN], state[S_CMD_START + j],
-                f / e)
+        # what the command asks of the motor against what it falls short of that by its own
+        # thrust (T_e - f): the effectiveness the allocator reckons with moves neither
+        asked = state[S_CMD_START + j]
+        _follow(state, j, par[P_SPLIT_GAIN], par[P_FOLLOW_GAIN], asked,
+                asked - (state[S_START + j] - f))
         t = f * f * den
         if t > best_t:
             best, best_t, best_f = j, t, f
@@ -203,7 +207,7 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
         # statistic: a lighter vehicle reads as excess thrust on every motor at once, and
         # beside a partial loss of one motor as a smaller excess of the opposite one
         state[S_BIAS] += par[P_BIAS_GAIN] * res[0]
-    if not suspect and best_t < 0.5 * par[P_SIGNIFICANCE]:
+    if not suspect and best_t < NOISE_FREEZE * par[P_SIGNIFICANCE]:
         # a fault building up is never learned as noise
         for i in range(4):
             v = state[S_VAR + i]

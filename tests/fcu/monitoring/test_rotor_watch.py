@@ -21,9 +21,10 @@ SUBSTEPS = 5  # IMU samples averaged per tick
 
 def _hover_flight(model: VehicleModel, fault: tuple[int, str] | None, fault_tick: int,
                   ticks: int, seed: int) -> list:
-    """A rigid body held in hover by a rate loop, its IMU averaged per tick and fed to a
-    watch; ``fault`` (motor 1..4, "lost" | "hard_over") from ``fault_tick`` on. Returns the
-    records the watch made, each with its tick."""
+    """A rigid body held in hover by a rate loop (its collective moving by 5 %), its IMU
+    averaged per tick and fed to a watch; ``fault`` (motor 1..4, "lost" | "hard_over" |
+    "stuck" | "loe30") from ``fault_tick`` on. Returns the records the watch made, each with
+    its tick."""
     rng = np.random.default_rng(seed)
     watch = RotorWatch(model, RotorWatchConfig(), DT_S)
     mixer = model.thrust_mixer()
@@ -37,10 +38,14 @@ def _hover_flight(model: VehicleModel, fault: tuple[int, str] | None, fault_tick
     found = []
     for tick in range(ticks):
         gyro, accel = np.zeros(3), np.zeros(3)
+        if fault is not None and tick == fault_tick:
+            stuck_at = float(pwm[fault[0] - 1])  # a stuck motor keeps its command at onset
         for _ in range(SUBSTEPS):
             followed = pwm.copy()
             if fault is not None and tick >= fault_tick:
-                followed[fault[0] - 1] = 0.0 if fault[1] == "lost" else model.pwm_max
+                followed[fault[0] - 1] = {"lost": 0.0, "hard_over": model.pwm_max,
+                                          "stuck": stuck_at,
+                                          "loe30": 0.7 * pwm[fault[0] - 1]}[fault[1]]
             thrust += (model.thrust_gain * np.clip(followed, 0, model.pwm_max) - thrust) * (
                 1.0 - math.exp(-model.motor_bandwidth * h))
             wrench = mixer @ thrust
@@ -52,7 +57,11 @@ def _hover_flight(model: VehicleModel, fault: tuple[int, str] | None, fault_tick
                                                  (accel / SUBSTEPS).tolist(), pwm, True)]
         # a rate loop: the torque that stops the rotation, on top of hover thrust
         torque_cmd = -0.5 * inertia * omega / DT_S
-        pwm = np.linalg.solve(mixer, np.r_[model.mass * model.gravity, torque_cmd])
+        # on top of hover thrust a collective that moves as a climb-rate loop's does in
+        # gusts (5 %, 1.5 Hz): what shows a stuck motor for what it is
+        collective = model.mass * model.gravity * (1.0 + 0.05 * math.sin(3.0 * math.pi
+                                                                         * tick * DT_S))
+        pwm = np.linalg.solve(mixer, np.r_[collective, torque_cmd])
         pwm = np.clip(pwm / model.thrust_gain, 0.0, model.pwm_max)
     return found
 
@@ -76,6 +85,66 @@ def test_a_motor_lost_or_at_full_power_is_named_within_a_tenth_of_a_second(
     assert record.magnitude > 0.75
 
 
+@pytest.mark.parametrize("motor", [1, 2, 3, 4])
+def test_a_motor_stuck_at_its_command_is_named_once_the_command_moves(motor: int) -> None:
+    """A motor locked at its hover command shows only as the rate loop moves its command:
+    its deficit then follows the command one for one, and the watch names it stuck at about
+    hover thrust."""
+    model = VehicleModel()
+    found = _hover_flight(model, (motor, "stuck"), 100, 300, seed=motor)
+    assert len(found) == 1
+    tick, record = found[0]
+    assert (record.motor, record.kind) == (motor, "motor_stuck")
+    assert 0 < (tick - 100) * DT_S <= 1.0
+    hover_fraction = model.hover_pwm / model.pwm_max  # 0.40 of full thrust
+    assert record.magnitude == pytest.approx(hover_fraction, abs=0.05)
+
+
+@pytest.mark.parametrize("motor", [1, 2, 3, 4])
+def test_a_partial_loss_is_left_to_the_tskf(motor: int) -> None:
+    """30 % of one motor lost: its deficit follows its command at 0.3, not one for one, and
+    it is short of a lost motor's: the watch declares nothing."""
+    assert _hover_flight(VehicleModel(), (motor, "loe30"), 100, 400, seed=motor) == []
+
+
+@pytest.mark.parametrize("cp_offset_z", [-0.05, 0.0])
+def test_the_in_plane_drag_moment_is_not_a_motor_fault(cp_offset_z: float) -> None:
+    """Hover thrust on every motor, a steady 1.5 N in-plane drag (the accelerometer's x and
+    y read it) and the body accelerating in roll and pitch as its moment about the centre of
+    gravity makes it: with the airframe's centre of pressure in the model the residual is
+    nothing; without it, the moment stays in the residual."""
+    truth = VehicleModel()
+    model = dataclasses.replace(truth, cp_offset_z=cp_offset_z)
+    watch = RotorWatch(model, RotorWatchConfig(), DT_S)
+    m, z_cp = truth.mass, truth.cp_offset_z
+    drag = np.array([1.2, -0.9])  # N, in-plane drag, body x and y
+    # tau = r_cp x F = (-z_cp F_y, z_cp F_x, 0), less the rate damping: the body's rates
+    moment = np.array([-z_cp * drag[1], z_cp * drag[0]])
+    inertia, damping = np.array(truth.inertia[:2]), np.array(truth.rate_damping[:2])
+    pwm = np.full(4, truth.hover_pwm)
+    omega = np.zeros(2)
+    stats = []
+    for tick in range(160):
+        # 1 s still air (the expected thrusts settle through the lag), then the drag: the
+        # tick's mean rate is the exact solution of J w' = moment - G w over the tick
+        on = tick >= 100
+        tau = moment if on else np.zeros(2)
+        decay = np.exp(-damping / inertia * DT_S)
+        mean = tau / damping + (omega - tau / damping) * (inertia / (damping * DT_S)) * (
+            1.0 - decay)
+        omega = tau / damping + (omega - tau / damping) * decay
+        accel = [drag[0] / m, drag[1] / m, -truth.gravity] if on else [0.0, 0.0, -truth.gravity]
+        watch.step(tick * DT_S, [mean[0], mean[1], 0.0], accel, pwm, True)
+        stats.append(watch.statistic)
+    if cp_offset_z == truth.cp_offset_z:
+        assert max(stats[102:]) < 1.0  # nothing left but rounding
+    else:
+        # the moment stays in the residual: a statistic a gust's moment adds to, tens of
+        # times what the IMU noise gives (the noise estimate then grows, and a real fault
+        # has to be larger to be seen)
+        assert max(stats[102:110]) > 10.0
+
+
 def test_settings_are_checked() -> None:
     with pytest.raises(ValueError, match="persistence_ticks"):
         RotorWatchConfig(persistence_ticks=1)
@@ -83,15 +152,37 @@ def test_settings_are_checked() -> None:
         RotorWatchConfig(noise_floor=(0.1, 0.1, 0.1))
 
 
+_LOCK_MISREAD = pytest.mark.xfail(
+    strict=True, reason="known limit: motor 4 locked in the cruise of seed 1 reads to the "
+    "TSKF's hover model as a loss of motor 3 (same roll torque) before the stuck test has "
+    "seen enough of its command move; active FTC then compensates the wrong motor")
+
+
+@pytest.mark.parametrize("phase", ["climb", "cruise", "descent"])
+@pytest.mark.parametrize("motor", [1, 2, 3, 4])
+def test_outdoor_locked_motor_is_named_stuck_in_every_phase(
+        phase: str, motor: int, request: pytest.FixtureRequest) -> None:
+    """A motor locked at its command, in active FTC: named stuck within a second (the TSKF
+    may name the same motor's loss first), never another motor."""
+    if (motor, phase) == (4, "cruise"):
+        request.applymarker(_LOCK_MISREAD)
+    metrics = _outdoor("lock", motor, _PHASES[phase], ftc="active", after_s=1.5)
+    motor_records = [d for d in metrics["detections"] if d["motor"] is not None]
+    assert {d["motor"] for d in motor_records} == {motor}
+    stuck = [d for d in motor_records if d["kind"] == "motor_stuck"]
+    assert stuck and stuck[0]["latency_s"] <= 1.0
+
+
 # ---- whole flights: the outdoor mission (climb at 1.5 m/s to 10 m, a 30 m square at 3 m/s,
 # descent at 1 m/s, 4 m/s wind with moderate turbulence), the fault in each phase
 _PHASES = {"climb": 4.0, "cruise": 40.0, "descent": 95.0}
 
 
-def _outdoor(kind: str, motor: int, start_s: float, ftc: str = "passive") -> dict:
+def _outdoor(kind: str, motor: int, start_s: float, ftc: str = "passive",
+             after_s: float = 0.5) -> dict:
     scenario = load_scenario("outdoor_square")
     scenario = dataclasses.replace(
-        scenario, duration_s=start_s + 0.5,
+        scenario, duration_s=start_s + after_s,
         autopilot=dataclasses.replace(scenario.autopilot, ftc=ftc),
         faults=(ActuatorFault(motor=motor, kind=kind, start_s=start_s),))
     return fly(scenario).metrics
