@@ -17,11 +17,13 @@ from flightdata.metrics import (
     control_effort,
     detection_latency_s,
     error_figure,
+    fault_response,
     flying_mask,
     loe_convergence_times,
     series_metrics,
     tracking_errors,
 )
+from flightdata.records import DetectionRecord, FaultRecord
 from flightdata.report import fmt, image_lines, relative_paths, section_lines, table_lines
 from flightdata.series import FlightSeries
 
@@ -160,3 +162,27 @@ def test_figures_are_embedded_by_relative_path(tmp_path: Path) -> None:
         "## X, Y, Z and errors (Fig. 7.4-7.6)", "",
         "![X, Y, Z and errors (Fig. 7.4-7.6)](f/xyz.png)", "", "PDF: [xyz](f/xyz.pdf)", "",
         "## motor PWM (Fig. 7.9)", "", "![motor PWM (Fig. 7.9)](f/pwm.png)", ""]
+
+
+def test_fault_response_reports_where_the_fault_struck_and_what_it_cost() -> None:
+    """A hover at 0.6 m that, after a loss at 4 s, drops 0.25 m and drifts 1.5 m north
+    within 3 s, then climbs back and drifts further: the height lost counts the transient
+    only, the excursion the whole flight after the fault."""
+    s = hover_series()
+    pos = s.pos_ned.copy()
+    t = s.time_s
+    after = t >= 4.0
+    dt = t - 4.0
+    pos[after, 2] = -0.6 + 0.25 * np.sin(np.pi * np.clip(dt[after], 0.0, 2.0) / 4.0)
+    pos[after, 0] = 1.5 * np.clip(dt[after] / 2.0, 0.0, 1.0) + 0.5 * (dt[after] > 5.0)
+    s = replace(s, pos_ned=pos)
+    fault = FaultRecord(time_s=4.0, action="started", kind="total_loss", motor=2)
+    found = DetectionRecord(time_s=4.04, action="detected", kind="motor_lost", motor=2,
+                            magnitude=1.0)
+    r = fault_response(s, [fault], [found])
+    assert r is not None
+    assert r["phase"] == "hover" and r["alt_m"] == pytest.approx(0.6)
+    assert r["alt_lost_m"] == pytest.approx(0.25, abs=1e-3)  # the sine's top at 2 s
+    assert r["excursion_m"] == pytest.approx(2.0) and r["end_from_fault_m"] == pytest.approx(2.0)
+    assert r["named_motor"] == 2 and not r["other_motor_lost"]
+    assert fault_response(s, [], []) is None

@@ -185,3 +185,40 @@ def test_rtl_commanded_while_spinning_flies_home_and_lands() -> None:
     assert result.outcome.impact_speed_m_s < 1.0
     assert np.linalg.norm(last[-1][:2]) < 0.3  # at home (the square's start), 0.3 m
     assert not any("failsafe motor" in text for _, _, text in result.events)
+
+
+def _outdoor_fault(kind: str, motor: int, start_s: float, duration_s: float) -> Any:
+    """The outdoor mission (10 m up, 4 m/s moderate wind) in active FTC with one fault."""
+    from sim.world.fault_types import ActuatorFault
+
+    scenario = load_scenario("outdoor_square")
+    return fly(replace(scenario, duration_s=duration_s,
+                       autopilot=replace(scenario.autopilot, ftc="active"),
+                       faults=(ActuatorFault(motor=motor, kind=kind, start_s=start_s),)))
+
+
+def test_a_motor_locked_near_hover_thrust_is_flown_around_and_lands() -> None:
+    """Motor 1 locked at its command in the cruise: named stuck at about hover thrust, flown
+    around as a motor of fixed thrust (it hardly spins) and landed where it struck."""
+    result = _outdoor_fault("lock", 1, 40.0, 90.0)
+    response = result.metrics["fault_response"]
+    stuck = [d for d in result.detections if d.kind == "motor_stuck"]
+    assert stuck and stuck[0].motor == 1 and stuck[0].time_s - 40.0 <= 1.0
+    assert {d.motor for d in result.detections if d.motor is not None} == {1}
+    assert result.outcome.kind == "landed", result.outcome
+    assert result.outcome.impact_speed_m_s is not None and result.outcome.impact_speed_m_s < 1.0
+    assert response["end_from_fault_m"] < 2.0  # the issue: within 2 m of the fault point
+    assert any("stuck at" in text and "relaxed hover" in text for _, _, text in result.events)
+
+
+def test_a_motor_at_full_power_terminates_the_flight_where_it_struck() -> None:
+    """Motor 2 hard-over in the cruise: named within 0.1 s, the flight terminated (motors
+    off, announced) and the vehicle down within 5 m of where it struck, a crash reported as
+    one, not a climb away."""
+    result = _outdoor_fault("hardover", 2, 40.0, 60.0)
+    (first, *_) = [d for d in result.detections if d.motor is not None]
+    assert (first.kind, first.motor) == ("motor_hard_over", 2)
+    assert first.time_s - 40.0 <= 0.1
+    assert any("flight terminated, motors off" in text for _, _, text in result.events)
+    assert result.outcome.kind == "crashed", result.outcome
+    assert result.metrics["fault_response"]["end_from_fault_m"] < 5.0

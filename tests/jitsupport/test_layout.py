@@ -99,7 +99,9 @@ DESIGN = Path(__file__).resolve().parents[2] / "docs" / "design.md"
 
 @pytest.mark.parametrize("label, layout", [("`ekf.WORK`", ekf.WORK), ("`ekf.BUFFER`", ekf.BUFFER),
                                            ("`tskf_kernel.WORK`", tskf_kernel.WORK),
-                                           ("`tskf_kernel.BUFFER`", tskf_kernel.BUFFER)])
+                                           ("`tskf_kernel.BUFFER`", tskf_kernel.BUFFER),
+                                           ("`rotor_watch_kernel.STATE`",
+                                            rotor_watch_kernel.STATE)])
 def test_design_doc_lists_each_state_layout_as_the_code_declares_it(label: str,
                                                                     layout: Layout) -> None:
     row = next(line for line in DESIGN.read_text().splitlines() if line.startswith(f"| {label}"))

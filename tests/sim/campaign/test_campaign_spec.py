@@ -82,6 +82,20 @@ def test_mean_wind_axis_sets_the_speed_after_the_turbulence_level(tmp_path: Path
     assert {r.axes["mean_wind_m_s"] for r in runs} == {0.0, 8.0}
 
 
+def test_air_levels_pair_a_wind_level_with_its_mean_wind(tmp_path: Path) -> None:
+    path = write(tmp_path, BASE + '[grid]\nair = [{wind = "indoor"}, '
+                 '{wind = "moderate", mean_wind_m_s = 4.0}, {wind = "severe", '
+                 'mean_wind_m_s = 8.0}]\nseed = [1, 2]\n')
+    runs = expand(load_campaign(path))
+    assert len(runs) == 3 * 2  # the airs are levels, not crossed with each other
+    flown = {(r.axes["wind"], r.axes["mean_wind_m_s"]):
+             scenario_from_mapping(r.scenario).world.wind for r in runs}
+    assert set(flown) == {("indoor", DEFAULT_WIND.mean_speed_m_s), ("moderate", 4.0),
+                          ("severe", 8.0)}
+    assert flown[("severe", 8.0)].turbulence == "severe"
+    assert flown[("indoor", DEFAULT_WIND.mean_speed_m_s)] == DEFAULT_WIND
+
+
 def test_grid_forms_and_seeded_samples(tmp_path: Path) -> None:
     text = (BASE + '[fault]\nmotor = 1\nkind = "loe"\n[grid]\nseed = {range = [3, 9, 3]}\n'
             'fault.magnitude = {linspace = [0.0, 1.0, 21]}\n'
@@ -140,6 +154,11 @@ def test_keep_and_drop_the_base_faults(tmp_path: Path) -> None:
     (BASE + '[grid]\nseed = {range = [1.0, 3.0]}\n', "range takes [first, last]"),
     (BASE + '[grid]\nfault.motor = {linspace = [1, 4, 4]}\n', "linspace takes"),
     (BASE + '[grid]\nseed = [1, 1]\n', "values must be distinct"),
+    (BASE + '[grid]\nair = [{wind = "moderate", seed = 3}]\n',
+     "grid.air[0].seed = 3: a table of grid.air holds wind and mean_wind_m_s only"),
+    (BASE + '[grid]\nair = [{wind = "gale"}]\n', "grid.air[0].wind = 'gale'"),
+    (BASE + '[grid]\nair = [{wind = "light"}]\nwind = ["severe"]\n',
+     "is already set by the grid's arrays of whole levels"),
     (BASE + '[grid]\nwind = []\n', "grid.wind = []: must be a non-empty array"),
     (BASE + '[grid]\nseed = [1]\n[random]\nsamples = 2\nseed = {integers = [1, 9]}\n',
      "random.seed"),
@@ -173,8 +192,11 @@ def test_every_shipped_campaign_expands() -> None:
     assert sizes["thesis_faults"] == 9 * 3 * 50
     assert sizes["false_alarms_indoor"] == 1000
     assert sizes["false_alarms_outdoor"] == 300
-    # kinds x phases x motors x (turbulence x mean wind) x attitude laws x estimators
-    assert sizes["rotor_loss_envelope"] == 5 * 3 * 4 * 4 * 2 * 2
+    # kinds x phases x motors x airs x configurations
+    assert sizes["rotor_loss_envelope"] == 5 * 4 * 4 * 3 * 4
+    assert sizes["rotor_loss_fast"] == 2 * 4 * 4 * 2
+    assert sizes["rotor_loss_thesis"] == 3 * 4 * 4 * 4
+    assert sizes["rotor_loss_height"] == 13 * 4 * 2 * 2
 
 
 def test_unknown_campaign_lists_the_shipped_ones() -> None:
