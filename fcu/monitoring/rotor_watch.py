@@ -59,15 +59,18 @@ followed as a fraction of full power.
 Stuck motors
 ------------
 A motor locked where it was makes no sudden residual: it shows only as the controller moves
-its command. Its deficit then follows its expected thrust one for one (``f_j = T_e,j -
-T_lock``), where a healthy motor's stays noise and a partial loss's follows at the slope
-``gamma``. Per motor the watch keeps exponentially weighted moments of ``(T_e,j, f_j)``
-(``follow_tau_s``) and declares ``motor_stuck`` (``motor_hard_over`` at 85 % of full power
-or more) for the motor whose deficit correlates with its expected thrust above
-``stuck_correlation``, by ``stuck_margin`` more than any other motor's, at a slope within
-``stuck_slope``, once its expected thrust has spread by ``stuck_spread_n`` (the command
-moved), for ``stuck_ticks`` ticks in a row; the magnitude is its mean own thrust
-``T_e - f`` over the moments, as a fraction of full thrust.
+its command. How far its own thrust falls short of what its command asks (``K u`` through
+the lag, less ``T_e,j - f_j``) then follows that command one for one, where a healthy
+motor's stays noise and a partial loss's follows at the slope ``gamma``. Per motor the watch
+splits both at ``follow_split_s`` (what is slower is the controller's compensation of a
+fault, which carries a weakened motor's shortfall up with its command for a while, one for
+one) and keeps exponentially weighted moments of their fast parts (``follow_tau_s``); it
+declares ``motor_stuck`` (``motor_hard_over`` at 85 % of full power or more) for the motor
+whose shortfall correlates with its command above ``stuck_correlation``, by
+``stuck_margin`` more than any other motor's, at a slope within ``stuck_slope``, once the
+command's fast part has spread by ``stuck_spread_n`` (the command moved), for
+``stuck_ticks`` ticks in a row; the magnitude is its own thrust (the slow parts), as a
+fraction of full thrust.
 
 One motor is declared per flight (after the first, the residual carries the controller's
 response to it); a second large fault is beyond this watch. The per-motor deficits stay
@@ -229,9 +232,9 @@ class RotorWatch:
         """One tick: ``gyro`` (rad/s) and ``accel`` (m/s^2) means over the tick (None when
         the tick had none), ``pwm`` the commands held over it, ``airborne`` whether the
         vehicle flies clear of the ground (the evidence is taken only then),
-        ``effectiveness`` what each motor is known to deliver of its command (1 - the LOE
-        of the partial losses already declared, shape (4,)): the watch looks for what is
-        new."""
+        ``effectiveness`` what each motor is reckoned to deliver of its command (shape (4,):
+        1, or 1 - the LOE of a partial loss the autopilot knows of or compensates): the
+        watch looks for what is new."""
         if gyro is None or accel is None:
             best, suspect = watch_tick(self._par, self._state, _NO_READING, _NO_READING,
                                        False, pwm, effectiveness, airborne, False, True)
@@ -279,8 +282,8 @@ class RotorWatch:
 
     def _stuck(self, time_s: float) -> list[DetectionRecord]:
         """The test for a motor stuck where it was (module docstring, "Stuck motors"): the
-        motor whose deficit follows its expected thrust one for one, clearly better than any
-        other, for ``stuck_ticks`` ticks in a row."""
+        motor whose shortfall follows its command one for one, clearly better than any
+        other's, for ``stuck_ticks`` ticks in a row."""
         cfg = self.config
         m = self._state[S_FOLLOW:S_FOLLOW + 12].reshape(4, 3)
         var_x, cov, var_y = m[:, 0], m[:, 1], m[:, 2]
