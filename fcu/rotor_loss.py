@@ -49,8 +49,10 @@ from fcu.monitoring.rotor_watch import RotorWatch
 from fcu.navigation.modes import MODE_TABLE, Mode
 from fcu.navigation.navigator import Navigator
 from fcu.navigation.reference import Reference
+from flightdata.vocabulary import OPPOSITE_MOTOR
 
 Announce = Callable[[float, str], None]  # (time_s, critical text)
+OPPOSITE_PAIRS = ((1, 2), (3, 4))  # the motors on one arm pair (eq. 3.2)
 
 # of the weight, the most a spinning vehicle lands with below the landing detector's height:
 # under the autopilot's throttle-at-minimum test (0.75), so the landing is detected and the
@@ -91,8 +93,8 @@ class RotorLossResponse:
         self.navigator = navigator
         self._announce = announce
         # designed when first needed, one per lost motor
-        # (motor, the thrust it makes, N) -> its controller
-        self._reduced: dict[tuple[int, float], ReducedAttitudeController] = {}
+        # (motor, the thrust it makes (N), its opposite lost too) -> its controller
+        self._reduced: dict[tuple[int, float, bool], ReducedAttitudeController] = {}
         self.position = PositionController(self.model, SPINNING_POSITION_GAINS, dt_s)
         self.reset()
 
@@ -102,6 +104,7 @@ class RotorLossResponse:
         self._motor_told: int | None = None  # a motor the operator declared lost
         self._spinning: int | None = None  # the failed motor while in relaxed hover
         self._fixed_n = 0.0  # N, what the failed motor makes whatever it is told
+        self._pair_lost = False  # the motor opposite it is lost too
         self._spinning_since_s = 0.0  # s, when relaxed hover began
         self.loe_at_spin: np.ndarray | None = None  # LOE published since a spin began
         self._landing = False  # the LAND failsafe of this loss was triggered
@@ -144,6 +147,7 @@ class RotorLossResponse:
         (declared or suspected beyond ``lost_threshold``) when the residual bears it out.
         Once in relaxed hover the vehicle stays in it until it lands."""
         if self._spinning is not None:
+            self._second_loss(time_s)
             return self._spinning
         motors: tuple[int, ...] = ()
         fixed_n = 0.0
@@ -152,7 +156,8 @@ class RotorLossResponse:
         if self._motor_told is not None:
             motors = (self._motor_told,)
         elif ftc_active and watch.lost is not None:
-            motors = (watch.lost,)
+            motors = (watch.lost,) if watch.second_lost is None else (watch.lost,
+                                                                      watch.second_lost)
         elif ftc_active and declared is not None and declared[1] in ("motor_hard_over",
                                                                      "motor_stuck"):
             # it makes what it was stuck at: flown around as a motor of fixed thrust, as long
@@ -181,21 +186,58 @@ class RotorLossResponse:
 
         if not motors:
             return None
-        if len(motors) > 1:
-            self.cannot_survive(time_s, f"motors {' and '.join(map(str, motors))} lost: "
-                                "no relaxed hover with two rotors down")
+        pair = len(motors) == 2 and tuple(sorted(motors)) in OPPOSITE_PAIRS
+        if len(motors) > 1 and not pair:
+            self.terminate(time_s, f"motors {' and '.join(map(str, sorted(motors)))} lost "
+                           "(not an opposite pair)")
             return None
-        motor = motors[0]
-        key = (motor, round(fixed_n, 2))
+        motor = min(motors)
+        if not self._design(time_s, motor, round(fixed_n, 2), pair):
+            return None
+        return motor
+
+    def _design(self, time_s: float, motor: int, fixed_n: float, pair: bool) -> bool:
+        """The reduced-attitude controller around failed ``motor`` making ``fixed_n`` (N),
+        with its opposite lost too when ``pair``: designed once, kept as the one to fly;
+        False when there is none (announced, and the vehicle lands)."""
+        key = (motor, fixed_n, pair)
         if key not in self._reduced:
             try:
-                self._reduced[key] = ReducedAttitudeController(self.model, motor, self.dt_s,
-                                                               fixed_thrust_n=key[1])
+                self._reduced[key] = ReducedAttitudeController(
+                    self.model, motor, self.dt_s, fixed_thrust_n=fixed_n, opposite_lost=pair)
             except ValueError as err:
                 self.cannot_survive(time_s, str(err))
-                return None
-        self._fixed_n = key[1]
-        return motor
+                return False
+        self._fixed_n, self._pair_lost = fixed_n, pair
+        return True
+
+    def _second_loss(self, time_s: float) -> None:
+        """In relaxed hover around a lost motor: when the wrench residual finds the opposite
+        one lost too, fly on the other pair (announced)."""
+        second = self.watch.second_lost
+        first = self._spinning
+        third = self.watch.third_lost
+        if third is not None and first is not None:
+            lost = sorted({first, OPPOSITE_MOTOR[first] if self._pair_lost else first,
+                           second or first, third})
+            self.terminate(time_s, f"motors {', '.join(map(str, lost))} lost (one rotor makes "
+                           f"{self.model.thrust_gain * self.model.pwm_max:.2f} N of the "
+                           f"{self.model.mass * self.model.gravity:.1f} N weight)")
+            return
+        if self._pair_lost or second is None or first is None:
+            return
+        if second != OPPOSITE_MOTOR[first]:
+            self.terminate(time_s, f"motors {min(first, second)} and {max(first, second)} "
+                           "lost (not an opposite pair)")
+            return
+        flying = self._reduced[(first, self._fixed_n, False)]
+        motor = min(first, second)
+        if not self._design(time_s, motor, 0.0, True):
+            return
+        reduced = self._reduced[(motor, 0.0, True)]
+        reduced.reset(flying.thrust_model)  # what the motors make now (the lag's state)
+        self._spinning = motor
+        self._announce_pair(time_s, (first, second), reduced)
 
     @property
     def max_flyable_stuck_n(self) -> float:
@@ -206,12 +248,13 @@ class RotorLossResponse:
 
     def terminate(self, time_s: float, why: str) -> None:
         """Say once that the fault cannot be flown at all, and stop the motors (the least
-        bad thing: the vehicle comes down where the fault struck instead of climbing away)."""
+        bad thing: the vehicle comes down where the fault struck, without turning, instead
+        of tumbling or climbing away)."""
         if self._terminated:
             return
         self._terminated = True
-        self._announce(time_s, f"{why}: the other motors cannot hold the vehicle down; "
-                       "flight terminated, motors off")
+        self._announce(time_s, f"{why}: the other motors cannot fly the vehicle; flight "
+                       "terminated, motors off")
         self.navigator.crash(f"{why}: flight terminated")
 
     def cannot_survive(self, time_s: float, why: str) -> None:
@@ -224,11 +267,11 @@ class RotorLossResponse:
 
     def motors_lost(self) -> tuple[int, ...]:
         """Motors (1..4) declared lost, by the TSKF's detector or the wrench residual."""
-        lost = self.detector.lost
-        watched = self.watch.lost
-        if watched is None or watched in lost:
-            return lost
-        return tuple(sorted((*lost, watched)))
+        lost = set(self.detector.lost)
+        watch = self.watch
+        lost.update(m for m in (watch.lost, watch.second_lost, watch.third_lost)
+                    if m is not None)
+        return tuple(sorted(lost))
 
     # ------------------------------------------------------------------ flying
     def fly(self, time_s: float, motor: int, estimate: StateEstimate, ref: Reference,
@@ -281,7 +324,7 @@ class RotorLossResponse:
                trim_accel: np.ndarray) -> ReducedAttitudeController:
         """The reduced-attitude controller for ``motor``; on entry it is started from the
         estimated thrusts, the position loop from ``trim_accel``, and announced."""
-        reduced = self._reduced[(motor, self._fixed_n)]  # designed by lost_motor
+        reduced = self._reduced[(motor, self._fixed_n, self._pair_lost)]  # by lost_motor
         if self._spinning == motor:
             return reduced
         self._spinning = motor
@@ -294,11 +337,15 @@ class RotorLossResponse:
         # hold against the wind from the first tick: the trim the position loop had
         self.position.take_trim(trim_accel)
         eq = reduced.equilibrium
-        what = ("lost" if self._fixed_n == 0.0
-                else f"stuck at {self._fixed_n:.1f} N")
-        self._announce(time_s, f"motor {motor} {what}: yaw given up, spinning about the thrust "
-                       f"axis (relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s expected); "
-                       f"holding {self.config.rotor_loss_hold_s:.0f} s, then LAND")
+        if self._pair_lost:
+            self._announce_pair(time_s, (motor, OPPOSITE_MOTOR[motor]), reduced)
+        else:
+            what = ("lost" if self._fixed_n == 0.0
+                    else f"stuck at {self._fixed_n:.1f} N")
+            self._announce(time_s, f"motor {motor} {what}: yaw given up, spinning about the "
+                           f"thrust axis (relaxed hover, {abs(eq.yaw_rate_rad_s):.0f} rad/s "
+                           f"expected); holding {self.config.rotor_loss_hold_s:.0f} s, then "
+                           "LAND")
         # stop where the fault struck (a landing or returning vehicle carries on): the
         # spinning vehicle brakes on at most SPINNING_POSITION_GAINS' tilt, past the
         # stopping point the speed limits assume
@@ -307,3 +354,13 @@ class RotorLossResponse:
             nav.set_mode(Mode.BRAKE)
             nav.hold_at(time_s, estimate.pos_ned)
         return reduced
+
+    def _announce_pair(self, time_s: float, lost: tuple[int, int],
+                       reduced: ReducedAttitudeController) -> None:
+        """Say that two opposite rotors are lost and the vehicle flies on the other two."""
+        flying = sorted(set((1, 2, 3, 4)) - set(lost))
+        self._announce(time_s, f"motors {lost[0]} and {lost[1]} lost: flying on motors "
+                       f"{flying[0]} and {flying[1]}, spinning about the thrust axis (relaxed "
+                       f"hover on two rotors, {abs(reduced.equilibrium.yaw_rate_rad_s):.0f} "
+                       f"rad/s expected); holding {self.config.rotor_loss_hold_s:.0f} s, then "
+                       "LAND")

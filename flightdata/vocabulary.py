@@ -19,6 +19,8 @@ from typing import Literal, get_args
 # ---- the airframe -------------------------------------------------------------------------
 MOTORS: tuple[int, ...] = (1, 2, 3, 4)
 """Motor numbers of thesis eq. 3.2: 1 front, 2 back, 3 left, 4 right (docs/design.md)."""
+OPPOSITE_MOTOR: Mapping[int, int] = MappingProxyType({1: 2, 2: 1, 3: 4, 4: 3})
+"""Each motor's partner on its arm pair (thesis eq. 3.2: 1 and 2 pitch, 3 and 4 roll)."""
 
 # ---- sensors ------------------------------------------------------------------------------
 SensorName = Literal["gyro", "accel", "mocap_pos", "mocap_att", "baro"]

@@ -59,6 +59,9 @@ from fcu.model import VehicleModel
 from flightdata.design_cache import cached_design
 
 SCHEDULE = np.linspace(0.0, 1.0, 11)  # fractions of the equilibrium spin with a design
+# with two opposite rotors lost the axis of the lost pair has no torque: only the spin's
+# coupling steers it, so the schedule starts where there is spin to couple
+TWO_ROTOR_SCHEDULE = np.linspace(0.15, 1.0, 11)
 MIN_SCHEDULE_SPIN_RAD_S = 5.0  # rad/s, the least spin the schedule spans
 
 SPINNING_POSITION_GAINS = PositionGains(
@@ -66,10 +69,12 @@ SPINNING_POSITION_GAINS = PositionGains(
     tilt_max_rad=math.radians(30.0), thrust_max_fraction=0.6,
     horizontal_reserve_rad=math.radians(10.0))
 """Position loop gains in relaxed hover: the vertical axis as in normal flight (thrust acts
-directly), the horizontal ones about four times softer (``s^3 + 2.5 s^2 + 2 s + 0.3``: poles
-near -1.2 +/- 0.6j and -0.2 rad/s) because the primary axis answers through the spin (a
-quarter turn, 80 ms, before a torque about one body axis tilts the other) and its loop is
-slower than the full attitude loop's; tilt of the primary axis at most 15 deg."""
+directly), the horizontal ones half as stiff (``s^3 + 4 s^2 + 4 s + 1``: poles near -2.6,
+-1 and -0.4 rad/s) because the primary axis answers through the spin (a quarter turn, 80 ms,
+before a torque about one body axis tilts the other) and its loop is slower than the full
+attitude loop's; tilt of the primary axis at most 30 deg (three motors at up to two thirds
+of full thrust allow it: braking from the cruise and holding against 8 m/s of wind need it);
+the thrust of three motors (60 % of four), 10 deg of tilt kept at full vertical demand."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -171,6 +176,10 @@ class ReducedAttitudeController:
         What the failed motor makes whatever it is told, N: 0 when lost (the default), its
         thrust when stuck, full thrust when hard-over; the equilibrium and the gains are
         designed for it, and :meth:`step` may be told its latest estimate.
+    opposite_lost : bool
+        The motor opposite ``lost_motor`` is lost too: the vehicle flies on the other pair
+        (Mueller and D'Andrea's two-propeller relaxed hover, the rho = 0 equilibrium with
+        both at zero), and the torque about the lost pair's axis is not an input.
 
     Attributes
     ----------
@@ -183,7 +192,7 @@ class ReducedAttitudeController:
 
     def __init__(self, model: VehicleModel, lost_motor: int, dt_s: float,
                  weights: ReducedAttitudeWeights | None = None,
-                 fixed_thrust_n: float = 0.0) -> None:
+                 fixed_thrust_n: float = 0.0, opposite_lost: bool = False) -> None:
         if not (math.isfinite(dt_s) and dt_s > 0):
             raise ValueError(f"dt_s = {dt_s!r}: must be > 0")
         self.model = model
@@ -192,10 +201,16 @@ class ReducedAttitudeController:
         self.weights = weights if weights is not None else ReducedAttitudeWeights()
         wts = self.weights
         self.fixed_thrust_n = float(fixed_thrust_n)
-        self.equilibrium = (
-            failed_motor_equilibrium(model, lost_motor, self.fixed_thrust_n)
-            if wts.opposite_ratio is None
-            else relaxed_hover(model, lost_motor, wts.opposite_ratio, self.fixed_thrust_n))
+        self.opposite_lost = bool(opposite_lost)
+        if self.opposite_lost:
+            # both at zero: rho = 0, no fixed thrust
+            self.fixed_thrust_n = 0.0
+            self.equilibrium = relaxed_hover(model, lost_motor, 0.0, 0.0)
+        elif wts.opposite_ratio is None:
+            self.equilibrium = failed_motor_equilibrium(model, lost_motor, self.fixed_thrust_n)
+        else:
+            self.equilibrium = relaxed_hover(model, lost_motor, wts.opposite_ratio,
+                                             self.fixed_thrust_n)
         eq = self.equilibrium
         # the spin the gain schedule spans: the equilibrium's, or at least MIN_SCHEDULE_SPIN
         # (a motor stuck near a quarter of the weight leaves almost no spin to schedule on)
@@ -203,8 +218,13 @@ class ReducedAttitudeController:
                                             eq.spin_rad_s if eq.spin_rad_s != 0.0 else 1.0)
         q = np.diag([wts.q_rate, wts.q_rate, wts.q_axis, wts.q_axis, wts.q_torque,
                      wts.q_torque, wts.q_integral, wts.q_integral])
+        lost = lost_motor - 1
+        self._lost_row = 1 if lost in (0, 1) else 0
+        # with the opposite motor lost too, the one torque input: that of the pair flying
+        inputs = [1 - self._lost_row]
+        self._schedule = TWO_ROTOR_SCHEDULE if self.opposite_lost else SCHEDULE
         gains = []
-        for fraction in SCHEDULE:
+        for fraction in self._schedule:
             axis = scheduled_axis(eq, float(fraction))
             a6, b6 = linearisation(model, fraction * self._schedule_spin * axis, axis)
             # integral action on the axis error: d/dt int dn = dn (removes the steady
@@ -213,7 +233,15 @@ class ReducedAttitudeController:
             a[:6, :6] = a6
             a[6, 2] = a[7, 3] = 1.0
             b = np.vstack([b6, np.zeros((2, 2))])
-            (gain,) = _discrete_lqr_gain(a, b, q, wts.r_torque * np.eye(2), self.dt_s)
+            gain = np.zeros((2, 8))
+            if self.opposite_lost:
+                # one torque: the body-fixed integrals of the axis error turn with the spin
+                # and are out of its reach, so the design goes without them
+                (used,) = _discrete_lqr_gain(a6, b6[:, inputs], q[:6, :6],
+                                             wts.r_torque * np.eye(1), self.dt_s)
+                gain[inputs, :6] = used
+            else:
+                (gain,) = _discrete_lqr_gain(a, b, q, wts.r_torque * np.eye(2), self.dt_s)
             gains.append(gain)
         self.gains = np.array(gains)  # (len(SCHEDULE), 2, 8)
         self.gain = self.gains[-1]
@@ -221,9 +249,7 @@ class ReducedAttitudeController:
         # the motor opposite the lost one makes the torque about their common axis (row 0:
         # roll, motors 3 and 4; row 1: pitch, motors 1 and 2); the pair on the other axis
         # makes the other torque (eq. 3.2)
-        lost = lost_motor - 1
         self._opposite = (1, 0, 3, 2)[lost]
-        self._lost_row = 1 if lost in (0, 1) else 0
         self._pair = (2, 3) if lost in (0, 1) else (0, 1)
         self._decay = math.exp(-model.motor_bandwidth * self.dt_s)
         self._max_thrust_n = model.thrust_gain * model.pwm_max
@@ -234,7 +260,14 @@ class ReducedAttitudeController:
         start = self.equilibrium.thrust_n if thrust_n is None else np.asarray(thrust_n, float)
         self._thrust_model = np.array(start, dtype=float)
         self._thrust_model[self.lost_motor - 1] = self.fixed_thrust_n
+        if self.opposite_lost:
+            self._thrust_model[self._opposite] = 0.0
         self._integral = np.zeros(2)  # unit*s, int (n - n_bar)_xy dt
+
+    @property
+    def thrust_model(self) -> np.ndarray:
+        """N, the controller's model of what each motor makes now (a copy), shape (4,)."""
+        return self._thrust_model.copy()
 
     def spin_fraction(self, rate_frd: np.ndarray) -> float:
         """The spin reached, ``w = r / n_z``, as a fraction in [0, 1] of the one the schedule
@@ -259,8 +292,9 @@ class ReducedAttitudeController:
         thrust = np.zeros(4)
         j, o, row = self.lost_motor - 1, self._opposite, self._lost_row
         thrust[j] = fixed_n
-        thrust[o] = min(max((torques[row] - self._torque[row, j] * fixed_n)
-                            / self._torque[row, o], 0.0), top)
+        if not self.opposite_lost:
+            thrust[o] = min(max((torques[row] - self._torque[row, j] * fixed_n)
+                                / self._torque[row, o], 0.0), top)
         a, b = self._pair
         other = 1 - row
         # tau = arm_a (T_a - T_b): the pair's arms are opposite
@@ -314,8 +348,10 @@ class ReducedAttitudeController:
         # the torque that holds omega steady: tau = diag(g) omega + omega x I omega
         tau_ff = (np.asarray(self.model.rate_damping) * omega
                   + np.cross(omega, inertia * omega))[:2]
-        k = fraction * (len(SCHEDULE) - 1)
-        i = min(int(k), len(SCHEDULE) - 2)
+        schedule = self._schedule
+        k = (min(max(fraction, schedule[0]), 1.0) - schedule[0]) / (
+            schedule[1] - schedule[0])
+        i = min(int(k), len(schedule) - 2)
         gain = self.gains[i] + (k - i) * (self.gains[i + 1] - self.gains[i])
         tau_model = self._torque[:2] @ self._thrust_model
         dn = n[:2] - axis[:2]
@@ -334,6 +370,8 @@ class ReducedAttitudeController:
         # the motors' lag (eq. 3.1), exact over the period; the failed one makes what it makes
         self._thrust_model = thrust + self._decay * (self._thrust_model - thrust)
         self._thrust_model[self.lost_motor - 1] = fixed
+        if self.opposite_lost:
+            self._thrust_model[self._opposite] = 0.0
         return ReducedAttitudeCommand(thrust_n=thrust, pwm=thrust / self.model.thrust_gain,
                                       collective_n=float(np.sum(thrust)),
                                       axis_error=float(np.linalg.norm(n - axis)))

@@ -68,8 +68,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fcu.model import VehicleModel
+from flightdata.vocabulary import OPPOSITE_MOTOR
 
-OPPOSITE_MOTOR = {1: 2, 2: 1, 3: 4, 4: 3}  # motors 1..4: the motor on the same axis
 DEFAULT_OPPOSITE_RATIO = 0.5  # rho, T_opposite / T_side (module docstring)
 
 

@@ -72,8 +72,20 @@ command's fast part has spread by ``stuck_spread_n`` (the command moved), for
 ``stuck_ticks`` ticks in a row; the magnitude is its own thrust (the slow parts), as a
 fraction of full thrust.
 
-One motor is declared per flight (after the first, the residual carries the controller's
-response to it); a second large fault is beyond this watch. The per-motor deficits stay
+Two rotors
+----------
+After a motor is declared lost, a second one may be declared lost too (the relaxed hover
+around the first commands the other three; when one fails, its deficit fits the residual as
+the first one's did), and a third after those. Two opposite motors lost together leave no
+roll or pitch torque, only a collective deficit and a yaw torque (each pair turns the same
+way): the sum of their columns fits that, and when it explains the residual better than any
+one motor and than the other pairs, with a deficit of at least ``alarm_deficit`` of each,
+for ``persistence_ticks`` ticks, both are declared lost (a mass change has no yaw torque to
+fit). Adjacent pairs are fitted the same way (their sum leaves a roll and a pitch torque at
+once).
+
+Beyond those, one motor is declared per flight (after the first, the residual carries the
+controller's response to it); other second faults are beyond this watch. The per-motor deficits stay
 up to date after it (:attr:`RotorWatch.deficit_n`): the autopilot checks the TSKF's
 findings against them.
 """
@@ -87,8 +99,12 @@ import numpy as np
 
 from fcu.model import VehicleModel
 from fcu.monitoring.rotor_watch_kernel import (
+    PAIRS,
     S_DEFICIT,
     S_FOLLOW,
+    S_PAIR_CONSISTENT,
+    S_PAIR_DEFICIT,
+    S_PAIR_STAT,
     S_SLOW,
     S_START,
     S_STAT,
@@ -189,6 +205,9 @@ class RotorWatch:
         # the candidate's own thrust (N) and its command, tick by tick since its streak began
         self._history: list[tuple[float, float]] = []
         self._best = -1  # the best single-motor fit of the latest residual (0..3)
+        self.second_lost: int | None = None  # a motor lost after the first, or with it
+        self.third_lost: int | None = None  # one more
+        self._pair_candidate, self._pair_streak = -1, 0  # a pair lost together (0, 1)
         self._stuck_motor = -1  # the motor the stuck test picks (0..3), and for how long
         self._stuck_ticks = 0
         self.declared: tuple[int, str, float] | None = None  # (motor 1..4, kind, magnitude)
@@ -247,10 +266,11 @@ class RotorWatch:
         if best >= 0:
             self._best = best
         if best >= 0 and self.declared is None:
-            stuck = self._stuck(time_s)
-            if stuck:
-                return stuck
-        if best < 0 or not suspect or self.declared is not None:
+            found = self._pair_lost(time_s) or self._stuck(time_s)
+            if found:
+                return found
+        second = self._second_candidate(best)
+        if best < 0 or not suspect or (self.declared is not None and not second):
             self._streak = 0
             return []
         state = self._state
@@ -275,10 +295,54 @@ class RotorWatch:
                                                                         "motor_hard_over"):
             # a partial loss is the TSKF detector's; a stuck motor the stuck test's
             return []
-        self.declared = (best + 1, kind, magnitude)
+        if second:
+            if kind != "motor_lost":
+                return []
+            if self.second_lost is None:
+                self.second_lost = best + 1
+            else:
+                self.third_lost = best + 1
+        else:
+            self.declared = (best + 1, kind, magnitude)
         self._streak = 0
         return [DetectionRecord(time_s=time_s, action="detected", kind=kind, motor=best + 1,
                                 magnitude=magnitude)]
+
+    def _second_candidate(self, best: int) -> bool:
+        """Whether ``best`` (0..3) may be declared as a second loss: another motor than the
+        one declared lost, none declared second yet (module docstring, "Two rotors")."""
+        d = self.declared
+        return (d is not None and d[1] == "motor_lost" and self.third_lost is None
+                and best + 1 not in (d[0], self.second_lost))
+
+    def _pair_lost(self, time_s: float) -> list[DetectionRecord]:
+        """The test for two motors lost together (module docstring, "Two rotors"):
+        their summed columns explain the residual better than any one motor and than the
+        other pairs (the yaw torque tells 1 and 2 from 3 and 4), with a deficit of at least
+        ``alarm_deficit`` of each, for ``persistence_ticks`` ticks in a row."""
+        state = self._state
+        cfg = self.config
+        found, found_t = -1, 0.0
+        for pair, (a, b) in enumerate(PAIRS):
+            t = state.item(S_PAIR_STAT + pair)
+            expected = 0.5 * (state.item(S_START + a) + state.item(S_START + b))
+            if (t > max(cfg.significance, state.item(S_STAT), found_t)
+                    and state.item(S_PAIR_CONSISTENT + pair) > 0.5
+                    and state.item(S_PAIR_DEFICIT + pair) > cfg.alarm_deficit * expected):
+                found, found_t = pair, t
+        if found < 0 or found != self._pair_candidate:
+            self._pair_candidate, self._pair_streak = found, 0
+        if found < 0:
+            return []
+        self._pair_streak += 1
+        self.alarming = True
+        if self._pair_streak < cfg.persistence_ticks:
+            return []
+        a, b = PAIRS[found]
+        self.declared = (a + 1, "motor_lost", 1.0)
+        self.second_lost = b + 1
+        return [DetectionRecord(time_s=time_s, action="detected", kind="motor_lost",
+                                motor=m + 1, magnitude=1.0) for m in (a, b)]
 
     def _stuck(self, time_s: float) -> list[DetectionRecord]:
         """The test for a motor stuck where it was (module docstring, "Stuck motors"): the

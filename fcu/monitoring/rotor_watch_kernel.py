@@ -25,6 +25,12 @@ S_BIAS = STATE.field("bias_n", 1)  # N, the collective bias mu
 S_VAR = STATE.field("var", 4)  # measured noise variance: collective N^2, torques (N*m)^2
 S_DEFICIT = STATE.field("deficit_n", 4)  # N, the latest single-motor fit f_j per motor
 S_STAT = STATE.field("statistic", 1)  # the latest best T_j
+# two motors lost together, each pair of PAIRS: the fit of their summed columns (a deficit of
+# each, N) and its statistic, and whether it explains the residual
+PAIRS = ((0, 1), (2, 3), (0, 2), (0, 3), (1, 2), (1, 3))  # the opposite pairs first
+S_PAIR_DEFICIT = STATE.field("pair_deficit_n", len(PAIRS))
+S_PAIR_STAT = STATE.field("pair_statistic", len(PAIRS))
+S_PAIR_CONSISTENT = STATE.field("pair_consistent", len(PAIRS))  # 1: T_pair > consistency RSS
 # per motor, the thrust its command asks for (K u through the lag, at full effectiveness)
 # and how far its own thrust (T_e - f_j) falls short of that, low-passed over
 # follow_split_s (their slow parts: what the controller's compensation of a fault does),
@@ -196,6 +202,21 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
         if t > best_t:
             best, best_t, best_f = j, t, f
     state[S_STAT] = best_t
+    # two motors together: their columns summed (equal deficits)
+    for pair in range(len(PAIRS)):
+        first, second = PAIRS[pair]
+        den = 0.0
+        num = 0.0
+        for i in range(4):
+            b = par[P_COLUMNS + 4 * first + i] + par[P_COLUMNS + 4 * second + i]
+            den += b * b / state[S_VAR + i]
+            num += b * res[i] / state[S_VAR + i]
+        f = num / den
+        t = f * f * den
+        state[S_PAIR_DEFICIT + pair] = f
+        state[S_PAIR_STAT + pair] = t
+        state[S_PAIR_CONSISTENT + pair] = 1.0 if t > par[P_CONSISTENCY] * max(rss0 - t, 0.0) \
+            else 0.0
     rss = max(rss0 - best_t, 0.0)
     expected = max(state[S_START + best], 0.05 * k * pwm_max)
     suspect = (best_t > par[P_SIGNIFICANCE] and abs(best_f) > par[P_MIN_DEFICIT] * expected

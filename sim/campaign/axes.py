@@ -13,6 +13,9 @@ Each line: the axis's key in a campaign file -> its result column (type): its va
   (``mass_loss``, kg); the other kinds have none;
 - ``fault.start_s`` -> ``fault_start_s`` (float): s >= 0, when the swept fault starts;
 - ``fault.profile`` -> ``fault_profile`` (str): the time profile of a loss of effectiveness;
+- ``fault.opposite_after_s`` -> ``fault_opposite_after_s`` (float): s >= 0, the campaign's
+  actuator fault again on the opposite motor that much later (0: both at once; the second
+  of two rotors lost);
 - ``wind`` -> ``wind`` (str): ``"indoor"`` (the scenarios' default air,
   :data:`sim.scenario.DEFAULT_WIND`) or a MIL-F-8785C intensity ``"none"``, ``"light"``,
   ``"moderate"``, ``"severe"`` (with the base scenario's mean wind); a base scenario's own
@@ -121,6 +124,7 @@ _AXES = (
     Axis("fault.magnitude", "fault_magnitude", float),
     Axis("fault.start_s", "fault_start_s", float, low=0.0, unit="s"),
     Axis("fault.profile", "fault_profile", str, LOE_PROFILES),
+    Axis("fault.opposite_after_s", "fault_opposite_after_s", float, low=0.0, unit="s"),
     Axis("wind", "wind", str, WIND_LEVELS),
     Axis("mean_wind_m_s", "mean_wind_m_s", float, low=0.0, unit="m/s"),
     Axis("autopilot.attitude", "attitude", str, ATTITUDE_LAWS),

@@ -5,6 +5,8 @@ scenario's TOML mapping, the way a person would edit the file:
 
 - ``seed`` and ``duration_s`` replace the top-level keys; ``base_faults = "drop"`` empties
   ``faults``;
+- ``fault.opposite_after_s``: the campaign's actuator fault again on the opposite motor
+  (1 and 2, 3 and 4), that many seconds later (0: both at once);
 - ``wind``: ``"indoor"`` removes the ``[wind]`` table (the scenarios' default air); an
   intensity sets ``turbulence`` and drops ``w20_m_s`` (keeping the base's mean wind);
   ``mean_wind_m_s`` then sets the mean wind's speed;
@@ -32,7 +34,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from flightdata.config import ConfigError, load_toml, require
-from flightdata.vocabulary import ACTUATOR_FAULT_KINDS, SENSOR_FAULT_KINDS
+from flightdata.vocabulary import ACTUATOR_FAULT_KINDS, OPPOSITE_MOTOR, SENSOR_FAULT_KINDS
 from sim.campaign.axes import AXES, AXIS_COLUMNS, INDOOR_WIND, NO_FAULT
 from sim.campaign.spec import Campaign
 from sim.scenario import DEFAULT_WIND, Scenario, scenario_from_mapping, scenario_path
@@ -158,8 +160,10 @@ def fault_columns(fault: Fault | None) -> dict[str, Any]:
     return out
 
 
-def axis_columns(scenario: Scenario, own_fault: Fault | None) -> dict[str, Any]:
-    """Every axis column of a run, read from its resolved scenario."""
+def axis_columns(scenario: Scenario, own_fault: Fault | None,
+                 opposite: Fault | None = None) -> dict[str, Any]:
+    """Every axis column of a run, read from its resolved scenario (``opposite``: the
+    campaign's fault copied onto the opposite motor, ``fault.opposite_after_s``)."""
     wind = scenario.world.wind
     if wind == DEFAULT_WIND:
         wind_level = INDOOR_WIND
@@ -169,7 +173,9 @@ def axis_columns(scenario: Scenario, own_fault: Fault | None) -> dict[str, Any]:
     out = {"seed": scenario.seed, **fault_columns(own_fault), "wind": wind_level,
            "mean_wind_m_s": wind.mean_speed_m_s,
            "attitude": ap.attitude, "estimator": ap.estimator, "dob": ap.dob, "ftc": ap.ftc,
-           "height_source": ap.height_source}
+           "height_source": ap.height_source,
+           "fault_opposite_after_s": (None if opposite is None or own_fault is None
+                                      else opposite.start_s - own_fault.start_s)}
     return {c: out[c] for c in AXIS_COLUMNS}
 
 
@@ -178,8 +184,9 @@ def _describe(level: Mapping[str, Any]) -> str:
 
 
 def _apply(campaign: Campaign, base: Mapping[str, Any],
-           level: Mapping[str, Any]) -> tuple[dict[str, Any], bool]:
-    """The scenario mapping of one level; True when the campaign's fault was appended."""
+           level: Mapping[str, Any]) -> tuple[dict[str, Any], int]:
+    """The scenario mapping of one level and how many faults the campaign appended to it: 0,
+    1, or 2 (its fault and the copy on the opposite motor, ``fault.opposite_after_s``)."""
     scenario = copy.deepcopy(dict(base))
     scenario.pop("name", None)
     scenario.pop("description", None)
@@ -204,9 +211,18 @@ def _apply(campaign: Campaign, base: Mapping[str, Any],
     if autopilot:
         scenario["autopilot"] = {**scenario.get("autopilot", {}), **autopilot}
     fault = _fault_table(campaign.fault, level)
-    if fault is not None:
-        scenario["faults"] = [*scenario.get("faults", []), fault]
-    return scenario, fault is not None
+    if fault is None:
+        return scenario, 0
+    added = [fault]
+    delay = level.get("fault.opposite_after_s")
+    if delay is not None:
+        require("motor" in fault, "fault.opposite_after_s", delay,
+                f"copies an actuator fault onto the opposite motor; a {fault.get('kind')!r} "
+                "fault has none")
+        added.append({**fault, "motor": OPPOSITE_MOTOR[fault["motor"]],
+                      "start_s": float(fault.get("start_s", 0.0)) + delay})
+    scenario["faults"] = [*scenario.get("faults", []), *added]
+    return scenario, len(added)
 
 
 def expand(campaign: Campaign) -> list[RunSpec]:
@@ -225,7 +241,7 @@ def expand(campaign: Campaign) -> list[RunSpec]:
     seen: set[str] = set()
     for level in campaign.levels():
         try:
-            mapping, appended = _apply(campaign, base, level)
+            mapping, added = _apply(campaign, base, level)
             scenario = scenario_from_mapping(mapping, default_name=campaign.name)
         except ConfigError as exc:
             raise ConfigError(f"{where}: run with {_describe(level)}: {exc}") from None
@@ -234,9 +250,10 @@ def expand(campaign: Campaign) -> list[RunSpec]:
             continue
         seen.add(rid)
         mapping["name"] = f"{campaign.name}-{rid}"
-        own = scenario.faults[-1] if appended else None
-        runs.append(RunSpec(rid, len(runs), axis_columns(scenario, own), mapping,
-                            len(scenario.faults) if appended else None))
+        own = scenario.faults[-added] if added else None
+        opposite = scenario.faults[-1] if added == 2 else None
+        runs.append(RunSpec(rid, len(runs), axis_columns(scenario, own, opposite), mapping,
+                            len(scenario.faults) - added + 1 if added else None))
     return runs
 
 
