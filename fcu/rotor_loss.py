@@ -134,8 +134,12 @@ class RotorLossResponse:
     def tskf_trusted(self) -> bool:
         """Whether the TSKF's detector may take evidence and its findings count (module
         docstring)."""
-        declared = self.watch.declared
-        return not self.watch.alarming and (declared is None or declared[1] == "loe")
+        watch = self.watch
+        declared = watch.declared
+        # (a motor stuck above its command reads to the hover model as a loss of the opposite
+        # one: nothing is taken while the stuck test has a candidate)
+        return (not watch.alarming and watch.stuck_candidate is None
+                and (declared is None or declared[1] == "loe"))
 
     def on_watch_declared(self, time_s: float, ftc_active: bool) -> None:
         """The wrench residual declared a motor: a lost, stuck or hard-over one is flown

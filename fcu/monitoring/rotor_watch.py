@@ -229,6 +229,12 @@ class RotorWatch:
         return self._state.item(at) - self._state.item(at + 1)
 
     @property
+    def stuck_candidate(self) -> int | None:
+        """The motor (1..4) the stuck test picks at the latest tick (module docstring, "Stuck
+        motors"), before it has held long enough to be declared, if any."""
+        return self._stuck_motor + 1 if self._stuck_ticks > 0 and self.declared is None else None
+
+    @property
     def best_fit(self) -> int | None:
         """The motor (1..4) whose single-motor fit best explained the latest residual (None
         before one was formed)."""

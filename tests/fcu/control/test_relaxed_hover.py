@@ -57,9 +57,30 @@ def test_too_heavy_to_hover_on_three_rotors_is_refused() -> None:
         relaxed_hover(VehicleModel(mass=2.5), 1)
 
 
-@pytest.mark.parametrize("motor", [1, 3])
-def test_plant_started_on_the_equilibrium_stays_there_open_loop(motor: int) -> None:
-    eq = relaxed_hover(MODEL, motor)
+@pytest.mark.parametrize("motor", [1, 2, 3, 4])
+def test_two_opposite_rotors_lost_spin_level_on_the_other_pair(motor: int) -> None:
+    """rho = 0 without a fixed thrust is the two-propeller relaxed hover (docs/rotor-loss.md):
+    the other pair at half the weight each, no tilt, the yaw torque of that pair against the
+    yaw damping alone: r = K_psi m g / g_z, 32 rad/s for the Qball-X4, the sense of the pair
+    that flies (1 and 2 counter-clockwise: the body turns clockwise, r > 0 when 3 and 4 are
+    lost)."""
+    eq = relaxed_hover(MODEL, motor, 0.0, 0.0)
+    pair = {1: (0, 1), 2: (0, 1), 3: (2, 3), 4: (2, 3)}[motor]
+    flying = [i for i in range(4) if i not in pair]
+    assert all(eq.thrust_n[i] == 0.0 for i in pair)
+    weight = MODEL.mass * MODEL.gravity
+    assert all(eq.thrust_n[i] == pytest.approx(weight / 2.0, rel=1e-12) for i in flying)
+    assert eq.tilt_rad == 0.0
+    spin = MODEL.yaw_gain * weight / MODEL.rate_damping[2]
+    assert abs(eq.yaw_rate_rad_s) == pytest.approx(spin, rel=1e-12)
+    assert abs(eq.yaw_rate_rad_s) == pytest.approx(32.04, abs=0.01)
+    assert np.sign(eq.yaw_rate_rad_s) == (1.0 if motor in (3, 4) else -1.0)
+
+
+@pytest.mark.parametrize(("motor", "pair"), [(1, False), (3, False), (3, True), (1, True)])
+def test_plant_started_on_the_equilibrium_stays_there_open_loop(motor: int, pair: bool
+                                                                 ) -> None:
+    eq = relaxed_hover(MODEL, motor, 0.0, 0.0) if pair else relaxed_hover(MODEL, motor)
     # attitude with n pointing up: the shortest rotation taking n (body) to -e3 (NED)
     rot, _ = Rotation.align_vectors([[0.0, 0.0, -1.0]], [eq.axis_frd])
     x = np.zeros(STATE_SIZE)
@@ -85,6 +106,6 @@ def test_plant_started_on_the_equilibrium_stays_there_open_loop(motor: int) -> N
     assert np.max(np.abs(spin - abs(eq.spin_rad_s))) < 0.01 * abs(eq.spin_rad_s)
     # n stays up: R n = -e3 within 2 deg (open loop: an unstable equilibrium drifts slowly)
     up = Rotation.from_quat(x[6:10], scalar_first=True).apply(eq.axis_frd)
-    assert np.degrees(np.arccos(-up[2])) < 2.0
+    assert np.degrees(np.arccos(np.clip(-up[2], -1.0, 1.0))) < 2.0
     # height held within 5 cm over the 2 s (the mean thrust along n equals the weight)
     assert abs(x[2] + 10.0) < 0.05

@@ -152,20 +152,13 @@ def test_settings_are_checked() -> None:
         RotorWatchConfig(noise_floor=(0.1, 0.1, 0.1))
 
 
-_LOCK_MISREAD = pytest.mark.xfail(
-    strict=True, reason="known limit: motor 4 locked in the cruise of seed 1 reads to the "
-    "TSKF's hover model as a loss of motor 3 (same roll torque) before the stuck test has "
-    "seen enough of its command move; active FTC then compensates the wrong motor")
-
-
 @pytest.mark.parametrize("phase", ["climb", "cruise", "descent"])
 @pytest.mark.parametrize("motor", [1, 2, 3, 4])
-def test_outdoor_locked_motor_is_named_stuck_in_every_phase(
-        phase: str, motor: int, request: pytest.FixtureRequest) -> None:
+def test_outdoor_locked_motor_is_named_stuck_in_every_phase(phase: str, motor: int) -> None:
     """A motor locked at its command, in active FTC: named stuck within a second (the TSKF
-    may name the same motor's loss first), never another motor."""
-    if (motor, phase) == (4, "cruise"):
-        request.applymarker(_LOCK_MISREAD)
+    may name the same motor's loss first), never another motor: the TSKF takes no evidence
+    while the stuck test has a candidate (it reads a motor stuck above its command as a
+    loss of the opposite one)."""
     metrics = _outdoor("lock", motor, _PHASES[phase], ftc="active", after_s=1.5)
     motor_records = [d for d in metrics["detections"] if d["motor"] is not None]
     assert {d["motor"] for d in motor_records} == {motor}

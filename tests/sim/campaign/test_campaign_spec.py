@@ -96,6 +96,24 @@ def test_air_levels_pair_a_wind_level_with_its_mean_wind(tmp_path: Path) -> None
     assert flown[("indoor", DEFAULT_WIND.mean_speed_m_s)] == DEFAULT_WIND
 
 
+def test_opposite_after_copies_the_fault_onto_the_opposite_motor(tmp_path: Path) -> None:
+    path = write(tmp_path, BASE + 'base_faults = "drop"\n[fault]\nkind = "total_loss"\n'
+                 'start_s = 10.0\n[grid]\nfault.motor = [1, 4]\n'
+                 'fault.opposite_after_s = [0.0, 2.5]\n')
+    runs = expand(load_campaign(path))
+    assert len(runs) == 4
+    for r in runs:
+        faults = scenario_from_mapping(r.scenario).faults
+        first, second = faults
+        assert second.motor == {1: 2, 4: 3}[first.motor] and second.kind == first.kind
+        assert second.start_s - first.start_s == r.axes["fault_opposite_after_s"]
+        assert r.axes["fault_motor"] == first.motor  # the campaign's fault is the first
+    sensor = write(tmp_path, BASE + '[fault]\nsensor = "baro"\nkind = "bias"\n'
+                   'magnitude = 0.1\n[grid]\nfault.opposite_after_s = [0.0]\n', "s.toml")
+    with pytest.raises(ConfigError, match="copies an actuator fault onto the opposite motor"):
+        expand(load_campaign(sensor))
+
+
 def test_grid_forms_and_seeded_samples(tmp_path: Path) -> None:
     text = (BASE + '[fault]\nmotor = 1\nkind = "loe"\n[grid]\nseed = {range = [3, 9, 3]}\n'
             'fault.magnitude = {linspace = [0.0, 1.0, 21]}\n'
@@ -197,6 +215,9 @@ def test_every_shipped_campaign_expands() -> None:
     assert sizes["rotor_loss_fast"] == 2 * 4 * 4 * 2
     assert sizes["rotor_loss_thesis"] == 3 * 4 * 4 * 4
     assert sizes["rotor_loss_height"] == 13 * 4 * 2 * 2
+    assert sizes["rotor_loss_seeds"] == 4 * 4 * 4 * 4
+    # motor 1 or 3 and its opposite, together or 5 s apart, two phases, two airs, 20 seeds
+    assert sizes["two_rotor_loss"] == 2 * 2 * 2 * 2 * 20
 
 
 def test_unknown_campaign_lists_the_shipped_ones() -> None:
