@@ -18,8 +18,12 @@ from the hover model). This module decides what the vehicle does about it:
   the spinning axis (tried: the vehicle held its place but climbed at 10 m/s), so the flight
   is terminated, announced, motors off; the vehicle comes down where the fault struck
   rather than climbing away (a crash, reported as one);
-- two motors lost, or a vehicle that cannot hover on three rotors: announced once, and a
-  level descent under the ordinary controller (failsafe LAND).
+- two opposite motors lost (together, or the second while the first is flown around): the
+  vehicle flies on the other pair, spinning at 32 rad/s (the two-propeller relaxed hover,
+  rho = 0 with no fixed thrust); two adjacent motors or three: no equilibrium, the flight
+  is terminated (motors off: it falls without turning), announced;
+- a vehicle that cannot hover on three rotors: announced once, and a level descent under
+  the ordinary controller (failsafe LAND).
 
 The TSKF's finding of a lost motor counts only when the wrench residual bears it out (a
 deficit of at least a third of hover thrust on that motor), and the TSKF takes no evidence
