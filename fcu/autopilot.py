@@ -276,7 +276,6 @@ class Autopilot:
                                    self._watch_effectiveness())
         if watch_records:
             records += watch_records
-            self.rotor_loss.on_watch_declared(time_s, self.ftc_active)
         motor_records = self._motor_evidence(time_s, estimate, nav, flying)
         if motor_records:
             records += motor_records

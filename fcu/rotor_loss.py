@@ -145,10 +145,6 @@ class RotorLossResponse:
         return (not watch.alarming and watch.stuck_candidate is None
                 and (declared is None or declared[1] == "loe"))
 
-    def on_watch_declared(self, time_s: float, ftc_active: bool) -> None:
-        """The wrench residual declared a motor: a lost, stuck or hard-over one is flown
-        around in relaxed hover (:meth:`lost_motor`)."""
-
     def lost_motor(self, time_s: float, ftc_active: bool) -> int | None:
         """The motor to fly around in relaxed hover, or None: the one the operator declared
         lost, else in active FTC the one the wrench residual found lost, else the TSKF's
