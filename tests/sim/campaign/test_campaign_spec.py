@@ -218,6 +218,8 @@ def test_every_shipped_campaign_expands() -> None:
     assert sizes["rotor_loss_seeds"] == 4 * 4 * 4 * 4
     # motor 1 or 3 and its opposite, together or 5 s apart, two phases, two airs, 20 seeds
     assert sizes["two_rotor_loss"] == 2 * 2 * 2 * 2 * 20
+    # heights x pairs x airs x seeds
+    assert sizes["two_rotor_height"] == 7 * 2 * 2 * 2
 
 
 def test_unknown_campaign_lists_the_shipped_ones() -> None:
