@@ -160,8 +160,11 @@ def _square_wpl(path: Path, side_m: float, alt_m: float) -> None:
 def test_mavproxy_flies_a_mission_file_and_the_vehicle_lands(start_vehicle,
                                                              tmp_path: Path) -> None:
     """What a MAVProxy user does: load a waypoint file, take off in GUIDED, fly it in AUTO;
-    the vehicle reaches each item in turn, lands and disarms."""
-    vehicle = start_vehicle("--speedup", "5")
+    the vehicle reaches each item in turn, lands and disarms. At 2x, not faster: the test
+    reads each item's STATUSTEXT, sent once, and a MAVProxy starved of CPU on a loaded machine
+    lets its socket buffer fill (the kernel then drops datagrams) in under a second of
+    telemetry at 5x."""
+    vehicle = start_vehicle("--speedup", "2")
     host, port = vehicle.address
     _square_wpl(tmp_path / "square.txt", side_m=2.0, alt_m=2.0)
     mp = MavProxy(f"udpout:{host}:{port}", tmp_path)

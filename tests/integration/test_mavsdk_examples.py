@@ -583,6 +583,7 @@ MOVED_M = 0.5  # m an input must move the vehicle by: LOIT_SPEED 1 m/s, PILOT_SP
 # and _DN 0.3 m/s for at least 2 wall s (20 simulated s at 10x; longer on a loaded machine)
 TURNED_DEG = 10.0  # deg a yaw input must turn it by (PILOT_Y_RATE 45 deg/s)
 INPUT_WAIT_S = 60.0  # s wall an input may take to move the vehicle on a loaded machine
+RC_FS_TIMEOUT_S = 5.0  # s wall without sticks before the RC failsafe (default 1 s)
 POSHOLD, ALT_HOLD, LAND = 16, 2, 9
 
 
@@ -632,6 +633,9 @@ async def manual_control_loop(drone: Any, gcs: Gcs) -> None:
     them at random) for ROUNDS_PER_INPUT rounds, each checked to have moved the vehicle its
     way. Beyond the example: start_altitude_control (ALT_HOLD) climbs on full throttle, and
     once the inputs stop the RC failsafe lands the vehicle."""
+    # the RC failsafe counts wall time (a joystick's): on a loaded machine this process can
+    # stall for more than the default second between two inputs, so the test allows 5 s
+    gcs.param_set("RC_FS_TIMEOUT", RC_FS_TIMEOUT_S)
     await drone.manual_control.set_manual_control_input(0.0, 0.0, 0.5, 0.0)
     since = gcs.mark()
     await bounded(drone.manual_control.start_position_control())
@@ -649,6 +653,8 @@ async def manual_control_loop(drone: Any, gcs: Gcs) -> None:
             rounds += 1
             if rounds < ROUNDS_PER_INPUT:
                 continue
+            assert not [t for t in gcs.texts(since) if "failsafe" in t.lower()], \
+                "; ".join(gcs.texts(since))
             try:
                 check_moved(index, flown(gcs, since))
                 break
@@ -663,8 +669,9 @@ async def manual_control_loop(drone: Any, gcs: Gcs) -> None:
         await asyncio.sleep(0.1)
     gcs.wait("HEARTBEAT", lambda m: m.custom_mode == ALT_HOLD, since=since)
     assert flown(gcs, since)[2] > MOVED_M
-    since = gcs.mark()  # the inputs stop: RC_FS_TIMEOUT (1 s wall) later, FS_THR_ENABLE LAND
-    assert "LAND" in gcs.wait_text("Radio failsafe: no sticks", since)
+    since = gcs.mark()  # the inputs stop: RC_FS_TIMEOUT (wall) later, FS_THR_ENABLE LAND
+    assert "LAND" in gcs.wait_text("Radio failsafe: no sticks", since,
+                                   timeout_s=RC_FS_TIMEOUT_S + 10.0)
     gcs.wait("HEARTBEAT", lambda m: m.custom_mode == LAND, since=since)
 
 
