@@ -27,7 +27,8 @@ from the hover model). This module decides what the vehicle does about it:
 
 The TSKF's finding of a lost motor counts only when the wrench residual bears it out (a
 deficit of at least a third of hover thrust on that motor), and the TSKF takes no evidence
-while the residual suspects a motor or has found one that does not merely lose
+while the residual suspects a motor of more than a partial loss or of an excess (more
+thrust than its command asks), or has found one that does not merely lose
 effectiveness: a motor running away at full thrust reads to the TSKF's hover model as a loss
 of the opposite motor.
 """
@@ -141,8 +142,11 @@ class RotorLossResponse:
         watch = self.watch
         declared = watch.declared
         # (a motor stuck above its command reads to the hover model as a loss of the opposite
-        # one: nothing is taken while the stuck test has a candidate)
-        return (not watch.alarming and watch.stuck_candidate is None
+        # one: nothing is taken while the stuck test has a candidate, nor while the residual
+        # suspects a motor of making more than its command asks, which no loss explains)
+        suspected = watch.suspected
+        excess = suspected is not None and watch.deficit_n.item(suspected - 1) < 0.0
+        return (not watch.alarming and watch.stuck_candidate is None and not excess
                 and (declared is None or declared[1] == "loe"))
 
     def lost_motor(self, time_s: float, ftc_active: bool) -> int | None:

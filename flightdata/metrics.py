@@ -318,8 +318,8 @@ def fault_response(series: FlightSeries, faults: Sequence[FaultRecord],
     point afterwards (``excursion_m``), the horizontal distance from it at the end of the
     log (``end_from_fault_m``) and the height lost within ``TRANSIENT_S`` of it
     (``alt_lost_m``: the fault's height less the lowest point, m); from the autopilot's
-    records, the motor its first motor detection named and whether any other motor was
-    declared lost.
+    records, the motor its first motor detection named and whether a motor without an
+    injected fault of its own was declared lost.
     """
     started = [f for f in faults if f.action == "started" and f.motor is not None]
     if not started:
@@ -335,6 +335,7 @@ def fault_response(series: FlightSeries, faults: Sequence[FaultRecord],
     # the height the transient costs: the lowest point within TRANSIENT_S of the fault
     k = int(np.searchsorted(t, fault.time_s + TRANSIENT_S))
     alt_lost = float(np.max(pos[i:max(k, i + 1), 2]) - pos[i, 2])
+    faulted = {f.motor for f in started}  # motors with an injected fault of their own
     named = [d for d in detections
              if d.action == "detected" and d.kind in MOTOR_DETECTIONS and d.motor is not None
              and d.time_s >= fault.time_s]
@@ -347,6 +348,6 @@ def fault_response(series: FlightSeries, faults: Sequence[FaultRecord],
         "alt_lost_m": alt_lost,
         "named_motor": named[0].motor if named else None,
         "named_kind": named[0].kind if named else None,
-        "other_motor_lost": any(d.kind == "motor_lost" and d.motor != fault.motor
+        "other_motor_lost": any(d.kind == "motor_lost" and d.motor not in faulted
                                 for d in named),
     }

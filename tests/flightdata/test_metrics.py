@@ -186,3 +186,11 @@ def test_fault_response_reports_where_the_fault_struck_and_what_it_cost() -> Non
     assert r["excursion_m"] == pytest.approx(2.0) and r["end_from_fault_m"] == pytest.approx(2.0)
     assert r["named_motor"] == 2 and not r["other_motor_lost"]
     assert fault_response(s, [], []) is None
+    # a second injected loss declared is no other motor's; a motor without a fault is
+    second = FaultRecord(time_s=4.5, action="started", kind="total_loss", motor=1)
+    second_found = DetectionRecord(time_s=4.55, action="detected", kind="motor_lost", motor=1,
+                                   magnitude=1.0)
+    r = fault_response(s, [fault, second], [found, second_found])
+    assert r is not None and not r["other_motor_lost"]
+    r = fault_response(s, [fault], [found, second_found])
+    assert r is not None and r["other_motor_lost"]

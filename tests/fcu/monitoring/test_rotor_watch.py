@@ -95,7 +95,8 @@ def test_a_motor_stuck_at_its_command_is_named_once_the_command_moves(motor: int
     assert len(found) == 1
     tick, record = found[0]
     assert (record.motor, record.kind) == (motor, "motor_stuck")
-    assert 0 < (tick - 100) * DT_S <= 1.0
+    # s: the command moves away over about 0.9 s, then the test holds its 40 ticks
+    assert 0 < (tick - 100) * DT_S <= 1.5
     hover_fraction = model.hover_pwm / model.pwm_max  # 0.40 of full thrust
     assert record.magnitude == pytest.approx(hover_fraction, abs=0.05)
 
@@ -155,7 +156,7 @@ def test_settings_are_checked() -> None:
 @pytest.mark.parametrize("phase", ["climb", "cruise", "descent"])
 @pytest.mark.parametrize("motor", [1, 2, 3, 4])
 def test_outdoor_locked_motor_is_named_stuck_in_every_phase(phase: str, motor: int) -> None:
-    """A motor locked at its command, in active FTC: named stuck within a second (the TSKF
+    """A motor locked at its command, in active FTC: named stuck within 1.5 s (the TSKF
     may name the same motor's loss first), never another motor: the TSKF takes no evidence
     while the stuck test has a candidate (it reads a motor stuck above its command as a
     loss of the opposite one)."""
@@ -163,7 +164,7 @@ def test_outdoor_locked_motor_is_named_stuck_in_every_phase(phase: str, motor: i
     motor_records = [d for d in metrics["detections"] if d["motor"] is not None]
     assert {d["motor"] for d in motor_records} == {motor}
     stuck = [d for d in motor_records if d["kind"] == "motor_stuck"]
-    assert stuck and stuck[0]["latency_s"] <= 1.0
+    assert stuck and stuck[0]["latency_s"] <= 1.5
 
 
 # ---- whole flights: the outdoor mission (climb at 1.5 m/s to 10 m, a 30 m square at 3 m/s,
