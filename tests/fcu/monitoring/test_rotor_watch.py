@@ -95,8 +95,7 @@ def test_a_motor_stuck_at_its_command_is_named_once_the_command_moves(motor: int
     assert len(found) == 1
     tick, record = found[0]
     assert (record.motor, record.kind) == (motor, "motor_stuck")
-    # s: the command moves away over about 0.9 s, then the test holds its 40 ticks
-    assert 0 < (tick - 100) * DT_S <= 1.5
+    assert 0 < (tick - 100) * DT_S <= 1.0
     hover_fraction = model.hover_pwm / model.pwm_max  # 0.40 of full thrust
     assert record.magnitude == pytest.approx(hover_fraction, abs=0.05)
 
@@ -156,7 +155,7 @@ def test_settings_are_checked() -> None:
 @pytest.mark.parametrize("phase", ["climb", "cruise", "descent"])
 @pytest.mark.parametrize("motor", [1, 2, 3, 4])
 def test_outdoor_locked_motor_is_named_stuck_in_every_phase(phase: str, motor: int) -> None:
-    """A motor locked at its command, in active FTC: named stuck within 1.5 s (the TSKF
+    """A motor locked at its command, in active FTC: named stuck within a second (the TSKF
     may name the same motor's loss first), never another motor: the TSKF takes no evidence
     while the stuck test has a candidate (it reads a motor stuck above its command as a
     loss of the opposite one)."""
@@ -164,7 +163,7 @@ def test_outdoor_locked_motor_is_named_stuck_in_every_phase(phase: str, motor: i
     motor_records = [d for d in metrics["detections"] if d["motor"] is not None]
     assert {d["motor"] for d in motor_records} == {motor}
     stuck = [d for d in motor_records if d["kind"] == "motor_stuck"]
-    assert stuck and stuck[0]["latency_s"] <= 1.5
+    assert stuck and stuck[0]["latency_s"] <= 1.0
 
 
 # ---- whole flights: the outdoor mission (climb at 1.5 m/s to 10 m, a 30 m square at 3 m/s,
@@ -199,3 +198,22 @@ def test_outdoor_fault_is_isolated_in_every_phase(phase: str, motor: int, kind: 
     response = metrics["fault_response"]
     assert response["phase"] == phase
     assert response["named_motor"] == motor and not response["other_motor_lost"]
+
+
+@pytest.mark.parametrize("seed", [10, 13, 20, 122])
+def test_a_step_loss_of_effectiveness_is_not_named_stuck(seed: int) -> None:
+    """The thesis mission's Table 7.3 faults (20, 30 and 15 % steps): while the controller
+    makes up for a step, the weakened motor's shortfall follows its rising command one for
+    one, as a stuck motor's would, for up to about 25 ticks; a shortfall must hold 40
+    before it is named stuck (an excess 12), so each is left to the TSKF and named a loss
+    of effectiveness. With 12 for both these seeds named motor 3 or motor 1 stuck and missed
+    the faults after it."""
+    scenario = dataclasses.replace(load_scenario("lqg_loe"), seed=seed)
+    detections = [d for d in fly(scenario).metrics["detections"] if d["motor"] is not None]
+    assert [(d["motor"], d["kind"]) for d in detections] == [(3, "loe"), (1, "loe"),
+                                                             (4, "loe")]
+
+
+def test_stuck_test_settings_are_checked() -> None:
+    with pytest.raises(ValueError, match="stuck_shortfall_ticks"):
+        RotorWatchConfig(stuck_shortfall_ticks=0)
