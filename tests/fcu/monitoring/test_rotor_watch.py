@@ -204,7 +204,7 @@ def test_outdoor_fault_is_isolated_in_every_phase(phase: str, motor: int, kind: 
 def test_a_step_loss_of_effectiveness_is_not_named_stuck(seed: int) -> None:
     """The thesis mission's Table 7.3 faults (20, 30 and 15 % steps): while the controller
     makes up for a step, the weakened motor's shortfall follows its rising command one for
-    one, as a stuck motor's would, for up to about 25 ticks; a shortfall must hold 40
+    one, as a stuck motor's would, for up to about 25 ticks; a shortfall must hold 30
     before it is named stuck (an excess 12), so each is left to the TSKF and named a loss
     of effectiveness. With 12 for both these seeds named motor 3 or motor 1 stuck and missed
     the faults after it."""
