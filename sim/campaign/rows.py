@@ -32,7 +32,8 @@ group           columns (units)
                 afterwards, m), ``end_from_fault_m`` (m, at the end), ``alt_lost_m``
                 (height lost in the 3 s after it, m); ``named_motor`` and
                 ``named_kind`` of the first motor detection, ``other_motor_lost`` (1 when
-                a motor without an injected fault was declared lost, else 0); all None without such a fault
+                a motor without an injected fault was declared lost, else 0); all None
+                without such a fault
 ``timing``      ``sim_s`` (s simulated), ``wall_s`` (s of wall clock of the flight),
                 ``cpu_s`` (s of CPU time of the run on its worker), ``worker`` (host:pid)
 ==============  ===========================================================================
