@@ -234,8 +234,12 @@ class RotorWatch:
         """N, what ``motor`` (1..4) makes by the residual: the thrust its command asks for
         less its deficit, both low-passed over ``follow_split_s`` (at full effectiveness:
         what the stuck test needs, which runs on motors reckoned whole)."""
-        at = S_SLOW + 2 * (motor - 1)
-        return self._state.item(at) - self._state.item(at + 1)
+        return self._state.item(S_SLOW + 2 * (motor - 1)) - self.slow_shortfall_n(motor)
+
+    def slow_shortfall_n(self, motor: int) -> float:
+        """N, how far ``motor``'s (1..4) own thrust falls short of what its command asks,
+        low-passed over ``follow_split_s`` (< 0: an excess)."""
+        return self._state.item(S_SLOW + 2 * (motor - 1) + 1)
 
     @property
     def stuck_candidate(self) -> int | None:
@@ -380,7 +384,7 @@ class RotorWatch:
         else:
             self._stuck_ticks, self._stuck_motor = 0, -1
         # a loss never makes more than the command asks: an excess is declared sooner
-        excess = self._state.item(S_SLOW + 2 * j + 1) < 0.0
+        excess = self.slow_shortfall_n(j + 1) < 0.0
         if self._stuck_ticks < (cfg.stuck_ticks if excess else cfg.stuck_shortfall_ticks):
             return []
         own_n = self.own_thrust_n(j + 1)

@@ -150,6 +150,8 @@ def test_settings_are_checked() -> None:
         RotorWatchConfig(persistence_ticks=1)
     with pytest.raises(ValueError, match="noise_floor"):
         RotorWatchConfig(noise_floor=(0.1, 0.1, 0.1))
+    with pytest.raises(ValueError, match="stuck_shortfall_ticks"):
+        RotorWatchConfig(stuck_shortfall_ticks=0)
 
 
 @pytest.mark.parametrize("phase", ["climb", "cruise", "descent"])
@@ -212,8 +214,3 @@ def test_a_step_loss_of_effectiveness_is_not_named_stuck(seed: int) -> None:
     detections = [d for d in fly(scenario).metrics["detections"] if d["motor"] is not None]
     assert [(d["motor"], d["kind"]) for d in detections] == [(3, "loe"), (1, "loe"),
                                                              (4, "loe")]
-
-
-def test_stuck_test_settings_are_checked() -> None:
-    with pytest.raises(ValueError, match="stuck_shortfall_ticks"):
-        RotorWatchConfig(stuck_shortfall_ticks=0)
