@@ -19,9 +19,9 @@ writeable is read alike). With the environment variable ``QUADFTC_CHECK_KERNEL_C
 TypeError on a difference other than writeability: each flight the tests fly checks that
 its call sites keep to their types.
 
-Both the type keys (``numba._dispatcher.compute_fingerprint``) and the entry are numba's
-internals: if a numba release moves them, this module is the one place to change (without an
-entry, a KernelCall calls the dispatcher).
+The entry is numba's (``overloads`` and ``entry_point`` are attributes of its dispatcher and
+compile result, not a documented interface): if a numba release moves them, this module is the
+one place to change (without an entry, a KernelCall calls the dispatcher).
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ import os
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 from numba import types
-from numba._dispatcher import compute_fingerprint
 
 __all__ = ["CHECK_ENV", "KernelCall"]
 
@@ -81,8 +81,18 @@ def _entry_point(kernel: Any, args: tuple[Any, ...]) -> Callable[..., Any] | Non
         return None
 
 
-def _type_keys(args: tuple[Any, ...]) -> tuple[bytes, ...]:
-    return tuple(map(compute_fingerprint, args))
+def _type_key(arg: Any) -> Any:
+    """What numba's typing of ``arg`` depends on, cheaply: an array's dtype, rank and
+    contiguity; any other value's Python type (a key seen for the first time is checked
+    with numba's own typing, :func:`_same_types`)."""
+    if isinstance(arg, np.ndarray):
+        flags = arg.flags
+        return (arg.dtype, arg.ndim, flags.c_contiguous, flags.f_contiguous, flags.aligned)
+    return type(arg)
+
+
+def _type_keys(args: tuple[Any, ...]) -> tuple[Any, ...]:
+    return tuple(map(_type_key, args))
 
 
 def _checked(kernel: Any, entry: Callable[..., Any],

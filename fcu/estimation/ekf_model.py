@@ -98,13 +98,13 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
     return xd
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _rows_meet(first: int, end: int, b0: int, b1: int) -> bool:
     """Whether the rows ``first <= i < end`` include one of ``b0 <= i < b1``."""
     return first < b1 and end > b0
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _attitude_trig(phi: float, th: float, psi: float, first: int, end: int
                    ) -> tuple[float, float, float, float, float, float]:
     """sin and cos of roll, pitch and yaw, in that order, when the rows ``first <= i < end``
@@ -433,7 +433,7 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
             q_mat[j, i] = q_mat[i, j]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _series_into(out: FloatArray, c: float, ad: FloatArray, ad2: FloatArray, ad3: FloatArray,
                  ad4: FloatArray) -> None:
     """``Phi(c dt) = I + (A dt) c + (A dt)^2 c^2/2 + (A dt)^3 c^3/6 + (A dt)^4 c^4/24`` (the
@@ -450,7 +450,7 @@ def _series_into(out: FloatArray, c: float, ad: FloatArray, ad2: FloatArray, ad3
         out[i, i] = 1.0 + ad[i, i] * c + ad2[i, i] * c2 + ad3[i, i] * c3 + ad4[i, i] * c4
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def transition_pattern_into(nz: FloatArray, scratch: FloatArray) -> None:
     """The non-zero columns of each row of ``Phi`` (``k = i``, or a power of ``A dt`` non-zero
     there), as :func:`discrete_transition_into` left them in its ``scratch``, written into

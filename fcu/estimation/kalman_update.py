@@ -37,9 +37,7 @@ UPDATE_SCRATCH = 3 * 16 * 16 + 16 * 17
 """Size of the scratch :func:`kalman_update_into` works in (n, m <= 16)."""
 
 
-# inlined into its callers (a few per tick): the call, with its many array arguments, cost
-# about as much as a small channel's arithmetic
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def kalman_update_into(x: FloatArray, p_mat: FloatArray, y: FloatArray, h_mat: FloatArray,
                        r_mat: FloatArray, s_mat: FloatArray, s_inv: FloatArray,
                        k_gain_t: FloatArray, scratch: FloatArray) -> None:

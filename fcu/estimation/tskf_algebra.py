@@ -44,11 +44,17 @@ __all__ = ["PREDICT_SCRATCH", "TSKF_UPDATE_SCRATCH", "tskf_output", "tskf_output
 
 PREDICT_SCRATCH = 2 * 16 * 16 + 6 * 16 * 4 + 4 * 4 * 4 + 2 * 16
 """Size of the scratch :func:`tskf_predict_into` works in (n = 16, 4 biases)."""
-TSKF_UPDATE_SCRATCH = UPDATE_SCRATCH + 4 * 16 * 16 + 5 * 16 * 4
+_UPDATE_ROOMS = {"R": 16 * 16, "K^x'": 16 * 16, "H^gamma": 16 * 4, "H^gamma P^gamma": 16 * 4,
+                 "K^gamma": 4 * 16, "S^-1": 16 * 16, "L": 16 * 16, "K^gamma'": 16 * 4,
+                 "(K^x H)'": 4 * 16}
+"""The room of each matrix :func:`tskf_update_into` carves after the scratch of
+:func:`~fcu.estimation.kalman_update.kalman_update_into` (m <= 16 rows, 16 states, 4
+biases), in the order carved."""
+TSKF_UPDATE_SCRATCH = sum(_UPDATE_ROOMS.values(), UPDATE_SCRATCH)
 """Size of the scratch :func:`tskf_update_into` works in (n, m <= 16, 4 biases)."""
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _sizes(n: int, n_g: int) -> tuple[int, int]:
     """The states and biases, ``n`` and ``n_g``: 16 and 4 (ValueError otherwise), the
     biases' count returned as a constant, so that the compiler knows the count of the short
