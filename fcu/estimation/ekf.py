@@ -201,11 +201,13 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
     for i in range(N + NN):  # the prior: x, P
         work[_X_PRIOR + i] = work[_X + i]
     # screened against the prior; on the ground the accelerometer is skipped
-    status = screening.screen_channels_into(
-        out[2 * N:], x, p_mat, meas, sel_stack, layout, noise, excluded, on_ground, reject,
+    screen = out[2 * N:]
+    screening.screen_channels_into(
+        screen, x, p_mat, meas, sel_stack, layout, noise, excluded, on_ground, reject,
         scratch[_SC_TRANSITION:_SC_TRANSITION + screening.SCREEN_SCRATCH])
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
+    status = screen[2 * n_rows + n_ch:]  # the channels' status codes
     last = -1
     for c in range(n_ch):
         if status[c] == screening.APPLIED:

@@ -58,9 +58,7 @@ SCREEN_SCRATCH = 16 * 17 + 2 * 16 * 16 + 16
 """Size of the scratch :func:`screen_channel_into` works in (channels of up to 16 rows)."""
 
 
-# inlined into its callers (a few per tick): the call, with its many array arguments, cost
-# about as much as a small channel's arithmetic
-@njit(cache=True, error_model="numpy", inline="always")
+@refcount_free_kernel
 def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: FloatArray,
                         x: FloatArray, p_mat: FloatArray, r_var: float, wrap_yaw: bool,
                         scratch: FloatArray) -> float:
@@ -110,8 +108,8 @@ def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: Flo
 
 
 # ---- one tick's screening of every channel, compiled ----------------------------------------
-# The filters' tick kernels (ekf_tick, tskf_tick) compile the kernels below into themselves;
-# their modules drop their cached kernels when this one changes (jitsupport.cache).
+# The filters' tick kernels (ekf_tick, tskf_tick) link the kernels below into theirs; their
+# modules drop their cached kernels when this one changes (jitsupport.cache).
 # ChannelCheck.status by code (ABSENT: no batch this tick)
 APPLIED, REJECTED, EXCLUDED, SKIPPED, ABSENT = 0, 1, 2, 3, -1
 STATUS_NAMES: tuple[ChannelStatus, ...] = ("applied", "rejected", "excluded", "skipped")
@@ -190,19 +188,19 @@ def screen_channels(x: FloatArray, p_mat: FloatArray, meas: FloatArray, sel_stac
         The status codes again.
     """
     screen = np.empty(2 * sel_stack.shape[0] + 2 * layout.shape[0])
-    status = screen_channels_into(screen, x, p_mat, meas, sel_stack, layout, noise, excluded,
-                                  on_ground, reject, np.empty(SCREEN_SCRATCH))
-    return screen, status.astype(np.int64)
+    screen_channels_into(screen, x, p_mat, meas, sel_stack, layout, noise, excluded,
+                         on_ground, reject, np.empty(SCREEN_SCRATCH))
+    return screen, screen[2 * sel_stack.shape[0] + layout.shape[0]:].astype(np.int64)
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@refcount_free_kernel
 def screen_channels_into(screen: FloatArray, x: FloatArray, p_mat: FloatArray,
                          meas: FloatArray, sel_stack: FloatArray, layout: np.ndarray,
                          noise: FloatArray, excluded: np.ndarray, on_ground: bool,
-                         reject: bool, scratch: FloatArray) -> FloatArray:
+                         reject: bool, scratch: FloatArray) -> None:
     """:func:`screen_channels` written into ``screen`` (shape (2 rows_total + 2 n_ch,),
-    every entry set; ``scratch``: :data:`SCREEN_SCRATCH` entries); returns the status codes,
-    the view of ``screen`` that holds them (as floats)."""
+    every entry set; ``scratch``: :data:`SCREEN_SCRATCH` entries); the status codes (as
+    floats) are its last ``n_ch`` entries."""
     n_ch = layout.shape[0]
     n_rows = sel_stack.shape[0]
     screen[:] = 0.0
@@ -234,4 +232,3 @@ def screen_channels_into(screen: FloatArray, x: FloatArray, p_mat: FloatArray,
                 outlier = c
     if reject and not on_ground and n_outliers == 1:  # a lone outlier is that sensor's fault
         status[outlier] = REJECTED
-    return status

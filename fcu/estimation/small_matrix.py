@@ -14,6 +14,7 @@ import math
 from numba import njit
 
 from fcu.estimation.state import FloatArray
+from jitsupport.signatures import typed_kernel
 from jitsupport.views import refcount_free_kernel
 
 __all__ = ["ROW", "add_mul_vec", "add_scaled_difference_row", "add_scaled_row",
@@ -28,7 +29,7 @@ ROW = 16
 _BIASES = 4  # the TSKF's biases (one per motor): the inner size of its small products
 
 
-@njit(cache=True, error_model="numpy")
+@typed_kernel("void(float64[:, ::1], int64, float64, float64[:, ::1], int64)")
 def add_scaled_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int) -> None:
     """``out[i, :] += a * b[k, :]`` for ``out`` and ``b`` of :data:`ROW` columns (the
     filters' 16 states; ValueError otherwise) and rows ``0 <= i, k`` within them; ``out``

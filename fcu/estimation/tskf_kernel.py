@@ -217,9 +217,10 @@ def tskf_tick(work: FloatArray, scratch: FloatArray, gamma: FloatArray, out: Flo
                     acc += prior[N + g] * v[j, g]
                 p_hat[i, j] = acc
     screen = out[2 * N:]
-    status = screening.screen_channels_into(screen, x_hat, p_hat, meas, sel_stack, layout,
-                                            noise, excluded, on_ground, reject, sc_predict)
+    screening.screen_channels_into(screen, x_hat, p_hat, meas, sel_stack, layout, noise,
+                                   excluded, on_ground, reject, sc_predict)
     n_ch = layout.shape[0]
+    status = screen[2 * sel_stack.shape[0] + n_ch:]  # the channels' status codes
     m = 0
     for c in range(n_ch):
         if status[c] == screening.APPLIED:

@@ -104,10 +104,6 @@ from fcu.model import VehicleModel
 from fcu.monitoring.rotor_watch_kernel import (
     PAIRS,
     S_DEFICIT,
-    S_FOLLOW,
-    S_PAIR_CONSISTENT,
-    S_PAIR_DEFICIT,
-    S_PAIR_STAT,
     S_SLOW,
     S_START,
     S_STAT,
@@ -197,10 +193,7 @@ class RotorWatch:
         self._k = model.thrust_gain
         self._pwm_max = model.pwm_max
         self._w = model.motor_bandwidth
-        self._par = pack_params(model, dt_s, config.noise_tau_s, config.bias_tau_s,
-                                config.noise_floor, config.significance, config.min_deficit,
-                                config.consistency, config.follow_tau_s,
-                                config.follow_split_s)
+        self._par = pack_params(model, dt_s, config)
         self._state = np.zeros(STATE_SIZE)
         # N, the latest single-motor fit f_j per motor (a view of the kernel's state)
         self.deficit_n = self._state[S_DEFICIT:S_DEFICIT + 4]
@@ -274,18 +267,19 @@ class RotorWatch:
         1, or 1 - the LOE of a partial loss the autopilot knows of or compensates): the
         watch looks for what is new."""
         if gyro is None or accel is None:
-            best, suspect = watch_tick(self._par, self._state, _NO_READING, _NO_READING,
-                                       False, pwm, effectiveness, airborne, False, True)
+            best, suspect, pair, stuck = watch_tick(
+                self._par, self._state, _NO_READING, _NO_READING, False, pwm, effectiveness,
+                airborne, False, True)
         else:
-            best, suspect = watch_tick(self._par, self._state, np.asarray(gyro, dtype=float),
-                                       np.asarray(accel, dtype=float), True, pwm,
-                                       effectiveness, airborne, self.declared is None,
-                                       self.alarming)
+            best, suspect, pair, stuck = watch_tick(
+                self._par, self._state, np.asarray(gyro, dtype=float),
+                np.asarray(accel, dtype=float), True, pwm, effectiveness, airborne,
+                self.declared is None, self.alarming)
         self.alarming = False
         if best >= 0:
             self._best = best
         if best >= 0 and self.declared is None:
-            found = self._pair_lost(time_s) or self._stuck(time_s)
+            found = self._pair_lost(time_s, pair) or self._stuck(time_s, stuck)
             if found:
                 return found
         second = self._second_candidate(best)
@@ -334,28 +328,20 @@ class RotorWatch:
         return (d is not None and d[1] == "motor_lost" and self.third_lost is None
                 and best + 1 not in (d[0], self.second_lost))
 
-    def _pair_lost(self, time_s: float) -> list[DetectionRecord]:
-        """The test for two motors lost together (module docstring, "Two rotors"):
-        their summed columns explain the residual better than any one motor and than the
-        other pairs (the yaw torque tells 1 and 2 from 3 and 4), with a deficit of at least
-        ``alarm_deficit`` of each, for ``persistence_ticks`` ticks in a row."""
-        state = self._state
-        cfg = self.config
-        found, found_t = -1, 0.0
-        for pair, (a, b) in enumerate(PAIRS):
-            t = state.item(S_PAIR_STAT + pair)
-            expected = 0.5 * (state.item(S_START + a) + state.item(S_START + b))
-            if (t > max(cfg.significance, state.item(S_STAT), found_t)
-                    and state.item(S_PAIR_CONSISTENT + pair) > 0.5
-                    and state.item(S_PAIR_DEFICIT + pair) > cfg.alarm_deficit * expected):
-                found, found_t = pair, t
+    def _pair_lost(self, time_s: float, found: int) -> list[DetectionRecord]:
+        """The test for two motors lost together (module docstring, "Two rotors"): the pair
+        ``found`` (index into ``PAIRS``, -1 for none) whose summed columns explain the latest
+        residual better than any one motor and than the other pairs (the yaw torque tells 1
+        and 2 from 3 and 4), with a deficit of at least ``alarm_deficit`` of each
+        (:func:`~fcu.monitoring.rotor_watch_kernel.watch_tick`'s pick), for
+        ``persistence_ticks`` ticks in a row."""
         if found < 0 or found != self._pair_candidate:
             self._pair_candidate, self._pair_streak = found, 0
         if found < 0:
             return []
         self._pair_streak += 1
         self.alarming = True
-        if self._pair_streak < cfg.persistence_ticks:
+        if self._pair_streak < self.config.persistence_ticks:
             return []
         a, b = PAIRS[found]
         self.declared = (a + 1, "motor_lost", 1.0)
@@ -363,26 +349,17 @@ class RotorWatch:
         return [DetectionRecord(time_s=time_s, action="detected", kind="motor_lost",
                                 motor=m + 1, magnitude=1.0) for m in (a, b)]
 
-    def _stuck(self, time_s: float) -> list[DetectionRecord]:
+    def _stuck(self, time_s: float, j: int) -> list[DetectionRecord]:
         """The test for a motor stuck where it was (module docstring, "Stuck motors"): the
-        motor whose shortfall follows its command one for one, clearly better than any
-        other's, for ``stuck_ticks`` ticks in a row."""
-        cfg = self.config
-        m = self._state[S_FOLLOW:S_FOLLOW + 12].reshape(4, 3)
-        var_x, cov, var_y = m[:, 0], m[:, 1], m[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            corr = np.where((var_x > 0) & (var_y > 0), cov / np.sqrt(var_x * var_y), 0.0)
-            slope = np.where(var_x > 0, cov / var_x, 0.0)
-        order = np.argsort(corr)
-        j, runner_up = int(order[-1]), float(corr[order[-2]])
-        low, high = cfg.stuck_slope
-        if (corr[j] > cfg.stuck_correlation
-                and corr[j] - runner_up > cfg.stuck_margin
-                and low <= slope[j] <= high and var_x[j] > cfg.stuck_spread_n ** 2):
-            self._stuck_ticks = self._stuck_ticks + 1 if self._stuck_motor == j else 1
-            self._stuck_motor = j
-        else:
+        motor ``j`` (0..3, -1 for none) whose shortfall follows its command one for one,
+        clearly better than any other's (:func:`~fcu.monitoring.rotor_watch_kernel.watch_tick`'s
+        pick), for ``stuck_ticks`` ticks in a row."""
+        if j < 0:
             self._stuck_ticks, self._stuck_motor = 0, -1
+            return []
+        self._stuck_ticks = self._stuck_ticks + 1 if self._stuck_motor == j else 1
+        self._stuck_motor = j
+        cfg = self.config
         # a loss never makes more than the command asks: an excess is declared sooner
         excess = self.slow_shortfall_n(j + 1) < 0.0
         if self._stuck_ticks < (cfg.stuck_ticks if excess else cfg.stuck_shortfall_ticks):

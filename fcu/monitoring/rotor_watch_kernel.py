@@ -1,19 +1,24 @@
 """The wrench-residual watch's tick, compiled: its state and parameter layouts and
 :func:`watch_tick`, the arithmetic of :class:`fcu.monitoring.rotor_watch.RotorWatch` (whose
 module docstring gives the method: the expected and measured wrench, the single-motor fit,
-the measured noise and the collective bias). The watch's decisions (persistence, kind,
+the measured noise and the collective bias) and the picks of its two other tests (a pair of
+motors lost together, a motor stuck where it was). The watch's decisions (persistence, kind,
 records) stay in Python.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 
 from fcu.model import VehicleModel
 from jitsupport.layout import Layout
+
+if TYPE_CHECKING:
+    from fcu.monitoring.rotor_watch import RotorWatchConfig
 
 STATE = Layout("rotor watch state")
 S_THRUST = STATE.field("thrust_n", 4)  # N, expected thrusts T_e at the end of the tick
@@ -62,6 +67,11 @@ P_MIN_DEFICIT = PARAMS.field("min_deficit", 1)
 P_CONSISTENCY = PARAMS.field("consistency", 1)
 P_FOLLOW_GAIN = PARAMS.field("follow_gain", 1)  # the moments' gain per tick
 P_SPLIT_GAIN = PARAMS.field("split_gain", 1)  # the slow parts' low-pass gain per tick
+P_ALARM_DEFICIT = PARAMS.field("alarm_deficit", 1)  # a pair's deficit, of its thrust
+P_STUCK_CORRELATION = PARAMS.field("stuck_correlation", 1)
+P_STUCK_MARGIN = PARAMS.field("stuck_margin", 1)
+P_STUCK_SLOPE = PARAMS.field("stuck_slope", 2)  # low, high
+P_STUCK_SPREAD_VAR = PARAMS.field("stuck_spread_var", 1)  # N^2, stuck_spread_n squared
 PARAMS_SIZE = PARAMS.size
 
 _ATTACK_S = 1.0  # s, time constant of the noise estimate's rise
@@ -70,11 +80,9 @@ _ATTACK_S = 1.0  # s, time constant of the noise estimate's rise
 NOISE_FREEZE = 0.25
 
 
-def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s: float,
-                noise_floor: tuple[float, ...], significance: float, min_deficit: float,
-                consistency: float, follow_tau_s: float, follow_split_s: float
-                ) -> np.ndarray:
-    """The parameter vector of :func:`watch_tick`."""
+def pack_params(model: VehicleModel, dt_s: float, config: RotorWatchConfig) -> np.ndarray:
+    """The parameter vector of :func:`watch_tick` for a watch with ``config`` on a tick of
+    ``dt_s`` (s)."""
     par = np.zeros(PARAMS_SIZE)
     par[P_K], par[P_PWM_MAX], par[P_MASS] = model.thrust_gain, model.pwm_max, model.mass
     par[P_LAG] = math.exp(-model.motor_bandwidth * dt_s)
@@ -84,13 +92,18 @@ def pack_params(model: VehicleModel, dt_s: float, noise_tau_s: float, bias_tau_s
     par[P_CP_Z] = model.cp_offset_z
     par[P_COLUMNS:P_COLUMNS + 16] = model.thrust_mixer().T.ravel()  # eq. 3.17
     par[P_ATTACK] = 1.0 - math.exp(-dt_s / _ATTACK_S)
-    par[P_DECAY] = 1.0 - math.exp(-dt_s / noise_tau_s)
-    par[P_BIAS_GAIN] = 1.0 - math.exp(-dt_s / bias_tau_s)
-    par[P_FLOOR:P_FLOOR + 4] = np.square(noise_floor)
-    par[P_SIGNIFICANCE], par[P_MIN_DEFICIT] = significance, min_deficit
-    par[P_CONSISTENCY] = consistency
-    par[P_FOLLOW_GAIN] = 1.0 - math.exp(-dt_s / follow_tau_s)
-    par[P_SPLIT_GAIN] = 1.0 - math.exp(-dt_s / follow_split_s)
+    par[P_DECAY] = 1.0 - math.exp(-dt_s / config.noise_tau_s)
+    par[P_BIAS_GAIN] = 1.0 - math.exp(-dt_s / config.bias_tau_s)
+    par[P_FLOOR:P_FLOOR + 4] = np.square(config.noise_floor)
+    par[P_SIGNIFICANCE], par[P_MIN_DEFICIT] = config.significance, config.min_deficit
+    par[P_CONSISTENCY] = config.consistency
+    par[P_FOLLOW_GAIN] = 1.0 - math.exp(-dt_s / config.follow_tau_s)
+    par[P_SPLIT_GAIN] = 1.0 - math.exp(-dt_s / config.follow_split_s)
+    par[P_ALARM_DEFICIT] = config.alarm_deficit
+    par[P_STUCK_CORRELATION], par[P_STUCK_MARGIN] = config.stuck_correlation, \
+        config.stuck_margin
+    par[P_STUCK_SLOPE:P_STUCK_SLOPE + 2] = config.stuck_slope
+    par[P_STUCK_SPREAD_VAR] = config.stuck_spread_n ** 2
     return par
 
 
@@ -118,9 +131,56 @@ def _follow(state: np.ndarray, j: int, split: float, gain: float, x: float, y: f
 
 
 @njit(cache=True, error_model="numpy")
+def _pair_pick(par: np.ndarray, state: np.ndarray) -> int:
+    """The pair (index into PAIRS; -1: none) whose summed columns explain the latest residual
+    better than any one motor and than the other pairs, with a deficit of at least
+    ``alarm_deficit`` of each (:mod:`fcu.monitoring.rotor_watch`, "Two rotors")."""
+    found, found_t = -1, 0.0
+    for pair in range(len(PAIRS)):
+        a, b = PAIRS[pair]
+        t = state[S_PAIR_STAT + pair]
+        expected = 0.5 * (state[S_START + a] + state[S_START + b])
+        beaten = par[P_SIGNIFICANCE]  # the statistic to beat: max(significance, T_j, found)
+        if state[S_STAT] > beaten:
+            beaten = state[S_STAT]
+        if found_t > beaten:
+            beaten = found_t
+        if (t > beaten and state[S_PAIR_CONSISTENT + pair] > 0.5
+                and state[S_PAIR_DEFICIT + pair] > par[P_ALARM_DEFICIT] * expected):
+            found, found_t = pair, t
+    return found
+
+
+@njit(cache=True, error_model="numpy")
+def _stuck_pick(par: np.ndarray, state: np.ndarray) -> int:
+    """The motor (0..3; -1: none) whose shortfall follows its command at the latest tick
+    (:mod:`fcu.monitoring.rotor_watch`, "Stuck motors"): the best correlation of the fast
+    parts, above ``stuck_correlation`` and by ``stuck_margin`` above the next motor's, at a
+    slope within ``stuck_slope``, the command's fast part spread by ``stuck_spread_n``."""
+    j, top, runner_up = -1, -math.inf, -math.inf
+    for i in range(4):
+        at = S_FOLLOW + 3 * i
+        var_x, cov, var_y = state[at], state[at + 1], state[at + 2]
+        corr = cov / math.sqrt(var_x * var_y) if var_x > 0.0 and var_y > 0.0 else 0.0
+        if corr != corr:  # NaN: no motor passes
+            return -1
+        if corr > top:
+            j, top, runner_up = i, corr, top
+        elif corr > runner_up:
+            runner_up = corr
+    var_x, cov = state[S_FOLLOW + 3 * j], state[S_FOLLOW + 3 * j + 1]
+    slope = cov / var_x if var_x > 0.0 else 0.0
+    if (top > par[P_STUCK_CORRELATION] and top - runner_up > par[P_STUCK_MARGIN]
+            and par[P_STUCK_SLOPE] <= slope <= par[P_STUCK_SLOPE + 1]
+            and var_x > par[P_STUCK_SPREAD_VAR]):
+        return j
+    return -1
+
+
+@njit(cache=True, error_model="numpy")
 def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.ndarray,
                have_imu: bool, pwm: np.ndarray, effectiveness: np.ndarray, airborne: bool,
-               learn: bool, hold_bias: bool) -> tuple[int, bool]:
+               learn: bool, hold_bias: bool) -> tuple[int, bool, int, int]:
     """One tick (module docstring of :mod:`fcu.monitoring.rotor_watch`): the motor lag
     advanced under ``pwm`` times the known ``effectiveness`` of each motor (shape (4,), 1
     but for the partial losses already declared), then, with this tick's and the previous
@@ -131,8 +191,9 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
     the noise while the fit suspects nothing (best statistic under NOISE_FREEZE of the
     significance).
 
-    Returns the best motor (0..3; -1 when no residual was formed) and whether it is
-    suspected (statistic, deficit and consistency tests).
+    Returns the best motor (0..3; -1 when no residual was formed), whether it is suspected
+    (statistic, deficit and consistency tests), the pair lost together (:func:`_pair_pick`)
+    and the stuck motor (:func:`_stuck_pick`), each -1 when none (or no residual).
     """
     k, pwm_max, lag = par[P_K], par[P_PWM_MAX], par[P_LAG]
     for i in range(4):
@@ -145,7 +206,7 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
     have_prev = state[S_HAVE_PREV] > 0.5
     state[S_HAVE_PREV] = 1.0 if have_imu else 0.0
     if not have_imu:
-        return -1, False
+        return -1, False, -1, -1
     # the boundary between the two ticks: mean rates and specific force there, and the
     # previous tick's readings replaced by this one's
     dt = par[P_DT]
@@ -159,7 +220,7 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
         state[S_GYRO + i] = gyro[i]
         state[S_ACCEL + i] = accel[i]
     if not (have_prev and airborne):
-        return -1, False
+        return -1, False, -1, -1
     jx, jy, jz = par[P_INERTIA], par[P_INERTIA + 1], par[P_INERTIA + 2]
     p, q, r = w[0], w[1], w[2]
     m, z_cp = par[P_MASS], par[P_CP_Z]
@@ -221,8 +282,9 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
     expected = max(state[S_START + best], 0.05 * k * pwm_max)
     suspect = (best_t > par[P_SIGNIFICANCE] and abs(best_f) > par[P_MIN_DEFICIT] * expected
                and best_t > par[P_CONSISTENCY] * rss)
+    pair_lost, stuck = _pair_pick(par, state), _stuck_pick(par, state)
     if not learn:
-        return best, suspect
+        return best, suspect, pair_lost, stuck
     if not hold_bias:
         # the collective follows a change of mass or of the axial drag whatever the
         # statistic: a lighter vehicle reads as excess thrust on every motor at once, and
@@ -235,4 +297,4 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
             e2 = res[i] * res[i]
             v += (par[P_ATTACK] if e2 > v else par[P_DECAY]) * (e2 - v)
             state[S_VAR + i] = max(v, par[P_FLOOR + i])
-    return best, suspect
+    return best, suspect, pair_lost, stuck

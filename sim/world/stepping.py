@@ -132,12 +132,14 @@ def world_steps(n_steps: int, pwm_cmd: np.ndarray, world: np.ndarray, plant: np.
         k = w.steps
         t = k * dt
         # actuator faults at t_k, then the structural mass (the engine's clock reads t_k)
-        apply_actuator_faults(faults, table, pool, t, pwm_cmd, w.pwm_effective)
+        # (the record's arrays passed as plain views, ``[:]``: the kernels they go to are
+        # compiled once, for the plain arrays the Python path passes too)
+        apply_actuator_faults(faults, table, pool, t, pwm_cmd, w.pwm_effective[:])
         mass = f.mass_kg
         f.clock_s = t
         # the wind held over the step (inside its band, checked above), then the plant
         dryden_step(wind, w.wind_ned)
-        plant_step(plant, w.pwm_effective, w.wind_ned, mass)
+        plant_step(plant, w.pwm_effective[:], w.wind_ned[:], mass)
         k += 1
         w.steps = k
         if k % w.accel_every == 0:
