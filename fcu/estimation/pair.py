@@ -71,7 +71,11 @@ def channel_views(buf: FloatArray, ints: np.ndarray, excluded_bits: int
     return tables, layout, gather, excluded, tick_size
 
 
-@refcount_free_kernel
+# inlined into its one compiled caller (fcu.monitoring.watched_pair.pair_watch_tick): a
+# library of its own would make LLVM optimise both filters' ticks once more (about 4 s of a
+# cold build); called from Python (step_pair), it compiles as a kernel of its own
+@njit(cache=True, error_model="numpy", inline="always",  # type: ignore[call-overload]
+      _nrt=False)
 def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out: FloatArray,
               t_buf: FloatArray, t_ints: np.ndarray, t_excluded: int, t_gamma: FloatArray,
               n_steps: int, t_on_ground: bool, accel_power: float, e_buf: FloatArray,

@@ -58,7 +58,9 @@ SCREEN_SCRATCH = 16 * 17 + 2 * 16 * 16 + 16
 """Size of the scratch :func:`screen_channel_into` works in (channels of up to 16 rows)."""
 
 
-@refcount_free_kernel
+# inlined into screen_channels_into (a few calls per tick): the call, with its many array
+# arguments, cost about as much as a small channel's arithmetic
+@njit(cache=True, error_model="numpy", inline="always")
 def screen_channel_into(nu: FloatArray, var: FloatArray, sel: FloatArray, z: FloatArray,
                         x: FloatArray, p_mat: FloatArray, r_var: float, wrap_yaw: bool,
                         scratch: FloatArray) -> float:

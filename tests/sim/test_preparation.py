@@ -24,10 +24,10 @@ def test_the_project_kernels_are_the_dispatchers_of_its_modules_each_once() -> N
     from numba.core.dispatcher import Dispatcher
 
     import fcu.control.attitude_pd as attitude_pd
-    import fcu.estimation.pair as pair
+    import fcu.monitoring.watched_pair as watched_pair
 
     kernels = project_kernels()
-    assert attitude_pd.pd_tick in kernels and pair.pair_tick in kernels
+    assert attitude_pd.pd_tick in kernels and watched_pair.pair_watch_tick in kernels
     assert len(kernels) == len({id(k) for k in kernels})
     assert all(isinstance(k, Dispatcher) for k in kernels)
     assert all(k.py_func.__module__.split(".")[0] in ("sim", "fcu", "flightdata", "jitsupport")
