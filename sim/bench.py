@@ -61,6 +61,7 @@ compiled (or loaded from the cache) before timing starts.
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import sys
 import time
@@ -173,17 +174,17 @@ TICK_KERNELS = (
 )
 
 
-def _timed(kernel: Callable[..., object], label: str, spent: dict[str, float],
-           calls: dict[str, int], clock_s: float) -> Callable[..., object]:
-    """``kernel``, its calls counted in ``calls[label]`` and their time (s, less the
-    ``clock_s`` a clock read costs) added up in ``spent[label]``."""
+def _timed(kernel: Callable[..., object], label: str, spent: dict[str, list[float]],
+           clock_s: float) -> Callable[..., object]:
+    """``kernel``, the time of each of its calls (s, less the ``clock_s`` a clock read
+    costs) appended to ``spent[label]``."""
     clock = time.perf_counter
+    durations = spent[label]
 
     def timed(*args: object) -> object:
         start = clock()
         out = kernel(*args)
-        spent[label] += clock() - start - clock_s
-        calls[label] += 1
+        durations.append(clock() - start - clock_s)
         return out
 
     return timed
@@ -216,8 +217,7 @@ def _report_tick(repeat: int) -> None:
     for _ in range(reads):
         clock()
     clock_s = (clock() - t0) / reads
-    spent = {label: 0.0 for _, _, label in TICK_KERNELS}
-    calls = dict.fromkeys(spent, 0)
+    spent: dict[str, list[float]] = {label: [] for _, _, label in TICK_KERNELS}
     # (a KernelCall is timed by its call, the entry the warm-up flight left there)
     places = [(kernel, "call") if isinstance(kernel, KernelCall) else (module, name)
               for module, name, kernel in originals]
@@ -225,7 +225,7 @@ def _report_tick(repeat: int) -> None:
     try:
         for (owner, attribute), call, (_, _, label) in zip(places, untimed, TICK_KERNELS,
                                                             strict=True):
-            setattr(owner, attribute, _timed(call, label, spent, calls, clock_s))
+            setattr(owner, attribute, _timed(call, label, spent, clock_s))
         for _ in range(repeat):
             fly(scenario)
     finally:
@@ -234,10 +234,13 @@ def _report_tick(repeat: int) -> None:
     n = repeat * ticks
     print(f"a tick of the full stack ({STACK_SCENARIO}, {SIM_SECONDS:.0f} s, "
           f"{ticks} ticks, {repeat} runs): {whole * 1e6:.1f} us (median)")
-    print("  compiled calls, timed where the stack makes them (kernel and dispatch), per tick:")
-    for label, seconds in spent.items():
-        print(f"    {label:42s} {seconds / n * 1e6:6.2f} us  ({calls[label] / n:.2f} calls)")
-    compiled = sum(spent.values()) / n
+    print("  compiled calls, timed where the stack makes them (kernel and dispatch), per tick;"
+          " then one call's 20th percentile (the figure a loaded machine moves least):")
+    for label, durations in spent.items():
+        p20 = float(np.percentile(durations, 20)) if durations else math.nan
+        print(f"    {label:42s} {sum(durations) / n * 1e6:6.2f} us  "
+              f"({len(durations) / n:.2f} calls)  p20 {p20 * 1e6:6.2f} us")
+    compiled = sum(sum(d) for d in spent.values()) / n
     print(f"  compiled calls in all: {compiled * 1e6:.1f} us; the rest (Python: the "
           f"autopilot's glue, navigator, log, ...): {(whole - compiled) * 1e6:.1f} us")
 
