@@ -6,8 +6,6 @@ importing none of the project's packages:
 - :mod:`jitsupport.layout`: named state in one flat array (:class:`Layout`), so that a kernel
   takes a filter's whole state as one argument without hand-counted offsets;
 - :mod:`jitsupport.cache`: keeps numba's on-disk cache from running stale code;
-- :mod:`jitsupport.signatures`: kernels compiled once for a declared signature, not once
-  per constant argument;
 - :mod:`jitsupport.views`: array views that cost no reference counting;
 - :mod:`jitsupport.calls`: calls of a kernel past numba's type dispatch.
 

@@ -66,7 +66,6 @@ from fcu.estimation.small_matrix import add_scaled_row, set_scaled_row, transpos
 from fcu.estimation.state import FloatArray
 from fcu.model import VehicleModel
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.signatures import typed_kernel
 from jitsupport.views import refcount_free_kernel
 
 # discrete_transition compiles in the kernels of small_matrix
@@ -99,13 +98,13 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
     return xd
 
 
-@typed_kernel("boolean(int64, int64, int64, int64)")
+@njit(cache=True, error_model="numpy")
 def _rows_meet(first: int, end: int, b0: int, b1: int) -> bool:
     """Whether the rows ``first <= i < end`` include one of ``b0 <= i < b1``."""
     return first < b1 and end > b0
 
 
-@typed_kernel("UniTuple(float64, 6)(float64, float64, float64, int64, int64)")
+@njit(cache=True, error_model="numpy")
 def _attitude_trig(phi: float, th: float, psi: float, first: int, end: int
                    ) -> tuple[float, float, float, float, float, float]:
     """sin and cos of roll, pitch and yaw, in that order, when the rows ``first <= i < end``
@@ -116,8 +115,7 @@ def _attitude_trig(phi: float, th: float, psi: float, first: int, end: int
             math.cos(psi))
 
 
-@typed_kernel("void(float64[::1], float64[::1], float64[::1], float64[::1], boolean, int64,"
-              " int64)", refcount_free=True)
+@refcount_free_kernel
 def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: FloatArray,
                           on_ground: bool, first: int, end: int) -> None:
     """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring), written
@@ -190,8 +188,7 @@ def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
     return a
 
 
-@typed_kernel("void(float64[:, ::1], float64[::1], float64[::1], boolean, int64, int64)",
-              refcount_free=True)
+@refcount_free_kernel
 def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: bool,
                         first: int, end: int) -> None:
     """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, written into ``a``

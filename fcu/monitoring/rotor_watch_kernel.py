@@ -16,7 +16,6 @@ from numba import njit
 
 from fcu.model import VehicleModel
 from jitsupport.layout import Layout
-from jitsupport.signatures import typed_kernel
 
 if TYPE_CHECKING:
     from fcu.monitoring.rotor_watch import RotorWatchConfig
@@ -178,10 +177,7 @@ def _stuck_pick(par: np.ndarray, state: np.ndarray) -> int:
     return -1
 
 
-# (declared: the effectiveness is read-only (the nominal ones) or not, one compile for both)
-@typed_kernel("Tuple((int64, boolean, int64, int64))(float64[::1], float64[::1], float64[::1],"
-              " float64[::1], boolean, float64[::1], Array(float64, 1, 'C', readonly=True),"
-              " boolean, boolean, boolean)")
+@njit(cache=True, error_model="numpy")
 def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.ndarray,
                have_imu: bool, pwm: np.ndarray, effectiveness: np.ndarray, airborne: bool,
                learn: bool, hold_bias: bool) -> tuple[int, bool, int, int]:

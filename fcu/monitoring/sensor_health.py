@@ -64,7 +64,6 @@ from flightdata.records import DetectionRecord
 from flightdata.vocabulary import SENSORS
 from jitsupport.cache import drop_stale_kernels
 from jitsupport.layout import Layout
-from jitsupport.signatures import typed_kernel
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # watch_sensors compiles in fcu.floats' wrap_pi
 
@@ -135,7 +134,7 @@ _INDEX_WIDTH = 8
 _E_ACTION, _E_KIND, _E_ROW, _E_MAGNITUDE = range(4)
 
 
-@typed_kernel("int64(float64[:, ::1], float64[:, ::1], int64, int64, int64, float64, float64)")
+@njit(cache=True, error_model="numpy")
 def _exclude(state: np.ndarray, events: np.ndarray, n_events: int, row: int, kind: int,
              time_s: float, magnitude: float) -> int:
     """Exclude sensor ``row`` as ``kind`` (unless it is excluded already), writing the event;
@@ -152,7 +151,7 @@ def _exclude(state: np.ndarray, events: np.ndarray, n_events: int, row: int, kin
     return n_events + 1
 
 
-@typed_kernel("boolean(float64[:, ::1], int64, float64, float64)")
+@njit(cache=True, error_model="numpy")
 def _good_for(state: np.ndarray, row: int, time_s: float, recover_s: float) -> bool:
     """Sensor ``row`` found good at ``time_s``: whether it has been since ``recover_s`` (its
     good spell starts now unless one runs)."""
@@ -161,7 +160,7 @@ def _good_for(state: np.ndarray, row: int, time_s: float, recover_s: float) -> b
     return time_s - state[row, _GOOD_SINCE_S] >= recover_s - 1e-9
 
 
-@typed_kernel("int64(float64[:, ::1], float64[:, ::1], int64, int64, float64)")
+@njit(cache=True, error_model="numpy")
 def _readmit(state: np.ndarray, events: np.ndarray, n_events: int, row: int,
              magnitude: float) -> int:
     """Trust sensor ``row`` again, writing the event (the kind it was excluded as); returns
@@ -175,8 +174,7 @@ def _readmit(state: np.ndarray, events: np.ndarray, n_events: int, row: int,
     return n_events + 1
 
 
-@typed_kernel("int64(float64[::1], float64[:, ::1], float64[:, ::1], int64, int64[::1],"
-              " float64[:, ::1], int64[::1], float64[::1], float64)")
+@njit(cache=True, error_model="numpy")
 def cross_check(par: np.ndarray, state: np.ndarray, events: np.ndarray, n_events: int,
                 cross: np.ndarray, window: np.ndarray, window_at: np.ndarray,
                 flat: np.ndarray, time_s: float) -> int:
