@@ -94,7 +94,7 @@ def model_derivative(x: FloatArray, u: FloatArray, p: FloatArray,
     """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring), shape
     (16,): :func:`model_derivative_into` into a fresh array."""
     xd = np.empty(16)
-    model_derivative_into(xd, x, u, p, on_ground, 0, 16)
+    model_derivative_into(xd, x, u, p, on_ground)
     return xd
 
 
@@ -117,7 +117,7 @@ def _attitude_trig(phi: float, th: float, psi: float, first: int, end: int
 
 @refcount_free_kernel
 def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: FloatArray,
-                          on_ground: bool, first: int, end: int) -> None:
+                          on_ground: bool, first: int = 0, end: int = 16) -> None:
     """Right-hand side ``dx/dt = f(x, u)`` of the NED/FRD model (module docstring), written
     into ``xd``.
 
@@ -135,7 +135,7 @@ def model_derivative_into(xd: FloatArray, x: FloatArray, u: FloatArray, p: Float
         Only the entries ``first <= i < end`` are wanted (those of a measurement that reads
         a few states): each block of rows (position, velocity, attitude, rates, thrusts) is
         written when it has one of them, the trigonometry worked out only for the velocity
-        and attitude rows (0, 16: all).
+        and attitude rows. Default: all.
 
     xd : ndarray, shape (16,)
         Written: the state derivative, SI units per second (the blocks asked for).
@@ -184,17 +184,17 @@ def model_jacobian(x: FloatArray, p: FloatArray, on_ground: bool) -> FloatArray:
     """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, shape (16, 16)
     (:func:`model_jacobian_into` into a fresh array)."""
     a = np.empty((16, 16))
-    model_jacobian_into(a, x, p, on_ground, 0, 16)
+    model_jacobian_into(a, x, p, on_ground)
     return a
 
 
 @refcount_free_kernel
 def model_jacobian_into(a: FloatArray, x: FloatArray, p: FloatArray, on_ground: bool,
-                        first: int, end: int) -> None:
+                        first: int = 0, end: int = 16) -> None:
     """Analytic Jacobian ``A = df/dx`` of :func:`model_derivative`, written into ``a``
     (16, 16). (``df/du`` is not needed: the input is known.) ``first``, ``end``: only the
     rows ``first <= i < end`` are wanted, as for :func:`model_derivative_into` (the blocks
-    that have one of them are written, zeros included; 0, 16: all).
+    that have one of them are written, zeros included; default: all).
 
     Its pattern: ``A`` is block upper triangular in the state order (positions follow the
     velocities, velocities the attitude and thrusts, attitude the rates, rates the thrusts,
@@ -295,16 +295,16 @@ def rk4_step_into(x_next: FloatArray, x: FloatArray, u: FloatArray, dt: float, p
     n = x.shape[0]
     half = 0.5 * dt
     # k1 = f(x);  k2 = f(x + dt/2 k1);  k3 = f(x + dt/2 k2);  k4 = f(x + dt k3)
-    model_derivative_into(k1, x, u, p, on_ground, 0, 16)
+    model_derivative_into(k1, x, u, p, on_ground)
     for i in range(n):
         xs[i] = x[i] + half * k1[i]
-    model_derivative_into(k2, xs, u, p, on_ground, 0, 16)
+    model_derivative_into(k2, xs, u, p, on_ground)
     for i in range(n):
         xs[i] = x[i] + half * k2[i]
-    model_derivative_into(k3, xs, u, p, on_ground, 0, 16)
+    model_derivative_into(k3, xs, u, p, on_ground)
     for i in range(n):
         xs[i] = x[i] + dt * k3[i]
-    model_derivative_into(k4, xs, u, p, on_ground, 0, 16)
+    model_derivative_into(k4, xs, u, p, on_ground)
     # x_next = x + dt/6 (k1 + 2 k2 + 2 k3 + k4)
     sixth = dt / 6.0
     for i in range(n):
@@ -378,7 +378,7 @@ def discrete_transition_into(x_next: FloatArray, f_mat: FloatArray, q_mat: Float
     nz_count, phi_count = scratch[6, 5], scratch[6, 6]
     nz_cols, phi_cols = scratch[7], scratch[8]
     # A at x_{k|k}, before x_next (which may be x) is written
-    model_jacobian_into(ad, x, p, on_ground, 0, 16)
+    model_jacobian_into(ad, x, p, on_ground)
     rk4_step_into(x_next, x, u, dt, p, on_ground, scratch[6, :5])
     for i in range(n):
         # (without a branch: each column written at the next free place, kept if non-zero)

@@ -72,8 +72,9 @@ def channel_views(buf: FloatArray, ints: np.ndarray, excluded_bits: int
 
 
 # inlined into its one compiled caller (fcu.monitoring.watched_pair.pair_watch_tick): a
-# library of its own would make LLVM optimise both filters' ticks once more (about 4 s of a
-# cold build); called from Python (step_pair), it compiles as a kernel of its own
+# library of its own made LLVM optimise both filters' ticks once more (3.7 s of LLVM time in
+# a cold build by numba's llvm_lock events); called from Python (step_pair), it compiles as
+# a kernel of its own
 @njit(cache=True, error_model="numpy", inline="always",  # type: ignore[call-overload]
       _nrt=False)
 def pair_tick(flat: FloatArray, u: FloatArray, time_s: float, reject: bool, out: FloatArray,

@@ -35,11 +35,11 @@ def add_scaled_row(out: FloatArray, i: int, a: float, b: FloatArray, k: int) -> 
     same array.
 
     Not checked (the row kernels): the callers' matrices are views of :data:`ROW` columns
-    by construction. A check that may raise keeps the call from being inlined into its
-    caller's loop, which made both filters' tick 30 % slower; the count is the row's own
-    (``out.shape[1]``), not the constant :data:`ROW`: a known count is unrolled before it
-    could be vectorised (another 15 %). Inlined into its callers (``inline="always"``: a
-    call per row update costs about as much as the update)."""
+    by construction; a check that may raise keeps the call out of its caller's loop.
+    Inlined (``inline="always"``), and counted by the row's own length (``out.shape[1]``):
+    a constant count is unrolled before it could be vectorised. Both filters' compiled
+    call, 20th percentile per call (``ftc-bench tick``): 23.0 us unchecked but called,
+    20.5 us inlined, 17.1 us counted by the row's length."""
     for j in range(out.shape[1]):
         out[i, j] += a * b[k, j]
 
