@@ -51,6 +51,7 @@ class Layout:
     def __init__(self, name: str) -> None:
         self.name = name
         self._fields: dict[str, Field] = {}
+        self._inner: dict[str, Field] = {}  # the fields of nested records, "name.field"
         self.size = 0  # entries of the whole array so far
 
     def field(self, name: str, size: int) -> int:
@@ -64,16 +65,25 @@ class Layout:
         self.size = start + size
         return start
 
+    def nest(self, name: str, inner: Layout) -> int:
+        """Declare the next field as a copy of ``inner``'s whole array (a record inside a
+        record); each of its fields is found as ``"name.field"``. Returns its start."""
+        start = self.field(name, inner.size)
+        for f in inner.fields:
+            self._inner[f"{name}.{f.name}"] = Field(f"{name}.{f.name}", start + f.start,
+                                                    f.size)
+        return start
+
     def __getitem__(self, name: str) -> Field:
         try:
-            return self._fields[name]
+            return self._fields[name] if name in self._fields else self._inner[name]
         except KeyError:
             raise KeyError(f"{self.name} has no field {name!r} "
                            f"(fields: {', '.join(self._fields)})") from None
 
     @property
     def fields(self) -> tuple[Field, ...]:
-        """Every field, in order."""
+        """Every field, in order (a nested record as one field)."""
         return tuple(self._fields.values())
 
 

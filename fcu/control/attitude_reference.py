@@ -18,7 +18,7 @@ from fcu.control.attitude import check_period
 from fcu.floats import floats, wrap_pi
 from flightdata.design_cache import cached_design
 from jitsupport.cache import drop_stale_kernels
-from jitsupport.layout import OneStatePart
+from jitsupport.layout import Layout, OneStatePart
 
 drop_stale_kernels(__file__, fcu.floats.__file__)  # the kernel compiles in fcu.floats' wrap_pi
 
@@ -59,9 +59,12 @@ PAR_SIZE = 8
 # its state: theta_f (rad, wrapped), theta_f' (rad/s) per axis, then 1 once started
 _ANGLE, _RATE, _STARTED = 0, 3, 6
 STATE_SIZE = 7
-# the kernel's output: reference angles (rad), rates (rad/s), accelerations (rad/s^2)
-OUT_EULER, OUT_RATE, OUT_ACC = 0, 3, 6
-OUT_SIZE = 9
+# the kernel's output record (jitsupport.layout)
+OUT = Layout("attitude reference")
+OUT_EULER = OUT.field("euler_rad", 3)  # rad, reference roll, pitch, yaw
+OUT_RATE = OUT.field("rate_rad_s", 3)  # rad/s, their rates
+OUT_ACC = OUT.field("acc_rad_s2", 3)  # rad/s^2, their accelerations
+OUT_SIZE = OUT.size
 
 
 @njit(cache=True, error_model="numpy")

@@ -74,8 +74,8 @@ OUT_THRUST = OUT.field("thrust_n", 1)  # N, U1 commanded
 # N*m, torque allocated, after the DOB compensation
 OUT_TORQUE_CMD = OUT.field("torque_cmd_nm", 3)
 OUT_D_HAT = OUT.field("d_hat_nm", 3)  # N*m, DOB estimate (zeros without a DOB)
-# attitude reference, reference_filter_tick's layout
-OUT_REF = OUT.field("reference", reference_module.OUT_SIZE)
+# attitude reference, reference_filter_tick's record
+OUT_REF = OUT.nest("reference", reference_module.OUT)
 OUT_ACCEL = OUT.field("accel_ned", 3)  # m/s^2 NED, mu after the limits
 # N*m, what the PWM asks of the airframe, eq. 3.2
 OUT_TORQUE_APPLIED = OUT.field("torque_applied_nm", 3)
@@ -101,9 +101,9 @@ _S_REPORT = SCRATCH.field("report", REPORT_SIZE)
 _S_PWM = SCRATCH.field("pwm", 4)
 _SCRATCH_SIZE = SCRATCH.size
 
-_EULER = OUT_REF + reference_module.OUT_EULER
-_RATE = OUT_REF + reference_module.OUT_RATE
-_ACC = OUT_REF + reference_module.OUT_ACC
+_EULER = OUT["reference.euler_rad"].start
+_RATE = OUT["reference.rate_rad_s"].start
+_ACC = OUT["reference.acc_rad_s2"].start
 
 
 @njit(cache=True, error_model="numpy")

@@ -29,6 +29,20 @@ def test_a_field_is_found_by_name() -> None:
     assert (lay["P"].start, lay["P"].size, lay["P"].stop) == (2, 4, 6)
 
 
+def test_a_nested_record_is_one_field_whose_own_fields_are_found_by_dotted_name() -> None:
+    inner = Layout("inner")
+    inner.field("a", 3)
+    inner.field("b", 2)
+    outer = Layout("outer")
+    outer.field("x", 4)
+    assert outer.nest("rec", inner) == 4
+    outer.field("y", 1)
+    assert [f.name for f in outer.fields] == ["x", "rec", "y"]
+    assert (outer["rec"].size, outer["rec.a"].start, outer["rec.b"].start) == (5, 4, 7)
+    assert outer["y"].start == 9
+    assert chain.OUT["reference.rate_rad_s"].start == chain.OUT_REF + 3
+
+
 @pytest.mark.parametrize("call", [lambda lay: lay.field("a", 1),
                                   lambda lay: lay.field("b", -1)])
 def test_bad_fields_are_refused_with_the_layout_and_field_named(call: object) -> None:
