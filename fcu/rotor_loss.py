@@ -70,6 +70,19 @@ LANDING_SPEED_M_S = 0.5  # m/s, the least descent speed of the landing after the
 # of the horizontal force the position loop asks for, what the axis is steered by before
 # the spin has built up (all of it once it has)
 SPIN_UP_STEER = 0.3
+# of the relaxed hover's spin: below it the vehicle is spinning up (the lost pair's axis has
+# torque one way only, and the lean the loss started grows until the spin turns it onto the
+# other pair's axis)
+SPIN_UP_FRACTION = 0.3
+# m, below it a spinning-up vehicle is not asked for less lift than its weight: the lean of
+# the spin-up takes up to 3 m of height with the position loop braking a climb (the outdoor
+# mission's climb at 3 m in 4 m/s of wind), twice that is kept as the margin; higher up the
+# braking is kept, as extra thrust in the lean pushes the vehicle sideways (larger excursion)
+SPIN_UP_LIFT_BELOW_M = 6.0
+# s after the switch to relaxed hover, the longest that floor holds (a total loss reaches
+# SPIN_UP_FRACTION in about 0.9 s; an equilibrium that hardly spins, a motor stuck near a
+# quarter of the weight, would otherwise never be let down)
+SPIN_UP_LIFT_S = 1.5
 
 
 class RotorLossResponse:
@@ -306,8 +319,12 @@ class RotorLossResponse:
         # the axis is steered only as far as the spin reached allows: before the spin the
         # torques about the lost pair's axis can only go one way, and a tilt asked of it
         # (braking, holding against the wind) adds to the roll the loss started
-        force[:2] *= (SPIN_UP_STEER
-                      + (1.0 - SPIN_UP_STEER) * reduced.spin_fraction(estimate.rate_frd))
+        fraction = reduced.spin_fraction(estimate.rate_frd)
+        force[:2] *= SPIN_UP_STEER + (1.0 - SPIN_UP_STEER) * fraction
+        if (fraction < SPIN_UP_FRACTION and estimate.alt_m < SPIN_UP_LIFT_BELOW_M
+                and time_s - self._spinning_since_s < SPIN_UP_LIFT_S):
+            # falling is what the spin-up cannot afford this low: at least the weight
+            force[2] = min(force[2], -self.model.gravity)
         cap = None
         if self.navigator.leg_kind == "land" and self._touched_down(estimate, reduced):
             # less than the weight, so that the ground holds the vehicle and the landing is

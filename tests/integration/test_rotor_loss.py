@@ -187,6 +187,27 @@ def test_rtl_commanded_while_spinning_flies_home_and_lands() -> None:
     assert not any("failsafe motor" in text for _, _, text in result.events)
 
 
+def test_a_rotor_lost_low_in_the_climb_in_wind_spins_up_without_falling() -> None:
+    """``rotor_lost_climb_wind``: motor 4 lost 3.0 m up in the outdoor climb, 4 m/s west wind
+    with moderate turbulence. The spin-up's lean takes height: with the position loop let
+    brake the climb it took all 3 m (touchdown at 4.0 m/s); held at the weight it takes
+    1.2 m. Landed soft, above 1 m until the LAND, back over the fault point; the lean
+    carries it 7.2 m away first (the excursion, the price of the lift)."""
+    result = fly(load_scenario("rotor_lost_climb_wind"))
+    assert result.outcome.kind == "landed", result.outcome
+    assert result.outcome.impact_speed_m_s is not None and result.outcome.impact_speed_m_s < 1.0
+    assert result.outcome.tilt_deg is not None and result.outcome.tilt_deg < 30.0
+    first = next(d for d in result.detections if d.motor is not None)
+    assert (first.kind, first.motor) == ("motor_lost", 4) and first.time_s - 4.0 <= 0.1
+    log = result.log
+    landing = next(t for t, _, text in result.events if "failsafe motor: LAND" in text)
+    hold = (log.time_s > 4.0) & (log.time_s < landing)
+    assert np.all(-log.pos_ned[hold, 2] > 1.0)  # the height the spin-up cost: under 2 m
+    response = result.metrics["fault_response"]
+    assert response["end_from_fault_m"] < 2.0  # back over the fault point to land
+    assert response["excursion_m"] < 8.0
+
+
 def _outdoor_fault(kind: str, motor: int, start_s: float, duration_s: float) -> Any:
     """The outdoor mission (10 m up, 4 m/s moderate wind) in active FTC with one fault."""
     from sim.world.fault_types import ActuatorFault
