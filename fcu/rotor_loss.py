@@ -80,8 +80,7 @@ SPIN_UP_FRACTION = 0.3
 # braking is kept, as extra thrust in the lean pushes the vehicle sideways (larger excursion)
 SPIN_UP_LIFT_BELOW_M = 6.0
 # s after the switch to relaxed hover, the longest that floor holds (a total loss reaches
-# SPIN_UP_FRACTION in about 0.9 s; an equilibrium that hardly spins, a motor stuck near a
-# quarter of the weight, would otherwise never be let down)
+# SPIN_UP_FRACTION in about 0.9 s; a spin that does not build must not keep the vehicle up)
 SPIN_UP_LIFT_S = 1.5
 
 
@@ -321,9 +320,12 @@ class RotorLossResponse:
         # (braking, holding against the wind) adds to the roll the loss started
         fraction = reduced.spin_fraction(estimate.rate_frd)
         force[:2] *= SPIN_UP_STEER + (1.0 - SPIN_UP_STEER) * fraction
-        if (fraction < SPIN_UP_FRACTION and estimate.alt_m < SPIN_UP_LIFT_BELOW_M
+        if (self._fixed_n == 0.0 and fraction < SPIN_UP_FRACTION
+                and estimate.alt_m < SPIN_UP_LIFT_BELOW_M
                 and time_s - self._spinning_since_s < SPIN_UP_LIFT_S):
-            # falling is what the spin-up cannot afford this low: at least the weight
+            # falling is what the spin-up cannot afford this low: at least the weight (a
+            # lost motor's; a stuck one's equilibrium hardly spins and needs no spin-up, and
+            # the lift pushed it out of the mission area in the climb, 8 m in 4 m/s wind)
             force[2] = min(force[2], -self.model.gravity)
         cap = None
         if self.navigator.leg_kind == "land" and self._touched_down(estimate, reduced):
