@@ -320,12 +320,13 @@ class RotorLossResponse:
         # (braking, holding against the wind) adds to the roll the loss started
         fraction = reduced.spin_fraction(estimate.rate_frd)
         force[:2] *= SPIN_UP_STEER + (1.0 - SPIN_UP_STEER) * fraction
-        if (self._fixed_n == 0.0 and fraction < SPIN_UP_FRACTION
+        if (self._fixed_n == 0.0 and not self._pair_lost and fraction < SPIN_UP_FRACTION
                 and estimate.alt_m < SPIN_UP_LIFT_BELOW_M
                 and time_s - self._spinning_since_s < SPIN_UP_LIFT_S):
-            # falling is what the spin-up cannot afford this low: at least the weight (a
-            # lost motor's; a stuck one's equilibrium hardly spins and needs no spin-up, and
-            # the lift pushed it out of the mission area in the climb, 8 m in 4 m/s wind)
+            # falling is what the spin-up cannot afford this low: at least the weight. (One
+            # lost motor only: a stuck one's equilibrium hardly spins, and the lift pushed
+            # it 8 m out of the mission area in the outdoor climb; two opposite ones lost
+            # start no lean, and the lift cost three more crashes in 4 m/s of wind.)
             force[2] = min(force[2], -self.model.gravity)
         cap = None
         if self.navigator.leg_kind == "land" and self._touched_down(estimate, reduced):
