@@ -131,6 +131,20 @@ def buffer_views(buf: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, F
             buf[B_CONSTANTS:B_CONSTANTS + CONSTANTS_SIZE])
 
 
+
+@njit(cache=True, error_model="numpy")
+def _entries_read(sel: np.ndarray) -> tuple[int, int]:
+    """``first, end``: the state entries ``first <= k < end`` a channel's selection ``sel``
+    (m, N) reads. (A function of its own so that the bounds reach the model kernels typed as
+    integers, not as the constants they start from: numba would compile those kernels once
+    more for the constants.)"""
+    first, end = N, 0
+    for r in range(sel.shape[0]):
+        for k in range(N):
+            if sel[r, k] != 0.0:
+                first, end = min(first, k), max(end, k + 1)
+    return first, end
+
 @refcount_free_kernel
 def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: FloatArray,
              constants: FloatArray, tables: FloatArray, layout: np.ndarray, u: FloatArray,
@@ -244,11 +258,7 @@ def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: Fl
         mapped = abs(delta) >= 1e-9
         if mapped:
             # A and f only in the rows of the state entries the channel reads
-            first, end = N, 0
-            for r in range(m):
-                for k in range(N):
-                    if sel[r, k] != 0.0:
-                        first, end = min(first, k), max(end, k + 1)
+            first, end = _entries_read(sel)
             model_jacobian_into(jac, x, p, on_ground, first, end)
             model_derivative_into(xd, x, u, p, on_ground, first, end)
         for r in range(m):

@@ -81,7 +81,8 @@ ALT, VEL_DOWN, SPEED, LEAN, ATTITUDE_ERROR, COLLECTIVE = range(6)
 MEASURES_SIZE = 6
 
 
-@njit(cache=True, error_model="numpy")
+# inlined: a call of its own was compiled once for each constant ``since`` it is given
+@njit(cache=True, error_model="numpy", inline="always")
 def _held(state: np.ndarray, since: int, condition: bool, time_s: float, hold_s: float) -> bool:
     """Whether ``condition`` has held for ``hold_s`` (s) up to ``time_s``; ``state[since]`` keeps
     when it began (NaN while it does not hold)."""

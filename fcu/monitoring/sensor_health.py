@@ -134,7 +134,7 @@ _INDEX_WIDTH = 8
 _E_ACTION, _E_KIND, _E_ROW, _E_MAGNITUDE = range(4)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _exclude(state: np.ndarray, events: np.ndarray, n_events: int, row: int, kind: int,
              time_s: float, magnitude: float) -> int:
     """Exclude sensor ``row`` as ``kind`` (unless it is excluded already), writing the event;
@@ -151,7 +151,7 @@ def _exclude(state: np.ndarray, events: np.ndarray, n_events: int, row: int, kin
     return n_events + 1
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _good_for(state: np.ndarray, row: int, time_s: float, recover_s: float) -> bool:
     """Sensor ``row`` found good at ``time_s``: whether it has been since ``recover_s`` (its
     good spell starts now unless one runs)."""
@@ -160,7 +160,7 @@ def _good_for(state: np.ndarray, row: int, time_s: float, recover_s: float) -> b
     return time_s - state[row, _GOOD_SINCE_S] >= recover_s - 1e-9
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _readmit(state: np.ndarray, events: np.ndarray, n_events: int, row: int,
              magnitude: float) -> int:
     """Trust sensor ``row`` again, writing the event (the kind it was excluded as); returns
@@ -234,7 +234,9 @@ def watch_sensors(par: np.ndarray, state: np.ndarray, events: np.ndarray, index:
     (:class:`fcu.estimation.estimator.Screening`). Returns the events written and whether
     any sensor was rejected.
     """
-    n_events = 0
+    # typed as an integer, not as the constant 0: cross_check below would be compiled for
+    # that constant too (numba types a literal argument by its value)
+    n_events = np.int64(0)
     rejected = False
     for c in range(index.shape[0]):
         status = screen[int(index[c, _I_STATUS_AT])]

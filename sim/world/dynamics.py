@@ -366,7 +366,9 @@ def plant_step(plant: np.ndarray, u_cmd: FloatArray, wind_ned: FloatArray,
         Current mass, kg (> 0).
     """
     s = plant[0]
-    x, p, work = s.x, s.params, s.work
+    # the record's arrays as plain views (``[:]``): the kernels below are then compiled for
+    # the arrays the Python path passes too, not once more for the record's own type
+    x, p, work = s.x[:], s.params[:], s.work[:]
     # work rows 0-4: RK4 scratch, row 5: the candidate state, row 6: the saturated PWM
     u = work[6, 0:4]
     lo = p[P_PWM_MIN]

@@ -122,7 +122,7 @@ def world_steps(n_steps: int, pwm_cmd: np.ndarray, world: np.ndarray, plant: np.
         ``(steps_taken, n_samples, why)``: why is one of the ``STOP_*`` codes.
     """
     w, s, f = world[0], plant[0], faults[0]
-    x, params = s.x, s.params
+    x, params = s.x[:], s.params[:]
     dt = w.dt_s
     m = n_samples
     for j in range(n_steps):
@@ -143,7 +143,7 @@ def world_steps(n_steps: int, pwm_cmd: np.ndarray, world: np.ndarray, plant: np.
         k += 1
         w.steps = k
         if k % w.accel_every == 0:
-            specific_force_into(x, w.wind_ned, mass, params, w.specific_force)
+            specific_force_into(x, w.wind_ned[:], mass, params, w.specific_force[:])
         # the readings due at t_{k+1}: truth + noise, then the sensor faults
         t_next = k * dt
         for i in range(_N_SENSORS):
