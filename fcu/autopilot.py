@@ -412,14 +412,18 @@ class Autopilot:
         the motors the TSKF's detector has declared."""
         if self.ftc_active:
             e = self._ftc_effectiveness()
-            return _NOMINAL4 if e is None else e
-        detector = self.detector
-        if not detector.active:
-            return _NOMINAL4
-        e = np.ones(4)
-        loe = detector.loe
-        for motor in detector.active:
-            e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
+            if e is None:
+                return _NOMINAL4
+        else:
+            detector = self.detector
+            if not detector.active:
+                return _NOMINAL4
+            e = np.ones(4)
+            loe = detector.loe
+            for motor in detector.active:
+                e[motor - 1] = 1.0 - min(max(float(loe[motor - 1]), 0.0), 1.0)
+        # read-only like _NOMINAL4: the watch's kernel is then compiled for one array type
+        e.setflags(write=False)
         return e
 
     @property

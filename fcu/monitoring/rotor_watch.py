@@ -174,9 +174,8 @@ class RotorWatchConfig:
 
 
 _NO_READING = np.zeros(3)  # the kernel's reading arguments on a tick without the IMU
-# every motor delivering what it is told (never written; writable like the arrays the
-# autopilot passes, so that watch_tick is compiled for one array type, not two)
-_NOMINAL = np.ones(4)
+_NOMINAL = np.ones(4)  # every motor delivering what it is told
+_NOMINAL.setflags(write=False)
 
 
 class RotorWatch:
