@@ -234,9 +234,9 @@ def watch_sensors(par: np.ndarray, state: np.ndarray, events: np.ndarray, index:
     (:class:`fcu.estimation.estimator.Screening`). Returns the events written and whether
     any sensor was rejected.
     """
-    # typed as an integer, not as the constant 0: cross_check below would be compiled for
-    # that constant too (numba types a literal argument by its value)
-    n_events = np.int64(0)
+    # typed as an integer, not as the constant 0 (numba types a literal by its value, and
+    # cross_check below would be compiled once more for it)
+    n_events = int(np.int64(0))
     rejected = False
     for c in range(index.shape[0]):
         status = screen[int(index[c, _I_STATUS_AT])]
