@@ -131,7 +131,6 @@ def buffer_views(buf: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, F
             buf[B_CONSTANTS:B_CONSTANTS + CONSTANTS_SIZE])
 
 
-
 @njit(cache=True, error_model="numpy")
 def _entries_read(sel: np.ndarray) -> tuple[int, int]:
     """``first, end``: the state entries ``first <= k < end`` a channel's selection ``sel``
@@ -144,6 +143,7 @@ def _entries_read(sel: np.ndarray) -> tuple[int, int]:
             if sel[r, k] != 0.0:
                 first, end = min(first, k), max(end, k + 1)
     return first, end
+
 
 @refcount_free_kernel
 def ekf_tick(work: FloatArray, s_stack: FloatArray, scratch: FloatArray, out: FloatArray,
