@@ -22,10 +22,10 @@ in-plane drag about the centre of gravity (the thrust has no in-plane part, so t
 accelerometer's x and y read the drag alone; the centre of pressure sits ``cp_offset_z``
 above the centre of gravity: in moderate turbulence this takes the torque channels' noise
 from about 0.07 to 0.02 N*m) and ``mu`` the collective bias (drag along the body axis in
-steady flight, a mass change: low-passed over ``bias_tau_s``, held while a motor is
-suspected or a large fault is building up: one motor's fault is no change of mass or drag,
-and learning its collective part would leave only a torque, which that motor's fault and the
-opposite motor's opposite fault fit alike). Climb, descent, cruise and turns are all in ``w_m``: only what the motors
+steady flight, a mass change: low-passed over ``bias_tau_s``, held while a large fault
+is building up or a motor is suspected of an excess: learning the collective part of one
+motor's excess would leave only its torque, which that motor's excess and the opposite
+motor's deficit fit alike). Climb, descent, cruise and turns are all in ``w_m``: only what the motors
 fail to deliver stays in ``r``.
 
 A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
@@ -219,9 +219,10 @@ class RotorWatch:
         # or hard-over by the command it follows, or short of half its thrust (the TSKF's
         # hover model misreads such a fault, fcu.rotor_loss)
         self.alarming = False
-        # a motor is suspected at the latest tick: one motor's fault is no change of mass or
-        # of drag, so the collective bias is held meanwhile (module docstring)
-        self._suspecting = False
+        # a motor is suspected of making more than its command asks at the latest tick: no
+        # loss explains it, and neither does a change of mass or drag (module docstring),
+        # so the collective bias is held meanwhile
+        self._excess = False
 
     @property
     def statistic(self) -> float:
@@ -279,8 +280,8 @@ class RotorWatch:
             best, suspect, pair, stuck = watch_tick(
                 self._par, self._state, np.asarray(gyro, dtype=float),
                 np.asarray(accel, dtype=float), True, pwm, effectiveness, airborne,
-                self.declared is None, self.alarming or self._suspecting)
-        self.alarming = self._suspecting = False
+                self.declared is None, self.alarming or self._excess)
+        self.alarming = self._excess = False
         if best >= 0:
             self._best = best
         if best >= 0 and self.declared is None:
@@ -298,7 +299,7 @@ class RotorWatch:
             self._candidate, self._streak = best, 0
             self._history.clear()
         self._streak += 1
-        self._suspecting = True
+        self._excess = state.item(S_DEFICIT + best) < 0.0
         self._history.append((own, command))
         expected = state.item(S_START + best)  # N, what the motor should make
         large = abs(state.item(S_DEFICIT + best)) >= self.config.alarm_deficit * expected

@@ -187,8 +187,8 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
     tick's mean readings (``gyro`` rad/s and specific force ``accel`` m/s^2, body FRD,
     shape (3,)) and
     ``airborne``, the residual and the best single-motor fit; the noise and the bias are
-    learned when ``learn``: the bias unless ``hold_bias`` (a motor is suspected, or a large
-    fault is building up),
+    learned when ``learn``: the bias unless ``hold_bias`` (a large fault is building up, or
+    a motor is suspected of an excess),
     the noise while the fit suspects nothing (best statistic under NOISE_FREEZE of the
     significance).
 

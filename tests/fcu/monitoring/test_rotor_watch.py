@@ -168,6 +168,32 @@ def test_outdoor_locked_motor_is_named_stuck_in_every_phase(phase: str, motor: i
     assert stuck and stuck[0]["latency_s"] <= 1.0
 
 
+@pytest.mark.parametrize("start_s", [4.0, 68.0])  # the climb, the corner
+def test_a_lock_above_its_command_is_named_with_pd_and_the_tskf(start_s: float) -> None:
+    """Motor 2 locked, PD attitude flown on the TSKF, indoor air: the controller drives the
+    command to zero within 0.4 s, and the command then stops moving. The collective bias is
+    held while the residual suspects motor 2 of an excess, so the fit stays on it (learned,
+    the collective part went into the bias within a second and left a torque motor 1's
+    deficit fits alike: motors 3 and 4, or motor 1, were declared lost and the vehicle
+    crashed). Named stuck within a second, never another motor, landed soft."""
+    from sim.scenario import DEFAULT_WIND
+
+    scenario = load_scenario("outdoor_square")
+    scenario = dataclasses.replace(
+        scenario, duration_s=start_s + 45.0,
+        world=dataclasses.replace(scenario.world, wind=DEFAULT_WIND),
+        autopilot=dataclasses.replace(scenario.autopilot, attitude="pd", estimator="tskf",
+                                      ftc="active"),
+        faults=(ActuatorFault(motor=2, kind="lock", start_s=start_s),))
+    result = fly(scenario)
+    motor_records = [d for d in result.detections if d.motor is not None]
+    assert {d.motor for d in motor_records} == {2}, motor_records
+    assert (motor_records[0].kind, motor_records[0].time_s - start_s <= 1.0) == (
+        "motor_stuck", True), motor_records
+    assert result.outcome.kind == "landed", result.outcome
+    assert result.outcome.impact_speed_m_s is not None and result.outcome.impact_speed_m_s < 1.0
+
+
 # ---- whole flights: the outdoor mission (climb at 1.5 m/s to 10 m, a 30 m square at 3 m/s,
 # descent at 1 m/s, 4 m/s wind with moderate turbulence), the fault in each phase
 _PHASES = {"climb": 4.0, "cruise": 40.0, "descent": 95.0}
