@@ -344,8 +344,9 @@ class Autopilot:
     def _motor_evidence(self, time_s: float, estimate: StateEstimate, nav: NavOutput,
                         flying: bool) -> list[DetectionRecord]:
         """Motor fault detection on the TSKF's gamma (:mod:`fcu.monitoring.motor_faults`):
-        evidence only in free flight, in the hover model's validity, with trusted sensors
-        and the TSKF off the ground; blocks arming while a motor is declared."""
+        evidence only in the air (:meth:`_evidence_leg`), in the hover model's validity,
+        with trusted sensors and the TSKF off the ground; blocks arming while a motor is
+        declared."""
         landed_state = nav.landed_state
         # (the regime is only asked about in the air: on the ground there is no evidence)
         learn = (flying and landed_state != LandedState.ON_GROUND
@@ -354,7 +355,7 @@ class Autopilot:
                  and self.rotor_loss.tskf_trusted())
         detector = self.detector
         records = detector.step(time_s, self.tskf.gamma_raw, self._pwm,
-                                evidence=learn and landed_state == LandedState.IN_AIR,
+                                evidence=learn and self._evidence_leg(landed_state, estimate),
                                 learn=learn)
         active = detector.active
         watched = self.rotor_watch.declared
@@ -462,6 +463,16 @@ class Autopilot:
         self._events.append(AutopilotEvent(time_s, "battery", event.text, "critical"))
         if event.action is not None:
             self.navigator.trigger_failsafe("battery", event.action)
+
+    def _evidence_leg(self, landed_state: LandedState, estimate: StateEstimate) -> bool:
+        """Whether the flight's leg lets the TSKF's detector take evidence: in the air, and
+        in a landing above ``detector.landing_evidence_alt_m`` (lower, the touchdown is
+        near: a descent from height is flown like the cruise, and a motor that loses
+        effectiveness or locks there is found as it would be in the cruise)."""
+        if landed_state == LandedState.IN_AIR:
+            return True
+        return (landed_state == LandedState.LANDING
+                and estimate.alt_m > self.config.detector.landing_evidence_alt_m)
 
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""

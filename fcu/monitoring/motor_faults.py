@@ -136,6 +136,9 @@ class DetectorConfig:
     noise_floor: tuple[float, float, float] = (0.01, 0.01, 0.004)  # roll, pitch, yaw deficit
     settle_s: float = 2.0  # s after a declaration before another motor is declared
     lost_threshold: float = 0.6  # LOE above which a motor counts as lost
+    # m, in a landing leg evidence is taken only above this estimated altitude (the
+    # touchdown below; the thesis mission's landings start under it)
+    landing_evidence_alt_m: float = 1.0
     valid_yaw_rate_rad_s: float = 1.0  # rad/s, hover model valid below
     valid_tilt_rad: float = 0.5  # rad, hover model valid below (roll and pitch)
     mass_threshold_kg: float = 0.1  # kg, |mass change| reported
@@ -157,6 +160,7 @@ class DetectorConfig:
             value = getattr(self, name)
             require(finite(value) and value >= 0.0, name, value, "must be >= 0 s")
         for name in ("significance", "noise_tau_s", "valid_yaw_rate_rad_s", "valid_tilt_rad",
+                     "landing_evidence_alt_m",
                      "mass_threshold_kg", "mass_settle_kg", "common_tau_s", "mass_sigmas"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -168,28 +169,47 @@ def test_outdoor_locked_motor_is_named_stuck_in_every_phase(phase: str, motor: i
     assert stuck and stuck[0]["latency_s"] <= 1.0
 
 
-@pytest.mark.parametrize("start_s", [4.0, 68.0])  # the climb, the corner
-def test_a_lock_above_its_command_is_named_with_pd_and_the_tskf(start_s: float) -> None:
-    """Motor 2 locked, PD attitude flown on the TSKF, indoor air: the controller drives the
-    command to zero within 0.4 s, and the command then stops moving. The collective bias is
-    held while the residual suspects motor 2 of an excess, so the fit stays on it (learned,
-    the collective part went into the bias within a second and left a torque motor 1's
-    deficit fits alike: motors 3 and 4, or motor 1, were declared lost and the vehicle
-    crashed). Named stuck within a second, never another motor, landed soft."""
+def _pd_tskf_lock(start_s: float) -> Any:
+    """The outdoor mission in indoor air, PD attitude flown on the TSKF, active FTC, motor
+    2 locked at ``start_s``."""
     from sim.scenario import DEFAULT_WIND
 
     scenario = load_scenario("outdoor_square")
-    scenario = dataclasses.replace(
+    return fly(dataclasses.replace(
         scenario, duration_s=start_s + 45.0,
         world=dataclasses.replace(scenario.world, wind=DEFAULT_WIND),
         autopilot=dataclasses.replace(scenario.autopilot, attitude="pd", estimator="tskf",
                                       ftc="active"),
-        faults=(ActuatorFault(motor=2, kind="lock", start_s=start_s),))
-    result = fly(scenario)
+        faults=(ActuatorFault(motor=2, kind="lock", start_s=start_s),)))
+
+
+@pytest.mark.parametrize("start_s", [4.0, 68.0])  # the climb, the corner
+def test_a_lock_above_its_command_is_named_with_pd_and_the_tskf(start_s: float) -> None:
+    """Motor 2 locked with PD on the TSKF: the controller drives the command to zero within
+    0.4 s, and the command then stops moving. The collective bias is held while the
+    residual suspects motor 2 of an excess, so the fit stays on it (learned, the collective
+    part went into the bias within a second and left a torque motor 1's deficit fits alike:
+    motors 3 and 4, or motor 1, were declared lost and the vehicle crashed). Named stuck
+    within a second, never another motor, landed soft."""
+    result = _pd_tskf_lock(start_s)
     motor_records = [d for d in result.detections if d.motor is not None]
     assert {d.motor for d in motor_records} == {2}, motor_records
     assert (motor_records[0].kind, motor_records[0].time_s - start_s <= 1.0) == (
         "motor_stuck", True), motor_records
+    assert result.outcome.kind == "landed", result.outcome
+    assert result.outcome.impact_speed_m_s is not None and result.outcome.impact_speed_m_s < 1.0
+
+
+def test_a_lock_below_its_command_in_the_descent_is_named_with_pd_and_the_tskf() -> None:
+    """Motor 2 locked in the descent (4.3 m up) with PD on the TSKF: the controller drives
+    the command to full power, where the motor's shortfall looks like a loss of
+    effectiveness. The TSKF's detector takes evidence in a landing leg above 1 m, so it
+    names motor 2 (64 %, about 1.3 s; without it nothing was named for 4 s and motor 1 was
+    called hard-over at the touchdown, a crash); never another motor, landed soft."""
+    result = _pd_tskf_lock(95.0)
+    motor_records = [d for d in result.detections if d.motor is not None]
+    assert {d.motor for d in motor_records} == {2}, motor_records
+    assert motor_records[0].time_s - 95.0 <= 2.0, motor_records
     assert result.outcome.kind == "landed", result.outcome
     assert result.outcome.impact_speed_m_s is not None and result.outcome.impact_speed_m_s < 1.0
 
