@@ -25,8 +25,8 @@ from about 0.07 to 0.02 N*m) and ``mu`` the collective bias (drag along the body
 steady flight, a mass change: low-passed over ``bias_tau_s``, held while a large fault
 is building up or a motor is suspected of an excess: learning the collective part of one
 motor's excess would leave only its torque, which that motor's excess and the opposite
-motor's deficit fit alike). Climb, descent, cruise and turns are all in ``w_m``: only what the motors
-fail to deliver stays in ``r``.
+motor's deficit fit alike). Climb, descent, cruise and turns are all in ``w_m``: only
+what the motors fail to deliver stays in ``r``.
 
 A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
 ``r = b_j f``, ``b_j`` the column ``j`` of ``B``. Against the per-channel noise ``Sigma``
