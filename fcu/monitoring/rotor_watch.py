@@ -104,6 +104,7 @@ import numpy as np
 
 from fcu.model import VehicleModel
 from fcu.monitoring.rotor_watch_kernel import (
+    NOISE_FREEZE,
     PAIRS,
     S_DEFICIT,
     S_SLOW,
@@ -251,6 +252,17 @@ class RotorWatch:
         """The motor (1..4) whose single-motor fit best explained the latest residual (None
         before one was formed)."""
         return self._best + 1 if self._best >= 0 else None
+
+    @property
+    def excess_fit(self) -> int | None:
+        """The motor (1..4) whose excess (more thrust than its command asks) best fitted the
+        latest residual with a statistic above NOISE_FREEZE of the significance (where the
+        noise estimate stops learning), suspected or not yet, if any."""
+        best = self._best
+        if (best < 0 or self.deficit_n.item(best) >= 0.0
+                or self.statistic <= NOISE_FREEZE * self.config.significance):
+            return None
+        return best + 1
 
     @property
     def suspected(self) -> int | None:
