@@ -19,6 +19,7 @@ the campaign's rows allow it:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -210,14 +211,20 @@ def _response_cells(rows: Sequence[Row]) -> list[str]:
     end = spread(r.get("end_from_fault_m") for r in ok if survived(r))
     named = share(ok, lambda r: r.get("named_motor") == r.get("fault_motor"))
     other = sum(1 for r in ok if r.get("other_motor_lost"))
+    # a fly-away verdict is final, but the physics flies on: how many ended near the fault
+    flyaways = [r for r in ok if r.get("outcome") == "flyaway"]
+    back = sum(1 for r in flyaways
+               if (r.get("end_from_fault_m") or math.inf) <= FLYAWAY_BACK_WITHIN_M)
     return [str(len(rows)), _pct(share(rows, survived)), _pct(share(ok, soft_landing)),
             fmt(excursion.median, 1), fmt(excursion.max, 1), fmt(end.median, 1),
-            _pct(named), str(other)]
+            _pct(named), str(other), f"{back} of {len(flyaways)}" if flyaways else "-"]
 
 
+FLYAWAY_BACK_WITHIN_M = 2.0  # m from the fault point at the end of the run
 _RESPONSE_HEADER = ("runs", "survived", "landed soft", "excursion median (m)",
                     "excursion max (m)", "end from fault, survivors, median (m)",
-                    "right motor named first", "another motor declared lost")
+                    "right motor named first", "another motor declared lost",
+                    f"fly-away verdicts back within {FLYAWAY_BACK_WITHIN_M:g} m at the end")
 
 
 def _response(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row]) -> None:
@@ -231,7 +238,9 @@ def _response(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row]) -> 
                  f"{SOFT_TILT_DEG:g} deg of tilt. *Excursion*: the largest horizontal distance "
                  "from where the fault struck, afterwards; *end from fault*: that distance at "
                  "the end of the run. *Right motor named first*: the first motor detection "
-                 "after the fault names the faulted motor.")
+                 "after the fault names the faulted motor. A fly-away verdict is final; "
+                 "the last column counts those runs that ended near the fault point all "
+                 "the same (the drift came back).")
     for title, columns in (("phase, kind", ("fault_phase", "fault_kind")),
                            ("attitude law, estimator", ("attitude", "estimator")),
                            ("wind", ("wind", "mean_wind_m_s"))):
@@ -240,7 +249,7 @@ def _response(page: _Page, manifest: Mapping[str, Any], rows: Sequence[Row]) -> 
             continue
         page.add(f"By {title}:", "")
         page.table((title, *_RESPONSE_HEADER), [[g.label, *_response_cells(g.rows)]
-                                                 for g in groups], "l" + "r" * 8)
+                                                 for g in groups], "l" + "r" * 9)
     by_phase = configurations(faulted, ("fault_phase",))
     page.figure(figures.excursion_figure([(g.label, g.rows) for g in by_phase]), "excursion",
                 "excursion after the fault, by phase of flight")

@@ -167,7 +167,9 @@ def test_report_response_by_phase_and_kind(tmp_path: Path) -> None:
             ("climb", "total_loss", "landed", 0.3, 1.0, 1),
             ("climb", "total_loss", "landed", 1.4, 3.0, 1),  # too hard: not soft
             ("cruise", "total_loss", "flyaway", None, 40.0, 1),
-            ("cruise", "hardover", "crashed", 6.0, 5.0, 2)):
+            ("cruise", "hardover", "crashed", 6.0, 5.0, 2),
+            ("hover", "total_loss", "flyaway", None, 3.0, 1),  # back: 1.5 m from the fault
+            ("hover", "total_loss", "flyaway", None, 8.0, 1)):  # 4 m from it
         rows.append(_row(len(rows), fault_kind=kind, fault_phase=phase, outcome=outcome,
                          impact_speed_m_s=speed, tilt_deg=10.0, excursion_m=excursion,
                          end_from_fault_m=0.5 * excursion, named_motor=named,
@@ -179,9 +181,13 @@ def test_report_response_by_phase_and_kind(tmp_path: Path) -> None:
     lines = write_report(tmp_path).read_text().splitlines()
     assert "## Response to the fault" in lines
     assert ("| fault_phase = climb, fault_kind = total_loss | 2 | 100 % | 50 % | 2.0 | 3.0 "
-            "| 1.0 | 100 % | 0 |") in lines
+            "| 1.0 | 100 % | 0 | - |") in lines
     assert ("| fault_phase = cruise, fault_kind = hardover | 1 | 0 % | 0 % | 5.0 | 5.0 | - "
-            "| 0 % | 1 |") in lines
+            "| 0 % | 1 | - |") in lines
+    assert ("| fault_phase = cruise, fault_kind = total_loss | 1 | 0 % | 0 % | 40.0 | 40.0 "
+            "| - | 100 % | 0 | 0 of 1 |") in lines
+    assert ("| fault_phase = hover, fault_kind = total_loss | 2 | 0 % | 0 % | 5.5 | 8.0 "
+            "| - | 100 % | 0 | 1 of 2 |") in lines
     assert (tmp_path / "figures" / "excursion.png").stat().st_size > 1000
 
 
