@@ -468,11 +468,15 @@ class Autopilot:
         """Whether the flight's leg lets the TSKF's detector take evidence: in the air, and
         in a landing above ``detector.landing_evidence_alt_m`` (lower, the touchdown is
         near: a descent from height is flown like the cruise, and a motor that loses
-        effectiveness or locks there is found as it would be in the cruise)."""
+        effectiveness or locks there is found as it would be in the cruise) while the
+        wrench residual is not best fitted by an excess (:attr:`RotorWatch.excess_fit`: in
+        the descent's turbulence a lock's excess grows under the watch's significance while
+        the hover model already reads it as a loss of the opposite motor)."""
         if landed_state == LandedState.IN_AIR:
             return True
         return (landed_state == LandedState.LANDING
-                and estimate.alt_m > self.config.detector.landing_evidence_alt_m)
+                and estimate.alt_m > self.config.detector.landing_evidence_alt_m
+                and self.rotor_watch.excess_fit is None)
 
     def _hover_regime(self, estimate: StateEstimate) -> bool:
         """Yaw rate and tilt within the hover model's validity (``detector`` settings)."""

@@ -155,13 +155,9 @@ class RotorLossResponse:
         declared = watch.declared
         # (a motor stuck above its command reads to the hover model as a loss of the opposite
         # one: nothing is taken while the stuck test has a candidate, nor while the residual
-        # suspects a motor of making more than its command asks, which no loss explains, or
-        # finds the residual best fitted by such an excess already above a quarter of its
-        # significance: in severe turbulence a lock's excess grows under the significance
-        # while the hover model already reads it as the opposite motor's loss)
+        # suspects a motor of making more than its command asks, which no loss explains)
         suspected = watch.suspected
-        excess = ((suspected is not None and watch.deficit_n.item(suspected - 1) < 0.0)
-                  or watch.excess_fit is not None)
+        excess = suspected is not None and watch.deficit_n.item(suspected - 1) < 0.0
         return (not watch.alarming and watch.stuck_candidate is None and not excess
                 and (declared is None or declared[1] == "loe"))
 

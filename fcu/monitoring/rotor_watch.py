@@ -23,10 +23,13 @@ accelerometer's x and y read the drag alone; the centre of pressure sits ``cp_of
 above the centre of gravity: in moderate turbulence this takes the torque channels' noise
 from about 0.07 to 0.02 N*m) and ``mu`` the collective bias (drag along the body axis in
 steady flight, a mass change: low-passed over ``bias_tau_s``, held while a large fault
-is building up or a motor is suspected of an excess: learning the collective part of one
-motor's excess would leave only its torque, which that motor's excess and the opposite
-motor's deficit fit alike). Climb, descent, cruise and turns are all in ``w_m``: only
-what the motors fail to deliver stays in ``r``.
+is building up or a motor is suspected of an excess with its command near its floor,
+``excess_hold_command``: learning the collective part of such an excess, a lock the
+controller drives down, would leave only its torque, which that motor's excess and the
+opposite motor's deficit fit alike; with the command higher a lighter vehicle beside a
+partial loss of the opposite motor looks like it, and the bias must learn the mass).
+Climb, descent, cruise and turns are all in ``w_m``: only what the motors fail to deliver
+stays in ``r``.
 
 A fault of motor ``j`` that leaves it ``f`` newtons short (negative: in excess) gives
 ``r = b_j f``, ``b_j`` the column ``j`` of ``B``. Against the per-channel noise ``Sigma``
@@ -153,11 +156,18 @@ class RotorWatchConfig:
     # makes up for it (up to 25 ticks over 500 seeds of the thesis mission's Table 7.3
     # faults; a lock in the outdoor mission's descent holds it 33-36 ticks at first)
     stuck_shortfall_ticks: int = 30
+    # of full power: a motor suspected of an excess while its command is at most this is
+    # making thrust its command no longer asks for (a lock the controller is driving down),
+    # and the collective bias is held (module docstring); above it, a mass drop beside the
+    # opposite motor's partial loss looks the same and the bias must learn the mass (at
+    # 0.25 the thesis's case 8, 0.3 kg dropped as motor 3 loses 20 %, starts to move)
+    excess_hold_command: float = 0.2
 
     def __post_init__(self) -> None:
         for name in ("significance", "min_deficit", "alarm_deficit", "consistency",
                      "follow_tau_s", "follow_split_s", "stuck_spread_n", "stuck_correlation",
-                     "bias_tau_s", "noise_tau_s", "min_alt_m", "lost_fraction"):
+                     "bias_tau_s", "noise_tau_s", "min_alt_m", "lost_fraction",
+                     "excess_hold_command"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
         require(isinstance(self.persistence_ticks, int) and self.persistence_ticks >= 2,
@@ -220,9 +230,9 @@ class RotorWatch:
         # or hard-over by the command it follows, or short of half its thrust (the TSKF's
         # hover model misreads such a fault, fcu.rotor_loss)
         self.alarming = False
-        # a motor is suspected of making more than its command asks at the latest tick: no
-        # loss explains it, and neither does a change of mass or drag (module docstring),
-        # so the collective bias is held meanwhile
+        # a motor is suspected of making more than its command asks, the command near its
+        # floor, at the latest tick: no loss and no change of mass explains that (module
+        # docstring), so the collective bias is held meanwhile
         self._excess = False
 
     @property
@@ -311,7 +321,8 @@ class RotorWatch:
             self._candidate, self._streak = best, 0
             self._history.clear()
         self._streak += 1
-        self._excess = state.item(S_DEFICIT + best) < 0.0
+        self._excess = (state.item(S_DEFICIT + best) < 0.0
+                        and command <= self.config.excess_hold_command * self._pwm_max)
         self._history.append((own, command))
         expected = state.item(S_START + best)  # N, what the motor should make
         large = abs(state.item(S_DEFICIT + best)) >= self.config.alarm_deficit * expected

