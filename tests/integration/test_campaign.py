@@ -147,16 +147,40 @@ def test_same_rows_through_a_separate_scheduler_and_two_workers(smoke_local: Pat
     assert {int(r["worker"].rsplit(":", 1)[1]) for r in rows} <= worker_pids
 
 
+LONG_SMOKE_RUNS = 48  # the smoke campaign's grid with 12 random samples instead of 3
+
+
+@pytest.fixture(scope="module")
+def long_smoke(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The smoke campaign with four times its runs (a file), and its rows flown once on a
+    local cluster of two workers (a folder): long enough that a campaign interrupted once
+    its first row is on disk still has most of its runs to fly, however loaded the machine
+    (the 12 smoke runs fly in about 4 s, and a test reading the first row back had seen them
+    all finish first)."""
+    folder = tmp_path_factory.mktemp("long_smoke")
+    text = (Path(__file__).resolve().parents[2] / "sim" / "campaigns" / "smoke.toml"
+            ).read_text()
+    assert "samples = 3\n" in text
+    campaign = folder / "long_smoke.toml"
+    campaign.write_text(text.replace('name = "smoke"', 'name = "long_smoke"')
+                        .replace("samples = 3\n", "samples = 12\n"))
+    out = folder / "out"
+    assert main(["run", str(campaign), "--out", str(out), "--workers", "2"]) == 0
+    assert len(read_rows(out)) == LONG_SMOKE_RUNS
+    return campaign, out
+
+
 @contextmanager
-def smoke_campaign_started(out: Path) -> Iterator[subprocess.Popen[str]]:
-    """``ftc-campaign run smoke --out OUT --workers 2`` in a process of its own (stdout and
-    stderr as one text), handed over once a first row is on disk; killed on the way out if it
-    is still running."""
-    proc = subprocess.Popen([str(BIN / "ftc-campaign"), "run", "smoke", "--out", str(out),
-                             "--workers", "2"], stdout=subprocess.PIPE,
+def campaign_started(campaign: Path, out: Path) -> Iterator[subprocess.Popen[str]]:
+    """``ftc-campaign run CAMPAIGN --out OUT --workers 2`` in a process of its own (stdout
+    and stderr as one text), handed over as soon as a first row's file is on disk (looked
+    for, not read: reading it back takes seconds on a loaded machine); killed on the way out
+    if it is still running."""
+    proc = subprocess.Popen([str(BIN / "ftc-campaign"), "run", str(campaign), "--out",
+                             str(out), "--workers", "2"], stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     try:
-        wait_for("a first row on disk", lambda: (out / "runs").is_dir() and read_rows(out))
+        wait_for("a first row on disk", lambda: any((out / "runs").glob("*.parquet")))
         yield proc
     finally:
         if proc.poll() is None:
@@ -165,32 +189,36 @@ def smoke_campaign_started(out: Path) -> Iterator[subprocess.Popen[str]]:
 
 
 def test_interrupted_campaign_flies_only_the_missing_runs_when_run_again(
-        smoke_local: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        long_smoke: tuple[Path, Path], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    campaign, reference = long_smoke
     out = tmp_path / "out"
-    with smoke_campaign_started(out) as proc:
+    with campaign_started(campaign, out) as proc:
         proc.send_signal(signal.SIGINT)  # Ctrl-C
         text, _ = proc.communicate(timeout=READY_S)
     assert proc.returncode == 130, text
     assert "interrupted; run the same command again" in text
     before = {r["run_id"]: r for r in read_rows(out)}
     done = len(before)
-    assert 1 <= done < SMOKE_RUNS
+    assert 1 <= done < LONG_SMOKE_RUNS
 
     capsys.readouterr()
-    assert main(["run", "smoke", "--out", str(out), "--workers", "2"]) == 0
+    assert main(["run", str(campaign), "--out", str(out), "--workers", "2"]) == 0
     printed = capsys.readouterr().out
-    assert f"{SMOKE_RUNS} runs, {done} already in" in printed
-    assert f"flown {SMOKE_RUNS - done} runs" in printed
+    assert f"{LONG_SMOKE_RUNS} runs, {done} already in" in printed
+    assert f"flown {LONG_SMOKE_RUNS - done} runs" in printed
     after = read_rows(out)
-    assert len(after) == SMOKE_RUNS
+    assert len(after) == LONG_SMOKE_RUNS
     # the rows of the first attempt are untouched (same worker, same wall time): not re-flown
     assert {r["run_id"]: r for r in after if r["run_id"] in before} == before
-    assert flown(after) == flown(read_rows(smoke_local))
+    assert flown(after) == flown(read_rows(reference))
 
 
-def test_a_worker_lost_mid_campaign_costs_no_run(smoke_local: Path, tmp_path: Path) -> None:
+def test_a_worker_lost_mid_campaign_costs_no_run(long_smoke: tuple[Path, Path],
+                                                 tmp_path: Path) -> None:
+    campaign, reference = long_smoke
     out = tmp_path / "out"
-    with smoke_campaign_started(out) as proc:
+    with campaign_started(campaign, out) as proc:
         workers = [p for p in psutil.Process(proc.pid).children(recursive=True)
                    if "spawn_main" in " ".join(p.cmdline())]
         assert len(workers) == 2
@@ -198,7 +226,7 @@ def test_a_worker_lost_mid_campaign_costs_no_run(smoke_local: Path, tmp_path: Pa
         text, _ = proc.communicate(timeout=2 * READY_S)
     # the scheduler gives the lost run to a worker again (the nanny restarts the dead one)
     assert proc.returncode == 0, text
-    assert flown(read_rows(out)) == flown(read_rows(smoke_local))
+    assert flown(read_rows(out)) == flown(read_rows(reference))
 
 
 def test_a_run_that_raises_is_recorded_and_the_campaign_goes_on(
