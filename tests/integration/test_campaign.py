@@ -147,6 +147,11 @@ def test_same_rows_through_a_separate_scheduler_and_two_workers(smoke_local: Pat
     assert {int(r["worker"].rsplit(":", 1)[1]) for r in rows} <= worker_pids
 
 
+def _default_sigint() -> None:
+    """In the child before exec: SIGINT handled by default (see :func:`campaign_started`)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 LONG_SMOKE_RUNS = 48  # the smoke campaign's grid with 12 random samples instead of 3
 
 
@@ -175,10 +180,16 @@ def campaign_started(campaign: Path, out: Path) -> Iterator[subprocess.Popen[str
     """``ftc-campaign run CAMPAIGN --out OUT --workers 2`` in a process of its own (stdout
     and stderr as one text), handed over as soon as a first row's file is on disk (looked
     for, not read: reading it back takes seconds on a loaded machine); killed on the way out
-    if it is still running."""
+    if it is still running.
+
+    The process starts with SIGINT at its default, as a terminal's foreground command does:
+    a test runner's worker may ignore SIGINT, and an ignored signal is inherited, so Python
+    in the child would never turn Ctrl-C into KeyboardInterrupt (the campaign then flew on
+    to the end and exited 0)."""
     proc = subprocess.Popen([str(BIN / "ftc-campaign"), "run", str(campaign), "--out",
                              str(out), "--workers", "2"], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True)
+                            stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=_default_sigint)
     try:
         wait_for("a first row on disk", lambda: any((out / "runs").glob("*.parquet")))
         yield proc
