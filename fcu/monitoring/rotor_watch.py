@@ -170,6 +170,8 @@ class RotorWatchConfig:
                      "excess_hold_command"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
+        require(self.excess_hold_command <= 1.0, "excess_hold_command",
+                self.excess_hold_command, "must lie in (0, 1] (of full power)")
         require(isinstance(self.persistence_ticks, int) and self.persistence_ticks >= 2,
                 "persistence_ticks", self.persistence_ticks, "must be an integer >= 2")
         for name in ("stuck_ticks", "stuck_shortfall_ticks"):

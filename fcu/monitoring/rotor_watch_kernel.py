@@ -188,7 +188,7 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
     shape (3,)) and
     ``airborne``, the residual and the best single-motor fit; the noise and the bias are
     learned when ``learn``: the bias unless ``hold_bias`` (a large fault is building up, or
-    a motor is suspected of an excess),
+    a motor is suspected of an excess with its command near its floor),
     the noise while the fit suspects nothing (best statistic under NOISE_FREEZE of the
     significance).
 

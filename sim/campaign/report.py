@@ -19,7 +19,6 @@ the campaign's rows allow it:
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -213,8 +212,8 @@ def _response_cells(rows: Sequence[Row]) -> list[str]:
     other = sum(1 for r in ok if r.get("other_motor_lost"))
     # a fly-away verdict is final, but the physics flies on: how many ended near the fault
     flyaways = [r for r in ok if r.get("outcome") == "flyaway"]
-    back = sum(1 for r in flyaways
-               if (r.get("end_from_fault_m") or math.inf) <= FLYAWAY_BACK_WITHIN_M)
+    back = sum(1 for r in flyaways if r.get("end_from_fault_m") is not None
+               and r["end_from_fault_m"] <= FLYAWAY_BACK_WITHIN_M)
     return [str(len(rows)), _pct(share(rows, survived)), _pct(share(ok, soft_landing)),
             fmt(excursion.median, 1), fmt(excursion.max, 1), fmt(end.median, 1),
             _pct(named), str(other), f"{back} of {len(flyaways)}" if flyaways else "-"]

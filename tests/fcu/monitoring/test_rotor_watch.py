@@ -153,6 +153,8 @@ def test_settings_are_checked() -> None:
         RotorWatchConfig(noise_floor=(0.1, 0.1, 0.1))
     with pytest.raises(ValueError, match="stuck_shortfall_ticks"):
         RotorWatchConfig(stuck_shortfall_ticks=0)
+    with pytest.raises(ValueError, match="excess_hold_command"):
+        RotorWatchConfig(excess_hold_command=1.5)
 
 
 @pytest.mark.parametrize("phase", ["climb", "cruise", "descent"])
