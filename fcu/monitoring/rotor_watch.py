@@ -87,9 +87,11 @@ around the first commands the other three; when one fails, its deficit fits the 
 the first one's did), and a third after those. Two opposite motors lost together leave no
 roll or pitch torque, only a collective deficit and a yaw torque (each pair turns the same
 way): the sum of their columns fits that, and when it explains the residual better than any
-one motor and than the other pairs, with a deficit of at least ``alarm_deficit`` of each,
-for ``persistence_ticks`` ticks, both are declared lost (a mass change has no yaw torque to
-fit). Adjacent pairs are fitted the same way (their sum leaves a roll and a pitch torque at
+one motor and than the other pairs, and by ``pair_torque_significance`` more than the
+collective alone (a change of mass or of the axial drag has no torque to fit; before the
+collective bias has learned the drag of a take-off into a strong gust, the collective alone
+would otherwise pass for a pair), with a deficit of at least ``alarm_deficit`` of each, for
+``persistence_ticks`` ticks, both are declared lost. Adjacent pairs are fitted the same way (their sum leaves a roll and a pitch torque at
 once).
 
 Beyond those, one motor is declared per flight (after the first, the residual carries the
@@ -138,6 +140,13 @@ class RotorWatchConfig:
     # noise floors, 1 sigma: collective N, roll, pitch, yaw N*m (indoor air, IMU noise)
     noise_floor: tuple[float, float, float, float] = (0.1, 0.015, 0.015, 0.012)
     min_alt_m: float = 0.15  # m, estimated altitude above which the watch takes evidence
+    # the part of a pair's statistic beyond that of the collective alone (the pair's torque:
+    # 3 sigma of it) needed to declare two motors lost together: a change of mass or of the
+    # axial drag has no torque (a take-off tilted into a 14 m/s ground gust, before the
+    # bias has learned the drag, read as motors 1 and 2 lost with the pairs' full
+    # statistic; two motors really lost carry 11-85 beyond the collective's, indoor and in
+    # 4 m/s of moderate turbulence)
+    pair_torque_significance: float = 9.0
     # fraction of a motor's effectiveness lost above which a deficit is declared a lost
     # motor (``motor_lost``), below it a partial loss (``loe``)
     lost_fraction: float = 0.75
@@ -167,7 +176,7 @@ class RotorWatchConfig:
         for name in ("significance", "min_deficit", "alarm_deficit", "consistency",
                      "follow_tau_s", "follow_split_s", "stuck_spread_n", "stuck_correlation",
                      "bias_tau_s", "noise_tau_s", "min_alt_m", "lost_fraction",
-                     "excess_hold_command"):
+                     "excess_hold_command", "pair_torque_significance"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
         require(self.excess_hold_command <= 1.0, "excess_hold_command",

@@ -36,6 +36,9 @@ PAIRS = ((0, 1), (2, 3), (0, 2), (0, 3), (1, 2), (1, 3))  # the opposite pairs f
 S_PAIR_DEFICIT = STATE.field("pair_deficit_n", len(PAIRS))
 S_PAIR_STAT = STATE.field("pair_statistic", len(PAIRS))
 S_PAIR_CONSISTENT = STATE.field("pair_consistent", len(PAIRS))  # 1: T_pair > consistency RSS
+# the statistic of the collective alone, res_0^2 / Sigma_0: what a change of mass or of the
+# axial drag explains (a pair's statistic must carry more, its torque, to be a pair)
+S_COLLECTIVE_STAT = STATE.field("collective_statistic", 1)
 # per motor, the thrust its command asks for (K u through the lag, at full effectiveness)
 # and how far its own thrust (T_e - f_j) falls short of that, low-passed over
 # follow_split_s (their slow parts: what the controller's compensation of a fault does),
@@ -68,6 +71,7 @@ P_CONSISTENCY = PARAMS.field("consistency", 1)
 P_FOLLOW_GAIN = PARAMS.field("follow_gain", 1)  # the moments' gain per tick
 P_SPLIT_GAIN = PARAMS.field("split_gain", 1)  # the slow parts' low-pass gain per tick
 P_ALARM_DEFICIT = PARAMS.field("alarm_deficit", 1)  # a pair's deficit, of its thrust
+P_PAIR_TORQUE = PARAMS.field("pair_torque_significance", 1)  # T_pair - T_collective needed
 P_STUCK_CORRELATION = PARAMS.field("stuck_correlation", 1)
 P_STUCK_MARGIN = PARAMS.field("stuck_margin", 1)
 P_STUCK_SLOPE = PARAMS.field("stuck_slope", 2)  # low, high
@@ -100,6 +104,7 @@ def pack_params(model: VehicleModel, dt_s: float, config: RotorWatchConfig) -> n
     par[P_FOLLOW_GAIN] = 1.0 - math.exp(-dt_s / config.follow_tau_s)
     par[P_SPLIT_GAIN] = 1.0 - math.exp(-dt_s / config.follow_split_s)
     par[P_ALARM_DEFICIT] = config.alarm_deficit
+    par[P_PAIR_TORQUE] = config.pair_torque_significance
     par[P_STUCK_CORRELATION], par[P_STUCK_MARGIN] = config.stuck_correlation, \
         config.stuck_margin
     par[P_STUCK_SLOPE:P_STUCK_SLOPE + 2] = config.stuck_slope
@@ -133,9 +138,12 @@ def _follow(state: np.ndarray, j: int, split: float, gain: float, x: float, y: f
 @njit(cache=True, error_model="numpy")
 def _pair_pick(par: np.ndarray, state: np.ndarray) -> int:
     """The pair (index into PAIRS; -1: none) whose summed columns explain the latest residual
-    better than any one motor and than the other pairs, with a deficit of at least
+    better than any one motor and than the other pairs, and by more than
+    ``pair_torque_significance`` better than the collective alone (a pair's torque, which a
+    change of mass or of the axial drag does not make), with a deficit of at least
     ``alarm_deficit`` of each (:mod:`fcu.monitoring.rotor_watch`, "Two rotors")."""
     found, found_t = -1, 0.0
+    collective_t = state[S_COLLECTIVE_STAT]
     for pair in range(len(PAIRS)):
         a, b = PAIRS[pair]
         t = state[S_PAIR_STAT + pair]
@@ -146,6 +154,7 @@ def _pair_pick(par: np.ndarray, state: np.ndarray) -> int:
         if found_t > beaten:
             beaten = found_t
         if (t > beaten and state[S_PAIR_CONSISTENT + pair] > 0.5
+                and t - collective_t > par[P_PAIR_TORQUE]
                 and state[S_PAIR_DEFICIT + pair] > par[P_ALARM_DEFICIT] * expected):
             found, found_t = pair, t
     return found
@@ -264,6 +273,7 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
         if t > best_t:
             best, best_t, best_f = j, t, f
     state[S_STAT] = best_t
+    state[S_COLLECTIVE_STAT] = res[0] * res[0] / state[S_VAR]
     # two motors together: their columns summed (equal deficits)
     for pair in range(len(PAIRS)):
         first, second = PAIRS[pair]
