@@ -157,10 +157,12 @@ class Autopilot:
             (self.tskf,) if self.estimator is self.tskf else (self.tskf, self.estimator))
         self.navigator = Navigator(cfg.navigator)
         self.position = PositionController(model, cfg.position, self.dt_s)
+        self._touchdown_below_m = cfg.position.touchdown_below_m  # m (PositionGains)
         self.attitude_filter = AttitudeReferenceFilter(self.dt_s,
                                                        cfg.attitude_ref_bandwidth_rad_s)
         self._sensor_kinds = frozenset().union(*(e.sensor_kinds for e in self._estimators))
         self.sensor_health = SensorHealth(cfg.sensors, cfg.height_source)
+        self._gust_accel_sq = cfg.sensors.gust_accel_m_s2 ** 2  # (m/s^2)^2
         noise = self.estimator.noise
         self._sensor_noise = {name: float(getattr(noise, name)) for name in SENSORS}
         self.detector = MotorFaultDetector(model, cfg.detector, self.dt_s)
@@ -212,6 +214,8 @@ class Autopilot:
 
     def _reset_controllers(self) -> None:
         self.position.reset()
+        self.position.touchdown(False, 0.0)  # the flight's tilt limit
+        self._touchdown = False
         self.rotor_loss.reset()
         self.attitude.reset()
         self.attitude_filter.reset()
@@ -236,10 +240,13 @@ class Autopilot:
             for estimator in self._estimators:
                 estimator.height_source = source
         # a lone outlier is a sensor's fault only while the model can be trusted: in flight,
-        # in the hover regime, with no motor lost (fcu.estimation.estimator)
+        # in the hover regime, with no motor lost (fcu.estimation.estimator), and no gust's
+        # drag on the accelerometer's in-plane axes (fcu.monitoring.sensor_health, "Gusts")
         prior = self.estimator.estimate
         reject = (self.navigator.landed_state == LandedState.IN_AIR and prior.alt_m > 0.2
-                  and self._hover_regime(prior) and not self.detector.lost)
+                  and self._hover_regime(prior) and not self.detector.lost
+                  and (accel is None or accel[0] * accel[0] + accel[1] * accel[1]
+                       < self._gust_accel_sq))
         estimator = self.estimator
         if isinstance(estimator, ExtendedKalmanEstimator):
             # both filters and the sensor watch on the EKF's screening: one compiled call
@@ -301,6 +308,11 @@ class Autopilot:
         assert ref is not None
         lost = self.rotor_loss.lost_motor(time_s, self.ftc_active)
         if lost is None:
+            touchdown = (nav.landed_state == LandedState.LANDING
+                         and estimate.alt_m < self._touchdown_below_m)
+            if touchdown != self._touchdown:  # the tilt limit of the touchdown, or not
+                self._touchdown = touchdown
+                self._chain.touchdown(touchdown, estimate.alt_m)
             # position, reference filter, attitude law, DOB, allocation, mix, crash check:
             # one compiled call
             out = self._chain.step(estimate.pos_ned, estimate.vel_ned, estimate.euler_rad,

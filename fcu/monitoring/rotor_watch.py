@@ -91,8 +91,8 @@ one motor and than the other pairs, and by ``pair_torque_significance`` more tha
 collective alone (a change of mass or of the axial drag has no torque to fit; before the
 collective bias has learned the drag of a take-off into a strong gust, the collective alone
 would otherwise pass for a pair), with a deficit of at least ``alarm_deficit`` of each, for
-``persistence_ticks`` ticks, both are declared lost. Adjacent pairs are fitted the same way (their sum leaves a roll and a pitch torque at
-once).
+``persistence_ticks`` ticks, both are declared lost. Adjacent pairs are fitted the same
+way (their sum leaves a roll and a pitch torque at once).
 
 Beyond those, one motor is declared per flight (after the first, the residual carries the
 controller's response to it); other second faults are beyond this watch. The per-motor deficits stay
