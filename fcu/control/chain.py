@@ -362,6 +362,16 @@ class ControlChain:
             idx[I_CRASH_STATE], = w.states(crash_check)
         self._ws = w.build()
 
+    def touchdown(self, landing: bool, alt_m: float) -> None:
+        """The position loop's tilt limit for the next step
+        (:meth:`~fcu.control.position.PositionController.touchdown`), in the workspace's copy
+        of its parameters too."""
+        position = self.position
+        position.touchdown(landing, alt_m)
+        if self.compiled:
+            at = self._idx[I_POS_PAR] + position_module.PAR_TAN_TILT_MAX
+            self._ws[at] = position.par[position_module.PAR_TAN_TILT_MAX]
+
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, euler_rad: np.ndarray,
              rate_frd: np.ndarray, ref_pos: np.ndarray, ref_vel: np.ndarray,
              ref_acc: np.ndarray, yaw_ref: float, torque_applied: np.ndarray,

@@ -104,6 +104,12 @@ class PositionGains:
     # rad, tilt the horizontal axes keep at full vertical demand: the vertical specific force
     # stops at cos(reserve) of the top, so that a falling vehicle still steers
     horizontal_reserve_rad: float = 0.0
+    # the touchdown: in a landing below ``touchdown_below_m`` (m, estimated) the tilt is at
+    # most ``touchdown_tilt_max_rad``, so that a vehicle leaning into the gusts near the
+    # ground touches down on its skids, not on a rotor's tip (30 deg, sim.outcome); it
+    # gives up holding its place against them meanwhile (PositionController.touchdown)
+    touchdown_tilt_max_rad: float = float(np.radians(20.0))
+    touchdown_below_m: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("kp", "kd", "ki", "integral_limit"):
@@ -112,6 +118,12 @@ class PositionGains:
                 raise ValueError(f"{name} = {value!r}: must be three finite numbers >= 0")
         if not 0.0 < self.tilt_max_rad < np.pi / 2:
             raise ValueError(f"tilt_max_rad = {self.tilt_max_rad!r}: must be in (0, pi/2)")
+        if not 0.0 < self.touchdown_tilt_max_rad <= self.tilt_max_rad:
+            raise ValueError(f"touchdown_tilt_max_rad = {self.touchdown_tilt_max_rad!r}: must "
+                             "be in (0, tilt_max_rad]")
+        if not (np.isfinite(self.touchdown_below_m) and self.touchdown_below_m >= 0.0):
+            raise ValueError(f"touchdown_below_m = {self.touchdown_below_m!r}: must be a "
+                             "finite number >= 0")
         if not 0.0 <= self.horizontal_reserve_rad <= self.tilt_max_rad:
             raise ValueError(f"horizontal_reserve_rad = {self.horizontal_reserve_rad!r}: must "
                              "be in [0, tilt_max_rad]")
@@ -173,6 +185,7 @@ _KP, _KD, _KI, _Z_LIMIT = 0, 3, 6, 9  # three each, per NED axis
 _MASS, _GRAVITY, _DT, _UP_MIN, _UP_MAX, _TAN_TILT_MAX = 12, 13, 14, 15, 16, 17
 _UP_HOLD = 18  # the vertical clamp, thrust_max cos(horizontal_reserve) / m
 PAR_SIZE = 19
+PAR_TAN_TILT_MAX = _TAN_TILT_MAX  # the tilt limit's tangent (PositionController.touchdown)
 # the kernel's output vector: U1 (N), roll_d, pitch_d (rad), mu after the limits (m/s^2, NED)
 OUT_THRUST, OUT_ROLL, OUT_PITCH, OUT_MU = 0, 1, 2, 3
 OUT_SIZE = 6
@@ -269,7 +282,10 @@ class PositionController(OneStatePart):
         par[_Z_LIMIT:_Z_LIMIT + 3] = self._z_limit
         par[_MASS], par[_GRAVITY], par[_DT] = m, model.gravity, self.dt_s
         par[_UP_MIN], par[_UP_MAX] = self.thrust_min_n / m, self.thrust_max_n / m
-        par[_TAN_TILT_MAX] = float(np.tan(self.gains.tilt_max_rad))
+        # the tilt limit's tangent in flight and in the touchdown (touchdown)
+        self._tan_tilt = float(np.tan(self.gains.tilt_max_rad))
+        self._tan_touchdown_tilt = float(np.tan(self.gains.touchdown_tilt_max_rad))
+        par[_TAN_TILT_MAX] = self._tan_tilt
         par[_UP_HOLD] = par[_UP_MAX] * math.cos(self.gains.horizontal_reserve_rad)
         self.par = par
         self.state = np.zeros(3)  # m*s, int (ref_pos - pos) dt
@@ -295,6 +311,15 @@ class PositionController(OneStatePart):
         with np.errstate(divide="ignore", invalid="ignore"):
             z = np.where(self._ki > 0, np.asarray(trim_accel, dtype=float) / self._ki, 0.0)
         self.state[:] = np.clip(z, -self._z_limit, self._z_limit)
+
+    def touchdown(self, landing: bool, alt_m: float) -> bool:
+        """Set the tilt limit for the next step: ``touchdown_tilt_max_rad`` while ``landing``
+        below ``touchdown_below_m`` (``alt_m``: the estimated altitude, m), ``tilt_max_rad``
+        otherwise; returns whether the touchdown limit holds. (:class:`fcu.control.chain.
+        ControlChain` keeps its own copy of the parameters: set it through the chain.)"""
+        low = landing and alt_m < self.gains.touchdown_below_m
+        self.par[_TAN_TILT_MAX] = self._tan_touchdown_tilt if low else self._tan_tilt
+        return low
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, ref_pos: np.ndarray,
              ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float) -> PositionCommand:

@@ -77,6 +77,33 @@ def test_the_compiled_chain_is_the_parts_stepped_in_turn(law: str, dob: str) -> 
                                       parts.dob.kernel_states()[0])  # type: ignore
 
 
+@pytest.mark.parametrize("law", ["pd", "lqg"])
+def test_the_touchdown_tilt_reaches_the_compiled_call(law: str) -> None:
+    """The chain's workspace keeps its own copy of the position loop's parameters: the
+    touchdown's tilt limit set through the chain is the one the compiled call flies, as the
+    parts stepped in turn do, to the bit; and it is lifted again."""
+    compiled, parts = _chain(law, "abdob"), _chain(law, "abdob")
+    parts.compiled = False
+    applied_c = applied_p = np.zeros(3)
+    tilts = []
+    for k, (pos, vel, euler, rate, rpos, rvel, _, yaw) in enumerate(_inputs(3, 120)):
+        for chain in (compiled, parts):
+            chain.touchdown(40 <= k < 80, 0.5)
+        far = rpos + np.array([30.0, 0.0, 0.0])  # 30 m off: the tilt limit binds
+        racc = np.zeros(3)
+        out_c = compiled.step(pos, vel, euler, rate, far, rvel, racc, float(yaw[0]), applied_c,
+                              None)
+        out_p = parts.step(pos, vel, euler, rate, far, rvel, racc, float(yaw[0]), applied_p,
+                           None)
+        assert np.array_equal(out_c, out_p), k
+        applied_c = out_c[control_chain.OUT_TORQUE_APPLIED:control_chain.OUT_TORQUE_APPLIED + 3]
+        applied_p = out_p[control_chain.OUT_TORQUE_APPLIED:control_chain.OUT_TORQUE_APPLIED + 3]
+        mu = out_c[control_chain.OUT_ACCEL:control_chain.OUT_ACCEL + 3]
+        tilts.append(np.degrees(np.arctan2(np.hypot(mu[0], mu[1]), 9.81 - mu[2])))
+    assert max(tilts[45:80]) == pytest.approx(20.0, abs=0.05)
+    assert max(tilts[85:]) == pytest.approx(30.0, abs=0.05)
+
+
 def _run(chain: control_chain.ControlChain, ticks: list[tuple[np.ndarray, ...]]
          ) -> list[np.ndarray]:
     applied, outs = np.zeros(3), []

@@ -109,6 +109,32 @@ def test_tilt_and_thrust_limits_keep_the_vertical_first() -> None:
     assert ctrl.thrust_max_n == pytest.approx(0.9 * 4 * MODEL.thrust_gain * MODEL.pwm_max)
 
 
+def test_the_touchdown_holds_the_tilt_to_its_own_limit_below_its_height() -> None:
+    """In a landing below ``touchdown_below_m`` the tilt stops at ``touchdown_tilt_max_rad``
+    (20 deg), elsewhere at ``tilt_max_rad`` (30 deg); the vertical is kept either way."""
+    gains = PositionGains()
+    ctrl = PositionController(MODEL, gains, DT)
+    zero = np.zeros(3)
+    push = np.array([20.0, 0.0, -1.0])  # m/s^2 asked: far beyond either limit
+
+    def tilt() -> float:
+        cmd = ctrl.step(zero, zero, zero, zero, push, 0.0)
+        assert cmd.accel_cmd_ned[2] == pytest.approx(-1.0, abs=1e-12)
+        return float(np.arccos(np.cos(cmd.roll_ref_rad) * np.cos(cmd.pitch_ref_rad)))
+
+    for landing, alt_m, expected in ((True, 0.5, gains.touchdown_tilt_max_rad),
+                                     (True, 1.5, gains.tilt_max_rad),
+                                     (False, 0.5, gains.tilt_max_rad),
+                                     (True, 0.99, gains.touchdown_tilt_max_rad)):
+        assert ctrl.touchdown(landing, alt_m) == (expected == gains.touchdown_tilt_max_rad)
+        assert tilt() == pytest.approx(expected, abs=1e-12)
+    assert gains.touchdown_tilt_max_rad == pytest.approx(np.radians(20.0))
+    with pytest.raises(ValueError, match="touchdown_tilt_max_rad"):
+        PositionGains(touchdown_tilt_max_rad=np.radians(40.0))
+    with pytest.raises(ValueError, match="touchdown_below_m"):
+        PositionGains(touchdown_below_m=-1.0)
+
+
 def test_integral_is_clamped_and_does_not_wind_up_in_saturation() -> None:
     gains = PositionGains()
     ctrl = PositionController(MODEL, gains, DT)
