@@ -217,6 +217,8 @@ def test_every_shipped_campaign_expands() -> None:
     assert sizes["rotor_loss_height"] == 13 * 4 * 2 * 2
     assert sizes["rotor_loss_severe_height"] == 7 * 4 * 2
     assert sizes["rotor_loss_seeds"] == 4 * 4 * 4 * 4
+    # attitude laws x estimators x seeds, fault-free
+    assert sizes["severe_baseline"] == 2 * 2 * 32
     # motor 1 or 3 and its opposite, together or 5 s apart, two phases, two airs, 20 seeds
     assert sizes["two_rotor_loss"] == 2 * 2 * 2 * 2 * 20
     # heights x pairs x airs x seeds
