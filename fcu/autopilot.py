@@ -214,7 +214,7 @@ class Autopilot:
 
     def _reset_controllers(self) -> None:
         self.position.reset()
-        self.position.touchdown(False, 0.0)  # the flight's tilt limit
+        self.position.touchdown(False)  # the flight's tilt limit
         self._touchdown = False
         self.rotor_loss.reset()
         self.attitude.reset()
@@ -312,7 +312,7 @@ class Autopilot:
                          and estimate.alt_m < self._touchdown_below_m)
             if touchdown != self._touchdown:  # the tilt limit of the touchdown, or not
                 self._touchdown = touchdown
-                self._chain.touchdown(touchdown, estimate.alt_m)
+                self._chain.touchdown(touchdown)
             # position, reference filter, attitude law, DOB, allocation, mix, crash check:
             # one compiled call
             out = self._chain.step(estimate.pos_ned, estimate.vel_ned, estimate.euler_rad,

@@ -362,12 +362,12 @@ class ControlChain:
             idx[I_CRASH_STATE], = w.states(crash_check)
         self._ws = w.build()
 
-    def touchdown(self, landing: bool, alt_m: float) -> None:
-        """The position loop's tilt limit for the next step
+    def touchdown(self, on: bool) -> None:
+        """The position loop's tilt limit of the next steps
         (:meth:`~fcu.control.position.PositionController.touchdown`), in the workspace's copy
         of its parameters too."""
         position = self.position
-        position.touchdown(landing, alt_m)
+        position.touchdown(on)
         if self.compiled:
             at = self._idx[I_POS_PAR] + position_module.PAR_TAN_TILT_MAX
             self._ws[at] = position.par[position_module.PAR_TAN_TILT_MAX]

@@ -107,7 +107,8 @@ class PositionGains:
     # the touchdown: in a landing below ``touchdown_below_m`` (m, estimated) the tilt is at
     # most ``touchdown_tilt_max_rad``, so that a vehicle leaning into the gusts near the
     # ground touches down on its skids, not on a rotor's tip (30 deg, sim.outcome); it
-    # gives up holding its place against them meanwhile (PositionController.touchdown)
+    # gives up holding its place against them meanwhile (PositionController.touchdown;
+    # the relaxed hover's loop does not apply it, fcu.control.reduced_attitude)
     touchdown_tilt_max_rad: float = float(np.radians(20.0))
     touchdown_below_m: float = 1.0
 
@@ -312,14 +313,12 @@ class PositionController(OneStatePart):
             z = np.where(self._ki > 0, np.asarray(trim_accel, dtype=float) / self._ki, 0.0)
         self.state[:] = np.clip(z, -self._z_limit, self._z_limit)
 
-    def touchdown(self, landing: bool, alt_m: float) -> bool:
-        """Set the tilt limit for the next step: ``touchdown_tilt_max_rad`` while ``landing``
-        below ``touchdown_below_m`` (``alt_m``: the estimated altitude, m), ``tilt_max_rad``
-        otherwise; returns whether the touchdown limit holds. (:class:`fcu.control.chain.
-        ControlChain` keeps its own copy of the parameters: set it through the chain.)"""
-        low = landing and alt_m < self.gains.touchdown_below_m
-        self.par[_TAN_TILT_MAX] = self._tan_touchdown_tilt if low else self._tan_tilt
-        return low
+    def touchdown(self, on: bool) -> None:
+        """The tilt limit of the next steps: ``touchdown_tilt_max_rad`` when ``on`` (the
+        autopilot's call: in a landing below ``touchdown_below_m``), else ``tilt_max_rad``.
+        (:class:`fcu.control.chain.ControlChain` keeps its own copy of the parameters: set
+        it through the chain.)"""
+        self.par[_TAN_TILT_MAX] = self._tan_touchdown_tilt if on else self._tan_tilt
 
     def step(self, pos_ned: np.ndarray, vel_ned: np.ndarray, ref_pos: np.ndarray,
              ref_vel: np.ndarray, ref_acc: np.ndarray, yaw_ref: float) -> PositionCommand:

@@ -67,18 +67,19 @@ MIN_SCHEDULE_SPIN_RAD_S = 5.0  # rad/s, the least spin the schedule spans
 SPINNING_POSITION_GAINS = PositionGains(
     kp=(4.0, 4.0, 9.0), kd=(4.0, 4.0, 5.5), ki=(1.0, 1.0, 3.0),
     tilt_max_rad=math.radians(30.0), thrust_max_fraction=0.6,
-    horizontal_reserve_rad=math.radians(10.0), touchdown_tilt_max_rad=math.radians(30.0))
+    horizontal_reserve_rad=math.radians(10.0))
 """Position loop gains in relaxed hover: the vertical axis as in normal flight (thrust acts
 directly), the horizontal ones half as stiff (``s^3 + 4 s^2 + 4 s + 1``: poles near -2.6,
 -1 and -0.4 rad/s) because the primary axis answers through the spin (a quarter turn, 80 ms,
 before a torque about one body axis tilts the other) and its loop is slower than the full
 attitude loop's; tilt of the primary axis at most 30 deg (three motors at up to two thirds
 of full thrust allow it: braking from the cruise and holding against 8 m/s of wind need it);
-the thrust of three motors (60 % of four), 10 deg of tilt kept at full vertical demand; no
-lower tilt for the touchdown (the spinning vehicle's landing, at 0.5 m/s and with less
-authority, then drifts with the gusts near the ground: held to 15 or 20 deg below 1 m, a
-loss in the outdoor descent in 8 m/s of severe turbulence touched down at 2.6-2.9 m/s in 16
-of 16 runs and 9 of 16, against 6 of 16 tilted past 30 deg without)."""
+the thrust of three motors (60 % of four), 10 deg of tilt kept at full vertical demand. The
+touchdown's lower tilt (``touchdown_tilt_max_rad``) is not applied in relaxed hover: the
+spinning vehicle lands at 0.5 m/s with less authority and, held to 15 or 20 deg below 1 m,
+drifted with the gusts near the ground (a loss in the outdoor descent in 8 m/s of severe
+turbulence touched down at 2.6-2.9 m/s in 16 of 16 and 9 of 16 runs, against 6 of 16 tilted
+past 30 deg without)."""
 
 
 @dataclass(frozen=True, kw_only=True)

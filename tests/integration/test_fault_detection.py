@@ -122,7 +122,7 @@ def test_a_severe_gust_is_the_models_fault_not_the_motion_captures(attitude: str
     innovation gate for five ticks. It was excluded, the estimate coasted away from the
     truth and never let it back, and the position failsafe's landing drifted out of the
     mission area, a fly-away. With the in-plane specific force above the gust limit no lone
-    outlier is rejected: the estimate stays on the truth and the vehicle lands."""
+    outlier is rejected: the estimate stays on the truth and the vehicle flies on."""
     import dataclasses
 
     from sim.runner import fly

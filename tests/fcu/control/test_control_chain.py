@@ -88,7 +88,7 @@ def test_the_touchdown_tilt_reaches_the_compiled_call(law: str) -> None:
     tilts = []
     for k, (pos, vel, euler, rate, rpos, rvel, _, yaw) in enumerate(_inputs(3, 120)):
         for chain in (compiled, parts):
-            chain.touchdown(40 <= k < 80, 0.5)
+            chain.touchdown(40 <= k < 80)
         far = rpos + np.array([30.0, 0.0, 0.0])  # 30 m off: the tilt limit binds
         racc = np.zeros(3)
         out_c = compiled.step(pos, vel, euler, rate, far, rvel, racc, float(yaw[0]), applied_c,
@@ -99,7 +99,8 @@ def test_the_touchdown_tilt_reaches_the_compiled_call(law: str) -> None:
         applied_c = out_c[control_chain.OUT_TORQUE_APPLIED:control_chain.OUT_TORQUE_APPLIED + 3]
         applied_p = out_p[control_chain.OUT_TORQUE_APPLIED:control_chain.OUT_TORQUE_APPLIED + 3]
         mu = out_c[control_chain.OUT_ACCEL:control_chain.OUT_ACCEL + 3]
-        tilts.append(np.degrees(np.arctan2(np.hypot(mu[0], mu[1]), 9.81 - mu[2])))
+        tilts.append(np.degrees(np.arctan2(np.hypot(mu[0], mu[1]),
+                                           CONFIG.model.gravity - mu[2])))
     assert max(tilts[45:80]) == pytest.approx(20.0, abs=0.05)
     assert max(tilts[85:]) == pytest.approx(30.0, abs=0.05)
 

@@ -110,8 +110,8 @@ def test_tilt_and_thrust_limits_keep_the_vertical_first() -> None:
 
 
 def test_the_touchdown_holds_the_tilt_to_its_own_limit_below_its_height() -> None:
-    """In a landing below ``touchdown_below_m`` the tilt stops at ``touchdown_tilt_max_rad``
-    (20 deg), elsewhere at ``tilt_max_rad`` (30 deg); the vertical is kept either way."""
+    """With the touchdown on the tilt stops at ``touchdown_tilt_max_rad`` (20 deg), with it
+    off again at ``tilt_max_rad`` (30 deg); the vertical is kept either way."""
     gains = PositionGains()
     ctrl = PositionController(MODEL, gains, DT)
     zero = np.zeros(3)
@@ -122,11 +122,10 @@ def test_the_touchdown_holds_the_tilt_to_its_own_limit_below_its_height() -> Non
         assert cmd.accel_cmd_ned[2] == pytest.approx(-1.0, abs=1e-12)
         return float(np.arccos(np.cos(cmd.roll_ref_rad) * np.cos(cmd.pitch_ref_rad)))
 
-    for landing, alt_m, expected in ((True, 0.5, gains.touchdown_tilt_max_rad),
-                                     (True, 1.5, gains.tilt_max_rad),
-                                     (False, 0.5, gains.tilt_max_rad),
-                                     (True, 0.99, gains.touchdown_tilt_max_rad)):
-        assert ctrl.touchdown(landing, alt_m) == (expected == gains.touchdown_tilt_max_rad)
+    assert tilt() == pytest.approx(gains.tilt_max_rad, abs=1e-12)
+    for on, expected in ((True, gains.touchdown_tilt_max_rad), (False, gains.tilt_max_rad),
+                         (True, gains.touchdown_tilt_max_rad)):
+        ctrl.touchdown(on)
         assert tilt() == pytest.approx(expected, abs=1e-12)
     assert gains.touchdown_tilt_max_rad == pytest.approx(np.radians(20.0))
     with pytest.raises(ValueError, match="touchdown_tilt_max_rad"):
