@@ -162,13 +162,14 @@ class RotorWatchConfig:
     follow_split_s: float = 0.25  # s, what is slower is the controller's compensation
     stuck_spread_n: float = 0.05  # N, standard deviation of the fast part of T_e
     stuck_correlation: float = 0.9
-    stuck_slope: tuple[float, float] = (0.85, 1.25)
+    stuck_slope: tuple[float, float] = (0.9, 1.25)
     stuck_margin: float = 0.05
     stuck_ticks: int = 12  # with an excess: the motor makes more than its command asks
     # with a shortfall, which a step loss of effectiveness also shows while the controller
-    # makes up for it (up to 56 ticks over 500 seeds of the thesis mission's Table 7.3
-    # faults, 13-32 in most; a lock holds it as long as its command keeps moving)
-    stuck_shortfall_ticks: int = 80
+    # makes up for it (up to 22 ticks over 500 seeds of the thesis mission's Table 7.3
+    # faults, at slopes of 0.9 and more; a lock holds it as long as its command keeps
+    # moving)
+    stuck_shortfall_ticks: int = 30
     # of full power: a motor suspected of an excess while its command is at most this is
     # making thrust its command no longer asks for (a lock the controller is driving down),
     # and the collective bias is held (module docstring); above it, a mass drop beside the
