@@ -66,7 +66,17 @@ Stuck motors
 A motor locked where it was makes no sudden residual: it shows only as the controller moves
 its command. How far its own thrust falls short of what its command asks (``K u`` through
 the lag, less ``T_e,j - f_j``) then follows that command one for one, where a healthy
-motor's stays noise and a partial loss's follows at the slope ``gamma``. Per motor the watch
+motor's stays noise and a partial loss's follows at the slope ``gamma``. Here ``f_j`` is the
+fit of the residual without the collective bias ``mu``: the bias follows the collective
+within ``bias_tau_s`` and would take part of a locked motor's growing shortfall out of the
+fit (a lock in the take-off, its command driven up to full power, followed at a slope of
+0.73); its slow changes (mass, axial drag) are what the split leaves out. While the
+controller makes up for a step loss of effectiveness, the weakened motor's shortfall moves
+with its command one for one too (the deficit's step and the command's rise, both fast);
+what tells the two apart is the time order: a loss steps the motor's own thrust down
+within the motor lag, before the command moves, and a lock never moves it. The stuck test
+leaves a motor alone for ``loss_step_hold_s`` after its own thrust fell by
+``loss_step_fraction`` of full thrust within ``loss_step_ticks``. Per motor the watch
 splits both at ``follow_split_s`` (what is slower is the controller's compensation of a
 fault, which carries a weakened motor's shortfall up with its command for a while, one for
 one) and keeps exponentially weighted moments of their fast parts (``follow_tau_s``); it
@@ -75,9 +85,9 @@ whose shortfall correlates with its command above ``stuck_correlation``, by
 ``stuck_margin`` more than any other motor's, at a slope within ``stuck_slope``, once the
 command's fast part has spread by ``stuck_spread_n`` (the command moved), for
 ``stuck_ticks`` ticks in a row when the motor makes more than its command asks (an excess,
-which no loss explains), ``stuck_shortfall_ticks`` when less: while the controller makes up
-for a step loss of effectiveness, the weakened motor's shortfall also follows its rising
-command one for one, for up to about a quarter of a second. The magnitude is its own thrust
+which no loss explains), ``stuck_shortfall_ticks`` when less (a compensated loss's
+shortfall, after the step gate, still follows at a slope of 0.9 or more for up to a fifth
+of a second). The magnitude is its own thrust
 (the slow parts), as a fraction of full thrust.
 
 Two rotors
@@ -103,6 +113,7 @@ findings against them.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -158,13 +169,18 @@ class RotorWatchConfig:
     follow_split_s: float = 0.25  # s, what is slower is the controller's compensation
     stuck_spread_n: float = 0.05  # N, standard deviation of the fast part of T_e
     stuck_correlation: float = 0.9
-    stuck_slope: tuple[float, float] = (0.85, 1.25)
+    stuck_slope: tuple[float, float] = (0.9, 1.25)
     stuck_margin: float = 0.05
     stuck_ticks: int = 12  # with an excess: the motor makes more than its command asks
     # with a shortfall, which a step loss of effectiveness also shows while the controller
-    # makes up for it (up to 25 ticks over 500 seeds of the thesis mission's Table 7.3
-    # faults; a lock in the outdoor mission's descent holds it 33-36 ticks at first)
+    # makes up for it (module docstring, "Stuck motors")
     stuck_shortfall_ticks: int = 30
+    # a drop of a motor's own thrust by this fraction of full thrust within
+    # ``loss_step_ticks`` is a loss, not a lock (a lock never moves it): the stuck test
+    # leaves that motor alone for ``loss_step_hold_s``
+    loss_step_fraction: float = 0.05
+    loss_step_ticks: int = 5
+    loss_step_hold_s: float = 0.5
     # of full power: a motor suspected of an excess while its command is at most this is
     # making thrust its command no longer asks for (a lock the controller is driving down),
     # and the collective bias is held (module docstring); above it, a mass drop beside the
@@ -176,14 +192,15 @@ class RotorWatchConfig:
         for name in ("significance", "min_deficit", "alarm_deficit", "consistency",
                      "follow_tau_s", "follow_split_s", "stuck_spread_n", "stuck_correlation",
                      "bias_tau_s", "noise_tau_s", "min_alt_m", "lost_fraction",
-                     "excess_hold_command", "pair_torque_significance"):
+                     "excess_hold_command", "pair_torque_significance",
+                     "loss_step_fraction", "loss_step_hold_s"):
             value = getattr(self, name)
             require(finite(value) and value > 0.0, name, value, "must be > 0")
         require(self.excess_hold_command <= 1.0, "excess_hold_command",
                 self.excess_hold_command, "must lie in (0, 1] (of full power)")
         require(isinstance(self.persistence_ticks, int) and self.persistence_ticks >= 2,
                 "persistence_ticks", self.persistence_ticks, "must be an integer >= 2")
-        for name in ("stuck_ticks", "stuck_shortfall_ticks"):
+        for name in ("stuck_ticks", "stuck_shortfall_ticks", "loss_step_ticks"):
             value = getattr(self, name)
             require(isinstance(value, int) and value >= 1, name, value,
                     "must be an integer >= 1")
@@ -236,6 +253,11 @@ class RotorWatch:
         self._pair_candidate, self._pair_streak = -1, 0  # a pair lost together (0, 1)
         self._stuck_motor = -1  # the motor the stuck test picks (0..3), and for how long
         self._stuck_ticks = 0
+        # each motor's own thrust (N) over the last loss_step_ticks + 1 ticks, and until when
+        # (s) the stuck test leaves it alone after a step down in it (a loss, not a lock)
+        self._own_recent: list[deque[float]] = [
+            deque(maxlen=self.config.loss_step_ticks + 1) for _ in range(4)]
+        self._loss_step_until_s = [-math.inf] * 4
         self.declared: tuple[int, str, float] | None = None  # (motor 1..4, kind, magnitude)
         # a motor is suspected of more than a partial loss at the latest tick: lost, stuck
         # or hard-over by the command it follows, or short of half its thrust (the TSKF's
@@ -317,6 +339,8 @@ class RotorWatch:
         self.alarming = self._excess = False
         if best >= 0:
             self._best = best
+        if best >= 0:
+            stuck = self._unless_stepped_down(time_s, stuck)
         if best >= 0 and self.declared is None:
             found = self._pair_lost(time_s, pair) or self._stuck(time_s, stuck)
             if found:
@@ -389,6 +413,21 @@ class RotorWatch:
         self.second_lost = b + 1
         return [DetectionRecord(time_s=time_s, action="detected", kind="motor_lost",
                                 motor=m + 1, magnitude=1.0) for m in (a, b)]
+
+    def _unless_stepped_down(self, time_s: float, j: int) -> int:
+        """The stuck test's pick ``j`` (0..3, -1 for none), or -1 while that motor's own
+        thrust stepped down within the last ``loss_step_hold_s`` (module docstring, "Stuck
+        motors"); the motors' recent own thrusts brought up to this tick."""
+        cfg = self.config
+        drop_n = cfg.loss_step_fraction * self._k * self._pwm_max
+        state = self._state
+        for i in range(4):
+            own = state.item(S_START + i) - state.item(S_DEFICIT + i)
+            recent = self._own_recent[i]
+            recent.append(own)
+            if len(recent) == recent.maxlen and recent[0] - own > drop_n:
+                self._loss_step_until_s[i] = time_s + cfg.loss_step_hold_s
+        return -1 if j >= 0 and time_s < self._loss_step_until_s[j] else j
 
     def _stuck(self, time_s: float, j: int) -> list[DetectionRecord]:
         """The test for a motor stuck where it was (module docstring, "Stuck motors"): the

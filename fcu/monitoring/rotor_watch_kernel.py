@@ -265,10 +265,14 @@ def watch_tick(par: np.ndarray, state: np.ndarray, gyro: np.ndarray, accel: np.n
         f = num / den
         state[S_DEFICIT + j] = f
         # what the command asks of the motor against what it falls short of that by its own
-        # thrust (T_e - f): the effectiveness the allocator reckons with moves neither
+        # thrust (T_e - f_u): the effectiveness the allocator reckons with moves neither; f_u
+        # is the fit without the collective bias, whose own following of the collective
+        # would take part of a stuck motor's shortfall out of the fit (the bias's slow
+        # changes, a change of mass or of the axial drag, are left out by the split)
+        f_u = (num + par[P_COLUMNS + 4 * j] * state[S_BIAS] / state[S_VAR]) / den
         asked = state[S_CMD_START + j]
         _follow(state, j, par[P_SPLIT_GAIN], par[P_FOLLOW_GAIN], asked,
-                asked - (state[S_START + j] - f))
+                asked - (state[S_START + j] - f_u))
         t = f * f * den
         if t > best_t:
             best, best_t, best_f = j, t, f
