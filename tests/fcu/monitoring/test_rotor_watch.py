@@ -156,6 +156,12 @@ def test_settings_are_checked() -> None:
         RotorWatchConfig(stuck_shortfall_ticks=0)
     with pytest.raises(ValueError, match="excess_hold_command"):
         RotorWatchConfig(excess_hold_command=1.5)
+    with pytest.raises(ValueError, match="loss_step_ticks"):
+        RotorWatchConfig(loss_step_ticks=0)
+    with pytest.raises(ValueError, match="loss_step_fraction"):
+        RotorWatchConfig(loss_step_fraction=float("nan"))
+    with pytest.raises(ValueError, match="loss_step_hold_s"):
+        RotorWatchConfig(loss_step_hold_s=-1.0)
 
 
 @pytest.mark.parametrize("phase", ["climb", "cruise", "descent"])
