@@ -339,7 +339,6 @@ class RotorWatch:
         self.alarming = self._excess = False
         if best >= 0:
             self._best = best
-        if best >= 0:
             stuck = self._unless_stepped_down(time_s, stuck)
         if best >= 0 and self.declared is None:
             found = self._pair_lost(time_s, pair) or self._stuck(time_s, stuck)
